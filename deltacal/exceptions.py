@@ -1,0 +1,79 @@
+"""Exceptions raised by deltacal.
+
+Every exception carries the offending values and says them in its message, so
+that the command line can print it on one line without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class DeltacalError(Exception):
+    """Base class of every error deltacal raises on purpose."""
+
+
+class InputError(DeltacalError, ValueError):
+    """A file, key, column or value given by the user is wrong.
+
+    Attributes:
+        source: File (or other source) the bad value came from, or "".
+        location: Where in the source: "row 4, column q1_deg", "key geometry.arm_length_mm".
+        detail: What is wrong.
+    """
+
+    def __init__(self, detail: str, source: str = "", location: str = "") -> None:
+        self.source = str(source)
+        self.location = location
+        self.detail = detail
+        parts = [p for p in (self.source, location) if p]
+        prefix = ": ".join(parts)
+        super().__init__(f"{prefix}: {detail}" if prefix else detail)
+
+
+class GeometryError(DeltacalError, ValueError):
+    """A geometry is impossible (negative length, rods too short to reach...)."""
+
+
+class AssemblyError(DeltacalError):
+    """No assembly of the closed loops exists at some joint readings.
+
+    Attributes:
+        indices: Indices, in the batch, of the readings that failed.
+        readings: The failing readings [rad], shape (k, 3).
+        residual: The largest constraint residual reached [mm].
+    """
+
+    def __init__(self, message: str, indices=(), readings=None, residual: float = float("nan")):
+        self.indices = list(indices)
+        self.readings = readings
+        self.residual = residual
+        super().__init__(message)
+
+
+class UnreachableError(DeltacalError):
+    """A target is out of reach, or too close to a singularity to be commanded.
+
+    Attributes:
+        indices: Indices, in the batch, of the failing targets.
+        targets: The failing targets [mm], shape (k, 3).
+    """
+
+    def __init__(self, message: str, indices=(), targets=None):
+        self.indices = list(indices)
+        self.targets = targets
+        super().__init__(message)
+
+
+class ConvergenceError(DeltacalError):
+    """An iterative solver did not converge.
+
+    Attributes:
+        residual: The residual reached when it stopped.
+    """
+
+    def __init__(self, message: str, residual: float = float("nan")):
+        self.residual = residual
+        super().__init__(message)
+
+
+class IdentificationError(DeltacalError):
+    """The measurements cannot identify what was asked (too few, rank deficient...)."""

@@ -1,0 +1,616 @@
+"""Nominal and full geometry of a Delta robot.
+
+Units inside the library: millimetres and radians. Files use millimetres and
+degrees (see :mod:`deltacal.io`).
+
+Frames (conventions of the project):
+
+* Base frame {O}: origin at the centre of the circle of actuator axes, z up.
+  Limb i sits at azimuth ``phi_i``; ``r_i = (cos phi_i, sin phi_i, 0)``,
+  ``t_i = (-sin phi_i, cos phi_i, 0)``.
+* Actuator frame of limb i (at zero true angle): origin at ``axis_point[i]``,
+  y axis along the actuator axis ``w_i = axis_direction[i]``, x axis the
+  projection of ``r_i`` orthogonal to ``w_i`` (the arm's zero direction) and
+  z = x × y (up for the nominal robot). Its rotation is ``R0_i = [x0 w z0]``.
+* Arm frame of limb i: the actuator frame rotated about its y axis by the
+  true angle ``theta_i = q_i + encoder_offset[i]``,
+  ``R_arm = R0_i @ Ry(theta_i)``. For the nominal robot the arm direction is
+  ``u_i(q) = cos(q) r_i - sin(q) z``: ``q > 0`` lowers the arm tip.
+* Plate frame {C}: the travelling plate, parallel to {O} for the nominal robot.
+
+Rod j (j = 1, 2) of limb i joins ``arm_ball[i, j]`` (arm frame) to
+``plate_ball[i, j]`` (plate frame) and has length ``rod_length[i, j]``.
+Rod 1 is on the ``+t_i`` side (``+c/2``), rod 2 on the ``-t_i`` side.
+Arrays are indexed from 0 (limb 1 is index 0); names are 1-based.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from .exceptions import GeometryError
+
+#: Names of the three coordinates, used in error names.
+AXES = ("x", "y", "z")
+
+
+def rotation_about_y(angle: np.ndarray) -> np.ndarray:
+    """Rotation matrices about the local y axis.
+
+    Args:
+        angle: Angles [rad], any shape ``S``.
+
+    Returns:
+        Rotation matrices, shape ``S + (3, 3)``.
+    """
+    angle = np.asarray(angle, dtype=float)
+    c, s = np.cos(angle), np.sin(angle)
+    out = np.zeros(angle.shape + (3, 3))
+    out[..., 0, 0] = c
+    out[..., 0, 2] = s
+    out[..., 1, 1] = 1.0
+    out[..., 2, 0] = -s
+    out[..., 2, 2] = c
+    return out
+
+
+def rotation_from_vector(rotvec: np.ndarray) -> np.ndarray:
+    """Rotation matrices from rotation vectors (axis times angle), Rodrigues' formula.
+
+    Args:
+        rotvec: Rotation vectors [rad], shape ``S + (3,)``.
+
+    Returns:
+        Rotation matrices, shape ``S + (3, 3)``.
+    """
+    rotvec = np.asarray(rotvec, dtype=float)
+    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
+    K = skew(rotvec)
+    small = theta < 1e-8
+    safe = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    eye = np.broadcast_to(np.eye(3), K.shape)
+    return eye + a * K + b * (K @ K)
+
+
+def vector_from_rotation(R: np.ndarray) -> np.ndarray:
+    """Rotation vectors (axis times angle) of rotation matrices (angles below pi).
+
+    Args:
+        R: Rotation matrices, shape ``S + (3, 3)``.
+
+    Returns:
+        Rotation vectors [rad], shape ``S + (3,)``.
+    """
+    R = np.asarray(R, dtype=float)
+    cos_t = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    theta = np.arccos(cos_t)
+    v = np.stack(
+        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+        axis=-1,
+    )
+    small = theta < 1e-6
+    sin_t = np.where(small, 1.0, np.sin(theta))
+    factor = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * sin_t))
+    return factor[..., None] * v
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices: ``skew(v) @ w == cross(v, w)``.
+
+    Args:
+        v: Vectors, shape ``S + (3,)``.
+
+    Returns:
+        Skew-symmetric matrices, shape ``S + (3, 3)``.
+    """
+    v = np.asarray(v, dtype=float)
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """Cylindrical task workspace used for planning and validation (Bai Fig. 2, 4).
+
+    Attributes:
+        radius: Cylinder radius R [mm].
+        height: Cylinder height h [mm].
+        top_z: z of the top layer [mm] (the cylinder spans ``top_z - height .. top_z``).
+    """
+
+    radius: float
+    height: float
+    top_z: float
+
+    @property
+    def middle_z(self) -> float:
+        """Z of the middle layer [mm]."""
+        return self.top_z - 0.5 * self.height
+
+    @property
+    def bottom_z(self) -> float:
+        """Z of the bottom layer [mm]."""
+        return self.top_z - self.height
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Centre of the cylinder [mm], the home pose of Bai's validation."""
+        return np.array([0.0, 0.0, self.middle_z])
+
+
+@dataclass(frozen=True)
+class NominalDelta:
+    """Nominal (design) parameters of a Delta robot, as in a robot file.
+
+    Attributes:
+        name: Robot name.
+        base_radius: b, radius of the circle of actuator axes [mm].
+        plate_radius: a, radius of the circle of plate ball-pair midpoints [mm].
+        arm_length: L, from actuator axis to elbow midpoint [mm].
+        rod_length: l, rod length [mm].
+        rod_spacing: c, distance between the two balls of a pair [mm].
+        limb_azimuth: phi_i, azimuth of each limb [rad], shape (3,).
+        tool: TCP in the plate frame [mm], shape (3,).
+        points: Named reference points in the plate frame [mm].
+        workspace: Cylinder for planning and validation, or None.
+        description: Free text.
+    """
+
+    name: str
+    base_radius: float
+    plate_radius: float
+    arm_length: float
+    rod_length: float
+    rod_spacing: float
+    limb_azimuth: np.ndarray
+    tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    points: dict[str, np.ndarray] = field(default_factory=dict)
+    workspace: Workspace | None = None
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "limb_azimuth", np.asarray(self.limb_azimuth, dtype=float))
+        object.__setattr__(self, "tool", np.asarray(self.tool, dtype=float))
+        pts = {k: np.asarray(v, dtype=float) for k, v in self.points.items()}
+        object.__setattr__(self, "points", pts)
+        for key, value in (
+            ("base_radius", self.base_radius),
+            ("plate_radius", self.plate_radius),
+            ("arm_length", self.arm_length),
+            ("rod_length", self.rod_length),
+            ("rod_spacing", self.rod_spacing),
+        ):
+            if not math.isfinite(value) or value <= 0.0:
+                raise GeometryError(f"{key} must be a positive finite length, got {value!r}")
+        if self.limb_azimuth.shape != (3,) or not np.all(np.isfinite(self.limb_azimuth)):
+            raise GeometryError(f"limb_azimuth must be 3 finite angles, got {self.limb_azimuth}")
+        if self.tool.shape != (3,) or not np.all(np.isfinite(self.tool)):
+            raise GeometryError(f"tool must be 3 finite coordinates, got {self.tool}")
+        if self.rod_length <= self.arm_length * 0.25:
+            raise GeometryError(
+                f"rod_length {self.rod_length} is too short for arm_length {self.arm_length}"
+            )
+
+    @property
+    def radial(self) -> np.ndarray:
+        """Radial unit vectors r_i, shape (3, 3) (one row per limb)."""
+        return radial_vectors(self.limb_azimuth)
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Tangent unit vectors t_i (actuator axis directions), shape (3, 3)."""
+        return tangent_vectors(self.limb_azimuth)
+
+    def geometry(self) -> DeltaGeometry:
+        """Full geometry of the perfect robot built to these nominal values."""
+        r, t = self.radial, self.tangent
+        half = 0.5 * self.rod_spacing
+        arm_ball = np.zeros((3, 2, 3))
+        arm_ball[:, 0] = [self.arm_length, half, 0.0]
+        arm_ball[:, 1] = [self.arm_length, -half, 0.0]
+        plate_ball = np.stack(
+            [self.plate_radius * r + half * t, self.plate_radius * r - half * t], axis=1
+        )
+        return DeltaGeometry(
+            limb_azimuth=self.limb_azimuth.copy(),
+            axis_point=self.base_radius * r,
+            axis_direction=t.copy(),
+            encoder_offset=np.zeros(3),
+            arm_ball=arm_ball,
+            plate_ball=plate_ball,
+            rod_length=np.full((3, 2), float(self.rod_length)),
+            tool=self.tool.copy(),
+            points={k: v.copy() for k, v in self.points.items()},
+            name=self.name,
+        )
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> NominalDelta:
+        """Read a nominal robot file (see :func:`deltacal.io.load_nominal`)."""
+        from .io import load_nominal
+
+        return load_nominal(path)
+
+
+def radial_vectors(azimuth: np.ndarray) -> np.ndarray:
+    """Radial unit vectors ``(cos phi, sin phi, 0)``, one row per azimuth."""
+    azimuth = np.asarray(azimuth, dtype=float)
+    return np.stack([np.cos(azimuth), np.sin(azimuth), np.zeros_like(azimuth)], axis=-1)
+
+
+def tangent_vectors(azimuth: np.ndarray) -> np.ndarray:
+    """Tangent unit vectors ``(-sin phi, cos phi, 0)``, one row per azimuth."""
+    azimuth = np.asarray(azimuth, dtype=float)
+    return np.stack([-np.sin(azimuth), np.cos(azimuth), np.zeros_like(azimuth)], axis=-1)
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Standard deviations of the manufacturing errors of each class.
+
+    Every error of a class is drawn independently from a normal law of this
+    standard deviation (per coordinate for points).
+
+    Attributes:
+        ball_centre: Ball centres in their body (arm or plate), per coordinate [mm].
+        rod_length: Rod lengths [mm].
+        axis_position: Actuator axis point, per coordinate [mm].
+        axis_direction: Actuator axis direction, each of its two tilts [rad].
+        encoder_offset: Encoder zero [rad].
+        tool: TCP in the plate frame, per coordinate [mm] (0: the tool is known).
+    """
+
+    ball_centre: float = 0.05
+    rod_length: float = 0.05
+    axis_position: float = 0.2
+    axis_direction: float = math.radians(0.05)
+    encoder_offset: float = math.radians(0.3)
+    tool: float = 0.0
+
+    @classmethod
+    def bai2015(cls) -> Tolerances:
+        """Errors of the size Bai et al. identified on their prototype (Tables 2-4).
+
+        Encoder offsets about 1 deg (Table 2), actuator positions and lengths about
+        0.1-0.3 mm, axis tilts about ``0.8 mm / L`` (Table 3), ball-pair
+        discrepancies about 0.05 mm and pair misalignments about 0.2 mm / c (Table 4).
+        """
+        return cls(
+            ball_centre=0.05,
+            rod_length=0.1,
+            axis_position=0.15,
+            axis_direction=math.radians(0.1),
+            encoder_offset=math.radians(1.0),
+        )
+
+
+_NAME_RE = re.compile(
+    r"^limb(?P<limb>[123])\."
+    r"(?:(?P<kind>axis_point|arm_ball(?P<ab>[12])|plate_ball(?P<pb>[12]))\.(?P<axis>[xyz])"
+    r"|rod(?P<rod>[12])\.length"
+    r"|encoder_offset"
+    r"|axis_tilt_(?P<tilt>[rz]))$"
+    r"|^tool\.(?P<taxis>[xyz])$"
+)
+
+
+def error_names() -> list[str]:
+    """All names accepted by :meth:`DeltaGeometry.with_errors`, in a fixed order.
+
+    Units: [mm] for positions and lengths, [rad] for ``encoder_offset`` and the
+    two axis tilts (``axis_tilt_r`` about r_i, ``axis_tilt_z`` about z).
+    """
+    names = []
+    for i in range(1, 4):
+        names += [f"limb{i}.axis_point.{a}" for a in AXES]
+        names += [f"limb{i}.axis_tilt_r", f"limb{i}.axis_tilt_z", f"limb{i}.encoder_offset"]
+        for j in (1, 2):
+            names += [f"limb{i}.arm_ball{j}.{a}" for a in AXES]
+        for j in (1, 2):
+            names += [f"limb{i}.plate_ball{j}.{a}" for a in AXES]
+        names += [f"limb{i}.rod{j}.length" for j in (1, 2)]
+    names += [f"tool.{a}" for a in AXES]
+    return names
+
+
+@dataclass(frozen=True, eq=False)
+class DeltaGeometry:
+    """Full geometry of a real Delta robot: every element on its own.
+
+    Attributes:
+        limb_azimuth: phi_i [rad], shape (3,): defines r_i, the zero direction of each arm.
+        axis_point: A point of each actuator axis, in {O} [mm], shape (3, 3).
+        axis_direction: Unit direction of each actuator axis, in {O}, shape (3, 3).
+        encoder_offset: True arm angle minus reading [rad], shape (3,).
+        arm_ball: Arm-side ball centres in the arm frame [mm], shape (3, 2, 3).
+        plate_ball: Plate-side ball centres in the plate frame [mm], shape (3, 2, 3).
+        rod_length: Rod lengths [mm], shape (3, 2).
+        tool: TCP in the plate frame [mm], shape (3,).
+        points: Named reference points in the plate frame [mm].
+        name: Robot name.
+    """
+
+    limb_azimuth: np.ndarray
+    axis_point: np.ndarray
+    axis_direction: np.ndarray
+    encoder_offset: np.ndarray
+    arm_ball: np.ndarray
+    plate_ball: np.ndarray
+    rod_length: np.ndarray
+    tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    points: dict[str, np.ndarray] = field(default_factory=dict)
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        shapes = {
+            "limb_azimuth": (3,),
+            "axis_point": (3, 3),
+            "axis_direction": (3, 3),
+            "encoder_offset": (3,),
+            "arm_ball": (3, 2, 3),
+            "plate_ball": (3, 2, 3),
+            "rod_length": (3, 2),
+            "tool": (3,),
+        }
+        for key, shape in shapes.items():
+            value = np.array(getattr(self, key), dtype=float)
+            if value.shape != shape:
+                raise GeometryError(f"{key} must have shape {shape}, got {value.shape}")
+            if not np.all(np.isfinite(value)):
+                raise GeometryError(f"{key} must be finite, got {value.tolist()}")
+            value.setflags(write=False)
+            object.__setattr__(self, key, value)
+        pts = {}
+        for k, v in self.points.items():
+            arr = np.array(v, dtype=float)
+            if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+                raise GeometryError(f"point {k!r} must be 3 finite coordinates, got {v!r}")
+            arr.setflags(write=False)
+            pts[str(k)] = arr
+        object.__setattr__(self, "points", pts)
+        norms = np.linalg.norm(self.axis_direction, axis=1)
+        if np.any(np.abs(norms - 1.0) > 1e-9):
+            raise GeometryError(f"axis_direction rows must be unit vectors, norms {norms}")
+        if np.any(self.rod_length <= 0.0):
+            raise GeometryError(f"rod lengths must be positive, got {self.rod_length.tolist()}")
+        if "tcp" in pts:
+            raise GeometryError("'tcp' is reserved for the tool centre point")
+
+    # ------------------------------------------------------------------ frames
+    @property
+    def radial(self) -> np.ndarray:
+        """Nominal radial unit vectors r_i, shape (3, 3)."""
+        return radial_vectors(self.limb_azimuth)
+
+    @property
+    def tangent(self) -> np.ndarray:
+        """Nominal tangent unit vectors t_i, shape (3, 3)."""
+        return tangent_vectors(self.limb_azimuth)
+
+    def actuator_rotation(self) -> np.ndarray:
+        """Rotation of each actuator frame at zero true angle, ``R0_i = [x0 w z0]``, (3, 3, 3).
+
+        The y axis is the actuator axis; x is r_i made orthogonal to it.
+        """
+        w = self.axis_direction / np.linalg.norm(self.axis_direction, axis=1, keepdims=True)
+        r = self.radial
+        x0 = r - np.sum(r * w, axis=1, keepdims=True) * w
+        x0 /= np.linalg.norm(x0, axis=1, keepdims=True)
+        z0 = np.cross(x0, w)
+        return np.stack([x0, w, z0], axis=-1)
+
+    def arm_rotation(self, q: np.ndarray) -> np.ndarray:
+        """Rotation of each arm frame in {O} at readings q.
+
+        Args:
+            q: Joint readings [rad], shape (N, 3).
+
+        Returns:
+            Rotations, shape (N, 3, 3, 3) (pose, limb, 3x3).
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        return self.actuator_rotation()[None] @ rotation_about_y(q + self.encoder_offset)
+
+    def arm_balls_in_base(self, q: np.ndarray) -> np.ndarray:
+        """Arm-side ball centres in {O} at readings q.
+
+        Args:
+            q: Joint readings [rad], shape (N, 3).
+
+        Returns:
+            Ball centres A_ij [mm], shape (N, 3, 2, 3).
+        """
+        R = self.arm_rotation(q)
+        return self.axis_point[None, :, None, :] + np.einsum("nikl,ijl->nijk", R, self.arm_ball)
+
+    def point(self, name: str) -> np.ndarray:
+        """A named point of the plate in the plate frame [mm]; ``"tcp"`` is the tool."""
+        if name == "tcp":
+            return self.tool
+        try:
+            return self.points[name]
+        except KeyError:
+            known = ", ".join(["tcp", *self.points])
+            raise GeometryError(f"unknown point {name!r}; known points: {known}") from None
+
+    @property
+    def point_names(self) -> list[str]:
+        """Names of the plate points: ``tcp`` then the named points."""
+        return ["tcp", *self.points]
+
+    # ------------------------------------------------------------ perturbation
+    def with_tool(self, tool: np.ndarray) -> DeltaGeometry:
+        """The same robot with another TCP in the plate frame [mm]."""
+        return replace(self, tool=np.asarray(tool, dtype=float))
+
+    def with_errors(self, errors: dict[str, float]) -> DeltaGeometry:
+        """The robot with individual errors added, by name (see :func:`error_names`).
+
+        Args:
+            errors: Name to deviation, in [mm] or [rad].
+
+        Returns:
+            A new geometry.
+        """
+        axis_point = np.array(self.axis_point)
+        axis_direction = np.array(self.axis_direction)
+        encoder_offset = np.array(self.encoder_offset)
+        arm_ball = np.array(self.arm_ball)
+        plate_ball = np.array(self.plate_ball)
+        rod_length = np.array(self.rod_length)
+        tool = np.array(self.tool)
+        tilts = np.zeros((3, 2))
+        for name, value in errors.items():
+            m = _NAME_RE.match(name)
+            if m is None:
+                raise GeometryError(f"unknown error name {name!r}")
+            value = float(value)
+            if m.group("taxis"):
+                tool[AXES.index(m.group("taxis"))] += value
+                continue
+            i = int(m.group("limb")) - 1
+            if m.group("kind"):
+                k = AXES.index(m.group("axis"))
+                if m.group("kind") == "axis_point":
+                    axis_point[i, k] += value
+                elif m.group("ab"):
+                    arm_ball[i, int(m.group("ab")) - 1, k] += value
+                else:
+                    plate_ball[i, int(m.group("pb")) - 1, k] += value
+            elif m.group("rod"):
+                rod_length[i, int(m.group("rod")) - 1] += value
+            elif m.group("tilt"):
+                tilts[i, "rz".index(m.group("tilt"))] += value
+            else:
+                encoder_offset[i] += value
+        if np.any(tilts):
+            r = self.radial
+            z = np.array([0.0, 0.0, 1.0])
+            rotvec = tilts[:, :1] * r + tilts[:, 1:] * z
+            axis_direction = np.einsum("ikl,il->ik", rotation_from_vector(rotvec), axis_direction)
+            axis_direction /= np.linalg.norm(axis_direction, axis=1, keepdims=True)
+        return replace(
+            self,
+            axis_point=axis_point,
+            axis_direction=axis_direction,
+            encoder_offset=encoder_offset,
+            arm_ball=arm_ball,
+            plate_ball=plate_ball,
+            rod_length=rod_length,
+            tool=tool,
+        )
+
+    def perturbed(self, tolerances: Tolerances, rng: np.random.Generator) -> DeltaGeometry:
+        """A random real robot around this one.
+
+        Args:
+            tolerances: Standard deviation of each class of error.
+            rng: Random generator (pass a seeded one for reproducible robots).
+
+        Returns:
+            A new geometry.
+        """
+        errors: dict[str, float] = {}
+        for name in error_names():
+            if name.startswith("tool."):
+                sigma = tolerances.tool
+            elif ".axis_point." in name:
+                sigma = tolerances.axis_position
+            elif ".axis_tilt_" in name:
+                sigma = tolerances.axis_direction
+            elif name.endswith("encoder_offset"):
+                sigma = tolerances.encoder_offset
+            elif "_ball" in name:
+                sigma = tolerances.ball_centre
+            else:
+                sigma = tolerances.rod_length
+            errors[name] = float(rng.normal(0.0, sigma)) if sigma > 0.0 else 0.0
+        return self.with_errors(errors)
+
+    def deviation_from(self, other: DeltaGeometry) -> dict[str, float]:
+        """Errors, by name, that turn ``other`` into this geometry (axis tilts to first order)."""
+        out: dict[str, float] = {}
+        dw = self.axis_direction - other.axis_direction
+        r = other.radial
+        w = other.axis_direction
+        for i in range(3):
+            n = f"limb{i + 1}"
+            for k, a in enumerate(AXES):
+                out[f"{n}.axis_point.{a}"] = float(self.axis_point[i, k] - other.axis_point[i, k])
+            # dw = (tilt_r r + tilt_z z) x w to first order
+            out[f"{n}.axis_tilt_r"] = float(np.dot(np.cross(w[i], dw[i]), r[i]))
+            out[f"{n}.axis_tilt_z"] = float(np.cross(w[i], dw[i])[2])
+            out[f"{n}.encoder_offset"] = float(self.encoder_offset[i] - other.encoder_offset[i])
+            for j in range(2):
+                for k, a in enumerate(AXES):
+                    out[f"{n}.arm_ball{j + 1}.{a}"] = float(
+                        self.arm_ball[i, j, k] - other.arm_ball[i, j, k]
+                    )
+            for j in range(2):
+                for k, a in enumerate(AXES):
+                    out[f"{n}.plate_ball{j + 1}.{a}"] = float(
+                        self.plate_ball[i, j, k] - other.plate_ball[i, j, k]
+                    )
+            for j in range(2):
+                out[f"{n}.rod{j + 1}.length"] = float(
+                    self.rod_length[i, j] - other.rod_length[i, j]
+                )
+        for k, a in enumerate(AXES):
+            out[f"tool.{a}"] = float(self.tool[k] - other.tool[k])
+        return out
+
+    def is_perfect(self, atol: float = 1e-12) -> bool:
+        """True if every parallelogram is perfect, so the plate never tilts."""
+        R0 = self.actuator_rotation()
+        arm_pair = np.einsum("ikl,il->ik", R0, self.arm_ball[:, 0] - self.arm_ball[:, 1])
+        plate_pair = self.plate_ball[:, 0] - self.plate_ball[:, 1]
+        return bool(
+            np.allclose(arm_pair, plate_pair, atol=atol)
+            and np.allclose(self.rod_length[:, 0], self.rod_length[:, 1], atol=atol)
+        )
+
+    def allclose(self, other: DeltaGeometry, atol: float = 0.0) -> bool:
+        """True if every element equals the other's within ``atol`` (0: bit for bit)."""
+        keys = (
+            "limb_azimuth",
+            "axis_point",
+            "axis_direction",
+            "encoder_offset",
+            "arm_ball",
+            "plate_ball",
+            "rod_length",
+            "tool",
+        )
+        if set(self.points) != set(other.points):
+            return False
+        same = all(np.allclose(getattr(self, k), getattr(other, k), atol=atol, rtol=0) for k in keys)
+        return same and all(
+            np.allclose(self.points[k], other.points[k], atol=atol, rtol=0) for k in self.points
+        )
+
+    # ---------------------------------------------------------------- files
+    def save(self, path: str | Path) -> None:
+        """Write this geometry to a TOML file (mm, deg), atomically; exact round trip."""
+        from .io import save_geometry
+
+        save_geometry(self, path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> DeltaGeometry:
+        """Read a geometry TOML file written by :meth:`save`."""
+        from .io import load_geometry
+
+        return load_geometry(path)

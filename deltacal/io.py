@@ -1,0 +1,416 @@
+"""Reading and writing deltacal's files: robot TOML, geometry TOML, atomic writes.
+
+Files are in millimetres and degrees; the library works in millimetres and
+radians. Every reader validates what it reads and raises
+:class:`~deltacal.exceptions.InputError` naming the file and the key (or row
+and column). Every writer writes a temporary file in the destination folder and
+renames it, so a failure never leaves a half-written output.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomllib
+
+from .exceptions import GeometryError, InputError
+
+GEOMETRY_FORMAT = "deltacal-geometry-1"
+
+
+# --------------------------------------------------------------------------- writing
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write text to ``path`` through a temporary file in the same folder and a rename.
+
+    If anything fails, an existing file at ``path`` is left exactly as it was.
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def exact_degrees(angle: float) -> float:
+    """A value in degrees that converts back (``math.radians``) to exactly ``angle`` [rad].
+
+    ``math.degrees`` and ``math.radians`` are not exact inverses in floating point;
+    this searches the neighbours of ``math.degrees(angle)`` for one that is, so that
+    geometry files round-trip bit for bit.
+    """
+    d = math.degrees(angle)
+    if math.radians(d) == angle or not math.isfinite(d):
+        return d
+    lo = hi = d
+    for _ in range(64):
+        lo = math.nextafter(lo, -math.inf)
+        hi = math.nextafter(hi, math.inf)
+        for cand in (lo, hi):
+            if math.radians(cand) == angle:
+                return cand
+    return d
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(value, str):
+        escaped = (
+            value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
+        )
+        return f'"{escaped}"'
+    if isinstance(value, np.ndarray):
+        return _toml_value(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def _toml_key(key: str) -> str:
+    if key and all(c.isalnum() or c in "_-" for c in key):
+        return key
+    return _toml_value(key)
+
+
+def toml_dumps(data: Mapping[str, Any]) -> str:
+    """Serialise nested mappings of numbers, strings and arrays to TOML.
+
+    Floats are written with ``repr`` (shortest exact form), so they read back
+    bit for bit. Lists of mappings become arrays of tables.
+    """
+    lines: list[str] = []
+
+    def emit(table: Mapping[str, Any], prefix: str) -> None:
+        scalars = [
+            (k, v)
+            for k, v in table.items()
+            if not isinstance(v, Mapping) and not _is_table_array(v)
+        ]
+        for k, v in scalars:
+            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
+        for k, v in table.items():
+            name = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
+            if isinstance(v, Mapping):
+                lines.append("")
+                lines.append(f"[{name}]")
+                emit(v, name)
+            elif _is_table_array(v):
+                for item in v:
+                    lines.append("")
+                    lines.append(f"[[{name}]]")
+                    emit(item, name)
+
+    emit(data, "")
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _is_table_array(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) > 0 and all(isinstance(i, Mapping) for i in v)
+
+
+# --------------------------------------------------------------------------- reading
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file; a missing, unreadable or malformed file raises InputError."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError("file not found", str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read file ({exc.strerror})", str(path)) from None
+    if not raw.strip():
+        raise InputError("file is empty", str(path))
+    try:
+        return tomllib.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise InputError("file is not UTF-8 text", str(path)) from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"not valid TOML ({exc})", str(path)) from None
+
+
+class _Table:
+    """A TOML table read with checks that name the file and the key."""
+
+    def __init__(self, data: Mapping[str, Any], source: str, prefix: str = "") -> None:
+        self.data = data
+        self.source = source
+        self.prefix = prefix
+        self.used: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}{name}"
+
+    def error(self, name: str, detail: str) -> InputError:
+        return InputError(detail, self.source, f"key {self.key(name)}")
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def raw(self, name: str) -> Any:
+        if name not in self.data:
+            raise self.error(name, "missing required key")
+        self.used.add(name)
+        return self.data[name]
+
+    def table(self, name: str, required: bool = True) -> _Table | None:
+        if name not in self.data:
+            if required:
+                raise self.error(name, "missing required table")
+            return None
+        value = self.raw(name)
+        if not isinstance(value, Mapping):
+            raise self.error(name, f"must be a table, got {value!r}")
+        return _Table(value, self.source, f"{self.key(name)}.")
+
+    def string(self, name: str, default: str | None = None) -> str:
+        if default is not None and name not in self.data:
+            return default
+        value = self.raw(name)
+        if not isinstance(value, str):
+            raise self.error(name, f"must be a string, got {value!r}")
+        return value
+
+    def number(self, name: str, positive: bool = False) -> float:
+        value = self.raw(name)
+        return self._check_number(name, value, positive)
+
+    def _check_number(self, name: str, value: Any, positive: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(name, f"must be a number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise self.error(name, f"must be finite, got {value!r}")
+        if positive and value <= 0.0:
+            raise self.error(name, f"must be positive, got {value!r}")
+        return value
+
+    def vector(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        value = self.raw(name)
+        return self.array_value(name, value, shape)
+
+    def array_value(self, name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+        def flat(v: Any, depth: int) -> list[float]:
+            if depth == len(shape):
+                return [self._check_number(name, v)]
+            if not isinstance(v, list) or len(v) != shape[depth]:
+                raise self.error(name, f"must be an array of shape {list(shape)}, got {value!r}")
+            out: list[float] = []
+            for item in v:
+                out += flat(item, depth + 1)
+            return out
+
+        return np.array(flat(value, 0), dtype=float).reshape(shape)
+
+    def check_unknown(self, allowed: Iterable[str]) -> None:
+        allowed = set(allowed)
+        for k in self.data:
+            if k not in allowed:
+                raise self.error(k, "unknown key")
+
+
+def load_nominal(path: str | Path):  # -> NominalDelta
+    """Read and validate a nominal robot file (format of the project's conventions).
+
+    Raises:
+        InputError: naming the file and the key of the first problem found.
+    """
+    from .geometry import NominalDelta, Workspace
+
+    source = str(path)
+    top = _Table(read_toml(path), source)
+    top.check_unknown(["name", "description", "geometry", "points", "workspace"])
+    name = top.string("name")
+    description = top.string("description", default="")
+    geo = top.table("geometry")
+    assert geo is not None
+    geo.check_unknown(
+        [
+            "base_radius_mm",
+            "plate_radius_mm",
+            "arm_length_mm",
+            "rod_length_mm",
+            "rod_spacing_mm",
+            "limb_azimuth_deg",
+            "tool_mm",
+        ]
+    )
+    values = {
+        "base_radius": geo.number("base_radius_mm", positive=True),
+        "plate_radius": geo.number("plate_radius_mm", positive=True),
+        "arm_length": geo.number("arm_length_mm", positive=True),
+        "rod_length": geo.number("rod_length_mm", positive=True),
+        "rod_spacing": geo.number("rod_spacing_mm", positive=True),
+    }
+    azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
+    if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
+        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg}")
+    tool = geo.vector("tool_mm", (3,)) if geo.has("tool_mm") else np.zeros(3)
+    points: dict[str, np.ndarray] = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        for k in pts.data:
+            if k == "tcp":
+                raise pts.error(k, "'tcp' is reserved for the tool centre point")
+            points[k] = pts.vector(k, (3,))
+    workspace = None
+    ws = top.table("workspace", required=False)
+    if ws is not None:
+        ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
+        workspace = Workspace(
+            radius=ws.number("radius_mm", positive=True),
+            height=ws.number("height_mm", positive=True),
+            top_z=ws.number("top_z_mm"),
+        )
+        if workspace.top_z >= 0.0:
+            raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
+    if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
+        raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
+    try:
+        nominal = NominalDelta(
+            name=name,
+            description=description,
+            limb_azimuth=np.radians(azimuth_deg),
+            tool=tool,
+            points=points,
+            workspace=workspace,
+            **values,
+        )
+    except GeometryError as exc:
+        raise InputError(str(exc), source) from None
+    if workspace is not None:
+        _check_workspace_reachable(nominal, source)
+    return nominal
+
+
+def _check_workspace_reachable(nominal, source: str) -> None:
+    """The workspace cylinder's rim must be reachable by the nominal robot."""
+    from .kinematics.closed_form import VirtualDelta
+
+    ws = nominal.workspace
+    ang = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
+    rim = []
+    for z in (ws.top_z, ws.bottom_z):
+        rim.append(np.stack([ws.radius * np.cos(ang), ws.radius * np.sin(ang), np.full_like(ang, z)], 1))
+    pts = np.concatenate(rim)
+    q = VirtualDelta.from_nominal(nominal).inverse(pts - nominal.tool, check=False)
+    bad = ~np.all(np.isfinite(q), axis=1)
+    if np.any(bad):
+        p = pts[np.argmax(bad)]
+        raise InputError(
+            f"the workspace reaches {np.round(p, 3).tolist()} mm, out of reach of the robot",
+            source,
+            "key workspace",
+        )
+
+
+def geometry_to_dict(geometry) -> dict[str, Any]:
+    """The TOML tables of a DeltaGeometry (mm, deg), as written by :func:`save_geometry`."""
+    limbs = []
+    for i in range(3):
+        limbs.append(
+            {
+                "azimuth_deg": exact_degrees(float(geometry.limb_azimuth[i])),
+                "axis_point_mm": geometry.axis_point[i].tolist(),
+                "axis_direction": geometry.axis_direction[i].tolist(),
+                "encoder_offset_deg": exact_degrees(float(geometry.encoder_offset[i])),
+                "arm_ball_mm": geometry.arm_ball[i].tolist(),
+                "plate_ball_mm": geometry.plate_ball[i].tolist(),
+                "rod_length_mm": geometry.rod_length[i].tolist(),
+            }
+        )
+    out: dict[str, Any] = {
+        "format": GEOMETRY_FORMAT,
+        "name": geometry.name,
+        "tool_mm": geometry.tool.tolist(),
+        "limb": limbs,
+    }
+    if geometry.points:
+        out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
+    return out
+
+
+def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = ""):  # -> DeltaGeometry
+    """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
+    from .geometry import DeltaGeometry
+
+    top = _Table(data, source, prefix)
+    fmt = top.string("format")
+    if fmt != GEOMETRY_FORMAT:
+        raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
+    name = top.string("name", default="")
+    tool = top.vector("tool_mm", (3,))
+    limbs = top.raw("limb")
+    if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):
+        raise top.error("limb", "must be an array of exactly 3 tables [[limb]]")
+    fields: dict[str, list[Any]] = {k: [] for k in (
+        "limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
+        "rod_length")}
+    for i, limb_data in enumerate(limbs):
+        t = _Table(limb_data, source, f"{prefix}limb[{i + 1}].")
+        t.check_unknown([
+            "azimuth_deg", "axis_point_mm", "axis_direction", "encoder_offset_deg", "arm_ball_mm",
+            "plate_ball_mm", "rod_length_mm"])
+        fields["limb_azimuth"].append(math.radians(t.number("azimuth_deg")))
+        fields["axis_point"].append(t.vector("axis_point_mm", (3,)))
+        w = t.vector("axis_direction", (3,))
+        if abs(float(np.linalg.norm(w)) - 1.0) > 1e-9:
+            raise t.error("axis_direction", f"must be a unit vector, got {w.tolist()}")
+        fields["axis_direction"].append(w)
+        fields["encoder_offset"].append(math.radians(t.number("encoder_offset_deg")))
+        fields["arm_ball"].append(t.vector("arm_ball_mm", (2, 3)))
+        fields["plate_ball"].append(t.vector("plate_ball_mm", (2, 3)))
+        rods = t.vector("rod_length_mm", (2,))
+        if np.any(rods <= 0):
+            raise t.error("rod_length_mm", f"must be positive, got {rods.tolist()}")
+        fields["rod_length"].append(rods)
+    points = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        for k in pts.data:
+            points[k] = pts.vector(k, (3,))
+    try:
+        return DeltaGeometry(
+            **{k: np.array(v) for k, v in fields.items()}, tool=tool, points=points, name=name
+        )
+    except GeometryError as exc:
+        raise InputError(str(exc), source) from None
+
+
+def save_geometry(geometry, path: str | Path) -> None:
+    """Write a DeltaGeometry to TOML (mm, deg), atomically; it reads back bit for bit."""
+    header = "# deltacal geometry: every element of a real Delta robot (mm, deg)\n"
+    atomic_write_text(path, header + toml_dumps(geometry_to_dict(geometry)))
+
+
+def load_geometry(path: str | Path):  # -> DeltaGeometry
+    """Read a geometry TOML file, or the ``[geometry]`` part of a calibration file."""
+    data = read_toml(path)
+    if "format" not in data and isinstance(data.get("geometry"), Mapping):
+        return geometry_from_dict(data["geometry"], str(path), "geometry.")
+    return geometry_from_dict(data, str(path))

@@ -1,0 +1,11 @@
+"""Kinematics of the Delta robot.
+
+* :mod:`.closed_form`: perfect parallelograms (virtual rods), vectorised.
+* :mod:`.exact`: any DeltaGeometry, vectorised six-rod Newton solver.
+* :mod:`.multibody`: any DeltaGeometry, Pinocchio closed-loop model (ground truth).
+"""
+
+from .closed_form import VirtualDelta
+from .exact import PlatePose
+
+__all__ = ["PlatePose", "VirtualDelta"]

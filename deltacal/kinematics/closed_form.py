@@ -1,0 +1,216 @@
+"""Closed-form kinematics of a Delta robot with perfect parallelograms.
+
+With perfect parallelograms the plate stays parallel to the base and each
+parallelogram can be replaced by a virtual rod from the elbow midpoint E_i to
+the point ``x + a_i`` of the plate (conventions; Savoure 2006, Table 1: the
+"simplified" models FPR_S, IPR_S, J_S, J_S^m). The virtual model here is
+general: every limb has its own actuator axis (point and direction), encoder
+offset, elbow point in the arm frame, plate attachment and rod length, which is
+Vischer and Clavel's 24-parameter model (Bai 2015 model 24, Eq. 10).
+
+Units: mm and rad. Batches: positions (N, 3), readings (N, 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..exceptions import AssemblyError, UnreachableError
+from ..geometry import DeltaGeometry, NominalDelta, rotation_about_y
+
+
+@dataclass(frozen=True, eq=False)
+class VirtualDelta:
+    """Per-limb parameters of the virtual-rod (perfect parallelogram) Delta.
+
+    Attributes:
+        axis_point: Point of each actuator axis in {O} [mm], (3, 3).
+        actuator_rotation: R0_i, actuator frame at zero true angle, (3, 3, 3); y is the axis.
+        encoder_offset: True angle minus reading [rad], (3,).
+        elbow: Elbow midpoint E_i in the arm frame [mm], (3, 3).
+        plate_attachment: a_i, the virtual rod's end in the plate frame [mm], (3, 3).
+        rod_length: Virtual rod lengths [mm], (3,).
+    """
+
+    axis_point: np.ndarray
+    actuator_rotation: np.ndarray
+    encoder_offset: np.ndarray
+    elbow: np.ndarray
+    plate_attachment: np.ndarray
+    rod_length: np.ndarray
+
+    @classmethod
+    def from_nominal(cls, nominal: NominalDelta) -> VirtualDelta:
+        """The virtual model of a nominal robot."""
+        return cls.from_geometry(nominal.geometry())
+
+    @classmethod
+    def from_geometry(cls, geometry: DeltaGeometry) -> VirtualDelta:
+        """The classical view of any geometry: pair midpoints and mean rod lengths.
+
+        Exact for a geometry with perfect parallelograms; an approximation otherwise.
+        """
+        return cls(
+            axis_point=np.array(geometry.axis_point),
+            actuator_rotation=geometry.actuator_rotation(),
+            encoder_offset=np.array(geometry.encoder_offset),
+            elbow=geometry.arm_ball.mean(axis=1),
+            plate_attachment=geometry.plate_ball.mean(axis=1),
+            rod_length=geometry.rod_length.mean(axis=1),
+        )
+
+    # ------------------------------------------------------------- helpers
+    def elbows(self, q: np.ndarray) -> np.ndarray:
+        """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad]."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        R = self.actuator_rotation[None] @ rotation_about_y(q + self.encoder_offset)
+        return self.axis_point[None] + np.einsum("nikl,il->nik", R, self.elbow)
+
+    def _elbow_derivative(self, q: np.ndarray) -> np.ndarray:
+        """dE_i/dq_i [mm/rad], shape (N, 3, 3): rotation about the axis w_i."""
+        E = self.elbows(q)
+        w = self.actuator_rotation[:, :, 1]
+        return np.cross(w[None], E - self.axis_point[None])
+
+    # ------------------------------------------------------------ kinematics
+    def forward(self, q: np.ndarray, check: bool = True) -> np.ndarray:
+        """Forward position relation FPR_S: plate-frame origin at readings q.
+
+        Intersection of the three spheres of centres ``E_i - a_i`` and radii ``l_i``,
+        lower solution (plate below the base).
+
+        Args:
+            q: Readings [rad], shape (N, 3) or (3,).
+            check: Raise AssemblyError where no assembly exists (else NaN rows).
+
+        Returns:
+            Plate positions [mm], shape (N, 3).
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        c = self.elbows(q) - self.plate_attachment[None]
+        r2 = self.rod_length**2
+        d1 = c[:, 1] - c[:, 0]
+        d2 = c[:, 2] - c[:, 0]
+        n = np.cross(d1, d2)
+        c0sq = np.sum(c[:, 0] ** 2, axis=1)
+        M = np.stack([2.0 * d1, 2.0 * d2, n], axis=1)
+        rhs = np.stack(
+            [
+                np.sum(c[:, 1] ** 2, axis=1) - c0sq - r2[1] + r2[0],
+                np.sum(c[:, 2] ** 2, axis=1) - c0sq - r2[2] + r2[0],
+                np.sum(n * c[:, 0], axis=1),
+            ],
+            axis=1,
+        )
+        x0 = np.linalg.solve(M, rhs[..., None])[..., 0]
+        v = x0 - c[:, 0]
+        nn = np.sum(n * n, axis=1)
+        b = np.sum(n * v, axis=1)
+        disc = b * b - nn * (np.sum(v * v, axis=1) - r2[0])
+        root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+        s1 = (-b + root) / nn
+        s2 = (-b - root) / nn
+        x1 = x0 + s1[:, None] * n
+        x2 = x0 + s2[:, None] * n
+        x = np.where((x1[:, 2] < x2[:, 2])[:, None], x1, x2)
+        if check:
+            bad = ~np.all(np.isfinite(x), axis=1)
+            if np.any(bad):
+                idx = np.flatnonzero(bad)
+                raise AssemblyError(
+                    f"no assembly at {idx.size} reading(s), first: q = "
+                    f"{np.round(np.degrees(q[idx[0]]), 6).tolist()} deg (index {idx[0]})",
+                    idx,
+                    q[idx],
+                )
+        return x
+
+    def inverse(self, x: np.ndarray, check: bool = True) -> np.ndarray:
+        """Inverse position relation IPR_S, knee-out branch (larger cos of the true angle).
+
+        Args:
+            x: Plate-frame origins [mm], shape (N, 3) or (3,).
+            check: Raise UnreachableError for unreachable points (else NaN rows).
+
+        Returns:
+            Readings [rad], shape (N, 3).
+        """
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        # d in actuator frames: X - p_i, X = x + a_i
+        d = x[:, None, :] + self.plate_attachment[None] - self.axis_point[None]
+        dl = np.einsum("ilk,nil->nik", self.actuator_rotation, d)
+        e = self.elbow
+        A = dl[..., 0] * e[:, 0] + dl[..., 2] * e[:, 2]
+        B = dl[..., 0] * e[:, 2] - dl[..., 2] * e[:, 0]
+        K = 0.5 * (np.sum(e * e, axis=1) + np.sum(dl * dl, axis=2) - self.rod_length**2)
+        K = K - dl[..., 1] * e[:, 1]
+        rho = np.hypot(A, B)
+        ratio = K / rho
+        ok = np.abs(ratio) <= 1.0
+        gamma = np.arccos(np.where(ok, ratio, np.nan))
+        base = np.arctan2(B, A)
+        t1 = base + gamma
+        t2 = base - gamma
+        theta = np.where(np.cos(t1) >= np.cos(t2), t1, t2)
+        q = theta - self.encoder_offset
+        q = (q + np.pi) % (2.0 * np.pi) - np.pi
+        if check:
+            bad = ~np.all(np.isfinite(q), axis=1)
+            if np.any(bad):
+                idx = np.flatnonzero(bad)
+                raise UnreachableError(
+                    f"{idx.size} target(s) out of reach, first: {np.round(x[idx[0]], 6).tolist()} mm"
+                    f" (index {idx[0]})",
+                    idx,
+                    x[idx],
+                )
+        return q
+
+    def velocity_matrices(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The two sides of the velocity constraint ``A xdot = B qdot``.
+
+        Rows of A are the virtual rod vectors ``n_i = x + a_i - E_i``; B is diagonal
+        with ``n_i . dE_i/dq_i``.
+
+        Returns:
+            A (N, 3, 3) [mm] and B (N, 3, 3) [mm^2/rad].
+        """
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        x = self.forward(q)
+        n = x[:, None, :] + self.plate_attachment[None] - self.elbows(q)
+        dE = self._elbow_derivative(q)
+        B = np.zeros((q.shape[0], 3, 3))
+        idx = np.arange(3)
+        B[:, idx, idx] = np.sum(n * dE, axis=2)
+        return n, B
+
+    def jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Forward velocity relation J_S: ``xdot = J_S(q) qdot`` (Savoure Table 1).
+
+        Returns:
+            J_S [mm/rad], shape (N, 3, 3).
+        """
+        A, B = self.velocity_matrices(q)
+        return np.linalg.solve(A, B)
+
+    def inverse_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Inverse velocity relation J_S^m: ``qdot = J_S^m(q) xdot`` (Savoure Table 1, Eq. 32).
+
+        Returns:
+            J_S^m [rad/mm], shape (N, 3, 3).
+        """
+        A, B = self.velocity_matrices(q)
+        diag = np.diagonal(B, axis1=1, axis2=2)
+        return A / diag[..., None]
+
+
+def forward(nominal: NominalDelta, q: np.ndarray) -> np.ndarray:
+    """Plate positions of the perfect robot at readings q [rad], (N, 3) [mm]."""
+    return VirtualDelta.from_nominal(nominal).forward(q)
+
+
+def inverse(nominal: NominalDelta, x: np.ndarray) -> np.ndarray:
+    """Readings [rad] that put the perfect robot's plate origin at x [mm], (N, 3)."""
+    return VirtualDelta.from_nominal(nominal).inverse(x)
