@@ -1,0 +1,184 @@
+"""Identifiable (base) parameters of a linear regressor by QR decomposition.
+
+The regressor W (rows: measurements, columns: parameter deviations) is
+column-scaled and decomposed by a pivoted QR, ``W P = Q R`` (Savoure 2006,
+Sec. II-B-2 and Eq. 25; Besnard and Khalil 2001). The numerical rank r counts
+the diagonal entries ``|R_kk| > rtol |R_00|``. Writing ``R = [R1 R2]`` with R1
+the leading r x r block, every measurement depends on the parameters only
+through the base parameters
+
+    beta = dk_1 + R1^-1 R2 dk_2,
+
+so each base parameter is a kept column plus a linear regrouping of the
+dropped ones (for instance ``δa2x − δb2x``, Savoure Eq. 70-72).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+#: Regrouping coefficients below this (relative) are printed as absent.
+_COEFF_PRINT_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class BaseParameters:
+    """Base parameters of a regressor.
+
+    Attributes:
+        names: Names of all the regressor's columns (parameters).
+        rank: Numerical rank.
+        base: Column indices of the kept parameters, one per base parameter.
+        regrouping: Matrix (rank, n): base parameter k equals ``regrouping[k] @ dk``.
+        unidentifiable: Columns that are not kept (absent from the measurements, or
+            folded into base parameters).
+        condition_number: Condition number of the column-scaled base regressor.
+        scale: Column scales used (norm of each column, 1 for zero columns).
+        pivots: |R_kk| of the scaled decomposition, in pivot order.
+    """
+
+    names: list[str]
+    rank: int
+    base: list[int]
+    regrouping: np.ndarray
+    unidentifiable: list[int]
+    condition_number: float
+    scale: np.ndarray
+    pivots: np.ndarray
+
+    @property
+    def base_names(self) -> list[str]:
+        """Names of the kept parameters."""
+        return [self.names[k] for k in self.base]
+
+    @property
+    def unidentifiable_names(self) -> list[str]:
+        """Names of the parameters that are not kept."""
+        return [self.names[k] for k in self.unidentifiable]
+
+    @property
+    def absent(self) -> list[int]:
+        """Columns that appear in no base parameter: they do not affect the measurements."""
+        used = np.any(np.abs(self.regrouping) > _COEFF_PRINT_TOL, axis=0)
+        return [k for k in range(len(self.names)) if not used[k]]
+
+    def labels(self, prefix: str = "δ") -> list[str]:
+        """Readable base parameters, e.g. ``δa2x − δb2x`` or ``δq0 + 0.5 δl1``."""
+        return [self._label(k, prefix) for k in range(self.rank)]
+
+    def _label(self, k: int, prefix: str) -> str:
+        row = self.regrouping[k]
+        lead = self.base[k]
+        terms = [(lead, row[lead])]
+        others = [j for j in np.flatnonzero(np.abs(row) > _COEFF_PRINT_TOL) if j != lead]
+        terms += [(j, row[j]) for j in others]
+        out = ""
+        for n, (j, c) in enumerate(terms):
+            mag = abs(c)
+            sign = "−" if c < 0 else "+"
+            coeff = "" if abs(mag - 1.0) < 1e-9 else f"{mag:.6g} "
+            name = f"{prefix}{self.names[j]}"
+            if n == 0:
+                out = ("−" if c < 0 else "") + coeff + name
+            else:
+                out += f" {sign} {coeff}{name}"
+        return out
+
+    def project(self, full: np.ndarray) -> np.ndarray:
+        """Base parameter values of a full parameter deviation vector (or batch)."""
+        return np.asarray(full) @ self.regrouping.T
+
+    def expand(self, base_values: np.ndarray) -> np.ndarray:
+        """The full deviation vector with the kept parameters set and the others zero.
+
+        It has the same effect on every measurement as any full vector whose base
+        parameters are ``base_values``.
+        """
+        full = np.zeros(len(self.names))
+        full[self.base] = base_values
+        return full
+
+
+def base_parameters(
+    regressor: np.ndarray,
+    names: Sequence[str],
+    rtol: float = 1e-8,
+    prefer: Sequence[str] | None = None,
+) -> BaseParameters:
+    """Find the base parameters of a regressor.
+
+    Args:
+        regressor: W, shape (m, n).
+        names: The n parameter names.
+        rtol: Rank tolerance relative to the largest pivot |R_00| (columns scaled to
+            unit norm first, so that units do not decide the rank).
+        prefer: Optional preference order of parameter names: when parameters are
+            regrouped, the earliest in this list is kept (unpivoted QR of the columns
+            in this order). Without it, pivoted QR keeps the best-conditioned ones.
+
+    Returns:
+        The base parameters.
+    """
+    W = np.asarray(regressor, dtype=float)
+    m, n = W.shape
+    if len(names) != n:
+        raise ValueError(f"{len(names)} names for {n} columns")
+    scale = np.linalg.norm(W, axis=0)
+    scale = np.where(scale > 0.0, scale, 1.0)
+    Ws = W / scale
+    if prefer is None:
+        _, R, perm = scipy.linalg.qr(Ws, mode="economic", pivoting=True)
+        diag = np.abs(np.diag(R))
+        top = diag[0] if diag.size else 0.0
+        rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
+        kept = list(perm[:rank])
+        dropped = list(perm[rank:])
+        pivots = diag
+    else:
+        order = [names.index(p) for p in prefer if p in names]
+        order += [k for k in range(n) if k not in order]
+        kept, dropped = [], []
+        top = np.max(np.linalg.norm(Ws, axis=0)) if n else 0.0
+        basis = np.zeros((m, 0))
+        piv = []
+        for k in order:
+            col = Ws[:, k]
+            resid = col - basis @ (basis.T @ col)
+            resid = resid - basis @ (basis.T @ resid)
+            norm = float(np.linalg.norm(resid))
+            if norm > rtol * max(top, 1e-300):
+                kept.append(k)
+                basis = np.column_stack([basis, resid / norm])
+                piv.append(norm)
+            else:
+                dropped.append(k)
+        rank = len(kept)
+        pivots = np.array(piv)
+    regrouping = np.zeros((rank, n))
+    if rank:
+        W1 = Ws[:, kept]
+        # beta_scaled = dk1_s + X dk2_s with W1 X = W2 (exact for dependent columns)
+        X = np.linalg.lstsq(W1, Ws[:, dropped], rcond=None)[0] if dropped else np.zeros((rank, 0))
+        regrouping[np.arange(rank), kept] = 1.0
+        if dropped:
+            # back to physical units: beta_k (units of param kept[k]) = dk1 + diag(1/s1) X diag(s2) dk2
+            regrouping[:, dropped] = X * (scale[dropped][None, :] / scale[kept][:, None])
+        sv = np.linalg.svd(W1, compute_uv=False)
+        cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    else:
+        cond = float("inf")
+    regrouping[np.abs(regrouping) < 1e-12] = 0.0
+    return BaseParameters(
+        names=list(names),
+        rank=rank,
+        base=[int(k) for k in kept],
+        regrouping=regrouping,
+        unidentifiable=sorted(int(k) for k in dropped),
+        condition_number=cond,
+        scale=scale,
+        pivots=np.asarray(pivots),
+    )
