@@ -1,0 +1,46 @@
+"""Error models: parameterisations of small deviations of a DeltaGeometry.
+
+* ``classical``: perfect parallelograms, 24 parameters (Vischer and Clavel; Bai model 24).
+* ``bai42``: Bai's model 42 (Eq. 6-9); ``bai18``, ``bai36``, ``bai32``: its reductions for
+  distance measurements (Eq. 11, §3.2); ``bai24``: model 24 with Bai's names.
+* ``complete``: Savoure's complete model, 51 parameters (Eq. 12-22).
+"""
+
+from __future__ import annotations
+
+from .bai import DISTANCE_GAUGE, MODEL32_REMOVED, BaiModel
+from .base import ErrorModel, SubModel
+from .classical import ClassicalModel
+from .complete import CompleteModel
+
+MODEL_NAMES = ("classical", "bai42", "complete", "bai24", "bai18", "bai36", "bai32")
+
+
+def get_model(name: str) -> ErrorModel:
+    """The error model of a name in :data:`MODEL_NAMES`."""
+    if name == "classical":
+        return ClassicalModel()
+    if name == "complete":
+        return CompleteModel()
+    if name == "bai42":
+        return BaiModel(orientation=True)
+    if name == "bai24":
+        return BaiModel(orientation=False)
+    if name == "bai18":
+        return BaiModel(orientation=False).without(DISTANCE_GAUGE, "bai18")
+    if name == "bai36":
+        return BaiModel(orientation=True).without(DISTANCE_GAUGE, "bai36")
+    if name == "bai32":
+        return BaiModel(orientation=True).without(DISTANCE_GAUGE + MODEL32_REMOVED, "bai32")
+    raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")
+
+
+__all__ = [
+    "MODEL_NAMES",
+    "BaiModel",
+    "ClassicalModel",
+    "CompleteModel",
+    "ErrorModel",
+    "SubModel",
+    "get_model",
+]

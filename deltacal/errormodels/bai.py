@@ -1,0 +1,119 @@
+"""Bai et al.'s linear error models: model 42 and its distance-based reductions.
+
+Bai 2015, Eq. 1-10. The limb frame {0B_i} has ``u0`` along the arm's zero
+direction (≈ r_i), ``v0`` up and ``w0 = u0 × v0`` (≈ −t_i) along the actuator
+axis, so Bai's joint angle θ_i turns opposite to this project's q_i.
+
+Position group Δp_r (per limb, Eq. 6): ``Ldtheta{i}`` = LΔθ_i [mm] (encoder
+offset about w0), ``e{i}x, e{i}y, e{i}z`` = Δe_i = Δb_i − Δa_i [mm] (base frame),
+``dL{i}`` = ΔL_i [mm], ``Ldalpha0_{i}``, ``Ldbeta0_{i}`` = LΔα_0,i, LΔβ_0,i [mm]
+(actuator axis tilts about u0 and v0), ``dlbar{i}`` = mean rod-length error [mm].
+
+Orientation group Δp_ε (per limb, Eq. 7): ``dltilde{i}_c`` = Δl̃_i / c,
+``dctilde{i}_c`` = Δc̃_i / c, ``dalpha03_{i}``, ``dbeta03_{i}`` = Δα_03,i, Δβ_03,i
+(plate ball pair turned relative to the actuator frame), ``dalpha2_{i}``,
+``dbeta2_{i}`` = Δα_2,i, Δβ_2,i (arm ball pair turned in the arm) [rad].
+
+Model 24 is the position group alone (Eq. 10, plate parallel); model 42 is both
+(Eq. 8-9). For distance measurements Bai fixes the gauge with Eq. 11
+(Δe_x,1 = Δe_y,2 = Δe_y,3 = Δe_z,i = 0): models 18 and 36. Model 32 drops the
+four orientation parameters that distances cannot see (Bai §3.2, Eq. 19).
+
+The sensitivity is computed from the rod equations at the exact pose
+(:mod:`.base`); at a geometry with perfect parallelograms it equals Bai's
+C_r and C_ε of Eq. 8-9 (tested).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import DeltaGeometry
+from .base import (
+    N_ELEMENTARY,
+    ErrorModel,
+    arm_ball_index,
+    pair_frames,
+    plate_ball_index,
+    rod_index,
+    rotate_pair_moves,
+)
+from .classical import position_moves
+
+POSITION_NAMES = ("Ldtheta{i}", "e{i}x", "e{i}y", "e{i}z", "dL{i}", "Ldalpha0_{i}", "Ldbeta0_{i}", "dlbar{i}")
+ORIENTATION_NAMES = (
+    "dltilde{i}_c",
+    "dctilde{i}_c",
+    "dalpha03_{i}",
+    "dbeta03_{i}",
+    "dalpha2_{i}",
+    "dbeta2_{i}",
+)
+#: Bai Eq. 11: the gauge fixed for distance measurements.
+DISTANCE_GAUGE = ["e1x", "e2y", "e3y", "e1z", "e2z", "e3z"]
+#: Bai §3.2: the four orientation parameters removed from model 36 to get model 32.
+MODEL32_REMOVED = ["dalpha03_2", "dalpha03_3", "dbeta03_3", "dalpha2_3"]
+
+
+class BaiModel(ErrorModel):
+    """Bai's model 24 (``orientation=False``) or model 42 (``orientation=True``)."""
+
+    def __init__(self, orientation: bool = True) -> None:
+        self.orientation = orientation
+        self.tilts_plate = orientation
+        self.name = "bai42" if orientation else "bai24"
+
+    @property
+    def names(self) -> list[str]:
+        """Δp_r then (model 42) Δp_ε, limb by limb within each group."""
+        names = [n.format(i=i) for i in range(1, 4) for n in POSITION_NAMES]
+        if self.orientation:
+            names += [n.format(i=i) for i in range(1, 4) for n in ORIENTATION_NAMES]
+        return names
+
+    @property
+    def units(self) -> list[str]:
+        """mm for Δp_r, rad (dimensionless) for Δp_ε."""
+        return ["mm"] * 24 + (["rad"] * 18 if self.orientation else [])
+
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """Elementary moves of Bai's parameters (Eq. 1-7 read as changes of the geometry)."""
+        f = pair_frames(geometry)
+        L = f["arm_length"]
+        pos = position_moves(geometry)  # axis xyz, tilt x0, tilt z0, offset, arm length, rod
+        cols = []
+        for i in range(3):
+            P = pos[:, i]
+            cols += [
+                -P[:, 5] / L[i],  # LΔθ about w0 = -w
+                P[:, 0],
+                P[:, 1],
+                P[:, 2],
+                P[:, 6],
+                P[:, 3] / L[i],  # LΔα0 about u0
+                P[:, 4] / L[i],  # LΔβ0 about v0
+                P[:, 7],
+            ]
+        if self.orientation:
+            for i in range(3):
+                c = f["spacing"][i]
+                x0, z0 = f["R0"][i][:, 0], f["R0"][i][:, 2]
+                block = np.zeros((N_ELEMENTARY, 6))
+                block[rod_index(i, 0), 0] = 0.5 * c
+                block[rod_index(i, 1), 0] = -0.5 * c
+                unit = f["arm_half"][i] / np.linalg.norm(f["arm_half"][i])
+                for k in range(3):
+                    block[arm_ball_index(i, 0, k), 1] = 0.5 * c * unit[k]
+                    block[arm_ball_index(i, 1, k), 1] = -0.5 * c * unit[k]
+                for col, axis, half, index in (
+                    (2, -x0, f["plate_half"][i], plate_ball_index),
+                    (3, -z0, f["plate_half"][i], plate_ball_index),
+                    (4, np.array([1.0, 0.0, 0.0]), f["arm_half"][i], arm_ball_index),
+                    (5, np.array([0.0, 0.0, 1.0]), f["arm_half"][i], arm_ball_index),
+                ):
+                    pair = rotate_pair_moves(half, axis)
+                    for j in range(2):
+                        for k in range(3):
+                            block[index(i, j, k), col] = pair[j, k]
+                cols += list(block.T)
+        return np.stack(cols, axis=1)

@@ -1,0 +1,299 @@
+"""The error-model contract and the elementary geometric moves models are made of.
+
+An error model is a parameterisation of small deviations ``dk`` of a
+DeltaGeometry. It states:
+
+* its parameter names and units (:attr:`ErrorModel.names`, :attr:`ErrorModel.units`);
+* its sensitivity ``dX = S(q) dk`` (Savoure 2006, Eq. 21-22): the plate's small
+  displacement ``dX = (dx, dalpha)`` (position of the plate-frame origin [mm],
+  rotation vector in the base frame [rad]) at readings q, around *any*
+  geometry (the nominal one or the current estimate);
+* the map from a parameter vector back to a DeltaGeometry (:meth:`ErrorModel.apply`),
+  so that an identified model feeds the exact kinematics and exact compensation.
+
+Every model here is a linear combination ``e = M(g) dk`` of 60 *elementary moves*
+of a geometry g, in this order:
+
+====================  =====  ==============================================
+block                 size   meaning
+====================  =====  ==============================================
+plate balls           18     plate_ball[i, j] moved in the plate frame [mm]
+arm balls             18     arm_ball[i, j] moved in the arm frame [mm]
+rod lengths           6      rod_length[i, j] [mm]
+axis points           9      axis_point[i] moved in {O} [mm]
+actuator rotations    9      rigid rotation of actuator frame i about its axis
+                             point, components along its own axes (x0, w, z0)
+                             [rad]; the w component is the encoder offset
+====================  =====  ==============================================
+
+The rod equations ``|A_ij(q) - (p + R B_ij)| = l_ij`` (Savoure Eq. 2), differentiated,
+give ``J_X dX + J_k e = 0`` (Savoure Eq. 12, 17), so ``S = -J_X^-1 J_k M``
+(Eq. 22). Evaluated at the exact pose of the current geometry, S is the exact
+first-order sensitivity of the exact kinematics; tests check it against
+central finite differences through :func:`deltacal.kinematics.exact.forward`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import replace
+
+import numpy as np
+
+from ..geometry import DeltaGeometry, rotation_from_vector
+from ..kinematics import exact
+from ..kinematics.exact import PlatePose
+
+N_ELEMENTARY = 60
+PLATE_BALLS = slice(0, 18)
+ARM_BALLS = slice(18, 36)
+RODS = slice(36, 42)
+AXIS_POINTS = slice(42, 51)
+ACTUATOR_ROTATIONS = slice(51, 60)
+
+
+def plate_ball_index(i: int, j: int, k: int) -> int:
+    """Elementary index of coordinate k of plate ball j of limb i (0-based)."""
+    return PLATE_BALLS.start + 6 * i + 3 * j + k
+
+
+def arm_ball_index(i: int, j: int, k: int) -> int:
+    """Elementary index of coordinate k of arm ball j of limb i (0-based)."""
+    return ARM_BALLS.start + 6 * i + 3 * j + k
+
+
+def rod_index(i: int, j: int) -> int:
+    """Elementary index of the length of rod j of limb i (0-based)."""
+    return RODS.start + 2 * i + j
+
+
+def axis_point_index(i: int, k: int) -> int:
+    """Elementary index of coordinate k of the axis point of limb i (0-based)."""
+    return AXIS_POINTS.start + 3 * i + k
+
+
+def actuator_rotation_index(i: int, k: int) -> int:
+    """Elementary index of the rotation of actuator i about its axis k (0: x0, 1: w, 2: z0)."""
+    return ACTUATOR_ROTATIONS.start + 3 * i + k
+
+
+def elementary_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
+    """J_k: derivative of the rod residuals ``|d_ij| - l_ij`` by the elementary moves.
+
+    Args:
+        geometry: Geometry around which to differentiate.
+        q: Readings [rad], shape (N, 3).
+        pose: The exact plate poses of ``geometry`` at q.
+
+    Returns:
+        J_k, shape (N, 6, 60); rows are rods (1,1), (1,2), (2,1), ..., (3,2).
+    """
+    q = np.atleast_2d(q)
+    N = q.shape[0]
+    R_arm = geometry.arm_rotation(q)  # (N, 3, 3, 3)
+    A = geometry.axis_point[None, :, None, :] + np.einsum("nikl,ijl->nijk", R_arm, geometry.arm_ball)
+    B = pose.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", pose.rotation, geometry.plate_ball)
+    d = B - A
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)  # (N, 3, 2, 3)
+    J = np.zeros((N, 3, 2, N_ELEMENTARY))
+    R0 = geometry.actuator_rotation()
+    lever = A - geometry.axis_point[None, :, None, :]
+    torque = np.cross(lever, n)  # d|d|/d(rotation) = -(lever x n) . omega
+    for i in range(3):
+        for j in range(2):
+            s = plate_ball_index(i, j, 0)
+            J[:, i, j, s : s + 3] = np.einsum("nk,nkl->nl", n[:, i, j], pose.rotation)
+            s = arm_ball_index(i, j, 0)
+            J[:, i, j, s : s + 3] = -np.einsum("nk,nkl->nl", n[:, i, j], R_arm[:, i])
+            J[:, i, j, rod_index(i, j)] = -1.0
+            s = axis_point_index(i, 0)
+            J[:, i, j, s : s + 3] = -n[:, i, j]
+            s = actuator_rotation_index(i, 0)
+            J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
+    return J.reshape(N, 6, N_ELEMENTARY)
+
+
+def pose_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
+    """J_X: derivative of the rod residuals by the plate displacement (dx, dalpha), (N, 6, 6).
+
+    Savoure Eq. 18 with the actual (not nominal) rod directions.
+    """
+    A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
+    RB = np.einsum("nkl,jl->njk", pose.rotation, geometry.plate_ball.reshape(6, 3))
+    d = pose.position[:, None, :] + RB - A
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.concatenate([n, np.cross(RB, n)], axis=2)
+
+
+def elementary_sensitivity(
+    geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose | None = None
+) -> np.ndarray:
+    """``dX = S_e e`` for the 60 elementary moves, shape (N, 6, 60)."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    if pose is None:
+        pose = exact.forward(geometry, q)
+    JX = pose_jacobian(geometry, q, pose)
+    Jk = elementary_jacobian(geometry, q, pose)
+    return -np.linalg.solve(JX, Jk)
+
+
+def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
+    """The geometry moved by the elementary moves e (60,).
+
+    Actuator rotations are applied as exact rigid rotations of the actuator frame
+    (the encoder offset is adjusted so that the arm frames turn rigidly).
+    """
+    e = np.asarray(e, dtype=float)
+    plate_ball = geometry.plate_ball + e[PLATE_BALLS].reshape(3, 2, 3)
+    arm_ball = geometry.arm_ball + e[ARM_BALLS].reshape(3, 2, 3)
+    rod_length = geometry.rod_length + e[RODS].reshape(3, 2)
+    axis_point = geometry.axis_point + e[AXIS_POINTS].reshape(3, 3)
+    rot = e[ACTUATOR_ROTATIONS].reshape(3, 3)
+    axis_direction = np.array(geometry.axis_direction)
+    encoder_offset = np.array(geometry.encoder_offset)
+    if np.any(rot):
+        R0 = geometry.actuator_rotation()
+        omega = np.einsum("ikl,il->ik", R0, rot)  # in the base frame
+        R0_new = rotation_from_vector(omega) @ R0
+        axis_direction = R0_new[:, :, 1] / np.linalg.norm(R0_new[:, :, 1], axis=1, keepdims=True)
+        moved = replace(geometry, axis_direction=axis_direction)
+        R0_derived = moved.actuator_rotation()
+        # the zero direction the geometry derives differs from the rigidly turned one by a
+        # rotation about the new axis: fold it into the encoder offset
+        rel = np.einsum("ilk,ilm->ikm", R0_derived, R0_new)  # R0_derived^T R0_new, a rotation about y
+        encoder_offset = encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0])
+    return replace(
+        geometry,
+        plate_ball=plate_ball,
+        arm_ball=arm_ball,
+        rod_length=rod_length,
+        axis_point=axis_point,
+        axis_direction=axis_direction,
+        encoder_offset=encoder_offset,
+    )
+
+
+class ErrorModel(ABC):
+    """A parameterisation of small deviations of a DeltaGeometry.
+
+    Subclasses give :attr:`names`, :attr:`units` and :meth:`moves` (the matrix M
+    from parameters to elementary moves); the sensitivity and the map back to a
+    geometry follow.
+    """
+
+    #: Short name used on the command line.
+    name: str = ""
+    #: Whether the model moves the plate orientation (False: perfect parallelograms).
+    tilts_plate: bool = True
+
+    @property
+    @abstractmethod
+    def names(self) -> list[str]:
+        """Parameter names, in the order of the parameter vector."""
+
+    @property
+    @abstractmethod
+    def units(self) -> list[str]:
+        """Unit of each parameter: "mm" or "rad"."""
+
+    @abstractmethod
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """M(g): elementary moves per unit of each parameter, shape (60, n)."""
+
+    @property
+    def size(self) -> int:
+        """Number of parameters."""
+        return len(self.names)
+
+    def sensitivity(
+        self, geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose | None = None
+    ) -> np.ndarray:
+        """S(q): plate displacement (dx [mm], dalpha [rad]) per parameter, (N, 6, n).
+
+        Savoure Eq. 21-22, evaluated at the exact pose of ``geometry``.
+
+        Args:
+            geometry: Geometry around which to linearise (nominal or current estimate).
+            q: Readings [rad], shape (N, 3).
+            pose: Exact poses of ``geometry`` at q, if already known.
+        """
+        return elementary_sensitivity(geometry, q, pose) @ self.moves(geometry)
+
+    def apply(self, geometry: DeltaGeometry, dk: np.ndarray) -> DeltaGeometry:
+        """The geometry with the parameter deviations dk applied."""
+        dk = np.asarray(dk, dtype=float)
+        if dk.shape != (self.size,):
+            raise ValueError(f"{self.name}: expected {self.size} parameters, got shape {dk.shape}")
+        return apply_elementary(geometry, self.moves(geometry) @ dk)
+
+    def without(self, drop: list[str], name: str) -> ErrorModel:
+        """This model with some parameters held at zero (e.g. a gauge, Bai Eq. 11)."""
+        return SubModel(self, [n for n in self.names if n not in set(drop)], name)
+
+
+class SubModel(ErrorModel):
+    """A model restricted to a subset of another model's parameters."""
+
+    def __init__(self, parent: ErrorModel, keep: list[str], name: str) -> None:
+        unknown = set(keep) - set(parent.names)
+        if unknown:
+            raise ValueError(f"unknown parameters {sorted(unknown)} for model {parent.name}")
+        self.parent = parent
+        self._index = [parent.names.index(k) for k in keep]
+        self.name = name
+        self.tilts_plate = parent.tilts_plate
+
+    @property
+    def names(self) -> list[str]:
+        """Kept parameter names."""
+        return [self.parent.names[k] for k in self._index]
+
+    @property
+    def units(self) -> list[str]:
+        """Kept parameter units."""
+        return [self.parent.units[k] for k in self._index]
+
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """The parent's moves for the kept parameters."""
+        return self.parent.moves(geometry)[:, self._index]
+
+
+def pair_frames(geometry: DeltaGeometry) -> dict[str, np.ndarray]:
+    """Quantities of each limb's parallelogram used to build model moves.
+
+    Returns:
+        ``arm_mid`` (3, 3) arm-pair midpoints (arm frame), ``arm_half`` (3, 3) half pair
+        vectors (ball 1 minus midpoint, arm frame), ``plate_mid``/``plate_half`` the same in
+        the plate frame, ``spacing`` (3,) arm-pair spacing c, ``arm_length`` (3,) the elbow's
+        x in the arm frame (L), and ``R0`` the actuator rotations (3, 3, 3).
+    """
+    arm_mid = geometry.arm_ball.mean(axis=1)
+    plate_mid = geometry.plate_ball.mean(axis=1)
+    arm_half = geometry.arm_ball[:, 0] - arm_mid
+    plate_half = geometry.plate_ball[:, 0] - plate_mid
+    return {
+        "arm_mid": arm_mid,
+        "arm_half": arm_half,
+        "plate_mid": plate_mid,
+        "plate_half": plate_half,
+        "spacing": 2.0 * np.linalg.norm(arm_half, axis=1),
+        "arm_length": arm_mid[:, 0],
+        "R0": geometry.actuator_rotation(),
+    }
+
+
+def rotate_pair_moves(half: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Moves (2, 3) of a ball pair rotated about its midpoint by a unit small rotation ``axis``."""
+    dv = np.cross(axis, half)
+    return np.stack([dv, -dv])
+
+
+__all__ = [
+    "ErrorModel",
+    "N_ELEMENTARY",
+    "SubModel",
+    "apply_elementary",
+    "elementary_jacobian",
+    "elementary_sensitivity",
+    "pose_jacobian",
+]
