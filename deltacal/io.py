@@ -22,6 +22,7 @@ import tomllib
 from .exceptions import GeometryError, InputError
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
+CALIBRATION_FORMAT = "deltacal-calibration-1"
 
 
 # --------------------------------------------------------------------------- writing
@@ -411,6 +412,23 @@ def save_geometry(geometry, path: str | Path) -> None:
 def load_geometry(path: str | Path):  # -> DeltaGeometry
     """Read a geometry TOML file, or the ``[geometry]`` part of a calibration file."""
     data = read_toml(path)
-    if "format" not in data and isinstance(data.get("geometry"), Mapping):
+    if data.get("format") == CALIBRATION_FORMAT:
+        if not isinstance(data.get("geometry"), Mapping):
+            raise InputError("missing required table", str(path), "key geometry")
         return geometry_from_dict(data["geometry"], str(path), "geometry.")
     return geometry_from_dict(data, str(path))
+
+
+def save_calibration(result, path: str | Path) -> None:
+    """Write a calibration file: the identified geometry in full and the identification report.
+
+    ``compensate`` needs only this file: its ``[geometry]`` table is a complete
+    DeltaGeometry (see :func:`load_geometry`).
+    """
+    data = {
+        "format": CALIBRATION_FORMAT,
+        "calibration": result.to_dict(),
+        "geometry": geometry_to_dict(result.geometry),
+    }
+    header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
+    atomic_write_text(path, header + toml_dumps(data))

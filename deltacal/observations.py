@@ -1,0 +1,222 @@
+"""Measurements and the rows they contribute to the identification regressor.
+
+Three kinds of observation, in any mix, each row weighted by its own σ:
+
+* **pose**: position of a plate point and orientation of the plate (6 rows);
+* **position**: position of one named plate point (3 rows); several named points
+  at the same readings are separate measurements;
+* **distance**: distance between two measured positions of a same point (1 row;
+  Bai 2015, Eq. 12-14). Distances are invariant to the measurement frame, so the
+  tracker need not be registered to the robot; the gauge (the rigid motion of the
+  base frame that distances cannot see) is left to the base-parameter QR, which
+  drops the six directions it cannot identify, or fixed explicitly by the models
+  ``bai18``/``bai36``/``bai32`` with Bai's Eq. 11.
+
+Positions and orientations are in the robot base frame; orientation is the
+rotation vector of the plate frame {C} in {O}. Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .geometry import DeltaGeometry, skew, vector_from_rotation
+from .kinematics import exact
+from .kinematics.exact import PlatePose
+
+#: Row kinds.
+POSITION, ORIENTATION, DISTANCE = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """A set of measurements at joint readings.
+
+    Attributes:
+        q: Readings at which the robot stood [rad], shape (M, 3).
+        position: Measured position of the reference point [mm], shape (M, 3).
+        point: Name of the plate point measured in each row (``"tcp"`` or a named point).
+        rotation_vector: Measured plate orientation [rad], shape (M, 3); NaN rows where
+            orientation was not measured.
+        lines: Line number of each measurement in its file (for messages), or row indices.
+        source: File the measurements came from.
+    """
+
+    q: np.ndarray
+    position: np.ndarray
+    point: list[str] = field(default_factory=list)
+    rotation_vector: np.ndarray | None = None
+    lines: np.ndarray | None = None
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        q = np.atleast_2d(np.asarray(self.q, dtype=float))
+        pos = np.atleast_2d(np.asarray(self.position, dtype=float))
+        M = q.shape[0]
+        if q.shape != (M, 3) or pos.shape != (M, 3):
+            raise ValueError(f"q and position must both be (M, 3), got {q.shape} and {pos.shape}")
+        object.__setattr__(self, "q", q)
+        object.__setattr__(self, "position", pos)
+        point = list(self.point) if self.point else ["tcp"] * M
+        if len(point) != M:
+            raise ValueError(f"{len(point)} point names for {M} measurements")
+        object.__setattr__(self, "point", point)
+        rv = (
+            np.full((M, 3), np.nan)
+            if self.rotation_vector is None
+            else np.atleast_2d(np.asarray(self.rotation_vector, dtype=float))
+        )
+        object.__setattr__(self, "rotation_vector", rv)
+        lines = np.arange(M) if self.lines is None else np.asarray(self.lines)
+        object.__setattr__(self, "lines", lines)
+
+    def __len__(self) -> int:
+        return self.q.shape[0]
+
+    @property
+    def has_orientation(self) -> np.ndarray:
+        """Rows with a measured orientation, shape (M,)."""
+        assert self.rotation_vector is not None
+        return np.all(np.isfinite(self.rotation_vector), axis=1)
+
+    def subset(self, index: np.ndarray) -> Measurements:
+        """The measurements of some rows."""
+        index = np.asarray(index)
+        assert self.rotation_vector is not None and self.lines is not None
+        return Measurements(
+            q=self.q[index],
+            position=self.position[index],
+            point=[self.point[k] for k in np.atleast_1d(np.arange(len(self))[index])],
+            rotation_vector=self.rotation_vector[index],
+            lines=self.lines[index],
+            source=self.source,
+        )
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Residuals and regressor rows of a set of observations.
+
+    Attributes:
+        residual: Measured minus predicted, per row [mm or rad], shape (m,).
+        regressor: d(predicted)/d(parameters), shape (m, n).
+        sigma: Standard deviation of each row [mm or rad], shape (m,).
+        kind: POSITION, ORIENTATION or DISTANCE per row.
+        measurement: Index of the measurement (first of the pair for distances) per row.
+    """
+
+    residual: np.ndarray
+    regressor: np.ndarray
+    sigma: np.ndarray
+    kind: np.ndarray
+    measurement: np.ndarray
+
+    @property
+    def weighted(self) -> tuple[np.ndarray, np.ndarray]:
+        """Residual and regressor divided row by row by σ."""
+        return self.residual / self.sigma, self.regressor / self.sigma[:, None]
+
+
+def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray:
+    """Index pairs (a, b) of measurements of a same point (Bai Eq. 12).
+
+    Args:
+        measurements: The measurements.
+        pairs: ``"all"``: every pair of positions of a point (Bai's C(n, 2));
+            ``"reference"``: each position with the first one of its point.
+
+    Returns:
+        Pairs, shape (K, 2).
+    """
+    out = []
+    for name in dict.fromkeys(measurements.point):
+        idx = [k for k, p in enumerate(measurements.point) if p == name]
+        if pairs == "all":
+            out += [(a, b) for n, a in enumerate(idx) for b in idx[n + 1 :]]
+        elif pairs == "reference":
+            out += [(idx[0], b) for b in idx[1:]]
+        else:
+            raise ValueError(f"pairs must be 'all' or 'reference', got {pairs!r}")
+    return np.array(out, dtype=int).reshape(-1, 2)
+
+
+def predicted_points(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
+    """Predicted positions of each measurement's point [mm], shape (M, 3)."""
+    local = np.stack([geometry.point(p) for p in measurements.point])
+    return pose.point(local)
+
+
+def build_rows(
+    geometry: DeltaGeometry,
+    measurements: Measurements,
+    sensitivity,
+    sigma_position: float,
+    sigma_angle: float,
+    distances: bool = False,
+    pairs: str = "all",
+    pose: PlatePose | None = None,
+) -> Rows:
+    """Residuals and regressor of the measurements around a geometry.
+
+    Args:
+        geometry: Geometry around which to linearise.
+        measurements: The measurements.
+        sensitivity: Callable ``(geometry, q, pose) -> S`` of shape (M, 6, n).
+        sigma_position: σ of each measured coordinate [mm].
+        sigma_angle: σ of each measured orientation component [rad].
+        distances: Use distances between positions of a same point instead of the
+            positions themselves (no frame needed; orientations are then ignored).
+        pairs: Which pairs for distances (see :func:`distance_pairs`).
+        pose: Exact poses of ``geometry`` at the readings, if already known.
+    """
+    q = measurements.q
+    if pose is None:
+        pose = exact.forward(geometry, q)
+    S = sensitivity(geometry, q, pose)  # (M, 6, n)
+    predicted = predicted_points(geometry, measurements, pose)
+    lever = predicted - pose.position
+    # dP = dx + dalpha x (R p) = dx - [R p]x dalpha
+    JP = S[:, :3] - skew(lever) @ S[:, 3:]
+    if distances:
+        ab = distance_pairs(measurements, pairs)
+        a, b = ab[:, 0], ab[:, 1]
+        vec = predicted[b] - predicted[a]
+        rho = np.linalg.norm(vec, axis=1)
+        n = vec / rho[:, None]
+        measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
+        regressor = np.einsum("kl,kln->kn", n, JP[b] - JP[a])
+        return Rows(
+            residual=measured - rho,
+            regressor=regressor,
+            sigma=np.full(len(ab), np.sqrt(2.0) * sigma_position),
+            kind=np.full(len(ab), DISTANCE),
+            measurement=a,
+        )
+    M = len(measurements)
+    res = [measurements.position - predicted]
+    reg = [JP]
+    sig = [np.full((M, 3), sigma_position)]
+    kind = [np.full((M, 3), POSITION)]
+    meas = [np.repeat(np.arange(M)[:, None], 3, axis=1)]
+    has = measurements.has_orientation
+    if np.any(has):
+        assert measurements.rotation_vector is not None
+        from .geometry import rotation_from_vector
+
+        R_meas = rotation_from_vector(measurements.rotation_vector[has])
+        err = vector_from_rotation(R_meas @ np.swapaxes(pose.rotation[has], 1, 2))
+        res.append(err)
+        reg.append(S[has, 3:])
+        sig.append(np.full((int(has.sum()), 3), sigma_angle))
+        kind.append(np.full((int(has.sum()), 3), ORIENTATION))
+        meas.append(np.repeat(np.flatnonzero(has)[:, None], 3, axis=1))
+    n_par = S.shape[2]
+    return Rows(
+        residual=np.concatenate([r.reshape(-1) for r in res]),
+        regressor=np.concatenate([r.reshape(-1, n_par) for r in reg]),
+        sigma=np.concatenate([s.reshape(-1) for s in sig]),
+        kind=np.concatenate([k.reshape(-1) for k in kind]),
+        measurement=np.concatenate([m.reshape(-1) for m in meas]),
+    )
