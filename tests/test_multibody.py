@@ -119,6 +119,20 @@ def test_nominal_plate_parallel_and_closed_form(robot):
     assert_allclose(pose.position, VirtualDelta.from_nominal(nom).forward(q), atol=1e-9, rtol=0)
 
 
+def test_levenberg_marquardt_fallback():
+    rng = np.random.default_rng(13)
+    nom = nominal("bai2015")
+    g = nom.geometry().perturbed(Tolerances.bai2015(), rng)
+    q = workspace_readings(nom, 3, rng)
+    mb = DeltaMultibody(g, max_iter=2)  # too few Newton steps from the closed-form start
+    for qn in q:
+        sol = mb.solve_forward(qn, warm=False)
+        assert sol.method == "levenberg-marquardt"
+        assert sol.residual <= ACCEPT
+        reference = exact.forward(g, qn)
+        assert_allclose(sol.position, reference.position[0], atol=1e-9, rtol=0)
+
+
 def test_warm_and_explicit_start_give_the_same_assembly():
     rng = np.random.default_rng(6)
     nom = nominal("bai2015")

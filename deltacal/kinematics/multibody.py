@@ -249,8 +249,9 @@ class DeltaMultibody:
     def closure_jacobian(self, configuration: np.ndarray) -> np.ndarray:
         """Jacobian of :meth:`closure_residual` (flattened) over all velocities, shape (18, nv).
 
-        Columns follow ``model.nv`` (arms, then per rod its three local angular
-        velocities, the third being the idle spin about the rod axis, then the plate).
+        Columns follow ``model.nv``, depth first: arm 1, its rods 1 and 2 (three local
+        angular velocities each, the third the idle spin about the rod axis), arm 2, ...,
+        then the plate's six (local linear, local angular).
         """
         x = np.asarray(configuration, dtype=float)
         self._evaluate(x, self._forward_system)
