@@ -9,10 +9,12 @@ renames it, so a failure never leaves a half-written output.
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 import tempfile
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -429,6 +431,267 @@ def save_calibration(result, path: str | Path) -> None:
         "format": CALIBRATION_FORMAT,
         "calibration": result.to_dict(),
         "geometry": geometry_to_dict(result.geometry),
+        "nominal": geometry_to_dict(result.start),
     }
     header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
     atomic_write_text(path, header + toml_dumps(data))
+
+
+# --------------------------------------------------------------------------- CSV
+MEASUREMENT_COLUMNS = ["q1_deg", "q2_deg", "q3_deg", "x_mm", "y_mm", "z_mm"]
+ORIENTATION_COLUMNS = ["rx_deg", "ry_deg", "rz_deg"]
+TARGET_COLUMNS = ["x_mm", "y_mm", "z_mm"]
+JOINT_COLUMNS = ["q1_deg", "q2_deg", "q3_deg"]
+
+
+@dataclass
+class CsvTable:
+    """Columns of a validated CSV file.
+
+    Attributes:
+        numbers: Numeric columns by name, each of shape (rows,).
+        text: Text columns by name.
+        lines: Line number in the file of each data row (the header is line 1).
+        warnings: Things worth telling the user that are not errors.
+    """
+
+    numbers: dict[str, np.ndarray]
+    text: dict[str, list[str]]
+    lines: np.ndarray
+    warnings: list[str]
+
+
+def read_csv_table(
+    path: str | Path,
+    required: list[str],
+    optional: list[str] = (),  # type: ignore[assignment]
+    text_columns: tuple[str, ...] = (),
+    all_or_none: tuple[tuple[str, ...], ...] = (),
+) -> CsvTable:
+    """Read and validate a comma-separated file with a header row.
+
+    Checks: the file exists and is not empty, has data rows, has every required
+    column, no duplicate column, each row has as many fields as the header, every
+    numeric value is a finite number, and groups of columns in ``all_or_none`` are
+    either all present or all absent in a row. Unknown columns are ignored with a
+    warning; columns in degrees holding only values below 2π in magnitude but large
+    enough to be angles get a warning that they may be radians; duplicate data rows
+    get a warning.
+
+    Raises:
+        InputError: naming the file, the line, the column and the value.
+    """
+    source = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise InputError("file not found", source) from None
+    except OSError as exc:
+        raise InputError(f"cannot read file ({exc.strerror})", source) from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("file is not UTF-8 text", source) from None
+    rows = [(n + 1, line) for n, line in enumerate(text.splitlines()) if line.strip()]
+    if not rows:
+        raise InputError("file is empty", source)
+    header_line, header_text = rows[0]
+    reader = csv.reader([header_text])
+    header = [h.strip() for h in next(reader)]
+    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
+        sep = "';'" if ";" in header[0] else "a tab"
+        raise InputError(f"fields are separated by {sep}; deltacal reads comma-separated files",
+                         source, f"line {header_line}")
+    seen: set[str] = set()
+    for h in header:
+        if h in seen:
+            raise InputError(f"column {h!r} appears twice", source, f"line {header_line}")
+        seen.add(h)
+        if not h:
+            raise InputError("empty column name in the header", source, f"line {header_line}")
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise InputError(
+            f"missing required column(s) {', '.join(missing)} (header: {','.join(header)})",
+            source, f"line {header_line}",
+        )
+    known = set(required) | set(optional)
+    warnings = [f"{source}: column {h!r} is not used by deltacal and is ignored" for h in header
+                if h not in known]
+    if len(rows) == 1:
+        raise InputError("no data rows after the header", source)
+    index = {h: k for k, h in enumerate(header)}
+    wanted = [c for c in list(required) + list(optional) if c in index]
+    numbers: dict[str, list[float]] = {c: [] for c in wanted if c not in text_columns}
+    texts: dict[str, list[str]] = {c: [] for c in wanted if c in text_columns}
+    lines = []
+    for line_no, line in rows[1:]:
+        fields = next(csv.reader([line]))
+        if len(fields) != len(header):
+            hint = " (a decimal comma?)" if len(fields) > len(header) else ""
+            raise InputError(
+                f"{len(fields)} fields where the header has {len(header)}{hint}", source, f"line {line_no}"
+            )
+        for c in wanted:
+            value = fields[index[c]].strip()
+            if c in text_columns:
+                texts[c].append(value)
+                continue
+            if value == "":
+                numbers[c].append(math.nan)
+                continue
+            try:
+                number = float(value)
+            except ValueError:
+                raise InputError(f"value {value!r} is not a number", source,
+                                 f"line {line_no}, column {c}") from None
+            if not math.isfinite(number):
+                raise InputError(f"value {value!r} is not a finite number", source,
+                                 f"line {line_no}, column {c}")
+            numbers[c].append(number)
+        lines.append(line_no)
+    arrays = {c: np.array(v, dtype=float) for c, v in numbers.items()}
+    line_arr = np.array(lines)
+    for c in required:
+        if c in arrays and np.any(np.isnan(arrays[c])):
+            k = int(np.flatnonzero(np.isnan(arrays[c]))[0])
+            raise InputError("empty value in a required column", source,
+                             f"line {line_arr[k]}, column {c}")
+    for group in all_or_none:
+        present = [c for c in group if c in arrays]
+        if not present:
+            continue
+        if len(present) != len(group):
+            absent = [c for c in group if c not in arrays]
+            raise InputError(f"columns {', '.join(group)} go together; missing {', '.join(absent)}",
+                             source, f"line {header_line}")
+        filled = np.stack([~np.isnan(arrays[c]) for c in group], axis=1)
+        partial = np.any(filled, axis=1) & ~np.all(filled, axis=1)
+        if np.any(partial):
+            k = int(np.flatnonzero(partial)[0])
+            col = group[int(np.flatnonzero(~filled[k])[0])]
+            raise InputError(f"empty value while {', '.join(group)} are given together", source,
+                             f"line {line_arr[k]}, column {col}")
+    for c, v in arrays.items():
+        if c.endswith("_deg") and c.startswith("q") and v.size >= 3:
+            finite = v[np.isfinite(v)]
+            if finite.size and np.max(np.abs(finite)) <= math.pi and np.ptp(finite) > 0.05 and \
+                    np.max(np.abs(finite)) < 3.2:
+                warnings.append(f"{source}: column {c} holds only values within ±π: are these radians? "
+                                "deltacal reads degrees")
+    numeric = np.column_stack([arrays[c] for c in arrays]) if arrays else np.zeros((len(lines), 0))
+    keys = [tuple(np.round(numeric[k], 12)) + tuple(texts[c][k] for c in texts) for k in range(len(lines))]
+    first: dict[tuple, int] = {}
+    for k, key in enumerate(keys):
+        if key in first:
+            warnings.append(f"{source}: line {line_arr[k]} repeats line {line_arr[first[key]]}")
+        else:
+            first[key] = k
+    return CsvTable(arrays, texts, line_arr, warnings)
+
+
+def read_measurements(path: str | Path, point_names: list[str] | None = None):  # -> Measurements, warnings
+    """Read a measurements CSV (conventions: q, position, optional orientation and point).
+
+    Args:
+        path: The file.
+        point_names: Names of the plate's points (``tcp`` and the robot's named points);
+            a row naming another point is an error.
+
+    Returns:
+        The measurements (radians inside) and the warnings to show.
+    """
+    from .observations import Measurements
+
+    table = read_csv_table(
+        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point"], text_columns=("point",),
+        all_or_none=(tuple(ORIENTATION_COLUMNS),),
+    )
+    n = len(table.lines)
+    points = table.text.get("point", ["tcp"] * n)
+    points = [p if p else "tcp" for p in points]
+    if point_names is not None:
+        for k, p in enumerate(points):
+            if p not in point_names:
+                raise InputError(f"unknown point {p!r}; the robot's points are {', '.join(point_names)}",
+                                 str(path), f"line {table.lines[k]}, column point")
+    q = np.radians(np.column_stack([table.numbers[c] for c in JOINT_COLUMNS]))
+    pos = np.column_stack([table.numbers[c] for c in TARGET_COLUMNS])
+    rv = None
+    if "rx_deg" in table.numbers:
+        rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
+    return Measurements(q=q, position=pos, point=points, rotation_vector=rv, lines=table.lines,
+                        source=str(path)), table.warnings
+
+
+def _format_rows(columns: list[np.ndarray], header: list[str], extra: list[list[str]] | None = None) -> str:
+    data = np.column_stack(columns) if columns else np.zeros((0, 0))
+    out = [",".join(header)]
+    for k, row in enumerate(data):
+        fields = [("" if math.isnan(v) else repr(float(v))) for v in row]
+        if extra is not None:
+            fields += extra[k]
+        out.append(",".join(fields))
+    return "\n".join(out) + "\n"
+
+
+def write_measurements(path: str | Path, measurements) -> None:
+    """Write measurements in the CSV format of the conventions (mm, deg), atomically."""
+    q = np.degrees(measurements.q)
+    cols = [q[:, 0], q[:, 1], q[:, 2], *measurements.position.T]
+    header = JOINT_COLUMNS + TARGET_COLUMNS
+    has = measurements.has_orientation
+    if np.any(has):
+        rv = np.degrees(np.where(has[:, None], measurements.rotation_vector, np.nan))
+        cols += list(rv.T)
+        header = header + ORIENTATION_COLUMNS
+    extra = [[p] for p in measurements.point]
+    atomic_write_text(path, _format_rows(cols, header + ["point"], extra))
+
+
+def read_targets(path: str | Path) -> tuple[np.ndarray, list[str]]:
+    """Read a targets CSV (``x_mm,y_mm,z_mm``): positions [mm] (N, 3) and warnings."""
+    table = read_csv_table(path, TARGET_COLUMNS)
+    return np.column_stack([table.numbers[c] for c in TARGET_COLUMNS]), table.warnings
+
+
+def write_joints(path: str | Path, targets: np.ndarray, q: np.ndarray) -> None:
+    """Write the joints CSV: targets [mm] then readings to command [deg], atomically."""
+    qd = np.degrees(q)
+    atomic_write_text(path, _format_rows([*targets.T, *qd.T], TARGET_COLUMNS + JOINT_COLUMNS))
+
+
+def load_linear_calibration(path: str | Path):  # -> LinearCalibration
+    """What the linear compensators need from a calibration file.
+
+    The file's ``[nominal]`` table is the geometry identification started from, its
+    ``[calibration]`` table names the model and the identified base parameters.
+    """
+    from .compensation import LinearCalibration
+    from .errormodels import get_model
+
+    source = str(path)
+    data = read_toml(path)
+    if data.get("format") != CALIBRATION_FORMAT:
+        raise InputError(f"not a calibration file (format {data.get('format')!r})", source, "key format")
+    if not isinstance(data.get("nominal"), Mapping):
+        raise InputError("missing required table", source, "key nominal")
+    nominal = geometry_from_dict(data["nominal"], source, "nominal.")
+    cal = _Table(data.get("calibration", {}), source, "calibration.")
+    try:
+        model = get_model(cal.string("model"))
+    except ValueError as exc:
+        raise cal.error("model", str(exc)) from None
+    deviation = np.zeros(model.size)
+    params = cal.raw("base_parameter") if cal.has("base_parameter") else []
+    for k, item in enumerate(params):
+        t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
+        name = t.string("name")
+        if name not in model.names:
+            raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
+        if t.has("value_deg"):
+            value = math.radians(t.number("value_deg"))
+        else:
+            value = t.number("value_mm")
+        deviation[model.names.index(name)] = value
+    return LinearCalibration(nominal=nominal, model=model, deviation=deviation)

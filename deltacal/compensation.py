@@ -1,0 +1,179 @@
+"""Compensation: the joint readings to command so the real robot's TCP reaches targets.
+
+Three methods, vectorised over targets:
+
+* ``exact`` (default): Newton through the identified geometry with the vectorised
+  exact solver (:func:`deltacal.kinematics.exact.inverse`). It uses every element
+  of the identified geometry, including the plate tilt and the tool's lever arm.
+* ``savoure``: Savoure 2006's approximate complete inverse model (Eq. 29-33,
+  Fig. 2): nominal closed-form IK, predicted TCP error ``δX = S_C(q) δk`` around the
+  nominal geometry (TCP displacement, tilt included), correction
+  ``δq = J_S^m(q) δx``, ``q_corrected = q − δq``.
+* ``bai``: Bai 2015's linear compensator (Eq. 22-25): the same first-order
+  correction computed for the plate's reference point, ``Δq_m = −B_m⁻¹(B_r Δp_r −
+  A_rε A_εε⁻¹ B_ε Δp_ε)``; the tilt's effect on a tool below the plate is not
+  compensated.
+
+The linear methods are first order in the identified deviations: with encoder
+offsets of a degree the neglected second-order terms are a few tenths of a
+millimetre (``L θ²/2``), which is why the exact method is the default.
+Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errormodels import ErrorModel, get_model
+from .errormodels.base import ACTUATOR_ROTATIONS, ARM_BALLS, AXIS_POINTS, PLATE_BALLS, RODS
+from .exceptions import UnreachableError
+from .geometry import DeltaGeometry
+from .kinematics import exact
+from .kinematics.closed_form import VirtualDelta
+
+METHODS = ("exact", "savoure", "bai")
+
+
+@dataclass(frozen=True)
+class LinearCalibration:
+    """What the linear compensators need: the nominal geometry and the identified deviations.
+
+    Attributes:
+        nominal: The geometry the deviations are measured from.
+        model: The error model.
+        deviation: Identified parameter deviations (full vector of the model).
+    """
+
+    nominal: DeltaGeometry
+    model: ErrorModel
+    deviation: np.ndarray
+
+
+def predicted_plate_displacement(calibration: LinearCalibration, q: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``δX = S(q) δk`` around the nominal geometry at readings q, plate at x, (N, 6).
+
+    Computed as ``−J_X⁻¹ (J_k e)`` with the elementary moves ``e = M δk``, without
+    forming S (so it is cheap for many targets).
+    """
+    g = calibration.nominal
+    e = calibration.model.moves(g) @ calibration.deviation
+    N = q.shape[0]
+    R_arm = g.arm_rotation(q)  # (N, 3, 3, 3)
+    A = g.axis_point[None, :, None, :] + np.einsum("nikl,ijl->nijk", R_arm, g.arm_ball)
+    B = x[:, None, None, :] + g.plate_ball[None]  # nominal plate parallel to the base
+    d = B - A
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    dB = e[PLATE_BALLS].reshape(3, 2, 3)
+    dA_arm = np.einsum("nikl,ijl->nijk", R_arm, e[ARM_BALLS].reshape(3, 2, 3))
+    omega = np.einsum("ikl,il->ik", g.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))
+    lever = A - g.axis_point[None, :, None, :]
+    dA = dA_arm + e[AXIS_POINTS].reshape(3, 3)[None, :, None, :] + np.cross(omega[None, :, None, :], lever)
+    Jk_e = np.sum(n * (dB[None] - dA), axis=-1) - e[RODS].reshape(3, 2)[None]
+    RB = np.broadcast_to(g.plate_ball.reshape(1, 6, 3), (N, 6, 3))
+    nn = n.reshape(N, 6, 3)
+    JX = np.concatenate([nn, np.cross(RB, nn)], axis=2)
+    return -np.linalg.solve(JX, Jk_e.reshape(N, 6, 1))[..., 0]
+
+
+def compensate_linear(calibration: LinearCalibration, targets: np.ndarray, method: str = "savoure") -> np.ndarray:
+    """Readings from a linear compensator (``"savoure"`` Eq. 29-33 or ``"bai"`` Eq. 22-25).
+
+    Args:
+        calibration: Nominal geometry, model and identified deviations.
+        targets: Desired TCP positions [mm], shape (N, 3).
+        method: ``"savoure"`` (TCP error, tilt included) or ``"bai"`` (plate reference point).
+
+    Returns:
+        Readings [rad], shape (N, 3).
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    g = calibration.nominal
+    virtual = VirtualDelta.from_geometry(g)
+    x = targets - g.tool[None]
+    q = _checked_inverse(virtual, x, targets)  # Eq. 29
+    dX = predicted_plate_displacement(calibration, q, x)  # Eq. 30
+    dx = dX[:, :3]
+    if method == "savoure":
+        dx = dx + np.cross(dX[:, 3:], g.tool[None])  # Eq. 31: the TCP's displacement
+    elif method != "bai":
+        raise ValueError(f"method must be 'savoure' or 'bai', got {method!r}")
+    dq = np.einsum("nkl,nl->nk", virtual.inverse_jacobian(q), dx)  # Eq. 32
+    return q - dq  # Eq. 33
+
+
+def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    q = virtual.inverse(x, check=False)
+    bad = ~np.all(np.isfinite(q), axis=1)
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise UnreachableError(
+            f"{int(bad.sum())} target(s) out of reach, first: {np.round(targets[i], 6).tolist()} mm "
+            f"(index {i})",
+            np.flatnonzero(bad),
+            targets[bad],
+        )
+    return q
+
+
+def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
+    """Inverse condition number of the virtual Jacobian J_S at readings q, (N,) in [0, 1].
+
+    Small values mean a singular configuration (arm and rod aligned, or the rods'
+    directions degenerate).
+    """
+    J = VirtualDelta.from_geometry(geometry).jacobian(q)
+    s = np.linalg.svd(J, compute_uv=False)
+    return s[:, -1] / s[:, 0]
+
+
+def compensate(
+    geometry: DeltaGeometry,
+    targets: np.ndarray,
+    method: str = "exact",
+    linear: LinearCalibration | None = None,
+    min_margin: float = 0.02,
+) -> np.ndarray:
+    """Joint readings that put the identified robot's TCP at the targets.
+
+    Args:
+        geometry: The identified geometry (exact method).
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        method: ``"exact"``, ``"savoure"`` or ``"bai"``.
+        linear: Nominal geometry, model and deviations (required by the linear methods).
+        min_margin: Targets whose readings have a singularity margin (see
+            :func:`singularity_margin`) below this are refused.
+
+    Returns:
+        Readings to command [rad], shape (N, 3).
+
+    Raises:
+        UnreachableError: naming the targets out of reach or too close to a singularity.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    if method == "exact":
+        q = exact.inverse(geometry, targets)
+    elif method in ("savoure", "bai"):
+        if linear is None:
+            raise ValueError(f"method {method!r} needs the nominal geometry and identified deviations")
+        q = compensate_linear(linear, targets, method)
+    else:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    margin = singularity_margin(geometry, q)
+    near = margin < min_margin
+    if np.any(near):
+        i = int(np.flatnonzero(near)[0])
+        raise UnreachableError(
+            f"{int(near.sum())} target(s) too close to a singularity (margin {margin[i]:.3g} < "
+            f"{min_margin:g}), first: {np.round(targets[i], 6).tolist()} mm (index {i})",
+            np.flatnonzero(near),
+            targets[near],
+        )
+    return q
+
+
+def linear_calibration_from_result(result) -> LinearCalibration:
+    """The linear compensators' inputs from an IdentificationResult."""
+    model = get_model(result.model)
+    return LinearCalibration(nominal=result.start, model=model, deviation=result.base.expand(result.values))
