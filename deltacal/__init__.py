@@ -16,13 +16,16 @@ from .exceptions import (
 from .geometry import DeltaGeometry, NominalDelta, Tolerances, Workspace, error_names
 from .kinematics.closed_form import VirtualDelta
 from .kinematics.exact import PlatePose
+from .kinematics.multibody import ClosureSolution, DeltaMultibody
 
 __version__ = "0.1.0"
 
 __all__ = [
     "AssemblyError",
+    "ClosureSolution",
     "ConvergenceError",
     "DeltaGeometry",
+    "DeltaMultibody",
     "DeltacalError",
     "GeometryError",
     "IdentificationError",

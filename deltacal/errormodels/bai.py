@@ -73,7 +73,7 @@ class BaiModel(ErrorModel):
 
     @property
     def units(self) -> list[str]:
-        """Mm for Δp_r, rad (dimensionless) for Δp_ε."""
+        """Units: mm for Δp_r, rad (dimensionless) for Δp_ε."""
         return ["mm"] * 24 + (["rad"] * 18 if self.orientation else [])
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:

@@ -7,5 +7,6 @@
 
 from .closed_form import VirtualDelta
 from .exact import PlatePose
+from .multibody import ClosureSolution, DeltaMultibody
 
-__all__ = ["PlatePose", "VirtualDelta"]
+__all__ = ["ClosureSolution", "DeltaMultibody", "PlatePose", "VirtualDelta"]

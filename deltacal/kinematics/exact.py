@@ -144,25 +144,28 @@ def forward(
         try:
             step = -np.linalg.solve(J, r[todo][..., None])[..., 0]
         except np.linalg.LinAlgError:
-            step = -np.linalg.lstsq(J[0], r[todo][0], rcond=None)[0][None]
+            # a singular pose in the batch: minimum-norm steps for all of them
+            step = -(np.linalg.pinv(J) @ r[todo][..., None])[..., 0]
         p[idx] += step[:, :3]
         R[idx] = rotation_from_vector(step[:, 3:]) @ R[idx]
         tiny = np.max(np.abs(step), axis=1) < _STEP_FLOOR
         done[idx[tiny & (res[todo] < 1e3 * tol)]] = True
     # final residual of the poses that stopped on the step floor
     A, d, dist, RB = _rod_terms(geometry, q, p, R)
-    residual = np.max(np.abs(dist - geometry.rod_length.reshape(1, 6)), axis=1)
+    with np.errstate(invalid="ignore"):
+        residual = np.max(np.abs(dist - geometry.rod_length.reshape(1, 6)), axis=1)
     z_axis = geometry.axis_point[:, 2].min()
     bad = ~(done & np.isfinite(residual) & (residual < 1e3 * tol) & (p[:, 2] < z_axis))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise AssemblyError(
             f"no assembly found at {int(bad.sum())} reading(s), first: q = "
-            f"{np.round(np.degrees(q[i]), 6).tolist()} deg (index {i}, rod residual "
-            f"{residual[i]:.3g} mm)",
+            f"{np.round(np.degrees(q[i]), 6).tolist()} deg (index {i}, "
+            + (f"rod residual {residual[i]:.3g} mm)" if np.isfinite(residual[i]) else
+               "the rods cannot reach the plate)"),
             np.flatnonzero(bad),
             q[bad],
-            float(np.nanmax(np.where(bad, residual, 0.0))),
+            float(np.max(np.where(bad, residual, 0.0))),
         )
     return PlatePose(p, R)
 
