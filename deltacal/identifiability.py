@@ -74,7 +74,7 @@ class BaseParameters:
         row = self.regrouping[k]
         lead = self.base[k]
         terms = [(lead, row[lead])]
-        others = [j for j in np.flatnonzero(np.abs(row) > _COEFF_PRINT_TOL) if j != lead]
+        others = [int(j) for j in np.flatnonzero(np.abs(row) > _COEFF_PRINT_TOL) if j != lead]
         terms += [(j, row[j]) for j in others]
         out = ""
         for n, (j, c) in enumerate(terms):

@@ -15,6 +15,7 @@ import os
 import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from decimal import Decimal, localcontext
 from pathlib import Path
 from typing import Any
 
@@ -50,27 +51,42 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         raise
 
 
-def exact_degrees(angle: float) -> float:
-    """A value in degrees that converts back (``math.radians``) to exactly ``angle`` [rad].
+_PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816406286")
 
-    ``math.degrees`` and ``math.radians`` are not exact inverses in floating point;
-    this searches the neighbours of ``math.degrees(angle)`` for one that is, so that
-    geometry files round-trip bit for bit.
+
+class RawToml(str):
+    """Text written to TOML as is (a number with more digits than a float's repr)."""
+
+
+def exact_degrees(angle: float) -> RawToml:
+    """An angle [rad] in degrees, as TOML number text that reads back to exactly ``angle``.
+
+    Degrees are computed with 50-digit decimal arithmetic and written with 25
+    significant digits; :func:`radians_from_text` converts back with the same
+    precision and rounds once, so geometry files round-trip bit for bit (plain
+    ``math.degrees``/``math.radians`` do not: they are not exact inverses).
     """
-    d = math.degrees(angle)
-    if math.radians(d) == angle or not math.isfinite(d):
-        return d
-    lo = hi = d
-    for _ in range(64):
-        lo = math.nextafter(lo, -math.inf)
-        hi = math.nextafter(hi, math.inf)
-        for cand in (lo, hi):
-            if math.radians(cand) == angle:
-                return cand
-    return d
+    if not math.isfinite(angle):
+        return RawToml(_toml_value(float(angle)))
+    with localcontext() as ctx:
+        ctx.prec = 50
+        deg = Decimal(angle) * 180 / _PI
+        text = format(deg, ".25e")
+    return RawToml(text.replace("E", "e"))
+
+
+def radians_from_text(value: Decimal | float) -> float:
+    """Degrees read from a file (Decimal keeps every digit) to radians, rounded once."""
+    if isinstance(value, float):
+        return math.radians(value)
+    with localcontext() as ctx:
+        ctx.prec = 50
+        return float(Decimal(value) * _PI / 180)
 
 
 def _toml_value(value: Any) -> str:
+    if isinstance(value, RawToml):
+        return str(value)
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, (int, np.integer)):
@@ -132,6 +148,15 @@ def toml_dumps(data: Mapping[str, Any]) -> str:
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
+def _shown(value: Any) -> str:
+    """A value read from TOML as the user wrote it (Decimal numbers without their class name)."""
+    if isinstance(value, Decimal):
+        return str(value)
+    if isinstance(value, list):
+        return "[" + ", ".join(_shown(v) for v in value) + "]"
+    return repr(value)
+
+
 def _is_table_array(v: Any) -> bool:
     return isinstance(v, (list, tuple)) and len(v) > 0 and all(isinstance(i, Mapping) for i in v)
 
@@ -149,7 +174,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     if not raw.strip():
         raise InputError("file is empty", str(path))
     try:
-        return tomllib.loads(raw.decode("utf-8"))
+        return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
     except UnicodeDecodeError:
         raise InputError("file is not UTF-8 text", str(path)) from None
     except tomllib.TOMLDecodeError as exc:
@@ -203,14 +228,20 @@ class _Table:
         return self._check_number(name, value, positive)
 
     def _check_number(self, name: str, value: Any, positive: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(name, f"must be a number, got {value!r}")
+        if isinstance(value, bool) or not isinstance(value, (int, float, Decimal)):
+            raise self.error(name, f"must be a number, got {_shown(value)}")
         value = float(value)
         if not math.isfinite(value):
             raise self.error(name, f"must be finite, got {value!r}")
         if positive and value <= 0.0:
             raise self.error(name, f"must be positive, got {value!r}")
         return value
+
+    def angle(self, name: str) -> float:
+        """A number in degrees, returned in radians exactly as written (see exact_degrees)."""
+        value = self.raw(name)
+        self._check_number(name, value)
+        return radians_from_text(value)
 
     def vector(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
         value = self.raw(name)
@@ -221,7 +252,7 @@ class _Table:
             if depth == len(shape):
                 return [self._check_number(name, v)]
             if not isinstance(v, list) or len(v) != shape[depth]:
-                raise self.error(name, f"must be an array of shape {list(shape)}, got {value!r}")
+                raise self.error(name, f"must be an array of shape {list(shape)}, got {_shown(value)}")
             out: list[float] = []
             for item in v:
                 out += flat(item, depth + 1)
@@ -379,13 +410,13 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = ""): 
         t.check_unknown([
             "azimuth_deg", "axis_point_mm", "axis_direction", "encoder_offset_deg", "arm_ball_mm",
             "plate_ball_mm", "rod_length_mm"])
-        fields["limb_azimuth"].append(math.radians(t.number("azimuth_deg")))
+        fields["limb_azimuth"].append(t.angle("azimuth_deg"))
         fields["axis_point"].append(t.vector("axis_point_mm", (3,)))
         w = t.vector("axis_direction", (3,))
         if abs(float(np.linalg.norm(w)) - 1.0) > 1e-9:
             raise t.error("axis_direction", f"must be a unit vector, got {w.tolist()}")
         fields["axis_direction"].append(w)
-        fields["encoder_offset"].append(math.radians(t.number("encoder_offset_deg")))
+        fields["encoder_offset"].append(t.angle("encoder_offset_deg"))
         fields["arm_ball"].append(t.vector("arm_ball_mm", (2, 3)))
         fields["plate_ball"].append(t.vector("plate_ball_mm", (2, 3)))
         rods = t.vector("rod_length_mm", (2,))
