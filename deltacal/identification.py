@@ -213,12 +213,12 @@ class IdentificationResult:
         save_calibration(self, path)
 
 
-def _solve_wls(Ww: np.ndarray, rw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares by QR: solution and the inverse of the R factor (for the covariance)."""
+def _solve_wls(Ww: np.ndarray, rw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares by QR: solution, Q, and the inverse of R (covariance ``R⁻¹ R⁻ᵀ``)."""
     Q, R = np.linalg.qr(Ww)
-    x = scipy.linalg.solve_triangular(R, Q.T @ rw)
-    Rinv = scipy.linalg.solve_triangular(R, np.eye(R.shape[0]))
-    return x, Rinv
+    x = scipy.linalg.solve_triangular(R, Q.T @ rw, check_finite=False)
+    Rinv = scipy.linalg.solve_triangular(R, np.eye(R.shape[0]), check_finite=False)
+    return x, Q, Rinv
 
 
 def identify(
@@ -281,9 +281,8 @@ def identify(
     total = np.zeros(base.rank)
     cost = float(rw @ rw)
     iterations = 0
-    Rinv = np.eye(base.rank)
-    for iterations in range(1, (1 if method == "linear" else max_iter) + 1):
-        step, Rinv = _solve_wls(Ww[:, kept], rw)
+    for iterations in range(1, (1 if method == "linear" else max_iter) + 1):  # noqa: B007
+        step, Q, Rinv = _solve_wls(Ww[:, kept], rw)
         if method == "linear":
             total = total + step
             geometry = error_model.apply(geometry, base.expand(step))
@@ -314,14 +313,15 @@ def identify(
         if small_step or previous - cost <= 1e-12 * max(previous, 1.0):
             break
     rw, Ww = rows.weighted
-    _, Rinv = _solve_wls(Ww[:, kept], rw)
+    if method == "iterated":
+        _, Q, Rinv = _solve_wls(Ww[:, kept], rw)
+    # linear: the covariance and leverages are those of the one regressor used
     cov = Rinv @ Rinv.T
     sigma = np.sqrt(np.diag(cov))
     correlation = cov / np.outer(sigma, sigma)
     dof = max(m - base.rank, 1)
     variance_factor = float(rw @ rw) / dof
     # standardised residuals with the leverage of each row
-    Q, _ = np.linalg.qr(Ww[:, kept])
     leverage = np.clip(np.sum(Q**2, axis=1), 0.0, 1.0 - 1e-12)
     standardised = np.abs(rw) / np.sqrt(1.0 - leverage)
     flagged = np.unique(rows.measurement[standardised > OUTLIER_THRESHOLD])
