@@ -1,0 +1,242 @@
+"""Simulated metrology on a true robot, through the Pinocchio closed-loop model.
+
+The true robot is a :class:`~deltacal.geometry.DeltaGeometry`; its plate poses at
+the commanded readings come from :class:`deltacal.kinematics.multibody.DeltaMultibody`
+(the ground truth, :func:`ground_truth_forward`). On them:
+
+* a **laser tracker** measures the position of one or several reflectors (named
+  plate points or ``tcp``) with independent normal noise of σ per axis; each
+  measurement is the mean of ``repeats`` readings (Bai §5: three), so its σ is
+  ``σ / sqrt(repeats)``;
+* a **6-DoF probe** measures the plate orientation: the measured rotation is
+  ``exp([ξ]×) R_true`` with ξ normal of σ_angle per component (base frame), also
+  averaged over the repeats;
+* **distances** need nothing more: identification forms them from the positions
+  (:func:`deltacal.observations.build_rows` with ``distances=True``).
+
+Rows are pose-major: at each pose, one row per reflector, in the order given.
+The orientation, measured once per pose, is on the row of the first reflector;
+the other rows of the pose have NaN orientation, so identification counts it once.
+
+Units: mm and rad inside; the measurements file is in mm and deg.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .exceptions import InputError
+from .geometry import DeltaGeometry, Tolerances, rotation_from_vector, vector_from_rotation
+from .kinematics.exact import PlatePose
+from .observations import Measurements
+
+#: Forward kinematics of a true robot: (geometry, readings (N, 3) [rad]) -> plate poses.
+ForwardKinematics = Callable[[DeltaGeometry, np.ndarray], PlatePose]
+
+
+def ground_truth_forward(geometry: DeltaGeometry, q: np.ndarray) -> PlatePose:
+    """Plate poses of a robot at readings q [rad], by the Pinocchio closed-loop model."""
+    from .kinematics.multibody import DeltaMultibody
+
+    return DeltaMultibody(geometry).forward(q)
+
+
+@dataclass(frozen=True)
+class Metrology:
+    """The measuring instruments.
+
+    Attributes:
+        points: Plate points carrying a reflector (``tcp`` or named points of the robot).
+        sigma_position: Tracker noise per axis of one reading [mm].
+        sigma_angle: Probe noise per rotation-vector component of one reading [rad].
+        orientation: Whether the plate orientation is measured (6-DoF probe).
+        repeats: Readings averaged per measurement (σ divided by sqrt(repeats)).
+    """
+
+    points: tuple[str, ...] = ("tcp",)
+    sigma_position: float = 0.005
+    sigma_angle: float = math.radians(0.003)
+    orientation: bool = True
+    repeats: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "points", tuple(self.points))
+        if not self.points:
+            raise ValueError("at least one measured point is needed")
+        if len(set(self.points)) != len(self.points):
+            raise ValueError(f"points must differ, got {list(self.points)}")
+        for key in ("sigma_position", "sigma_angle"):
+            value = getattr(self, key)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{key} must be a finite non-negative number, got {value!r}")
+        if int(self.repeats) != self.repeats or self.repeats < 1:
+            raise ValueError(f"repeats must be a positive integer, got {self.repeats!r}")
+
+    @property
+    def position_noise(self) -> float:
+        """σ of a measured (averaged) coordinate [mm]."""
+        return self.sigma_position / math.sqrt(self.repeats)
+
+    @property
+    def angle_noise(self) -> float:
+        """σ of a measured (averaged) orientation component [rad]."""
+        return self.sigma_angle / math.sqrt(self.repeats)
+
+
+def simulate_measurements(
+    truth: DeltaGeometry,
+    q: np.ndarray,
+    rng: np.random.Generator,
+    metrology: Metrology | None = None,
+    forward: ForwardKinematics | None = None,
+) -> Measurements:
+    """Measurements of the true robot standing at readings q.
+
+    Args:
+        truth: The true robot.
+        q: Commanded readings [rad], shape (N, 3).
+        rng: Random generator of the noise (pass a seeded one).
+        metrology: The instruments (default :class:`Metrology`).
+        forward: Forward kinematics of the true robot (default :func:`ground_truth_forward`).
+
+    Returns:
+        ``len(points) * N`` measurements, pose-major; rotation vectors NaN where not measured.
+
+    Raises:
+        GeometryError: a point the robot does not have.
+        AssemblyError: readings at which the true robot cannot be assembled.
+    """
+    metrology = Metrology() if metrology is None else metrology
+    forward = ground_truth_forward if forward is None else forward
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    N, k = q.shape[0], len(metrology.points)
+    local = np.stack([truth.point(p) for p in metrology.points])  # (k, 3)
+    pose = forward(truth, q)
+    exact_position = pose.position[:, None, :] + np.einsum("nij,kj->nki", pose.rotation, local)
+    position = exact_position + rng.normal(0.0, metrology.position_noise, (N, k, 3))
+    rotvec = np.full((N, k, 3), np.nan)
+    if metrology.orientation:
+        xi = rng.normal(0.0, metrology.angle_noise, (N, 3))
+        rotvec[:, 0] = vector_from_rotation(rotation_from_vector(xi) @ pose.rotation)
+    return Measurements(
+        q=np.repeat(q, k, axis=0),
+        position=position.reshape(N * k, 3),
+        point=[p for _ in range(N) for p in metrology.points],
+        rotation_vector=rotvec.reshape(N * k, 3),
+    )
+
+
+# --------------------------------------------------------------------------- command line
+def truth_path(output: str | Path) -> Path:
+    """Where ``simulate --perturb`` writes the true geometry: ``MEAS.csv`` -> ``MEAS.truth.toml``."""
+    output = Path(output)
+    stem = output.stem if output.suffix.lower() == ".csv" else output.name
+    return output.with_name(f"{stem}.truth.toml")
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"must be a finite non-negative number, got {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def add_simulate_parser(subparsers) -> argparse.ArgumentParser:
+    """Register ``deltacal simulate`` on an argparse subparsers object."""
+    p = subparsers.add_parser(
+        "simulate",
+        help="simulate tracker (and probe) measurements of a true robot at planned poses",
+        description=(
+            "Simulate the measurements of a true robot (perturbed nominal or a geometry file) "
+            "standing at the readings of a POSES file, through the Pinocchio closed-loop model, "
+            "and write a measurements CSV. With --perturb, the true geometry is also written "
+            "next to the output (MEAS.truth.toml)."
+        ),
+    )
+    p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML)")
+    p.add_argument("poses", metavar="POSES", help="POSES CSV written by 'deltacal plan'")
+    truth = p.add_mutually_exclusive_group(required=True)
+    truth.add_argument("--perturb", type=int, metavar="SEED",
+                       help="true robot: the nominal perturbed with Bai's tolerances, seeded")
+    truth.add_argument("--truth", metavar="TRUE.toml", help="true robot: a geometry file")
+    p.add_argument("--points", default="tcp",
+                   help="comma-separated reflector points (tcp or [points] names; default tcp)")
+    p.add_argument("--sigma-position", type=_non_negative, default=0.005, metavar="MM",
+                   help="tracker noise per axis of one reading [mm] (default 0.005)")
+    p.add_argument("--sigma-angle", type=_non_negative, default=0.003, metavar="DEG",
+                   help="probe noise per component of one reading [deg] (default 0.003)")
+    p.add_argument("--no-orientation", action="store_true", help="no orientation probe")
+    p.add_argument("--repeats", type=_positive_int, default=1,
+                   help="readings averaged per measurement (default 1)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
+    p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
+    p.set_defaults(func=simulate_command)
+    return p
+
+
+def simulate_command(args: argparse.Namespace) -> int:
+    """Run ``deltacal simulate``: write the measurements (and the true geometry), return 0.
+
+    Errors (:class:`DeltacalError`, ``ValueError``, ``OSError``) propagate to
+    :func:`deltacal.cli.main`, which prints them on one line.
+    """
+    from .io import load_nominal, write_measurements
+    from .planning import check_output_folder, read_poses
+
+    check_output_folder(args.output)
+    nominal = load_nominal(args.nominal)
+    poses, warnings = read_poses(args.poses, nominal)
+    for w in warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    if args.truth is not None:
+        truth = DeltaGeometry.load(args.truth)
+    else:
+        truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
+    points = tuple(p.strip() for p in args.points.split(",") if p.strip())
+    for name in points:
+        if name not in truth.point_names:
+            raise InputError(
+                f"unknown point {name!r}; the robot's points are {', '.join(truth.point_names)}",
+                "--points",
+            )
+    metrology = Metrology(
+        points=points,
+        sigma_position=args.sigma_position,
+        sigma_angle=math.radians(args.sigma_angle),
+        orientation=not args.no_orientation,
+        repeats=args.repeats,
+    )
+    measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
+    if args.perturb is not None:
+        truth.save(truth_path(args.output))
+    write_measurements(args.output, measurements)
+    orientation = (
+        f", orientation σ {math.degrees(metrology.angle_noise):.3g} deg" if metrology.orientation else ""
+    )
+    print(
+        f"simulated {len(measurements)} measurements ({len(poses)} poses x {len(points)} point(s): "
+        f"{', '.join(points)}; σ {metrology.position_noise:.3g} mm per axis{orientation}) -> {args.output}"
+    )
+    if args.perturb is not None:
+        print(f"true geometry (seed {args.perturb}) -> {truth_path(args.output)}")
+    return 0
