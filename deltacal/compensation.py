@@ -117,15 +117,21 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
     return q
 
 
-def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
-    """Inverse condition number of the virtual Jacobian J_S at readings q, (N,) in [0, 1].
+#: Least transmission angle (arm to rod) of a commanded pose [rad].
+MIN_TRANSMISSION_ANGLE = np.radians(3.0)
+#: Least inverse condition number of the unit rod directions of a commanded pose.
+MIN_ROD_CONDITIONING = 0.02
 
-    Small values mean a singular configuration (arm and rod aligned, or the rods'
-    directions degenerate).
+
+def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
+    """Distance to the nearest singularity, as a fraction of the refusal thresholds, (N,).
+
+    The smaller of (transmission angle / MIN_TRANSMISSION_ANGLE) and (rod-direction
+    inverse condition number / MIN_ROD_CONDITIONING) (see
+    :meth:`VirtualDelta.singularity_measures`): below 1 the pose is refused.
     """
-    J = VirtualDelta.from_geometry(geometry).jacobian(q)
-    s = np.linalg.svd(J, compute_uv=False)
-    return s[:, -1] / s[:, 0]
+    angle, conditioning = VirtualDelta.from_geometry(geometry).singularity_measures(q)
+    return np.minimum(angle / MIN_TRANSMISSION_ANGLE, conditioning / MIN_ROD_CONDITIONING)
 
 
 def compensate(
@@ -133,7 +139,7 @@ def compensate(
     targets: np.ndarray,
     method: str = "exact",
     linear: LinearCalibration | None = None,
-    min_margin: float = 0.02,
+    min_margin: float = 1.0,
 ) -> np.ndarray:
     """Joint readings that put the identified robot's TCP at the targets.
 
@@ -142,8 +148,8 @@ def compensate(
         targets: Desired TCP positions in the base frame [mm], shape (N, 3).
         method: ``"exact"``, ``"savoure"`` or ``"bai"``.
         linear: Nominal geometry, model and deviations (required by the linear methods).
-        min_margin: Targets whose readings have a singularity margin (see
-            :func:`singularity_margin`) below this are refused.
+        min_margin: Targets whose readings have a :func:`singularity_margin` below this
+            are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
 
     Returns:
         Readings to command [rad], shape (N, 3).
@@ -166,7 +172,9 @@ def compensate(
         i = int(np.flatnonzero(near)[0])
         raise UnreachableError(
             f"{int(near.sum())} target(s) too close to a singularity (margin {margin[i]:.3g} < "
-            f"{min_margin:g}), first: {np.round(targets[i], 6).tolist()} mm (index {i})",
+            f"{min_margin:g}: arm and rod within {np.degrees(MIN_TRANSMISSION_ANGLE):g} deg of "
+            f"alignment or rods nearly coplanar), first: {np.round(targets[i], 6).tolist()} mm "
+            f"(index {i})",
             np.flatnonzero(near),
             targets[near],
         )

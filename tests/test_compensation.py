@@ -1,0 +1,81 @@
+import numpy as np
+import pytest
+from conftest import workspace_points
+
+from deltacal import Tolerances, UnreachableError, VirtualDelta
+from deltacal.compensation import (
+    LinearCalibration,
+    compensate,
+    predicted_plate_displacement,
+    singularity_margin,
+)
+from deltacal.errormodels import get_model
+from deltacal.kinematics import exact
+
+
+def _scaled_errors(model, rng, mm=0.05, rad=2e-4):
+    return np.array([rng.normal(0, mm if u == "mm" else rad) for u in model.units])
+
+
+def test_exact_compensation_reaches_targets_on_the_geometry(bai):
+    rng = np.random.default_rng(21)
+    g = bai.geometry().perturbed(Tolerances.bai2015(), rng).with_tool([0, 0, -200.0])
+    targets = workspace_points(bai, 100, rng) + g.tool
+    q = compensate(g, targets)
+    np.testing.assert_allclose(exact.forward(g, q).point(g.tool), targets, atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["complete", "bai42", "classical"])
+def test_predicted_displacement_equals_sensitivity_times_deviation(bai, name):
+    rng = np.random.default_rng(22)
+    model = get_model(name)
+    g = bai.geometry()
+    dk = _scaled_errors(model, rng)
+    q = VirtualDelta.from_nominal(bai).inverse(workspace_points(bai, 30, rng))
+    x = VirtualDelta.from_nominal(bai).forward(q)
+    S = model.sensitivity(g, q)
+    np.testing.assert_allclose(
+        predicted_plate_displacement(LinearCalibration(g, model, dk), q, x), S @ dk, rtol=1e-9, atol=1e-12
+    )
+
+
+def test_linear_compensators_are_first_order_accurate(bai):
+    """Savoure's scheme leaves an error quadratic in the deviations; Bai's misses the tilt lever."""
+    rng = np.random.default_rng(23)
+    model = get_model("complete")
+    g0 = bai.geometry().with_tool([0, 0, -200.0])
+    dk = _scaled_errors(model, rng)
+    targets = workspace_points(bai, 60, rng) + g0.tool
+    errors = {}
+    for scale in (1.0, 0.1):
+        truth = model.apply(g0, scale * dk)
+        cal = LinearCalibration(g0, model, scale * dk)
+        for method in ("savoure", "bai"):
+            q = compensate(truth, targets, method, cal)
+            reached = exact.forward(truth, q).point(truth.tool)
+            errors[method, scale] = np.max(np.linalg.norm(reached - targets, axis=1))
+        q = compensate(truth, targets, "exact")
+        assert np.max(np.linalg.norm(exact.forward(truth, q).point(truth.tool) - targets, axis=1)) < 1e-9
+    # second order: ten times smaller errors leave about a hundred times smaller residual
+    assert errors["savoure", 0.1] < errors["savoure", 1.0] / 30.0
+    # Bai's compensator corrects the plate's reference point, not the tool 200 mm below: first order left
+    assert errors["bai", 0.1] > errors["bai", 1.0] / 30.0
+    assert errors["bai", 1.0] > 3.0 * errors["savoure", 1.0]
+
+
+def test_refuses_targets_out_of_reach_and_near_singularities(bai):
+    g = bai.geometry()
+    with pytest.raises(UnreachableError, match=r"index 1"):
+        compensate(g, np.array([[0, 0, -850.0], [0, 0, -5000.0]]))
+    # plate pulled up until the arms and rods are nearly aligned: refuse by margin
+    v = VirtualDelta.from_nominal(bai)
+    # full extension below the centre: |(b - a, z)| = L + l
+    z_limit = -np.sqrt((bai.arm_length + bai.rod_length) ** 2 - (bai.base_radius - bai.plate_radius) ** 2)
+    z = z_limit + np.array([1e-4, 1e-2, 1.0, 100.0])
+    pts = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
+    margin = singularity_margin(g, v.inverse(pts))
+    assert np.all(np.diff(margin) > 0)  # the margin shrinks towards the singularity
+    assert margin[0] < 1.0 < margin[-1]
+    with pytest.raises(UnreachableError, match="singularity"):
+        compensate(g, pts[:1])
+    compensate(g, pts[-1:])
