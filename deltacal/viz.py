@@ -978,14 +978,25 @@ def build_scene(
     ]
     half_w = 0.27 * line * max(len(t) for t in tilt_lines)
     # magnified inset of both plates (the ghost's at the inset origin) in a column on the
-    # right, above the tilt label; labels sit at the middle depth of the scene
+    # right, above the tilt label; labels sit at the middle depth of the scene. The inset
+    # is turned about z so that the plate's tilt is seen side-on (in the screen plane).
     m = INSET_MAGNIFICATION
-    content = np.concatenate(
-        [
-            true_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
-            ghost_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
-            [[0.0, 0.0, -2.5 * plate_r]],
-        ]
+    normal = true_state.plate.rotation[0, :, 2]
+    turn = 0.0
+    if np.hypot(normal[0], normal[1]) > 1e-12:
+        turn = math.atan2(camera.right[1], camera.right[0]) - math.atan2(normal[1], normal[0])
+    Rz = np.array(
+        [[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0, 0, 1.0]]
+    )
+    content = (
+        np.concatenate(
+            [
+                true_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
+                ghost_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
+                [[0.0, 0.0, -2.5 * plate_r]],
+            ]
+        )
+        @ Rz.T
     )
     ball_r = 15.0 * _sizes(nominal_geometry, True)[0]
     col_half = max(half_w, m * (float(np.max(np.abs(content @ camera.right))) + ball_r))
@@ -996,16 +1007,14 @@ def build_scene(
     writer.plate("inset/nominal", nominal_geometry, True, polygon)
     writer.inset_pose(true_state, ghost_state, 0)
     inset_origin = col_x + (top - 2.0 * line - m * float(np.max(content @ camera.up))) * camera.up + mid_depth
-    inset = np.eye(4)
-    inset[:3, :3] *= m
-    inset[:3, 3] = inset_origin
-    writer.transform("inset", inset)
-    label_pts.append(inset_origin + m * content)
+    writer.transform("inset", _transform(Rz, inset_origin, (m, m, m)))
+    for sign in (-1.0, 1.0):
+        label_pts.append(inset_origin + m * (content + sign * ball_r * camera.right))
     label_pts.append(
         _text_block(
             writer,
             "inset",
-            [f"plates \u00d7{m:g} in size"],
+            [f"plates \u00d7{m:g}, tilt side-on"],
             inset_origin + (m * float(np.max(content @ camera.up)) + 1.5 * line) * camera.up,
             camera,
             line,
