@@ -695,7 +695,14 @@ def _format_poses(poses: PoseSet) -> str:
 
 
 def write_poses(path: str | Path, poses: PoseSet) -> None:
-    """Write a POSES file (readings [deg], then nominal TCP targets [mm]), atomically."""
+    """Write a POSES file (readings [deg], then nominal TCP targets [mm]), atomically.
+
+    Raises:
+        ValueError: a reading or target is not finite (nothing is written).
+    """
+    finite = np.all(np.isfinite(poses.q), axis=1) & np.all(np.isfinite(poses.targets), axis=1)
+    if not np.all(finite):
+        raise ValueError(f"pose {int(np.argmin(finite))} is not finite; nothing written to {path}")
     atomic_write_text(path, _format_poses(poses))
 
 
