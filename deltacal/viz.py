@@ -267,11 +267,32 @@ def stop_server(vis: Any) -> None:
 
 def write_html(vis: Any, path: str | Path) -> Path:
     """Write the standalone page of a visualizer's scene to ``path``, atomically."""
-    from .io import atomic_write_text
-
     path = Path(path)
-    atomic_write_text(path, vis.static_html())
+    data = vis.static_html().encode("utf-8")
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, _file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
     return path
+
+
+def _file_mode() -> int:
+    """Permissions of a new file under the current umask (mkstemp's files are private)."""
+    umask = 0o022
+    with contextlib.suppress(OSError, ValueError):  # read it without os.umask's global side effect
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                umask = int(line.split()[1], 8)
+    return 0o666 & ~umask
 
 
 # ======================================================================== numbers of the scene
@@ -942,7 +963,7 @@ def build_scene(
     if arrows:
         grid = workspace_grid(ws)
         # the arrow at the drawn pose would run through the plate: its error is written instead
-        grid = grid[np.linalg.norm(grid - commanded, axis=1) > 0.25 * ws.radius]
+        grid = grid[np.linalg.norm(grid - commanded, axis=1) > 0.2 * ws.radius]
         field_ = ErrorField.compute(nominal_geometry, true_geometry, grid)
         n_arrows = len(field_.commanded)
         max_error = float(field_.magnitude.max()) if n_arrows else 0.0
@@ -1243,6 +1264,7 @@ def render_png(
                 raise ViewerError(
                     f"chromium failed to render {html_path} (exit {proc.returncode}): {' | '.join(tail)}"
                 )
+            os.chmod(tmp, _file_mode())
             os.replace(tmp, png_path)
         finally:
             if os.path.exists(tmp):
