@@ -433,19 +433,12 @@ class SingularityMargin:
 def singularity_measures(nominal: NominalDelta, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Transmission angle (least over the limbs) [rad] and κ(J_S) at readings q, each (N,).
 
-    See :class:`SingularityMargin` for their meaning. Vectorised over poses.
+    The angle is :meth:`VirtualDelta.singularity_measures`'s; see
+    :class:`SingularityMargin` for both. Vectorised over poses.
     """
     virtual = VirtualDelta.from_nominal(nominal)
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    x = virtual.forward(q)
-    E = virtual.elbows(q)
-    w = virtual.actuator_rotation[:, :, 1]
-    arm = E - virtual.axis_point[None]
-    u = arm / np.linalg.norm(arm, axis=2, keepdims=True)
-    rod = x[:, None, :] + virtual.plate_attachment[None] - E
-    rod /= np.linalg.norm(rod, axis=2, keepdims=True)
-    sin_t = np.abs(np.sum(rod * np.cross(w[None], u), axis=2))
-    angle = np.arcsin(np.clip(sin_t, 0.0, 1.0)).min(axis=1)
+    angle, _ = virtual.singularity_measures(q)
     return angle, np.linalg.cond(virtual.jacobian(q))
 
 
@@ -795,7 +788,8 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     group.add_argument("--n", type=_positive_int, help="poses per circle (strategy bai)")
     group.add_argument("--epsilon", type=parse_epsilon,
                        help="ε0 of the κ(n) rule, fraction or percentage (default: 1%%)")
-    p.add_argument("--strategy", default="bai", choices=("bai", "doptimal"))
+    p.add_argument("--strategy", default="bai", choices=("bai", "doptimal"),
+                   help="Bai's circles (default) or D-optimal selection from a random pool")
     p.add_argument("--measure", choices=MEASUREMENTS,
                    help="measurement kind for κ and D-optimality (default: distance for Bai's "
                         "distance models bai18/bai36/bai32 and rough, pose otherwise)")
