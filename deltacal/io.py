@@ -10,14 +10,17 @@ renames it, so a failure never leaves a half-written output.
 from __future__ import annotations
 
 import csv
+import difflib
 import math
 import os
+import re
 import tempfile
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal, localcontext
 from pathlib import Path
 from typing import Any
+from warnings import warn
 
 import numpy as np
 import tomllib
@@ -28,16 +31,32 @@ GEOMETRY_FORMAT = "deltacal-geometry-1"
 CALIBRATION_FORMAT = "deltacal-calibration-1"
 
 
+class InputWarning(UserWarning):
+    """Something in an input file looks wrong but may be right (units, repeated rows).
+
+    The command line prints these on one line each; library users get them
+    through the :mod:`warnings` machinery.
+    """
+
+
 # --------------------------------------------------------------------------- writing
 def atomic_write_text(path: str | Path, text: str) -> None:
     """Write text to ``path`` through a temporary file in the same folder and a rename.
 
-    If anything fails, an existing file at ``path`` is left exactly as it was.
+    If anything fails, an existing file at ``path`` is left exactly as it was and
+    the temporary file is removed. The new file gets the permissions of the file it
+    replaces, or the usual ones (``0o666`` less the umask) for a new file.
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
+        # mkstemp creates the file 0o600: give the output the mode a plain open() would
+        try:
+            mode = path.stat().st_mode & 0o7777
+        except OSError:
+            mode = 0o666 & ~_umask()
+        os.fchmod(fd, mode)
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
             f.flush()
@@ -49,6 +68,13 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         except OSError:
             pass
         raise
+
+
+def _umask() -> int:
+    """The process's file creation mask (read without leaving it changed)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816406286")
@@ -148,13 +174,18 @@ def toml_dumps(data: Mapping[str, Any]) -> str:
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
-def _shown(value: Any) -> str:
+def _shown(value: Any, limit: int = 80) -> str:
     """A value read from TOML as the user wrote it (Decimal numbers without their class name)."""
     if isinstance(value, Decimal):
-        return str(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_shown(v) for v in value) + "]"
-    return repr(value)
+        text = str(value)
+    elif isinstance(value, list):
+        text = "[" + ", ".join(_shown(v, limit) for v in value) + "]"
+    else:
+        try:
+            text = repr(value)
+        except ValueError:  # an integer with more digits than Python converts
+            text = "<an integer too large to show>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _is_table_array(v: Any) -> bool:
@@ -177,7 +208,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
     except UnicodeDecodeError:
         raise InputError("file is not UTF-8 text", str(path)) from None
-    except tomllib.TOMLDecodeError as exc:
+    except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer too long to read
         raise InputError(f"not valid TOML ({exc})", str(path)) from None
 
 
@@ -230,9 +261,13 @@ class _Table:
     def _check_number(self, name: str, value: Any, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float, Decimal)):
             raise self.error(name, f"must be a number, got {_shown(value)}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise self.error(name, f"must be finite, got {value!r}")
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond the float range
+            number = math.inf
+        if not math.isfinite(number):
+            raise self.error(name, f"must be finite, got {_shown(value)}")
+        value = number
         if positive and value <= 0.0:
             raise self.error(name, f"must be positive, got {value!r}")
         return value
@@ -277,6 +312,9 @@ def load_nominal(path: str | Path):  # -> NominalDelta
 
     source = str(path)
     top = _Table(read_toml(path), source)
+    if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
+        raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
+                                  "robot file (such as deltacal/models/bai2015.toml)")
     top.check_unknown(["name", "description", "geometry", "points", "workspace"])
     name = top.string("name")
     description = top.string("description", default="")
@@ -302,7 +340,13 @@ def load_nominal(path: str | Path):  # -> NominalDelta
     }
     azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
     if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
-        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg}")
+        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
+    if np.max(np.abs(azimuth_deg)) <= 2.0 * math.pi and np.ptp(azimuth_deg) > 1.0:
+        warn(
+            f"{source}: key geometry.limb_azimuth_deg: azimuths {azimuth_deg.tolist()} are within "
+            "±2π and put the limbs a few degrees apart: are these radians? deltacal reads degrees",
+            InputWarning, stacklevel=2,
+        )
     tool = geo.vector("tool_mm", (3,)) if geo.has("tool_mm") else np.zeros(3)
     points: dict[str, np.ndarray] = {}
     pts = top.table("points", required=False)
@@ -325,6 +369,9 @@ def load_nominal(path: str | Path):  # -> NominalDelta
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
+    if l_rod <= 0.25 * L:
+        raise geo.error("rod_length_mm", f"rods of {l_rod} mm are too short for arms of {L} mm "
+                                         "(at least a quarter of the arm length)")
     try:
         nominal = NominalDelta(
             name=name,
@@ -394,6 +441,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = ""): 
     from .geometry import DeltaGeometry
 
     top = _Table(data, source, prefix)
+    top.check_unknown(["format", "name", "tool_mm", "limb", "points"])
     fmt = top.string("format")
     if fmt != GEOMETRY_FORMAT:
         raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
@@ -445,11 +493,23 @@ def save_geometry(geometry, path: str | Path) -> None:
 def load_geometry(path: str | Path):  # -> DeltaGeometry
     """Read a geometry TOML file, or the ``[geometry]`` part of a calibration file."""
     data = read_toml(path)
+    _check_not_nominal(data, str(path))
     if data.get("format") == CALIBRATION_FORMAT:
         if not isinstance(data.get("geometry"), Mapping):
             raise InputError("missing required table", str(path), "key geometry")
         return geometry_from_dict(data["geometry"], str(path), "geometry.")
     return geometry_from_dict(data, str(path))
+
+
+def _check_not_nominal(data: Mapping[str, Any], source: str) -> None:
+    """A nominal robot file where a geometry or calibration file is expected gets a clear error."""
+    geo = data.get("geometry")
+    if "format" not in data and isinstance(geo, Mapping) and "base_radius_mm" in geo:
+        raise InputError(
+            "this is a nominal robot file, not a geometry or calibration file "
+            "(give the calibration file written by 'deltacal identify')",
+            source, "key format",
+        )
 
 
 def save_calibration(result, path: str | Path) -> None:
@@ -492,6 +552,32 @@ class CsvTable:
     warnings: list[str]
 
 
+#: A plain decimal number: what a CSV numeric field may hold (no "1_000", "0x10", "١٢").
+_NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+
+
+def _csv_fields(line: str, source: str, line_no: int) -> list[str]:
+    try:
+        return next(csv.reader([line]))
+    except (csv.Error, StopIteration) as exc:
+        raise InputError(f"not a valid CSV line ({exc})", source, f"line {line_no}") from None
+
+
+def _parse_number(value: str, source: str, where: str) -> float:
+    """A numeric CSV field: a finite decimal number, or an error naming the field and value."""
+    if _NUMBER_RE.fullmatch(value) is None:
+        try:
+            float(value)
+        except ValueError:
+            hint = " (a decimal comma?)" if re.fullmatch(r"[+-]?\d+,\d+", value) else ""
+            raise InputError(f"value {value!r} is not a number{hint}", source, where) from None
+        raise InputError(f"value {value!r} is not a finite number", source, where)
+    number = float(value)
+    if not math.isfinite(number):
+        raise InputError(f"value {value!r} is not a finite number", source, where)
+    return number
+
+
 def read_csv_table(
     path: str | Path,
     required: list[str],
@@ -501,13 +587,16 @@ def read_csv_table(
 ) -> CsvTable:
     """Read and validate a comma-separated file with a header row.
 
-    Checks: the file exists and is not empty, has data rows, has every required
-    column, no duplicate column, each row has as many fields as the header, every
-    numeric value is a finite number, and groups of columns in ``all_or_none`` are
-    either all present or all absent in a row. Unknown columns are ignored with a
-    warning; columns in degrees holding only values below 2π in magnitude but large
-    enough to be angles get a warning that they may be radians; duplicate data rows
-    get a warning.
+    Checks: the file exists, is UTF-8 text and is not empty, has data rows, has
+    every required column, no duplicate column, each row has as many fields as the
+    header, every numeric value is a finite decimal number, and groups of columns in
+    ``all_or_none`` are either all present or all absent in a row. Warnings (not
+    errors): unknown columns are ignored; joint columns in degrees holding only
+    values within ±π may be radians; position columns in millimetres holding only
+    values within ±5 may be metres; duplicate data rows.
+
+    Line numbers are those an editor shows (the header is line 1 unless blank lines
+    precede it; blank lines are skipped but counted).
 
     Raises:
         InputError: naming the file, the line, the column and the value.
@@ -523,43 +612,61 @@ def read_csv_table(
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError("file is not UTF-8 text", source) from None
-    rows = [(n + 1, line) for n, line in enumerate(text.splitlines()) if line.strip()]
+    if "\x00" in text:
+        raise InputError("file holds NUL bytes: a binary or UTF-16 file? deltacal reads UTF-8 CSV",
+                         source)
+    rows = [(n + 1, line.rstrip("\r")) for n, line in enumerate(text.split("\n")) if line.strip()]
     if not rows:
         raise InputError("file is empty", source)
     header_line, header_text = rows[0]
-    reader = csv.reader([header_text])
-    header = [h.strip() for h in next(reader)]
+    header = [h.strip() for h in _csv_fields(header_text, source, header_line)]
     if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
         sep = "';'" if ";" in header[0] else "a tab"
         raise InputError(f"fields are separated by {sep}; deltacal reads comma-separated files",
                          source, f"line {header_line}")
     seen: set[str] = set()
     for h in header:
+        if not h:
+            raise InputError("empty column name in the header (a trailing comma?)", source,
+                             f"line {header_line}")
         if h in seen:
             raise InputError(f"column {h!r} appears twice", source, f"line {header_line}")
         seen.add(h)
-        if not h:
-            raise InputError("empty column name in the header", source, f"line {header_line}")
+    known = list(required) + list(optional)
     missing = [c for c in required if c not in header]
     if missing:
+        unknown = [h for h in header if h not in known]
+        hints = []
+        for c in missing:
+            close = difflib.get_close_matches(c, unknown, n=1, cutoff=0.6)
+            close = close or [h for h in unknown if h.lower() == c.lower()]
+            if close:
+                hints.append(f"{close[0]!r} for {c}?")
+        hint = f"; did you mean {', '.join(hints)}" if hints else ""
         raise InputError(
-            f"missing required column(s) {', '.join(missing)} (header: {','.join(header)})",
+            f"missing required column(s) {', '.join(missing)} (header: {','.join(header)}){hint}",
             source, f"line {header_line}",
         )
-    known = set(required) | set(optional)
     warnings = [f"{source}: column {h!r} is not used by deltacal and is ignored" for h in header
                 if h not in known]
     if len(rows) == 1:
         raise InputError("no data rows after the header", source)
     index = {h: k for k, h in enumerate(header)}
-    wanted = [c for c in list(required) + list(optional) if c in index]
+    wanted = [c for c in known if c in index]
     numbers: dict[str, list[float]] = {c: [] for c in wanted if c not in text_columns}
     texts: dict[str, list[str]] = {c: [] for c in wanted if c in text_columns}
     lines = []
     for line_no, line in rows[1:]:
-        fields = next(csv.reader([line]))
+        fields = _csv_fields(line, source, line_no)
         if len(fields) != len(header):
-            hint = " (a decimal comma?)" if len(fields) > len(header) else ""
+            if len(fields) < len(header) and (";" in line or "\t" in line):
+                hint = " (fields separated by ';' or tabs? deltacal reads commas)"
+            elif len(fields) > len(header) and fields[-1].strip() == "":
+                hint = " (a trailing comma?)"
+            elif len(fields) > len(header):
+                hint = " (a decimal comma?)"
+            else:
+                hint = ""
             raise InputError(
                 f"{len(fields)} fields where the header has {len(header)}{hint}", source, f"line {line_no}"
             )
@@ -571,15 +678,7 @@ def read_csv_table(
             if value == "":
                 numbers[c].append(math.nan)
                 continue
-            try:
-                number = float(value)
-            except ValueError:
-                raise InputError(f"value {value!r} is not a number", source,
-                                 f"line {line_no}, column {c}") from None
-            if not math.isfinite(number):
-                raise InputError(f"value {value!r} is not a finite number", source,
-                                 f"line {line_no}, column {c}")
-            numbers[c].append(number)
+            numbers[c].append(_parse_number(value, source, f"line {line_no}, column {c}"))
         lines.append(line_no)
     arrays = {c: np.array(v, dtype=float) for c, v in numbers.items()}
     line_arr = np.array(lines)
@@ -603,13 +702,7 @@ def read_csv_table(
             col = group[int(np.flatnonzero(~filled[k])[0])]
             raise InputError(f"empty value while {', '.join(group)} are given together", source,
                              f"line {line_arr[k]}, column {col}")
-    for c, v in arrays.items():
-        if c.endswith("_deg") and c.startswith("q") and v.size >= 3:
-            finite = v[np.isfinite(v)]
-            if finite.size and np.max(np.abs(finite)) <= math.pi and np.ptp(finite) > 0.05 and \
-                    np.max(np.abs(finite)) < 3.2:
-                warnings.append(f"{source}: column {c} holds only values within ±π: are these radians? "
-                                "deltacal reads degrees")
+    warnings += _unit_warnings(arrays, source)
     numeric = np.column_stack([arrays[c] for c in arrays]) if arrays else np.zeros((len(lines), 0))
     keys = [tuple(np.round(numeric[k], 12)) + tuple(texts[c][k] for c in texts) for k in range(len(lines))]
     first: dict[tuple, int] = {}
@@ -619,6 +712,26 @@ def read_csv_table(
         else:
             first[key] = k
     return CsvTable(arrays, texts, line_arr, warnings)
+
+
+def _unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:
+    """Columns whose values suggest another unit than the column's name says."""
+    out = []
+    for c, v in arrays.items():
+        finite = v[np.isfinite(v)]
+        if finite.size < 3:
+            continue
+        top = float(np.max(np.abs(finite)))
+        if re.fullmatch(r"q\d_deg", c) and top <= math.pi and np.ptp(finite) > 0.05:
+            out.append(f"{source}: column {c} holds only values within ±π: are these radians? "
+                       "deltacal reads degrees")
+    positions = [c for c in ("x_mm", "y_mm", "z_mm") if c in arrays]
+    if positions:
+        both = np.concatenate([arrays[c][np.isfinite(arrays[c])] for c in positions])
+        if both.size >= 3 and np.max(np.abs(both)) <= 5.0 and np.ptp(both) > 0.0:
+            out.append(f"{source}: columns {', '.join(positions)} hold only values within ±5: are these "
+                       "metres? deltacal reads millimetres")
+    return out
 
 
 def read_measurements(path: str | Path, point_names: list[str] | None = None):  # -> Measurements, warnings
@@ -682,8 +795,13 @@ def write_measurements(path: str | Path, measurements) -> None:
 
 def read_targets(path: str | Path) -> tuple[np.ndarray, list[str]]:
     """Read a targets CSV (``x_mm,y_mm,z_mm``): positions [mm] (N, 3) and warnings."""
-    table = read_csv_table(path, TARGET_COLUMNS)
+    table = read_target_table(path)
     return np.column_stack([table.numbers[c] for c in TARGET_COLUMNS]), table.warnings
+
+
+def read_target_table(path: str | Path) -> CsvTable:
+    """Read a targets CSV as a validated table: its ``lines`` let errors name a target's line."""
+    return read_csv_table(path, TARGET_COLUMNS)
 
 
 def write_joints(path: str | Path, targets: np.ndarray, q: np.ndarray) -> None:
@@ -703,18 +821,24 @@ def load_linear_calibration(path: str | Path):  # -> LinearCalibration
 
     source = str(path)
     data = read_toml(path)
+    _check_not_nominal(data, source)
     if data.get("format") != CALIBRATION_FORMAT:
-        raise InputError(f"not a calibration file (format {data.get('format')!r})", source, "key format")
+        raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
+                         "key format")
     if not isinstance(data.get("nominal"), Mapping):
         raise InputError("missing required table", source, "key nominal")
     nominal = geometry_from_dict(data["nominal"], source, "nominal.")
-    cal = _Table(data.get("calibration", {}), source, "calibration.")
+    top = _Table(data, source)
+    cal = top.table("calibration")
+    assert cal is not None
     try:
         model = get_model(cal.string("model"))
     except ValueError as exc:
         raise cal.error("model", str(exc)) from None
     deviation = np.zeros(model.size)
     params = cal.raw("base_parameter") if cal.has("base_parameter") else []
+    if not isinstance(params, list) or not all(isinstance(x, Mapping) for x in params):
+        raise cal.error("base_parameter", "must be an array of tables [[calibration.base_parameter]]")
     for k, item in enumerate(params):
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
