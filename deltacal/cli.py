@@ -11,8 +11,11 @@ Commands (files in mm and deg; see the README for formats):
 * ``deltacal view NOMINAL [...] [--html OUT]``
 
 Errors in the user's input print one line on stderr naming the file, line,
-column or key and value, and exit with status 1 (bad data) or 2 (bad usage);
-``--debug`` shows the traceback. Outputs are written atomically.
+column or key and value, and exit with status 1 (bad data) or 2 (bad usage:
+arguments, missing input file, missing output folder, output overwriting an
+input); ``--debug`` shows the traceback. An unexpected failure (a bug) exits
+with status 3. Outputs are written atomically: a failing command leaves any
+earlier output file as it was.
 """
 
 from __future__ import annotations
@@ -20,16 +23,22 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from . import __version__
-from .exceptions import DeltacalError, InputError
+from .exceptions import AssemblyError, DeltacalError, IdentificationError, InputError, UnreachableError
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
+EXIT_BUG = 3
+
+
+class UsageError(DeltacalError):
+    """The command line is wrong (a path that does not exist, an output over an input): status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -54,10 +63,28 @@ def _positive(text: str) -> float:
     return value
 
 
-def _check_output(path: str) -> None:
-    folder = Path(path).resolve().parent
-    if not folder.is_dir():
-        raise InputError("the output folder does not exist", str(path))
+def _check_input(path: str) -> None:
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path}: file not found")
+    if not p.is_file():
+        raise UsageError(f"{path}: not a file")
+
+
+def _check_output(path: str, inputs: Sequence[str] = ()) -> None:
+    out = Path(path)
+    if not out.resolve().parent.is_dir():
+        raise UsageError(f"{path}: the output folder does not exist")
+    if out.is_dir():
+        raise UsageError(f"{path}: is a folder; give the output file's name")
+    for source in inputs:
+        if Path(source).exists() and out.resolve() == Path(source).resolve():
+            raise UsageError(f"{path}: the output would overwrite an input file")
+
+
+def _lines_text(lines: Sequence[int], limit: int = 10) -> str:
+    shown = ", ".join(str(int(n)) for n in lines[:limit])
+    return shown + (f" and {len(lines) - limit} more" if len(lines) > limit else "")
 
 
 # --------------------------------------------------------------------------- identify
@@ -66,24 +93,44 @@ def _identify(args: argparse.Namespace) -> int:
     from .identification import identify
     from .io import read_measurements
 
-    _check_output(args.output)
+    for path in (args.nominal, args.measurements):
+        _check_input(path)
+    _check_output(args.output, (args.nominal, args.measurements))
     nominal = NominalDelta.from_toml(args.nominal)
     start = nominal.geometry()
-    measurements, warnings = read_measurements(args.measurements, start.point_names)
-    _warn(warnings)
+    measurements, notes = read_measurements(args.measurements, start.point_names)
+    _warn(notes)
     if args.distances and np.any(measurements.has_orientation):
         _warn(["orientations are ignored when identifying from distances"])
-    result = identify(
-        start,
-        measurements,
-        args.model,
-        method="linear" if args.linear else "iterated",
-        sigma_position=args.sigma_position,
-        sigma_angle=math.radians(args.sigma_angle),
-        distances=args.distances,
-        pairs=args.pairs,
-    )
+    try:
+        result = identify(
+            start,
+            measurements,
+            args.model,
+            method="linear" if args.linear else "iterated",
+            sigma_position=args.sigma_position,
+            sigma_angle=math.radians(args.sigma_angle),
+            distances=args.distances,
+            pairs=args.pairs,
+        )
+    except AssemblyError as exc:
+        # at the nominal geometry: the readings themselves are impossible
+        lines = np.asarray(measurements.lines)[exc.indices].tolist() if exc.indices else []
+        if not lines:
+            raise
+        k = exc.indices[0]
+        q = np.round(np.degrees(measurements.q[k]), 6).tolist()
+        more = f"; {len(lines)} rows in all, lines {_lines_text(lines)}" if len(lines) > 1 else ""
+        raise InputError(
+            f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
+            args.measurements, f"line {lines[0]}, columns q1_deg..q3_deg",
+        ) from exc
+    except IdentificationError as exc:
+        raise IdentificationError(f"{args.measurements}: {exc}") from exc
     print(result.report())
+    if result.outlier_lines:
+        _warn([f"{args.measurements}: line(s) {_lines_text(result.outlier_lines)} look like outliers "
+               "(see the report): check them, or remove them and identify again"])
     result.save(args.output)
     print(f"\nwrote {args.output}")
     return 0
@@ -114,18 +161,33 @@ def _add_identify(sub) -> None:
 def _compensate(args: argparse.Namespace) -> int:
     from .compensation import compensate
     from .geometry import DeltaGeometry
-    from .io import read_targets, write_joints
+    from .io import read_target_table, write_joints
 
-    _check_output(args.output)
+    for path in (args.calibration, args.targets):
+        _check_input(path)
+    _check_output(args.output, (args.calibration, args.targets))
     geometry = DeltaGeometry.load(args.calibration)
-    targets, warnings = read_targets(args.targets)
-    _warn(warnings)
+    table = read_target_table(args.targets)
+    _warn(table.warnings)
+    targets = np.column_stack([table.numbers[c] for c in ("x_mm", "y_mm", "z_mm")])
     linear = None
     if args.method != "exact":
         from .io import load_linear_calibration
 
         linear = load_linear_calibration(args.calibration)
-    q = compensate(geometry, targets, args.method, linear)
+    try:
+        q = compensate(geometry, targets, args.method, linear)
+    except UnreachableError as exc:
+        if not exc.indices:
+            raise
+        lines = table.lines[exc.indices].tolist()
+        k = exc.indices[0]
+        reason = "too close to a singularity" if "singularity" in str(exc) else "out of reach of the robot"
+        more = f"; {len(lines)} targets in all, lines {_lines_text(lines)}" if len(lines) > 1 else ""
+        raise InputError(
+            f"target {np.round(targets[k], 6).tolist()} mm is {reason}{more}",
+            args.targets, f"line {lines[0]}, columns x_mm..z_mm",
+        ) from exc
     write_joints(args.output, targets, q)
     print(f"wrote {len(targets)} joint readings to {args.output}")
     return 0
@@ -186,23 +248,42 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings from the library on one line each, without the source location."""
+    print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status (0, 1 bad data, 2 bad usage, 3 a bug)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("deltacal: interrupted", file=sys.stderr)
-        return 130
-    except (DeltacalError, ValueError, OSError) as exc:
-        if args.debug:
-            raise
-        message = str(exc).replace("\n", " ")
-        if isinstance(exc, OSError) and not isinstance(exc, DeltacalError):
-            message = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
-        print(f"deltacal {args.command}: error: {message}", file=sys.stderr)
-        return EXIT_DATA
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # usage error (status 2), --help or --version (status 0)
+        if exc.code is None or isinstance(exc.code, int):
+            return int(exc.code or 0)
+        return EXIT_USAGE
+    with warnings.catch_warnings():
+        if not args.debug:
+            warnings.showwarning = _show_warning
+        try:
+            return int(args.func(args) or 0)
+        except KeyboardInterrupt:
+            print("deltacal: interrupted", file=sys.stderr)
+            return 130
+        except (DeltacalError, ValueError, OSError) as exc:
+            if args.debug:
+                raise
+            message = str(exc).replace("\n", " ")
+            if isinstance(exc, OSError) and not isinstance(exc, DeltacalError):
+                message = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
+            print(f"deltacal {args.command}: error: {message}", file=sys.stderr)
+            return EXIT_USAGE if isinstance(exc, UsageError) else EXIT_DATA
+        except Exception as exc:
+            if args.debug:
+                raise
+            print(f"deltacal {args.command}: internal error: {type(exc).__name__}: {exc} "
+                  "(a bug: please report it with the output of --debug)".replace("\n", " "), file=sys.stderr)
+            return EXIT_BUG
 
 
 if __name__ == "__main__":
