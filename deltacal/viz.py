@@ -11,7 +11,9 @@ metre tall. The plate's rotation, and everything that follows it (plate,
 plate balls, rod ends, tool, plate axis), is therefore drawn with its rotation
 vector multiplied by ``exaggerate`` (default :data:`DEFAULT_EXAGGERATION` =
 100: a 0.1 deg tilt is drawn as 10 deg); the real angle is written in the
-scene. Positions are never exaggerated.
+scene. Positions are never exaggerated. An inset beside the robot shows both
+plates :data:`INSET_MAGNIFICATION` times larger, turned so that the tilt is
+seen side-on.
 
 TCP error arrows over a grid of the workspace show what the uncalibrated robot
 does: at each commanded point x the readings are the nominal inverse
@@ -27,7 +29,8 @@ camera looks and orbits).
 Scene tree (under ``/meshcat/deltacal``): ``true/`` and ``nominal/`` (each with
 ``base``, ``limb{i}/actuator``, ``limb{i}/arm/{link,elbow,ball1,ball2}``,
 ``limb{i}/rod{j}``, ``plate/{body,ball{i}{j},axis,tool,tcp}``),
-``workspace``, ``arrows``, ``frame`` and ``labels/...``.
+``inset/{true,nominal}/...`` (the plates again), ``workspace``, ``arrows``,
+``frame`` and ``labels/...``.
 
 Static HTML export needs no server: :class:`SceneRecorder` stands in for
 meshcat's server, records the commands and writes the standalone page with
@@ -65,6 +68,8 @@ from .kinematics.closed_form import VirtualDelta
 DEFAULT_EXAGGERATION = 100.0
 #: Window size of the rendered screenshots [px].
 DEFAULT_WINDOW = (1200, 900)
+#: Shaft radius of the error arrows, per workspace radius.
+ARROW_RADIUS = 0.011
 #: Size factor of the inset that shows both plates magnified.
 INSET_MAGNIFICATION = 3.0
 #: Vertical field of view of the scene's camera [deg].
@@ -898,7 +903,6 @@ def build_scene(
         AssemblyError: The true robot cannot be assembled at the readings.
     """
     meshcat = _meshcat()
-    g = meshcat.geometry
     if not (math.isfinite(exaggerate) and exaggerate > 0.0):
         raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
     ws = workspace if workspace is not None else default_workspace(nominal_geometry)
@@ -913,9 +917,7 @@ def build_scene(
     q = np.asarray(q, dtype=float).reshape(3)
     true_state = RobotState.compute(true_geometry, q, exaggerate)
     ghost_state = RobotState.compute(nominal_geometry, q, 1.0)
-    tilt = float(true_state.plate.tilt()[0])
     commanded = ghost_state.tcp[0]
-    tcp_error = true_state.plate.point(true_geometry.tool)[0] - commanded
 
     vis["deltacal"].delete()
     writer = _SceneWriter(vis)
@@ -923,189 +925,39 @@ def build_scene(
     writer.robot("true", true_geometry, true_state, ghost=False, plate_shape=polygon)
     writer.robot("nominal", nominal_geometry, ghost_state, ghost=True, plate_shape=polygon)
     L = float(np.mean(np.linalg.norm(nominal_geometry.arm_ball.mean(axis=1), axis=1)))
-    writer.root["frame"].set_object(g.triad(0.4 * L))
-    writer.paths.append("frame")
-
-    # workspace outline: top and bottom circles, four generatrices
-    ang = np.linspace(0.0, 2.0 * np.pi, 73)
-    circle = np.column_stack([ws.radius * np.cos(ang), ws.radius * np.sin(ang), np.zeros_like(ang)])
-    outline = []
-    for z in (ws.top_z, ws.bottom_z):
-        c = circle + [0.0, 0.0, z]
-        outline += [np.stack([c[:-1], c[1:]], axis=1).reshape(-1, 3)]
-    for a in np.arange(4) * np.pi / 2.0:
-        p = [ws.radius * math.cos(a), ws.radius * math.sin(a)]
-        outline.append(np.array([[*p, ws.top_z], [*p, ws.bottom_z]]))
-    segments = np.concatenate(outline)
-    writer.root["workspace"].set_object(
-        g.LineSegments(g.PointsGeometry(segments.T.astype(np.float32)), g.LineBasicMaterial(color=0x7A8A9A))
-    )
-    writer.paths.append("workspace")
-
-    # scene points used for framing
+    writer.object("frame", writer.g.triad(0.4 * L))
+    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
+    ang = np.linspace(0.0, 2.0 * np.pi, 37)
     points = [
         true_state.arm_balls[0].reshape(-1, 3),
         true_state.plate_balls[0].reshape(-1, 3),
         ghost_state.plate_balls[0].reshape(-1, 3),
         true_state.tcp,
-        nominal_geometry.axis_point,
-        segments,
+        np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)]),
+        _draw_workspace(writer, ws),
     ]
-    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
-    points.append(
-        np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)])
-    )
-
-    arrow_scale = 0.0
-    max_error = 0.0
-    n_arrows = 0
-    field_ = None
+    arrow_scale, max_error, n_arrows = 0.0, 0.0, 0
     if arrows:
         grid = workspace_grid(ws)
         # the arrow at the drawn pose would run through the plate: its error is written instead
         grid = grid[np.linalg.norm(grid - commanded, axis=1) > 0.2 * ws.radius]
-        field_ = ErrorField.compute(nominal_geometry, true_geometry, grid)
-        n_arrows = len(field_.commanded)
-        max_error = float(field_.magnitude.max()) if n_arrows else 0.0
-        if max_error > 0.0:
-            arrow_scale = nice_number(0.8 * 0.5 * ws.radius / max_error)
-            vectors = arrow_scale * field_.error
-            verts, cols, faces = _arrow_mesh(
-                field_.commanded, vectors, error_colours(field_.magnitude / max_error), 0.011 * ws.radius
-            )
-            writer.object(
-                "arrows",
-                g.TriangularMeshGeometry(verts, faces, color=cols),
-                g.MeshPhongMaterial(vertexColors=True, shininess=20),
-            )
-            points.append(field_.commanded + vectors)
+        errors = ErrorField.compute(nominal_geometry, true_geometry, grid)
+        n_arrows = len(errors.commanded)
+        arrow_scale, max_error, tips = _draw_arrows(writer, errors, ws.radius)
+        points.append(tips)
 
-    pts = np.concatenate(points)
-    camera = CameraView.framing(pts)
-    extent = float(np.max(pts @ camera.up) - np.min(pts @ camera.up))
-    line = 0.028 * extent
-    right_edge = float(np.max(pts @ camera.right))
-    left_edge = float(np.min(pts @ camera.right))
-    top = float(np.max(pts @ camera.up))
-    mid_depth = camera.direction * float(np.mean(pts @ camera.direction))
-
-    # tilt label beside the true plate
-    plate_pos = true_state.plate.position[0]
-    plate_r = float(np.max(np.linalg.norm(polygon, axis=1)))
-    tilt_lines = [
-        f"plate tilt {math.degrees(tilt):.3f}\u00b0",
-        f"(drawn \u00d7{exaggerate:g})",
-        f"TCP error {np.linalg.norm(tcp_error):.2f} mm",
-    ]
-    half_w = 0.27 * line * max(len(t) for t in tilt_lines)
-    # magnified inset of both plates (the ghost's at the inset origin) in a column on the
-    # right, above the tilt label; labels sit at the middle depth of the scene. The inset
-    # is turned about z so that the plate's tilt is seen side-on (in the screen plane).
-    m = INSET_MAGNIFICATION
-    normal = true_state.plate.rotation[0, :, 2]
-    turn = 0.0
-    if np.hypot(normal[0], normal[1]) > 1e-12:
-        turn = math.atan2(camera.right[1], camera.right[0]) - math.atan2(normal[1], normal[0])
-    Rz = np.array(
-        [[math.cos(turn), -math.sin(turn), 0.0], [math.sin(turn), math.cos(turn), 0.0], [0, 0, 1.0]]
+    robot_points = np.concatenate(points)
+    layout = _Layout.around(robot_points)
+    callout = _draw_plate_callout(
+        writer, layout, true_geometry, nominal_geometry, true_state, ghost_state, exaggerate
     )
-    content = (
-        np.concatenate(
-            [
-                true_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
-                ghost_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
-                [[0.0, 0.0, -2.5 * plate_r]],
-            ]
-        )
-        @ Rz.T
-    )
-    ball_r = 15.0 * _sizes(nominal_geometry, True)[0]
-    col_half = max(half_w, m * (float(np.max(np.abs(content @ camera.right))) + ball_r))
-    col_x = (right_edge + 2.0 * line + col_half) * camera.right
-    tilt_anchor = col_x + (plate_pos @ camera.up + 1.25 * line) * camera.up + mid_depth
-    label_pts = [_text_block(writer, "tilt", tilt_lines, tilt_anchor, camera, line)]
-    writer.plate("inset/true", true_geometry, False, polygon)
-    writer.plate("inset/nominal", nominal_geometry, True, polygon)
-    writer.inset_pose(true_state, ghost_state, 0)
-    inset_origin = col_x + (top - 2.0 * line - m * float(np.max(content @ camera.up))) * camera.up + mid_depth
-    writer.transform("inset", _transform(Rz, inset_origin, (m, m, m)))
-    for sign in (-1.0, 1.0):
-        label_pts.append(inset_origin + m * (content + sign * ball_r * camera.right))
-    label_pts.append(
-        _text_block(
-            writer,
-            "inset",
-            [f"plates \u00d7{m:g}, tilt side-on"],
-            inset_origin + (m * float(np.max(content @ camera.up)) + 1.5 * line) * camera.up,
-            camera,
-            line,
-        )
-    )
-    leader = np.stack(
-        [
-            plate_pos + 1.3 * plate_r * camera.right,
-            tilt_anchor - (half_w + line) * camera.right - 1.25 * line * camera.up,
-        ]
-    )
-    writer.object(
-        "labels/tilt_leader",
-        g.LineSegments(g.PointsGeometry(leader.T.astype(np.float32)), g.LineBasicMaterial(color=0x333333)),
-    )
-
-    # legend on the left: title, ghost, arrows and colour bar
     name = title if title is not None else (true_geometry.name or nominal_geometry.name or "Delta robot")
-    legend = [name, "blue ghost: nominal"]
-    legend_half = 0.27 * line * max(len(t) for t in legend)
-    if arrow_scale > 0.0:
-        legend += ["TCP error arrows", f"(true - commanded) \u00d7{arrow_scale:g}"]
-        legend_half = max(0.27 * line * max(len(t) for t in legend), 4.5 * line + 0.27 * line * 8)
-    anchor = (left_edge - 2.0 * line - legend_half) * camera.right + top * camera.up + mid_depth
-    label_pts.append(_text_block(writer, "legend", legend, anchor, camera, line))
-    if arrow_scale > 0.0:
-        ref = nice_number(max_error)
-        y0 = anchor - (len(legend) + 0.6) * 1.25 * line * camera.up
-        start = y0 - 0.5 * ref * arrow_scale * camera.right
-        verts, cols, faces = _arrow_mesh(
-            start[None],
-            (ref * arrow_scale * camera.right)[None],
-            error_colours(np.array([ref / max_error])),
-            0.011 * ws.radius,
-        )
-        writer.object(
-            "labels/ref_arrow",
-            g.TriangularMeshGeometry(verts, faces, color=cols),
-            g.MeshPhongMaterial(vertexColors=True),
-        )
-        below = y0 - 1.3 * line * camera.up
-        label_pts.append(_text_block(writer, "ref", [f"{ref:g} mm"], below, camera, line))
-        # colour bar from 0 to the largest error
-        bar_y = below - 2.6 * line * camera.up
-        width = 9.0 * line
-        n = 12
-        for k in range(n):
-            centre = bar_y + ((k + 0.5) / n - 0.5) * width * camera.right
-            colour = error_colours(np.array([(k + 0.5) / n]))[0]
-            hex_colour = int(colour[0] * 255) << 16 | int(colour[1] * 255) << 8 | int(colour[2] * 255)
-            writer.object(
-                f"labels/bar{k:02d}",
-                g.Box([width / n, 0.8 * line, 0.2 * line]),
-                g.MeshBasicMaterial(color=hex_colour),
-                _transform(camera.rotation, centre),
-            )
-        ends = [bar_y - 0.5 * width * camera.right, bar_y + 0.5 * width * camera.right]
-        label_pts.append(_text_block(writer, "bar_lo", ["0"], ends[0] - 1.3 * line * camera.up, camera, line))
-        label_pts.append(
-            _text_block(
-                writer, "bar_hi", [f"{max_error:.1f} mm"], ends[1] - 1.3 * line * camera.up, camera, line
-            )
-        )
-        label_pts.append(np.stack(ends))
+    legend = _draw_legend(writer, layout, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius)
+    label_points = [callout.points, legend]
 
-    frames_done = 0
-    max_path_tilt = 0.0
+    frames_done, max_path_tilt = 0, 0.0
     if animate:
-        path = demo_path(ws, frames)
-        qs = _reachable_readings(nominal_geometry, path)
+        qs = _reachable_readings(nominal_geometry, demo_path(ws, frames))
         qs = qs[np.all(np.isfinite(qs), axis=1)]
         if len(qs) >= 2:
             true_path = RobotState.compute(true_geometry, qs, exaggerate)
@@ -1119,17 +971,15 @@ def build_scene(
             vis.set_animation(animation, play=True, repetitions=100000)
             frames_done = len(qs)
             max_path_tilt = float(true_path.plate.tilt().max())
-            extra = [f"path: tilt up to {math.degrees(max_path_tilt):.3f}\u00b0"]
-            anchor = tilt_anchor - len(tilt_lines) * 1.25 * line * camera.up
-            label_pts.append(_text_block(writer, "path", extra, anchor, camera, line))
-            points.append(true_path.tcp)
+            text = [f"path: tilt up to {math.degrees(max_path_tilt):.3f}\u00b0"]
+            label_points.append(_text_block(writer, "path", text, callout.below, layout.camera, layout.line))
 
     if camera_view is None:
-        camera_view = CameraView.framing(np.concatenate([pts, *label_pts]))
+        camera_view = CameraView.framing(np.concatenate([robot_points, *label_points]))
     _set_camera(vis, camera_view)
     return SceneSummary(
-        tilt=tilt,
-        tcp_error=tcp_error,
+        tilt=float(true_state.plate.tilt()[0]),
+        tcp_error=true_state.tcp[0] - commanded,
         exaggerate=float(exaggerate),
         arrow_scale=arrow_scale,
         max_error=max_error,
@@ -1139,6 +989,197 @@ def build_scene(
         camera=camera_view,
         paths=list(writer.paths),
     )
+
+
+def _draw_workspace(writer: _SceneWriter, ws: Workspace) -> np.ndarray:
+    """The workspace outline (top and bottom circles, four generatrices); returns its segment ends."""
+    g = writer.g
+    ang = np.linspace(0.0, 2.0 * np.pi, 73)
+    circle = np.column_stack([ws.radius * np.cos(ang), ws.radius * np.sin(ang), np.zeros_like(ang)])
+    outline = []
+    for z in (ws.top_z, ws.bottom_z):
+        c = circle + [0.0, 0.0, z]
+        outline.append(np.stack([c[:-1], c[1:]], axis=1).reshape(-1, 3))
+    for a in np.arange(4) * np.pi / 2.0:
+        p = [ws.radius * math.cos(a), ws.radius * math.sin(a)]
+        outline.append(np.array([[*p, ws.top_z], [*p, ws.bottom_z]]))
+    segments = np.concatenate(outline)
+    material = g.LineBasicMaterial(color=0x7A8A9A)
+    writer.object("workspace", g.LineSegments(g.PointsGeometry(segments.T.astype(np.float32)), material))
+    return segments
+
+
+def _draw_arrows(
+    writer: _SceneWriter, errors: ErrorField, workspace_radius: float
+) -> tuple[float, float, np.ndarray]:
+    """The error arrows, the longest about 0.4 workspace radius (a round scale).
+
+    Returns:
+        Arrow scale (drawn mm per mm of error, 0 if no error), largest error [mm], arrow tips [mm].
+    """
+    g = writer.g
+    magnitude = errors.magnitude
+    max_error = float(magnitude.max()) if len(magnitude) else 0.0
+    if max_error <= 0.0:
+        return 0.0, max_error, np.zeros((0, 3))
+    scale = nice_number(0.4 * workspace_radius / max_error)
+    radius = ARROW_RADIUS * workspace_radius
+    vectors = scale * errors.error
+    verts, cols, faces = _arrow_mesh(errors.commanded, vectors, error_colours(magnitude / max_error), radius)
+    writer.object(
+        "arrows",
+        g.TriangularMeshGeometry(verts, faces, color=cols),
+        g.MeshPhongMaterial(vertexColors=True, shininess=20),
+    )
+    return scale, max_error, errors.commanded + vectors
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where the labels go: beside the robot as a provisional camera sees it (mm, in {O})."""
+
+    camera: CameraView
+    line: float  # line height of the text
+    left: float  # extent of the robot along camera.right
+    right: float
+    top: float  # top of the robot along camera.up
+    depth: np.ndarray  # the robot's middle depth, a vector along camera.direction
+
+    @classmethod
+    def around(cls, points: np.ndarray) -> _Layout:
+        camera = CameraView.framing(points)
+        up = points @ camera.up
+        return cls(
+            camera=camera,
+            line=0.028 * float(up.max() - up.min()),
+            left=float(np.min(points @ camera.right)),
+            right=float(np.max(points @ camera.right)),
+            top=float(up.max()),
+            depth=camera.direction * float(np.mean(points @ camera.direction)),
+        )
+
+
+@dataclass(frozen=True)
+class _Callout:
+    points: np.ndarray  # corners of what was drawn, for the framing [mm]
+    below: np.ndarray  # anchor of a further line under the tilt text [mm]
+
+
+def _draw_plate_callout(
+    writer: _SceneWriter,
+    layout: _Layout,
+    true_geometry: DeltaGeometry,
+    nominal_geometry: DeltaGeometry,
+    true_state: RobotState,
+    ghost_state: RobotState,
+    exaggerate: float,
+) -> _Callout:
+    """Right of the robot: a magnified inset of both plates and, below it, the real tilt.
+
+    The inset holds the ghost plate at its origin and the true plate at its
+    offset from it, :data:`INSET_MAGNIFICATION` times larger, turned about z so
+    that the tilt is seen side-on (in the screen plane). A leader line joins
+    the tilt text to the plate.
+    """
+    g = writer.g
+    camera, line = layout.camera, layout.line
+    polygon = _plate_polygon(nominal_geometry)
+    plate_pos = true_state.plate.position[0]
+    plate_r = float(np.max(np.linalg.norm(polygon, axis=1)))
+    tcp_error = true_state.tcp[0] - ghost_state.tcp[0]
+    tilt_lines = [
+        f"plate tilt {math.degrees(float(true_state.plate.tilt()[0])):.3f}\u00b0",
+        f"(drawn \u00d7{exaggerate:g})",
+        f"TCP error {np.linalg.norm(tcp_error):.2f} mm",
+    ]
+    half_w = 0.27 * line * max(len(t) for t in tilt_lines)
+    m = INSET_MAGNIFICATION
+    normal = true_state.plate.rotation[0, :, 2]
+    turn = 0.0
+    if np.hypot(normal[0], normal[1]) > 1e-12:
+        turn = math.atan2(camera.right[1], camera.right[0]) - math.atan2(normal[1], normal[0])
+    Rz = rotation_from_vector(np.array([0.0, 0.0, turn]))
+    content = np.concatenate(
+        [
+            true_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
+            ghost_state.plate_balls[0].reshape(-1, 3) - ghost_state.plate.position[0],
+            [[0.0, 0.0, -2.5 * plate_r]],
+        ]
+    )
+    content = content @ Rz.T
+    ball_r = 15.0 * _sizes(nominal_geometry, True)[0]
+    col_half = max(half_w, m * (float(np.max(np.abs(content @ camera.right))) + ball_r))
+    col_x = (layout.right + 2.0 * line + col_half) * camera.right
+    tilt_anchor = col_x + (plate_pos @ camera.up + 1.25 * line) * camera.up + layout.depth
+    out = [_text_block(writer, "tilt", tilt_lines, tilt_anchor, camera, line)]
+    writer.plate("inset/true", true_geometry, False, polygon)
+    writer.plate("inset/nominal", nominal_geometry, True, polygon)
+    writer.inset_pose(true_state, ghost_state, 0)
+    content_top = m * float(np.max(content @ camera.up))
+    inset_origin = col_x + (layout.top - 2.0 * line - content_top) * camera.up + layout.depth
+    writer.transform("inset", _transform(Rz, inset_origin, (m, m, m)))
+    for sign in (-1.0, 1.0):
+        out.append(inset_origin + m * (content + sign * ball_r * camera.right))
+    title_at = inset_origin + (content_top + 1.5 * line) * camera.up
+    out.append(_text_block(writer, "inset", [f"plates \u00d7{m:g}, tilt side-on"], title_at, camera, line))
+    leader = np.stack(
+        [
+            plate_pos + 1.3 * plate_r * camera.right,
+            tilt_anchor - (half_w + line) * camera.right - 1.25 * line * camera.up,
+        ]
+    )
+    material = g.LineBasicMaterial(color=0x333333)
+    writer.object(
+        "labels/tilt_leader", g.LineSegments(g.PointsGeometry(leader.T.astype(np.float32)), material)
+    )
+    below = tilt_anchor - len(tilt_lines) * 1.25 * line * camera.up
+    return _Callout(np.concatenate(out), below)
+
+
+def _draw_legend(
+    writer: _SceneWriter, layout: _Layout, name: str, arrow_scale: float, max_error: float, radius: float
+) -> np.ndarray:
+    """Left of the robot: its name, the ghost, the arrows' scale and colour bar; returns corners [mm]."""
+    g = writer.g
+    camera, line = layout.camera, layout.line
+    legend = [name, "blue ghost: nominal"]
+    half = 0.27 * line * max(len(t) for t in legend)
+    if arrow_scale > 0.0:
+        legend += ["TCP error arrows", f"(true - commanded) \u00d7{arrow_scale:g}"]
+        half = max(0.27 * line * max(len(t) for t in legend), 4.5 * line + 0.27 * line * 8)
+    anchor = (layout.left - 2.0 * line - half) * camera.right + layout.top * camera.up + layout.depth
+    out = [_text_block(writer, "legend", legend, anchor, camera, line)]
+    if arrow_scale <= 0.0:
+        return np.concatenate(out)
+    # a reference arrow of a round error size
+    ref = nice_number(max_error)
+    y0 = anchor - (len(legend) + 0.6) * 1.25 * line * camera.up
+    vector = ref * arrow_scale * camera.right
+    colour = error_colours(np.array([ref / max_error]))
+    verts, cols, faces = _arrow_mesh((y0 - 0.5 * vector)[None], vector[None], colour, radius)
+    material = g.MeshPhongMaterial(vertexColors=True)
+    writer.object("labels/ref_arrow", g.TriangularMeshGeometry(verts, faces, color=cols), material)
+    below = y0 - 1.3 * line * camera.up
+    out.append(_text_block(writer, "ref", [f"{ref:g} mm"], below, camera, line))
+    # colour bar from 0 to the largest error
+    bar_y = below - 2.6 * line * camera.up
+    width, n = 9.0 * line, 12
+    for k in range(n):
+        centre = bar_y + ((k + 0.5) / n - 0.5) * width * camera.right
+        rgb = (255 * error_colours(np.array([(k + 0.5) / n]))[0]).astype(int)
+        writer.object(
+            f"labels/bar{k:02d}",
+            g.Box([width / n, 0.8 * line, 0.2 * line]),
+            g.MeshBasicMaterial(color=int(rgb[0]) << 16 | int(rgb[1]) << 8 | int(rgb[2])),
+            _transform(camera.rotation, centre),
+        )
+    ends = [bar_y - 0.5 * width * camera.right, bar_y + 0.5 * width * camera.right]
+    out.append(_text_block(writer, "bar_lo", ["0"], ends[0] - 1.3 * line * camera.up, camera, line))
+    out.append(
+        _text_block(writer, "bar_hi", [f"{max_error:.1f} mm"], ends[1] - 1.3 * line * camera.up, camera, line)
+    )
+    out.append(np.stack(ends))
+    return np.concatenate(out)
 
 
 def _set_camera(vis: Any, camera: CameraView) -> None:
@@ -1372,11 +1413,14 @@ def view_command(args: argparse.Namespace) -> int:
                 f"(drawn x{summary.exaggerate:g}), largest TCP error {summary.max_error:.3f} mm"
             )
             return 0
-        with meshcat_server() as vis:
-            build_scene(vis, nominal_geometry, true_geometry, animate=True, **options)
-            print(vis.url(), flush=True)
-            print("serving the scene; press Ctrl-C to stop", file=sys.stderr, flush=True)
-            _wait_for_interrupt()
+        try:
+            with meshcat_server() as vis:
+                build_scene(vis, nominal_geometry, true_geometry, animate=True, **options)
+                print(vis.url(), flush=True)
+                print("serving the scene; press Ctrl-C to stop", file=sys.stderr, flush=True)
+                _wait_for_interrupt()
+        except KeyboardInterrupt:  # before the scene was up; the server is stopped all the same
+            return 130
         return 0
     except (DeltacalError, ValueError, OSError) as exc:
         print(f"deltacal view: {exc}", file=sys.stderr)
