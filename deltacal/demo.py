@@ -197,7 +197,7 @@ def _plot(rows: list[dict], path: Path) -> Path | None:
         print("matplotlib is not installed (pip install 'deltacal[plot]'): no plot", file=sys.stderr)
         return None
     tools = list(dict.fromkeys(r["tool"] for r in rows))
-    labels = list(dict.fromkeys(f"{r['model']}\n{r['method']}" for r in rows))
+    labels = list(dict.fromkeys(f"{r['model'].replace(' (', chr(10) + '(')}\n{r['method']}" for r in rows))
     fig, ax = plt.subplots(figsize=(11, 4.5))
     width = 0.8 / len(tools)
     for k, tool in enumerate(tools):
