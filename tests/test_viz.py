@@ -7,6 +7,7 @@ import base64
 import math
 import os
 import re
+import select
 import signal
 import subprocess
 import sys
@@ -246,6 +247,8 @@ def test_view_command_serves_until_ctrl_c_and_stops_the_server(tmp_path):
         cwd=tmp_path,
     )
     try:
+        ready, _, _ = select.select([proc.stdout], [], [], 60.0)
+        assert ready, "the view command printed no URL within 60 s"
         url = proc.stdout.readline().strip()  # type: ignore[union-attr]
         assert url.startswith("http://127.0.0.1:"), url
         servers: set[int] = set()
