@@ -20,20 +20,21 @@ variance factor ``s0² = χ²/(m − r)`` says whether those σ were right.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import scipy.linalg
+import scipy.stats
 
 from .errormodels import ErrorModel, get_model
-from .exceptions import AssemblyError, IdentificationError
+from .exceptions import AssemblyError, ConvergenceError, GeometryError, IdentificationError
 from .geometry import DeltaGeometry
 from .identifiability import BaseParameters, base_parameters
 from .kinematics import exact
 from .observations import DISTANCE, ORIENTATION, POSITION, Measurements, Rows, build_rows
 
-#: Standardised residual above which a measurement is flagged as an outlier.
+#: Standardised residual [σ] above which a measurement is flagged as an outlier.
 OUTLIER_THRESHOLD = 4.0
 
 
@@ -115,6 +116,7 @@ class IdentificationResult:
     units: list[str]
     n_rows: int
     residual_after: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    hints: tuple[str, ...] = ()
 
     @property
     def rank(self) -> int:
@@ -155,6 +157,7 @@ class IdentificationResult:
         if absent:
             lines.append("not seen by these measurements at all (left at their start value):")
             lines.append("  " + ", ".join(self.base.names[k] for k in absent))
+        lines += [f"hint: {h}" for h in self.hints]
         lines.append("")
         lines.append("residuals             before        after")
         for key, unit, scale in (
@@ -173,7 +176,7 @@ class IdentificationResult:
         lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
         if self.outliers:
             lines.append(
-                f"outliers (standardised residual > {OUTLIER_THRESHOLD:g}): "
+                f"outliers (data snooping at {OUTLIER_THRESHOLD:g} σ): "
                 + ", ".join(f"line {n}" for n in self.outlier_lines)
             )
         else:
@@ -251,8 +254,11 @@ def identify(
         The result, holding the identified geometry.
 
     Raises:
-        IdentificationError: too few measurements, or nothing identifiable.
+        IdentificationError: too few measurements, poses too alike to identify what
+            such measurements can identify (the message says which parameters and what
+            would help), or measured positions far from any plausible robot (units, frame).
         AssemblyError: a measurement's readings cannot be assembled by the robot.
+        ConvergenceError: Gauss-Newton did not converge (with the residual reached).
     """
     error_model = get_model(model) if isinstance(model, str) else model
     if method not in ("linear", "iterated"):
@@ -270,11 +276,9 @@ def identify(
     base = base_parameters(Ww, error_model.names, rtol=rtol)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
-    if m < base.rank:
-        raise IdentificationError(
-            f"{m} equations for {base.rank} identifiable parameters of model {error_model.name}: "
-            f"at least {base.rank} are needed (more for a useful estimate)"
-        )
+    _check_plausible(start, measurements, rows)
+    hints = _check_rank(start, measurements, error_model, base, Ww, sigma_position, sigma_angle,
+                        distances, pairs, rtol)
     kept = base.base
     before = ResidualStats.from_rows(rows)
     geometry = start
@@ -295,7 +299,7 @@ def identify(
             try:
                 trial = error_model.apply(geometry, base.expand(t * step))
                 trial_rows = rows_at(trial)
-            except AssemblyError:
+            except (AssemblyError, GeometryError):
                 t *= 0.5
                 continue
             trw = trial_rows.weighted[0]
@@ -305,6 +309,12 @@ def identify(
                 break
             t *= 0.5
         if not accepted:
+            if iterations == 1:
+                raise ConvergenceError(
+                    "identification could not take a single step: every trial geometry failed to "
+                    f"assemble at the measured readings (weighted residual {math.sqrt(cost):.6g})",
+                    math.sqrt(cost),
+                )
             break
         geometry, rows, total = trial, trial_rows, total + t * step
         previous, cost = cost, trial_cost
@@ -312,6 +322,16 @@ def identify(
         small_step = np.all(np.abs(t * step) <= 1e-3 * sigma_step)
         if small_step or previous - cost <= 1e-12 * max(previous, 1.0):
             break
+    else:
+        if method == "iterated":
+            stats = ResidualStats.from_rows(rows)
+            rms = stats.distance_rms if distances else stats.position_rms
+            raise ConvergenceError(
+                f"identification did not converge in {max_iter} Gauss-Newton iterations "
+                f"(residual RMS {rms:.6g} mm, weighted residual {math.sqrt(cost):.6g}): "
+                "check the measurements for gross errors",
+                rms,
+            )
     rw, Ww = rows.weighted
     if method == "iterated":
         _, Q, Rinv = _solve_wls(Ww[:, kept], rw)
@@ -321,10 +341,7 @@ def identify(
     correlation = cov / np.outer(sigma, sigma)
     dof = max(m - base.rank, 1)
     variance_factor = float(rw @ rw) / dof
-    # standardised residuals with the leverage of each row
-    leverage = np.clip(np.sum(Q**2, axis=1), 0.0, 1.0 - 1e-12)
-    standardised = np.abs(rw) / np.sqrt(1.0 - leverage)
-    flagged = np.unique(rows.measurement[standardised > OUTLIER_THRESHOLD])
+    flagged = _outliers(Ww[:, kept], rw, rows.measurement)
     assert measurements.lines is not None
     return IdentificationResult(
         model=error_model.name,
@@ -344,7 +361,197 @@ def identify(
         units=[error_model.units[k] for k in kept],
         n_rows=m,
         residual_after=rows.residual,
+        hints=tuple(hints),
     )
+
+
+def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray) -> np.ndarray:
+    """Measurements that do not fit the others, by iterated data snooping (Baarda) on groups.
+
+    Each measurement's rows g are tested by the drop of χ² its deletion would give,
+    ``T_g = r_gᵀ (I − H_gg)⁻¹ r_g`` (H: hat matrix, so a high-leverage pose is tested
+    by what the others predict for it), against the χ² quantile of
+    :data:`OUTLIER_THRESHOLD` σ for its number of rows, scaled by ``max(1, s²)`` with
+    s the robust (median) scale of the residuals (so σ given too small does not flag
+    everything). The worst measurement is set aside and the fit redone, at most for a
+    quarter of the measurements: one gross error no longer flags the rows it drags.
+    """
+    p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
+    ids = np.unique(measurement)
+    active = np.ones(rw.size, dtype=bool)
+    flagged: list[int] = []
+    for _ in range(max(1, ids.size // 4)):
+        if np.count_nonzero(active) <= W.shape[1] + 1:
+            break
+        Q, _ = np.linalg.qr(W[active])
+        r = rw[active] - Q @ (Q.T @ rw[active])
+        leverage = np.clip(np.sum(Q**2, axis=1), 0.0, 1.0 - 1e-12)
+        scale2 = max(1.0, (1.4826 * float(np.median(np.abs(r) / np.sqrt(1.0 - leverage)))) ** 2)
+        meas = measurement[active]
+        worst, worst_ratio = -1, 1.0
+        for g in np.unique(meas):
+            rows = np.flatnonzero(meas == g)
+            Qg = Q[rows]
+            A = np.eye(rows.size) - Qg @ Qg.T
+            T = float(r[rows] @ np.linalg.lstsq(A, r[rows], rcond=1e-12)[0])
+            ratio = T / (scale2 * scipy.stats.chi2.isf(p_value, rows.size))
+            if ratio > worst_ratio:
+                worst, worst_ratio = int(g), ratio
+        if worst < 0:
+            break
+        flagged.append(worst)
+        active &= measurement != worst
+    return np.array(sorted(flagged), dtype=int)
+
+
+def _check_plausible(start: DeltaGeometry, measurements: Measurements, rows: Rows) -> None:
+    """Refuse measurements no robot near ``start`` can have produced, before fitting them.
+
+    Manufacturing errors move the measured points by similar amounts all over the
+    workspace, so at the start geometry the position errors are alike. All of them
+    large means wrong units or frame; a few far larger than the rest (three times the
+    median, ten robust deviations and 5 % of the arm length) are gross errors that a
+    least-squares fit would spread over every parameter (and hide: a lone far pose has
+    a leverage near 1).
+    """
+    arm = float(np.mean(np.linalg.norm(start.arm_ball.mean(axis=1), axis=1)))
+    position = rows.kind == POSITION
+    if np.any(position):
+        error = np.linalg.norm(rows.residual[position].reshape(-1, 3), axis=1)
+        which = rows.measurement[position][::3]
+    else:
+        error = np.abs(rows.residual[rows.kind == DISTANCE])
+        which = np.array([], dtype=int)
+    if not error.size:
+        return
+    median = float(np.median(error))
+    if median > 0.2 * arm:
+        raise IdentificationError(
+            f"the measured positions are a median {median:.4g} mm from where the nominal robot puts "
+            f"them (arms of {arm:.4g} mm): check the units (readings in degrees, positions in mm), that "
+            "positions are in the robot base frame, and the robot file"
+        )
+    spread = 1.4826 * float(np.median(np.abs(error - median)))
+    gross = error > max(3.0 * median, median + 10.0 * spread, 0.05 * arm)
+    if which.size and np.any(gross):
+        assert measurements.lines is not None
+        lines = [int(measurements.lines[k]) for k in which[gross]]
+        k = int(np.argmax(np.where(gross, error, -np.inf)))
+        raise IdentificationError(
+            f"line{'s' if len(lines) > 1 else ''} {', '.join(map(str, lines[:10]))}: the measured "
+            f"position is up to {error[k]:.4g} mm from where the nominal robot puts it at the row's "
+            f"readings, the other rows a median {median:.4g} mm: a typing error in the readings or the "
+            "position? Correct or remove the row"
+        )
+
+
+def _reference_regressor(
+    start: DeltaGeometry, measurements: Measurements, model: ErrorModel, sigma_position: float,
+    sigma_angle: float, distances: bool, pairs: str, orientation: bool = False, extra_point: bool = False,
+) -> np.ndarray | None:
+    """Weighted regressor of well-spread poses with the same kinds of measurement, or richer ones.
+
+    Readings: 30 random poses within ±15 deg of the median measured readings; at each,
+    every (point, with orientation) combination of the measurements. ``orientation``
+    adds orientations, ``extra_point`` a second point off the first. None if fewer than
+    10 of these poses assemble.
+    """
+    rng = np.random.default_rng(0)
+    q = np.median(measurements.q, axis=0) + rng.uniform(-1.0, 1.0, (30, 3)) * math.radians(15.0)
+    try:
+        exact.forward(start, q)
+    except AssemblyError as exc:
+        q = np.delete(q, exc.indices, axis=0)
+    kinds = sorted(set(zip(measurements.point, measurements.has_orientation.tolist(), strict=True)))
+    if orientation:
+        kinds = sorted({(name, True) for name, _ in kinds})
+    geometry = start
+    if extra_point:
+        plate = float(np.mean(np.linalg.norm(start.plate_ball.mean(axis=1), axis=1)))
+        offset = start.point(kinds[0][0]) + plate * np.array([1.0, 0.6, -0.5])
+        geometry = replace(start, points={**start.points, "_extra": offset})
+        kinds = kinds + [("_extra", kinds[0][1])]
+    if len(q) < 10:
+        return None
+    point = [name for _ in q for name, _ in kinds]
+    has = np.array([o for _ in q for _, o in kinds])
+    ref = Measurements(q=np.repeat(q, len(kinds), axis=0), position=np.zeros((has.size, 3)), point=point,
+                       rotation_vector=np.where(has[:, None], 0.0, np.full((has.size, 3), np.nan)))
+    try:
+        rows = build_rows(geometry, ref, model.sensitivity, sigma_position, sigma_angle,
+                          distances=distances, pairs=pairs)
+    except AssemblyError:
+        return None
+    return rows.weighted[1]
+
+
+def _separated(
+    base: BaseParameters, W: np.ndarray, richer: BaseParameters, W_richer: np.ndarray
+) -> list[str]:
+    """Parameters involved in the directions the richer regressor identifies and W does not."""
+
+    def null(A: np.ndarray, rank: int) -> np.ndarray:
+        return np.linalg.svd(A / richer.scale, full_matrices=True)[2][rank:].T
+
+    N, N_richer = null(W, base.rank), null(W_richer, richer.rank)
+    U, sv, _ = np.linalg.svd(N - N_richer @ (N_richer.T @ N), full_matrices=False)
+    lost = U[:, sv > 0.5]
+    return [base.names[k] for k in np.flatnonzero(np.max(np.abs(lost), axis=1, initial=0.0) > 0.2)]
+
+
+def _check_rank(
+    start: DeltaGeometry, measurements: Measurements, model: ErrorModel, base: BaseParameters,
+    W: np.ndarray, sigma_position: float, sigma_angle: float, distances: bool, pairs: str, rtol: float,
+) -> list[str]:
+    """Compare the rank with what well-spread poses of the same kinds give.
+
+    Raises IdentificationError if the poses are too few or too alike, naming the
+    parameters lost and how many poses are needed; returns hints on what richer
+    measurements (orientations, a second point) would identify.
+    """
+    args = (start, measurements, model, sigma_position, sigma_angle, distances, pairs)
+    W_ref = _reference_regressor(*args)
+    if W_ref is None:
+        return []
+    ref = base_parameters(W_ref, model.names, rtol=rtol)
+    M = len(measurements)
+    if base.rank < ref.rank:
+        if distances:
+            needed = ref.rank + 1 if pairs == "reference" else math.ceil(0.5 + math.sqrt(0.25 + 2 * ref.rank))
+        else:
+            needed = math.ceil(ref.rank * M / W.shape[0])
+        spread = ("poses spread over the workspace (its top and bottom layers, centre and rim, each arm "
+                  "over a wide range of angles)")
+        if M < needed:
+            raise IdentificationError(
+                f"too few measurements: {M} give {W.shape[0]} equations, but model {model.name} has "
+                f"{ref.rank} parameters identifiable from such measurements: measure at least {needed} "
+                f"poses (two to three times as many for a useful estimate), {spread}"
+            )
+        lost = _separated(base, W, ref, W_ref)
+        raise IdentificationError(
+            f"the {M} measurements identify only {base.rank} of the {ref.rank} parameters model "
+            f"{model.name} can identify from such measurements: the poses are too alike to separate "
+            f"{', '.join(lost) or 'some of them'}; {spread} would help"
+        )
+    hints = []
+    one_point = len(set(measurements.point)) == 1
+    has_orientation = bool(np.any(measurements.has_orientation))
+    richer: list[tuple[str, bool, bool]] = []
+    if not has_orientation and not distances:
+        richer.append(("orientation measurements (rx_deg, ry_deg, rz_deg)", True, False))
+    if not has_orientation and one_point:
+        richer.append(("a second point measured on the plate, off the first", False, True))
+    for label, orientation, extra_point in richer:
+        W_rich = _reference_regressor(*args, orientation=orientation, extra_point=extra_point)
+        if W_rich is None:
+            continue
+        rich = base_parameters(W_rich, model.names, rtol=rtol)
+        if rich.rank > ref.rank:
+            gained = _separated(ref, W_ref, rich, W_rich)
+            hints.append(f"{label} would identify {rich.rank - ref.rank} more base parameter(s), "
+                         f"separating {', '.join(gained)}")
+    return hints
 
 
 def predict_measurements(geometry: DeltaGeometry, q: np.ndarray, point: str = "tcp") -> np.ndarray:
