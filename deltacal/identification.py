@@ -520,8 +520,7 @@ def _check_rank(
             needed = ref.rank + 1 if pairs == "reference" else math.ceil(0.5 + math.sqrt(0.25 + 2 * ref.rank))
         else:
             needed = math.ceil(ref.rank * M / W.shape[0])
-        spread = ("poses spread over the workspace (its top and bottom layers, centre and rim, each arm "
-                  "over a wide range of angles)")
+        spread = _spread_advice(start, measurements)
         if M < needed:
             raise IdentificationError(
                 f"too few measurements: {M} give {W.shape[0]} equations, but model {model.name} has "
@@ -532,7 +531,7 @@ def _check_rank(
         raise IdentificationError(
             f"the {M} measurements identify only {base.rank} of the {ref.rank} parameters model "
             f"{model.name} can identify from such measurements: the poses are too alike to separate "
-            f"{', '.join(lost) or 'some of them'}; {spread} would help"
+            f"{_names_text(lost)}; {spread} would help"
         )
     hints = []
     one_point = len(set(measurements.point)) == 1
@@ -550,8 +549,30 @@ def _check_rank(
         if rich.rank > ref.rank:
             gained = _separated(ref, W_ref, rich, W_rich)
             hints.append(f"{label} would identify {rich.rank - ref.rank} more base parameter(s), "
-                         f"separating {', '.join(gained)}")
+                         f"separating {_names_text(gained)}")
     return hints
+
+
+def _names_text(names: list[str], limit: int = 12) -> str:
+    if not names:
+        return "some of them"
+    return ", ".join(names[:limit]) + (f" and {len(names) - limit} more" if len(names) > limit else "")
+
+
+def _spread_advice(start: DeltaGeometry, measurements: Measurements) -> str:
+    """Which poses would help, from where the measured ones are."""
+    size = float(np.mean(start.rod_length))
+    z_span = float(np.ptp(measurements.position[:, 2]))
+    radius = float(np.max(np.linalg.norm(measurements.position[:, :2], axis=1)))
+    where = []
+    if z_span < 0.05 * size:
+        where.append(f"on the workspace's top and bottom layers (these span only {z_span:.3g} mm in z)")
+    if radius < 0.05 * size:
+        where.append(f"on the workspace's rim (these stay within {radius:.3g} mm of the axis)")
+    if not where:
+        return ("poses spread over the whole workspace (its top and bottom layers, centre and rim, each "
+                "arm over a wide range of angles)")
+    return "poses " + " and ".join(where)
 
 
 def predict_measurements(geometry: DeltaGeometry, q: np.ndarray, point: str = "tcp") -> np.ndarray:
