@@ -706,11 +706,15 @@ def read_csv_table(
     numeric = np.column_stack([arrays[c] for c in arrays]) if arrays else np.zeros((len(lines), 0))
     keys = [tuple(np.round(numeric[k], 12)) + tuple(texts[c][k] for c in texts) for k in range(len(lines))]
     first: dict[tuple, int] = {}
+    repeats = []
     for k, key in enumerate(keys):
         if key in first:
-            warnings.append(f"{source}: line {line_arr[k]} repeats line {line_arr[first[key]]}")
+            repeats.append(f"line {line_arr[k]} repeats line {line_arr[first[key]]}")
         else:
             first[key] = k
+    if repeats:
+        more = f" and {len(repeats) - 5} more" if len(repeats) > 5 else ""
+        warnings.append(f"{source}: {len(repeats)} duplicate row(s): {'; '.join(repeats[:5])}{more}")
     return CsvTable(arrays, texts, line_arr, warnings)
 
 
