@@ -134,6 +134,7 @@ def identifiability(nominal: NominalDelta, n: int) -> dict[str, object]:
     H18 = identification_matrix(geometry, m18, q, "distance", [POINT])
     H36 = identification_matrix(geometry, m36, q, "distance", two)
     H36_one = identification_matrix(geometry, m36, q, "distance", [POINT])
+    H36_centre = identification_matrix(geometry, m36, q, "distance", ["tcp"])
     b18 = base_parameters(H18, m18.names)
     b36 = base_parameters(H36, m36.names)
     b36_one = base_parameters(H36_one, m36.names)
@@ -163,6 +164,7 @@ def identifiability(nominal: NominalDelta, n: int) -> dict[str, object]:
         "rank_model18": b18.rank,
         "rank_model36": b36.rank,
         "rank_model36_one_reflector": b36_one.rank,
+        "rank_model36_plate_centre": base_parameters(H36_centre, m36.names).rank,
         "unidentifiable_model36": b36.unidentifiable_names,
         "bai_choice": list(MODEL32_REMOVED),
         "bai_choice_valid": bool(b36_bai.unidentifiable_names == sorted(MODEL32_REMOVED, key=names.index)),
@@ -491,7 +493,6 @@ def simulate_calibration(
             "iterations": res.iterations,
             "seconds": seconds,
             "distances": res.n_rows,
-            "encoder_offsets_deg": _bai_deg(res.geometry.encoder_offset),
             "residual_rms_mm": res.after.distance_rms,
         }
 
@@ -590,7 +591,8 @@ def format_report(s: dict) -> str:
         f"Identifiability (distances, Bai poses n = {ident['n']}):",
         f"  rank model 18 (one reflector):  {s['rank_model18']}  (paper {p['rank_model18']})",
         f"  rank model 36 (two reflectors): {s['rank_model36']}  (paper {p['rank_model36']}); "
-        f"one reflector: {ident['rank_model36_one_reflector']}",
+        f"one reflector: {ident['rank_model36_one_reflector']}, plate centre alone: "
+        f"{ident['rank_model36_plate_centre']}",
         f"  unidentifiable (pivoted QR): {', '.join(s['unidentifiable_model36'])}",
         f"  Bai's choice {', '.join(ident['bai_choice'])}: "
         f"{'valid' if ident['bai_choice_valid'] else 'NOT valid'} (same 4-dim null space)",
