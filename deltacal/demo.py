@@ -46,13 +46,14 @@ class _Progress:
         print(f"[{time.perf_counter() - self.start:5.1f} s] {text}", file=sys.stderr, flush=True)
 
 
-def run_demo(out_dir: Path = Path("results"), seed: int = 2015, quick: bool = False) -> dict:
+def run_demo(out_dir: Path = Path("results"), seed: int = 2015, quick: bool = False, views: bool = True) -> dict:
     """Run the demo, print the comparison table and write the results.
 
     Args:
         out_dir: Folder for demo.json, demo_errors.png, demo.html, demo.png (created if needed).
         seed: Seed of the true robot, the poses and the measurement noise.
         quick: Fewer poses (30 instead of 60) for a fast check.
+        views: Write the meshcat scene (and its screenshot) too.
 
     Returns:
         The results written to demo.json.
@@ -139,7 +140,8 @@ def run_demo(out_dir: Path = Path("results"), seed: int = 2015, quick: bool = Fa
     plot = _plot(rows, out_dir / "demo_errors.png")
     if plot is not None:
         written.append(plot)
-    written += _views(start, truth, nominal, out_dir, progress)
+    if views:
+        written += _views(start, truth, nominal, out_dir, progress)
     progress.step("wrote " + ", ".join(str(p) for p in written))
     return summary
 

@@ -116,9 +116,10 @@ def base_parameters(
         names: The n parameter names.
         rtol: Rank tolerance relative to the largest pivot |R_00| (columns scaled to
             unit norm first, so that units do not decide the rank).
-        prefer: Optional preference order of parameter names: when parameters are
-            regrouped, the earliest in this list is kept (unpivoted QR of the columns
-            in this order). Without it, pivoted QR keeps the best-conditioned ones.
+        prefer: Optional preference order of parameter names: the rank comes from the
+            pivoted QR as always, but when parameters are regrouped the earliest in this
+            list is kept (Gram-Schmidt of the columns in this order). Without it, the
+            pivoted QR's choice is kept (the best-conditioned columns).
 
     Returns:
         The base parameters.
@@ -130,34 +131,30 @@ def base_parameters(
     scale = np.linalg.norm(W, axis=0)
     scale = np.where(scale > 0.0, scale, 1.0)
     Ws = W / scale
+    _, R, perm = scipy.linalg.qr(Ws, mode="economic", pivoting=True)
+    diag = np.abs(np.diag(R))
+    top = diag[0] if diag.size else 0.0
+    rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
+    pivots = diag
     if prefer is None:
-        _, R, perm = scipy.linalg.qr(Ws, mode="economic", pivoting=True)
-        diag = np.abs(np.diag(R))
-        top = diag[0] if diag.size else 0.0
-        rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
-        kept = list(perm[:rank])
-        dropped = list(perm[rank:])
-        pivots = diag
+        kept = [int(k) for k in perm[:rank]]
+        dropped = [int(k) for k in perm[rank:]]
     else:
-        order = [names.index(p) for p in prefer if p in names]
+        # same rank; the kept columns chosen in the preferred order (Gram-Schmidt, twice)
+        order = [list(names).index(p) for p in prefer if p in names]
         order += [k for k in range(n) if k not in order]
         kept, dropped = [], []
-        top = np.max(np.linalg.norm(Ws, axis=0)) if n else 0.0
         basis = np.zeros((m, 0))
-        piv = []
         for k in order:
             col = Ws[:, k]
             resid = col - basis @ (basis.T @ col)
             resid = resid - basis @ (basis.T @ resid)
             norm = float(np.linalg.norm(resid))
-            if norm > rtol * max(top, 1e-300):
+            if len(kept) < rank and norm > rtol * max(top, 1e-300):
                 kept.append(k)
                 basis = np.column_stack([basis, resid / norm])
-                piv.append(norm)
             else:
                 dropped.append(k)
-        rank = len(kept)
-        pivots = np.array(piv)
     regrouping = np.zeros((rank, n))
     if rank:
         W1 = Ws[:, kept]

@@ -273,7 +273,7 @@ def identify(
     rows = rows_at(start)
     m = rows.residual.size
     rw, Ww = rows.weighted
-    base = base_parameters(Ww, error_model.names, rtol=rtol)
+    base = base_parameters(Ww, error_model.names, rtol=rtol, prefer=error_model.preferred)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
     _check_plausible(start, measurements, rows)

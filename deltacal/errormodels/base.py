@@ -185,6 +185,8 @@ class ErrorModel(ABC):
     name: str = ""
     #: Whether the model moves the plate orientation (False: perfect parallelograms).
     tilts_plate: bool = True
+    #: Preference order of the parameters kept when some must be regrouped (None: pivoted QR's).
+    preferred: list[str] | None = None
 
     @property
     @abstractmethod
@@ -242,6 +244,7 @@ class SubModel(ErrorModel):
         self._index = [parent.names.index(k) for k in keep]
         self.name = name
         self.tilts_plate = parent.tilts_plate
+        self.preferred = parent.preferred
 
     @property
     def names(self) -> list[str]:

@@ -68,6 +68,14 @@ class CompleteModel(ErrorModel):
                 M[actuator_rotation_index(i, k), col] = 1.0
                 col += 1
         self._moves = M
+        # keep physical meaning in the regroupings: actuator rotations (the encoder offset above
+        # all), then rod lengths, plate balls and arm balls
+        self.preferred = (
+            [f"beta{i}{a}" for a in "trz" for i in range(1, 4)]
+            + [f"l{i}{j}" for i in range(1, 4) for j in (1, 2)]
+            + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
+            + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
+        )
 
     @property
     def names(self) -> list[str]:
