@@ -578,8 +578,8 @@ class DeltaGeometry:
         arm_pair = np.einsum("ikl,il->ik", R0, self.arm_ball[:, 0] - self.arm_ball[:, 1])
         plate_pair = self.plate_ball[:, 0] - self.plate_ball[:, 1]
         return bool(
-            np.allclose(arm_pair, plate_pair, atol=atol)
-            and np.allclose(self.rod_length[:, 0], self.rod_length[:, 1], atol=atol)
+            np.allclose(arm_pair, plate_pair, rtol=0.0, atol=atol)
+            and np.allclose(self.rod_length[:, 0], self.rod_length[:, 1], rtol=0.0, atol=atol)
         )
 
     def allclose(self, other: DeltaGeometry, atol: float = 0.0) -> bool:

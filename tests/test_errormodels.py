@@ -147,23 +147,12 @@ def test_classical_keeps_the_plate_parallel(bai):
     assert np.max(exact.forward(tilted, q).tilt()) < 2.0 * bound / bai.rod_spacing
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="geometry.py DeltaGeometry.is_perfect uses np.allclose with its default rtol=1e-5, so "
-    "atol does not bound the mismatch: rods 950 mm long may differ by 9.5 µm and pass atol=1e-12",
-)
 def test_is_perfect_honours_atol(bai):
     g = bai.geometry().with_errors({"limb1.rod1.length": 0.005})
     assert _parallelogram_mismatch(g) == pytest.approx(0.005)
     assert not g.is_perfect(atol=1e-9)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="errormodels/base.py apply_elementary turns the actuator by exp(tilt + offset) as one "
-    "rotation vector: the axis tilts about a direction turned by half the encoder offset while "
-    "classical.position_moves turns the plate pair about the intended axis",
-)
 def test_classical_apply_with_offset_and_tilt_keeps_parallelograms(bai):
     model = ClassicalModel()
     dk = np.zeros(24)
@@ -232,11 +221,6 @@ def test_bai42_rows_are_bai_eq_8_9_except_dltilde(bai):
         assert_allclose(S[k, 3:, 24:][:, keep], C_e[:, keep], rtol=0, atol=1e-12 * np.max(np.abs(C_e)))
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="errormodels/bai.py: dltilde{i}_c is (l_i1 - l_i2)/c in this project's rod numbering "
-    "(rod 1 on +t_i) but Bai's rod 1 is on +w0 = -t_i, so Bai's Δl̃_i = l_i2 - l_i1: opposite sign",
-)
 def test_bai42_dltilde_is_bai_eq_9(bai):
     x, q = _bai_poses(bai)
     model = get_model("bai42")

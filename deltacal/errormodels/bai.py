@@ -99,8 +99,9 @@ class BaiModel(ErrorModel):
                 c = f["spacing"][i]
                 x0, z0 = f["R0"][i][:, 0], f["R0"][i][:, 2]
                 block = np.zeros((N_ELEMENTARY, 6))
-                block[rod_index(i, 0), 0] = 0.5 * c
-                block[rod_index(i, 1), 0] = -0.5 * c
+                # Bai's rod 1 sits at +c/2 w0 = -t_i: this project's rod 2 (rod 1 is on +t_i)
+                block[rod_index(i, 1), 0] = 0.5 * c
+                block[rod_index(i, 0), 0] = -0.5 * c
                 unit = f["arm_half"][i] / np.linalg.norm(f["arm_half"][i])
                 for k in range(3):
                     block[arm_ball_index(i, 0, k), 1] = 0.5 * c * unit[k]

@@ -153,7 +153,11 @@ def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
     encoder_offset = np.array(geometry.encoder_offset)
     if np.any(rot):
         R0 = geometry.actuator_rotation()
-        omega = np.einsum("ikl,il->ik", R0, rot)  # in the base frame
+        # tilts (about x0 and z0) turn the actuator frame rigidly; the w component is then a
+        # change of encoder offset about the new axis (applying both as one rotation vector
+        # would tilt the axis about a direction turned by half the offset)
+        tilt = rot * np.array([1.0, 0.0, 1.0])
+        omega = np.einsum("ikl,il->ik", R0, tilt)  # in the base frame
         R0_new = rotation_from_vector(omega) @ R0
         axis_direction = R0_new[:, :, 1] / np.linalg.norm(R0_new[:, :, 1], axis=1, keepdims=True)
         moved = replace(geometry, axis_direction=axis_direction)
@@ -161,7 +165,7 @@ def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
         # the zero direction the geometry derives differs from the rigidly turned one by a
         # rotation about the new axis: fold it into the encoder offset
         rel = np.einsum("ilk,ilm->ikm", R0_derived, R0_new)  # R0_derived^T R0_new, a rotation about y
-        encoder_offset = encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0])
+        encoder_offset = encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]) + rot[:, 1]
     return replace(
         geometry,
         plate_ball=plate_ball,
