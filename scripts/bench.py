@@ -13,6 +13,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -20,10 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from deltacal.geometry import DeltaGeometry, NominalDelta, Tolerances
+from deltacal.compensation import compensate, linear_calibration_from_result
+from deltacal.geometry import DeltaGeometry, NominalDelta, Tolerances, vector_from_rotation
+from deltacal.identification import identify
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
+from deltacal.observations import Measurements
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "results"
@@ -129,9 +136,84 @@ def bench_exact_batch(setup: Setup, n: int = 10_000) -> list[Row]:
     ]
 
 
+def _calibration_measurements(
+    setup: Setup, n: int, rng: np.random.Generator
+) -> tuple[DeltaGeometry, Measurements]:
+    """The nominal robot (tool 180 mm below the plate) and n pose measurements of the real one.
+
+    Exact kinematics of the perturbed robot, noise sigma 5 um and 0.003 deg.
+    """
+    tool = np.array([0.0, 0.0, -180.0])
+    start = setup.nominal.geometry().with_tool(tool)
+    truth = setup.geometry.with_tool(tool)
+    plate = setup.workspace_points(n, rng) - setup.nominal.tool
+    q = VirtualDelta.from_nominal(setup.nominal).inverse(plate)
+    pose = exact.forward(truth, q)
+    position = pose.point(truth.tool) + rng.normal(0.0, 0.005, (n, 3))
+    rotation = vector_from_rotation(pose.rotation) + rng.normal(0.0, np.radians(0.003), (n, 3))
+    return start, Measurements(q, position, rotation_vector=rotation)
+
+
+def bench_identification(setup: Setup, n: int = 100) -> list[Row]:
+    """Complete model (51 parameters) from 100 pose measurements, linear and iterated."""
+    start, meas = _calibration_measurements(setup, n, setup.rng())
+    t_linear = median_time(lambda: identify(start, meas, "complete", "linear"), setup.repeat)
+    t_iterated = median_time(lambda: identify(start, meas, "complete", "iterated"), setup.repeat)
+    iterations = identify(start, meas, "complete", "iterated").iterations
+    return [
+        Row("identify_complete_linear", 1e3 * t_linear, "ms", "<= 20"),
+        Row("identify_complete_iterated", 1e3 * t_iterated, "ms", "<= 300"),
+        Row("identify_complete_iterations", iterations, "Gauss-Newton steps"),
+    ]
+
+
+def bench_compensation(setup: Setup, n: int = 100_000) -> list[Row]:
+    """Compensation of 100,000 workspace targets: exact (Newton) and linear (Savoure Eq. 29-33)."""
+    rng = setup.rng()
+    start, meas = _calibration_measurements(setup, 60, rng)
+    result = identify(start, meas, "complete")
+    linear = linear_calibration_from_result(result)
+    targets = setup.workspace_points(n, rng) + (start.tool - setup.nominal.tool)
+    repeat = max(1, min(setup.repeat, 3))
+    t_exact = median_time(lambda: compensate(result.geometry, targets, "exact"), repeat)
+    t_linear = median_time(lambda: compensate(result.geometry, targets, "savoure", linear), repeat)
+    return [
+        Row("compensate_exact", n / t_exact, "targets/s", ">= 20000"),
+        Row("compensate_savoure", n / t_linear, "targets/s", ">= 200000"),
+    ]
+
+
+def bench_cli_compensate(setup: Setup, n: int = 100_000) -> list[Row]:
+    """The whole ``deltacal compensate CAL TARGETS -o JOINTS`` of 100,000 targets, CSV in and out.
+
+    Run as a subprocess: start-up, reading, compensation and writing.
+    """
+    rng = setup.rng()
+    start, meas = _calibration_measurements(setup, 60, rng)
+    targets = setup.workspace_points(n, rng) + (start.tool - setup.nominal.tool)
+    exe = shutil.which("deltacal")
+    command = [exe] if exe else [sys.executable, "-m", "deltacal.cli"]
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        identify(start, meas, "complete").save(folder / "cal.toml")
+        lines = ["x_mm,y_mm,z_mm"] + [f"{x:.6f},{y:.6f},{z:.6f}" for x, y, z in targets]
+        (folder / "targets.csv").write_text("\n".join(lines) + "\n")
+        args = command + ["compensate", str(folder / "cal.toml"), str(folder / "targets.csv"),
+                          "-o", str(folder / "joints.csv")]
+
+        def run() -> None:
+            subprocess.run(args, check=True, capture_output=True)
+
+        t_cli = median_time(run, max(1, min(setup.repeat, 3)))
+    return [Row("cli_compensate_100k", t_cli, "s", "<= 10")]
+
+
 BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_pinocchio_forward,
     bench_exact_batch,
+    bench_identification,
+    bench_compensation,
+    bench_cli_compensate,
 ]
 
 
