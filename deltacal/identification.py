@@ -341,7 +341,7 @@ def identify(
     correlation = cov / np.outer(sigma, sigma)
     dof = max(m - base.rank, 1)
     variance_factor = float(rw @ rw) / dof
-    flagged = _outliers(Ww[:, kept], rw, rows.measurement)
+    flagged = _outliers(Ww[:, kept], rw, rows.measurement, rows.kind)
     assert measurements.lines is not None
     return IdentificationResult(
         model=error_model.name,
@@ -365,16 +365,17 @@ def identify(
     )
 
 
-def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray) -> np.ndarray:
+def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray, kind: np.ndarray) -> np.ndarray:
     """Measurements that do not fit the others, by iterated data snooping (Baarda) on groups.
 
     Each measurement's rows g are tested by the drop of χ² its deletion would give,
     ``T_g = r_gᵀ (I − H_gg)⁻¹ r_g`` (H: hat matrix, so a high-leverage pose is tested
     by what the others predict for it), against the χ² quantile of
-    :data:`OUTLIER_THRESHOLD` σ for its number of rows, scaled by ``max(1, s²)`` with
-    s the robust (median) scale of the residuals (so σ given too small does not flag
-    everything). The worst measurement is set aside and the fit redone, at most for a
-    quarter of the measurements: one gross error no longer flags the rows it drags.
+    :data:`OUTLIER_THRESHOLD` σ for its number of rows, each row's residual divided by
+    ``max(1, s)``, s the robust (median) scale of the residuals of its kind (so σ given
+    too small, or a model blind to the orientations, does not flag everything). The
+    worst measurement is set aside and the fit redone, at most for a quarter of the
+    measurements: one gross error no longer flags the rows it drags.
     """
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
     ids = np.unique(measurement)
@@ -386,7 +387,10 @@ def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray) -> np.ndar
         Q, _ = np.linalg.qr(W[active])
         r = rw[active] - Q @ (Q.T @ rw[active])
         leverage = np.clip(np.sum(Q**2, axis=1), 0.0, 1.0 - 1e-12)
-        scale2 = max(1.0, (1.4826 * float(np.median(np.abs(r) / np.sqrt(1.0 - leverage)))) ** 2)
+        standardised = np.abs(r) / np.sqrt(1.0 - leverage)
+        for k in np.unique(kind):
+            of_kind = kind[active] == k
+            r[of_kind] /= max(1.0, 1.4826 * float(np.median(standardised[of_kind])))
         meas = measurement[active]
         worst, worst_ratio = -1, 1.0
         for g in np.unique(meas):
@@ -394,7 +398,7 @@ def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray) -> np.ndar
             Qg = Q[rows]
             A = np.eye(rows.size) - Qg @ Qg.T
             T = float(r[rows] @ np.linalg.lstsq(A, r[rows], rcond=1e-12)[0])
-            ratio = T / (scale2 * scipy.stats.chi2.isf(p_value, rows.size))
+            ratio = T / scipy.stats.chi2.isf(p_value, rows.size)
             if ratio > worst_ratio:
                 worst, worst_ratio = int(g), ratio
         if worst < 0:
