@@ -30,7 +30,14 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .exceptions import AssemblyError, DeltacalError, IdentificationError, InputError, UnreachableError
+from .exceptions import (
+    AssemblyError,
+    ConvergenceError,
+    DeltacalError,
+    IdentificationError,
+    InputError,
+    UnreachableError,
+)
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
@@ -127,6 +134,8 @@ def _identify(args: argparse.Namespace) -> int:
         ) from exc
     except IdentificationError as exc:
         raise IdentificationError(f"{args.measurements}: {exc}") from exc
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
     print(result.report())
     if result.outlier_lines:
         _warn([f"{args.measurements}: line(s) {_lines_text(result.outlier_lines)} look like outliers "

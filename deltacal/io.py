@@ -206,10 +206,17 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError("file is empty", str(path))
     try:
         return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
-    except UnicodeDecodeError:
-        raise InputError("file is not UTF-8 text", str(path)) from None
+    except UnicodeDecodeError as exc:
+        raise _not_utf8(raw, exc, str(path)) from None
     except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer too long to read
         raise InputError(f"not valid TOML ({exc})", str(path)) from None
+
+
+def _not_utf8(raw: bytes, exc: UnicodeDecodeError, source: str) -> InputError:
+    """The error for a file that is not UTF-8, naming the line and the first bad byte."""
+    line = raw[: exc.start].count(b"\n") + 1
+    hint = " (UTF-16? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+    return InputError(f"file is not UTF-8 text: byte 0x{raw[exc.start]:02x}{hint}", source, f"line {line}")
 
 
 class _Table:
@@ -243,7 +250,7 @@ class _Table:
             return None
         value = self.raw(name)
         if not isinstance(value, Mapping):
-            raise self.error(name, f"must be a table, got {value!r}")
+            raise self.error(name, f"must be a table, got {_shown(value)}")
         return _Table(value, self.source, f"{self.key(name)}.")
 
     def string(self, name: str, default: str | None = None) -> str:
@@ -251,7 +258,7 @@ class _Table:
             return default
         value = self.raw(name)
         if not isinstance(value, str):
-            raise self.error(name, f"must be a string, got {value!r}")
+            raise self.error(name, f"must be a string, got {_shown(value)}")
         return value
 
     def number(self, name: str, positive: bool = False) -> float:
@@ -610,8 +617,8 @@ def read_csv_table(
         raise InputError(f"cannot read file ({exc.strerror})", source) from None
     try:
         text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError("file is not UTF-8 text", source) from None
+    except UnicodeDecodeError as exc:
+        raise _not_utf8(raw, exc, source) from None
     if "\x00" in text:
         raise InputError("file holds NUL bytes: a binary or UTF-16 file? deltacal reads UTF-8 CSV",
                          source)

@@ -166,14 +166,20 @@ def test_bad_measurements_name_file_line_column_value(data, capsys, tmp_path, ed
     assert not out.exists()
 
 
-def test_binary_and_utf16_files(data, capsys, tmp_path):
-    for name, content in (("bin.csv", b"\x00\x01\x02garbage\xff"),
-                          ("utf16.csv", data["meas"].read_text().encode("utf-16"))):
+def test_binary_latin1_and_utf16_files(data, capsys, tmp_path):
+    cases = (
+        ("bin.csv", b"\x00\x01\x02garbage", "file holds NUL bytes"),
+        ("latin1.csv", data["meas"].read_bytes().replace(b"tcp", "tcp\u00b0".encode("latin-1"), 3),
+         "line 2: file is not UTF-8 text: byte 0xb0"),
+        ("utf16.csv", data["meas"].read_text().encode("utf-16"), "line 1: file is not UTF-8 text: byte 0xff "
+                                                                 "(UTF-16? save it as UTF-8)"),
+    )
+    for name, content, piece in cases:
         bad = tmp_path / name
         bad.write_bytes(content)
         code, _, err = run(capsys, "identify", NOMINAL, bad, "-o", tmp_path / "cal.toml")
         assert code == 1
-        assert str(bad) in error_line(err)
+        assert f"{bad}: {piece}" in error_line(err)
 
 
 def test_radians_in_a_degree_column_warn_then_fail_as_implausible(data, capsys, tmp_path):
