@@ -51,6 +51,31 @@ class LinearCalibration:
     deviation: np.ndarray
 
 
+def _arm_terms(geometry: DeltaGeometry, local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Constants (K1, K2, K3), each (3, k, 3), with ``R0_i Ry(θ_i) local_ik = cos θ_i K1 + sin θ_i K2 + K3``.
+
+    The arm-frame vectors ``local`` (3, k, 3) turned into the base frame at any true angle
+    θ, without forming the (N, 3, 3, 3) arm rotations (memory-bound for many readings).
+    """
+    R0 = geometry.actuator_rotation()
+    x0, w, z0 = R0[:, None, :, 0], R0[:, None, :, 1], R0[:, None, :, 2]
+    lx, ly, lz = local[..., 0, None], local[..., 1, None], local[..., 2, None]
+    return lx * x0 + lz * z0, lz * x0 - lx * z0, ly * w
+
+
+def _turned_by_arms(geometry: DeltaGeometry, q: np.ndarray, local: np.ndarray) -> np.ndarray:
+    """Arm-frame vectors ``local`` (3, k, 3) in the base frame at readings q (N, 3): (N, 3, k, 3).
+
+    The same as ``geometry.arm_rotation(q) @ local``.
+    """
+    K1, K2, K3 = _arm_terms(geometry, local)
+    theta = (q + geometry.encoder_offset)[:, :, None, None]
+    out = np.cos(theta) * K1
+    out += np.sin(theta) * K2
+    out += K3
+    return out
+
+
 def predicted_plate_displacement(calibration: LinearCalibration, q: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``δX = S(q) δk`` around the nominal geometry at readings q, plate at x, (N, 6).
 
@@ -60,24 +85,47 @@ def predicted_plate_displacement(calibration: LinearCalibration, q: np.ndarray, 
     g = calibration.nominal
     e = calibration.model.moves(g) @ calibration.deviation
     N = q.shape[0]
-    R_arm = g.arm_rotation(q)  # (N, 3, 3, 3)
-    A = g.axis_point[None, :, None, :] + np.einsum("nikl,ijl->nijk", R_arm, g.arm_ball)
-    B = x[:, None, None, :] + g.plate_ball[None]  # nominal plate parallel to the base
-    d = B - A
-    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    theta = q + g.encoder_offset
+    cos, sin = np.cos(theta)[:, :, None], np.sin(theta)[:, :, None]
+    lever = _turned_by_arms(g, q, g.arm_ball)  # arm balls relative to the axis points, (N, 3, 2, 3)
+    d = x[:, None, None, :] + g.plate_ball[None] - g.axis_point[:, None, :] - lever  # plate parallel
+    n = d / np.sqrt(np.einsum("nijk,nijk->nij", d, d))[..., None]
+    # move of the arm balls: dA = R_arm δa + δp + ω × (R_arm a), also cos θ M1 + sin θ M2 + M3
+    omega = np.einsum("ikl,il->ik", g.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))[:, None, :]
+    K = _arm_terms(g, g.arm_ball)
+    D = _arm_terms(g, e[ARM_BALLS].reshape(3, 2, 3))
+    M1 = D[0] + np.cross(omega, K[0])
+    M2 = D[1] + np.cross(omega, K[1])
+    M3 = D[2] + np.cross(omega, K[2]) + e[AXIS_POINTS].reshape(3, 1, 3)
     dB = e[PLATE_BALLS].reshape(3, 2, 3)
-    dA_arm = np.einsum("nikl,ijl->nijk", R_arm, e[ARM_BALLS].reshape(3, 2, 3))
-    omega = np.einsum("ikl,il->ik", g.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))
-    lever = A - g.axis_point[None, :, None, :]
-    dA = dA_arm + e[AXIS_POINTS].reshape(3, 3)[None, :, None, :] + np.cross(omega[None, :, None, :], lever)
-    Jk_e = np.sum(n * (dB[None] - dA), axis=-1) - e[RODS].reshape(3, 2)[None]
-    RB = np.broadcast_to(g.plate_ball.reshape(1, 6, 3), (N, 6, 3))
+    Jk_e = (
+        np.einsum("nijk,ijk->nij", n, dB - M3)
+        - cos * np.einsum("nijk,ijk->nij", n, M1)
+        - sin * np.einsum("nijk,ijk->nij", n, M2)
+        - e[RODS].reshape(3, 2)
+    )
     nn = n.reshape(N, 6, 3)
-    JX = np.concatenate([nn, np.cross(RB, nn)], axis=2)
+    JX = np.concatenate([nn, np.cross(g.plate_ball.reshape(6, 3), nn)], axis=2)
     return -np.linalg.solve(JX, Jk_e.reshape(N, 6, 1))[..., 0]
 
 
-def compensate_linear(calibration: LinearCalibration, targets: np.ndarray, method: str = "savoure") -> np.ndarray:
+def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """J_S^m of the virtual model (Savoure Eq. 32) at readings q with the plate at x, (N, 3, 3).
+
+    :meth:`VirtualDelta.inverse_jacobian` with the plate position given instead of
+    recomputed by the forward kinematics: rows ``n_i / (n_i · dE_i/dq_i)`` with the
+    virtual rods ``n_i = x + a_i − E_i``.
+    """
+    elbow = geometry.arm_ball.mean(axis=1)
+    lever = _turned_by_arms(geometry, q, elbow[:, None, :])[:, :, 0]  # E_i - P_i, (N, 3, 3)
+    n = x[:, None, :] + geometry.plate_ball.mean(axis=1) - geometry.axis_point - lever
+    dE = np.cross(geometry.actuator_rotation()[:, :, 1], lever)
+    return n / np.einsum("nik,nik->ni", n, dE)[..., None]
+
+
+def compensate_linear(
+    calibration: LinearCalibration, targets: np.ndarray, method: str = "savoure"
+) -> np.ndarray:
     """Readings from a linear compensator (``"savoure"`` Eq. 29-33 or ``"bai"`` Eq. 22-25).
 
     Args:
@@ -99,7 +147,7 @@ def compensate_linear(calibration: LinearCalibration, targets: np.ndarray, metho
         dx = dx + np.cross(dX[:, 3:], g.tool[None])  # Eq. 31: the TCP's displacement
     elif method != "bai":
         raise ValueError(f"method must be 'savoure' or 'bai', got {method!r}")
-    dq = np.einsum("nkl,nl->nk", virtual.inverse_jacobian(q), dx)  # Eq. 32
+    dq = np.einsum("nkl,nl->nk", _inverse_jacobian(g, q, x), dx)  # Eq. 32
     return q - dq  # Eq. 33
 
 
