@@ -55,9 +55,15 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
 
 
+def _one_line(text: str) -> str:
+    """Text made one printable line: newlines become spaces, other control characters escapes."""
+    text = text.replace("\r\n", " ").replace("\n", " ")
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
 def _warn(lines: Sequence[str]) -> None:
     for line in lines:
-        print(f"warning: {line}", file=sys.stderr)
+        print(_one_line(f"warning: {line}"), file=sys.stderr)
 
 
 def _positive(text: str) -> float:
@@ -259,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings from the library on one line each, without the source location."""
-    print(f"warning: {message}".replace("\n", " "), file=sys.stderr)
+    print(_one_line(f"warning: {message}"), file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -282,16 +288,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (DeltacalError, ValueError, OSError) as exc:
             if args.debug:
                 raise
-            message = str(exc).replace("\n", " ")
+            message = str(exc)
             if isinstance(exc, OSError) and not isinstance(exc, DeltacalError):
                 message = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
-            print(f"deltacal {args.command}: error: {message}", file=sys.stderr)
+            print(_one_line(f"deltacal {args.command}: error: {message}"), file=sys.stderr)
             return EXIT_USAGE if isinstance(exc, UsageError) else EXIT_DATA
         except Exception as exc:
             if args.debug:
                 raise
-            print(f"deltacal {args.command}: internal error: {type(exc).__name__}: {exc} "
-                  "(a bug: please report it with the output of --debug)".replace("\n", " "), file=sys.stderr)
+            print(_one_line(f"deltacal {args.command}: internal error: {type(exc).__name__}: {exc} "
+                            "(a bug: please report it with the output of --debug)"), file=sys.stderr)
             return EXIT_BUG
 
 
