@@ -157,6 +157,8 @@ def _lines(data: bytes) -> list[bytes]:
 def csv_mutation(draw, data: bytes) -> bytes:
     """A valid CSV file made wrong in one of the ways files from other software are."""
     lines = [ln for ln in _lines(data) if ln]
+    if not lines:
+        return data
     kind = draw(st.sampled_from(["drop_column", "separator", "junk", "truncate", "insert", "decimal_comma",
                                  "drop_line", "duplicate_line", "header_only", "empty", "random", "swap"]))
     if kind == "drop_column":
