@@ -86,10 +86,10 @@ def test_noise_free_recovery_of_the_identifiable_combinations(bai, name):
     The base parameters (regroupings) are the linearisation at the nominal geometry, so
     values and ``base.project(dk)`` differ at second order: products of an error and an
     axis tilt (the regroupings turn with the axes). Measured with errors of Bai's size
-    (``_error_sizes``): 1e-4 (complete) and 2e-4 (classical); they fall as the square of
-    the errors. At a twentieth of them (encoder offsets 0.05 deg, ball errors 2.5 µm) the
-    second-order part is < 4e-7, under the 1e-6 asked for; the large-error case is tested
-    on the geometry below.
+    (``_error_sizes``): 4e-5 (complete) and 5e-5 (classical); they fall at least as the
+    square of the errors. At a twentieth of them (encoder offsets 0.05 deg, ball errors
+    2.5 µm) the gap is 9e-8 (complete) and 6e-9 (classical), under the 1e-6 asked for; the
+    large-error case is tested on the geometry below.
     """
     rng = np.random.default_rng(11)
     model = get_model(name)
@@ -100,9 +100,9 @@ def test_noise_free_recovery_of_the_identifiable_combinations(bai, name):
     result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
     assert result.rank == (42 if name == "complete" else 24)
     assert_allclose(result.values, result.base.project(dk), rtol=0, atol=1e-6)
-    # the fit reaches the floating-point floor (1e-12 mm measured) for the complete model;
-    # the classical one keeps 3e-9 mm: the tilt/offset mixing of apply (xfail below) at a
-    # twentieth of the errors (it grows like their cube: 3e-5 mm at full size)
+    # the fit reaches the floating-point floor (7e-13 mm measured) for the complete model;
+    # the classical one keeps 6e-10 mm: its apply turns the plate pair to first order only
+    # (xfail below), which leaves second-order imperfections the iterates cannot undo
     assert result.after.position_max < (1e-9 if name == "complete" else 1e-8)
 
 
@@ -129,9 +129,11 @@ def test_noise_free_recovery_of_large_errors_in_the_model_family(bai):
 
 @pytest.mark.xfail(
     strict=True,
-    reason="errormodels/base.py apply_elementary: a classical axis tilt applied with an encoder offset "
-    "turns the axis about another direction than the plate pair, so the iterates leave the classical "
-    "family and the fit stalls at 2e-5 mm, 2e-6 rad (see test_errormodels.py)",
+    reason="errormodels/classical.py position_moves turns the plate pair about its midpoint to first "
+    "order (cross(axis, half)) while apply_elementary turns the arm pair exactly: every classical "
+    "step leaves an imperfection of |tilt|² c/2 that later steps cannot undo, so the truth (one "
+    "apply) is out of reach of the iterates: residual 1e-5 mm, 2e-7 rad (5e-7 mm even for a truth "
+    "without tilts, from the iterates' own tilt steps)",
 )
 def test_classical_noise_free_recovery_of_large_errors(bai):
     rng = np.random.default_rng(12)
