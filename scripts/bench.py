@@ -11,6 +11,12 @@ the target a string such as ``"<= 200"`` (or null when there is none).
 
 from __future__ import annotations
 
+import os
+
+# deltacal's matrices are small: BLAS threads only contend (see deltacal/__init__.py)
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import argparse
 import json
 import shutil

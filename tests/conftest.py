@@ -1,9 +1,15 @@
-from pathlib import Path
+import os
 
-import numpy as np
-import pytest
+# small matrices: BLAS threads only contend (see deltacal/__init__.py); set before numpy loads
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from deltacal import NominalDelta
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from deltacal import NominalDelta  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"

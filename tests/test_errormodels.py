@@ -133,18 +133,15 @@ def test_classical_keeps_the_plate_parallel(bai):
     assert _parallelogram_mismatch(moved) < 1e-12
     assert moved.is_perfect(atol=1e-12)
     # axis tilts turn the arm pair with the exact rotation R(w) of the actuator frame and the
-    # plate pair with its linearisation (I + [w]x): the pair vectors (length c) then differ by
-    # (R - I - [w]x) c_vec, of norm |w|^2/2 c to leading order: that is the tolerance
+    # plate pair with the same finite rotation (ErrorModel.pair_rotations): still exact
     tilts = rng.normal(0.0, 1.7e-3, (3, 2))
     dk = np.zeros(24)
     dk[3::8], dk[4::8] = tilts[:, 0], tilts[:, 1]
     tilted = model.apply(nominal, dk)
-    bound = 0.5 * np.max(np.sum(tilts**2, axis=1)) * bai.rod_spacing * (1.0 + 1e-3)
-    mismatch = _parallelogram_mismatch(tilted)
-    assert 0.5 * bound < mismatch < bound  # second order, and not better: the bound is honest
-    assert tilted.is_perfect(atol=bound)
-    # a pair mismatch d tilts the plate by about d / c (1e-7 rad here, far below any use)
-    assert np.max(exact.forward(tilted, q).tilt()) < 2.0 * bound / bai.rod_spacing
+    assert _parallelogram_mismatch(tilted) < 1e-12
+    assert tilted.is_perfect(atol=1e-12)
+    # so the plate stays parallel through the exact kinematics
+    assert np.max(exact.forward(tilted, q).tilt()) < 1e-12
 
 
 def test_is_perfect_honours_atol(bai):
@@ -159,8 +156,8 @@ def test_classical_apply_with_offset_and_tilt_keeps_parallelograms(bai):
     dk[3] = 1e-3  # tilt of limb 1 about x0 [rad]
     dk[5] = math.radians(1.0)  # encoder offset of limb 1 [rad]
     moved = model.apply(bai.geometry(), dk)
-    # the same second-order bound as for a tilt alone; measured: 8.7e-4 mm = |tilt| |offset| c / 2
-    assert _parallelogram_mismatch(moved) < 0.5 * 1e-6 * bai.rod_spacing * 1.001
+    # tilt and offset together keep the parallelogram exact too (once: 8.7e-4 mm = |tilt| |offset| c/2)
+    assert _parallelogram_mismatch(moved) < 1e-12
 
 
 # ----------------------------------------------------------------- Bai 2015, Eq. 6-10

@@ -127,14 +127,6 @@ def test_noise_free_recovery_of_large_errors_in_the_model_family(bai):
     assert result.geometry.allclose(truth, atol=1e-9)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="errormodels/classical.py position_moves turns the plate pair about its midpoint to first "
-    "order (cross(axis, half)) while apply_elementary turns the arm pair exactly: every classical "
-    "step leaves an imperfection of |tilt|² c/2 that later steps cannot undo, so the truth (one "
-    "apply) is out of reach of the iterates: residual 1e-5 mm, 2e-7 rad (5e-7 mm even for a truth "
-    "without tilts, from the iterates' own tilt steps)",
-)
 def test_classical_noise_free_recovery_of_large_errors(bai):
     rng = np.random.default_rng(12)
     model = get_model("classical")

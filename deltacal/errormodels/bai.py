@@ -34,11 +34,10 @@ from .base import (
     ErrorModel,
     arm_ball_index,
     pair_frames,
-    plate_ball_index,
+    pair_rotation_moves,
     rod_index,
-    rotate_pair_moves,
 )
-from .classical import position_moves
+from .classical import position_moves, position_pair_rotations
 
 POSITION_NAMES = ("Ldtheta{i}", "e{i}x", "e{i}y", "e{i}z", "dL{i}", "Ldalpha0_{i}", "Ldbeta0_{i}", "dlbar{i}")
 ORIENTATION_NAMES = (
@@ -76,28 +75,50 @@ class BaiModel(ErrorModel):
         """Units: mm for Δp_r, rad (dimensionless) for Δp_ε."""
         return ["mm"] * 24 + (["rad"] * 18 if self.orientation else [])
 
+    def _position_scaling(self, geometry: DeltaGeometry) -> np.ndarray:
+        """T (3, 8, 8): Bai's position parameters in terms of :func:`position_moves` columns."""
+        L = pair_frames(geometry)["arm_length"]
+        T = np.zeros((3, 8, 8))
+        for i in range(3):
+            T[i, 5, 0] = -1.0 / L[i]  # LΔθ about w0 = -w
+            T[i, 0, 1] = T[i, 1, 2] = T[i, 2, 3] = 1.0  # Δe
+            T[i, 6, 4] = 1.0  # ΔL
+            T[i, 3, 5] = 1.0 / L[i]  # LΔα0 about u0
+            T[i, 4, 6] = 1.0 / L[i]  # LΔβ0 about v0
+            T[i, 7, 7] = 1.0  # Δl̄
+        return T
+
+    def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray:
+        """Ball pairs turned exactly by Bai's parameters.
+
+        Axis tilts turn the plate pairs with the arm pairs; Δα03, Δβ03 turn the plate pairs
+        (about −u0, −v0: the plate frame turned relative to the actuator frame) and Δα2, Δβ2
+        the arm pairs (about the arm's x and z).
+        """
+        T = self._position_scaling(geometry)
+        Pp = position_pair_rotations(geometry)  # (18, 3, 8)
+        cols = [Pp[:, i] @ T[i] for i in range(3)]
+        if self.orientation:
+            R0 = geometry.actuator_rotation()
+            for i in range(3):
+                block = np.zeros((18, 6))
+                block[3 * i : 3 * i + 3, 2] = -R0[i][:, 0]
+                block[3 * i : 3 * i + 3, 3] = -R0[i][:, 2]
+                block[9 + 3 * i, 4] = 1.0
+                block[9 + 3 * i + 2, 5] = 1.0
+                cols.append(block)
+        return np.concatenate(cols, axis=1)
+
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Elementary moves of Bai's parameters (Eq. 1-7 read as changes of the geometry)."""
-        f = pair_frames(geometry)
-        L = f["arm_length"]
+        T = self._position_scaling(geometry)
         pos = position_moves(geometry)  # axis xyz, tilt x0, tilt z0, offset, arm length, rod
-        cols = []
-        for i in range(3):
-            P = pos[:, i]
-            cols += [
-                -P[:, 5] / L[i],  # LΔθ about w0 = -w
-                P[:, 0],
-                P[:, 1],
-                P[:, 2],
-                P[:, 6],
-                P[:, 3] / L[i],  # LΔα0 about u0
-                P[:, 4] / L[i],  # LΔβ0 about v0
-                P[:, 7],
-            ]
+        cols = [pos[:, i] @ T[i] for i in range(3)]
         if self.orientation:
+            f = pair_frames(geometry)
+            P = self.pair_rotations(geometry)[:, 24:]
             for i in range(3):
                 c = f["spacing"][i]
-                x0, z0 = f["R0"][i][:, 0], f["R0"][i][:, 2]
                 block = np.zeros((N_ELEMENTARY, 6))
                 # Bai's rod 1 sits at +c/2 w0 = -t_i: this project's rod 2 (rod 1 is on +t_i)
                 block[rod_index(i, 1), 0] = 0.5 * c
@@ -106,15 +127,8 @@ class BaiModel(ErrorModel):
                 for k in range(3):
                     block[arm_ball_index(i, 0, k), 1] = 0.5 * c * unit[k]
                     block[arm_ball_index(i, 1, k), 1] = -0.5 * c * unit[k]
-                for col, axis, half, index in (
-                    (2, -x0, f["plate_half"][i], plate_ball_index),
-                    (3, -z0, f["plate_half"][i], plate_ball_index),
-                    (4, np.array([1.0, 0.0, 0.0]), f["arm_half"][i], arm_ball_index),
-                    (5, np.array([0.0, 0.0, 1.0]), f["arm_half"][i], arm_ball_index),
-                ):
-                    pair = rotate_pair_moves(half, axis)
-                    for j in range(2):
-                        for k in range(3):
-                            block[index(i, j, k), col] = pair[j, k]
-                cols += list(block.T)
-        return np.stack(cols, axis=1)
+                for col in range(2, 6):
+                    rot = P[:, 6 * i + col].reshape(2, 3, 3)
+                    block[:, col] = pair_rotation_moves(geometry, rot[0], rot[1])
+                cols.append(block)
+        return np.concatenate(cols, axis=1)

@@ -225,12 +225,29 @@ class ErrorModel(ABC):
         """
         return elementary_sensitivity(geometry, q, pose) @ self.moves(geometry)
 
+    def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray | None:
+        """Rotations of ball pairs about their midpoints per parameter, (18, n), or None.
+
+        Rows: plate pairs of limbs 1-3 (rotation vectors in the plate frame), then arm
+        pairs (in the arm frame) [rad per unit parameter]. :meth:`moves` holds their
+        first-order ball moves (:func:`pair_rotation_moves`); :meth:`apply` turns the
+        pairs exactly instead, so that a model whose parameters keep parallelograms
+        perfect keeps them perfect for finite deviations too.
+        """
+        return None
+
     def apply(self, geometry: DeltaGeometry, dk: np.ndarray) -> DeltaGeometry:
         """The geometry with the parameter deviations dk applied."""
         dk = np.asarray(dk, dtype=float)
         if dk.shape != (self.size,):
             raise ValueError(f"{self.name}: expected {self.size} parameters, got shape {dk.shape}")
-        return apply_elementary(geometry, self.moves(geometry) @ dk)
+        e = self.moves(geometry) @ dk
+        P = self.pair_rotations(geometry)
+        if P is None:
+            return apply_elementary(geometry, e)
+        rot = (P @ dk).reshape(2, 3, 3)
+        e = e - pair_rotation_moves(geometry, rot[0], rot[1])
+        return rotate_pairs(apply_elementary(geometry, e), rot[0], rot[1])
 
     def without(self, drop: list[str], name: str) -> ErrorModel:
         """This model with some parameters held at zero (e.g. a gauge, Bai Eq. 11)."""
@@ -264,6 +281,11 @@ class SubModel(ErrorModel):
         """The parent's moves for the kept parameters."""
         return self.parent.moves(geometry)[:, self._index]
 
+    def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray | None:
+        """The parent's pair rotations for the kept parameters."""
+        P = self.parent.pair_rotations(geometry)
+        return None if P is None else P[:, self._index]
+
 
 def pair_frames(geometry: DeltaGeometry) -> dict[str, np.ndarray]:
     """Quantities of each limb's parallelogram used to build model moves.
@@ -293,6 +315,37 @@ def rotate_pair_moves(half: np.ndarray, axis: np.ndarray) -> np.ndarray:
     """Moves (2, 3) of a ball pair rotated about its midpoint by a unit small rotation ``axis``."""
     dv = np.cross(axis, half)
     return np.stack([dv, -dv])
+
+
+def pair_rotation_moves(geometry: DeltaGeometry, plate: np.ndarray, arm: np.ndarray) -> np.ndarray:
+    """First-order elementary moves (60,) of the ball pairs turned about their midpoints.
+
+    Args:
+        geometry: The geometry.
+        plate: Rotation vector of each limb's plate pair, in the plate frame, (3, 3) [rad].
+        arm: Rotation vector of each limb's arm pair, in the arm frame, (3, 3) [rad].
+    """
+    f = pair_frames(geometry)
+    e = np.zeros(N_ELEMENTARY)
+    dp = np.cross(plate, f["plate_half"])
+    da = np.cross(arm, f["arm_half"])
+    e[PLATE_BALLS] = np.stack([dp, -dp], axis=1).reshape(-1)
+    e[ARM_BALLS] = np.stack([da, -da], axis=1).reshape(-1)
+    return e
+
+
+def rotate_pairs(geometry: DeltaGeometry, plate: np.ndarray, arm: np.ndarray) -> DeltaGeometry:
+    """The geometry with each ball pair turned exactly about its midpoint (see pair_rotation_moves)."""
+    out = {}
+    for key, rot in (("plate_ball", plate), ("arm_ball", arm)):
+        balls = getattr(geometry, key)
+        if not np.any(rot):
+            out[key] = balls
+            continue
+        mid = balls.mean(axis=1)
+        half = np.einsum("ikl,il->ik", rotation_from_vector(rot), balls[:, 0] - mid)
+        out[key] = np.stack([mid + half, mid - half], axis=1)
+    return replace(geometry, **out)
 
 
 __all__ = [

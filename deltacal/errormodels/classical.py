@@ -24,11 +24,23 @@ from .base import (
     actuator_rotation_index,
     arm_ball_index,
     axis_point_index,
-    pair_frames,
-    plate_ball_index,
+    pair_rotation_moves,
     rod_index,
-    rotate_pair_moves,
 )
+
+
+def position_pair_rotations(geometry: DeltaGeometry) -> np.ndarray:
+    """Plate-pair rotations of the 8 position parameters of each limb, shape (18, 3, 8).
+
+    An axis tilt turns the plate pair with the arm pair (plate frame taken parallel to
+    the base), so the parallelogram stays perfect.
+    """
+    R0 = geometry.actuator_rotation()
+    P = np.zeros((18, 3, 8))
+    for i in range(3):
+        P[3 * i : 3 * i + 3, i, 3] = R0[i][:, 0]
+        P[3 * i : 3 * i + 3, i, 4] = R0[i][:, 2]
+    return P
 
 
 def position_moves(geometry: DeltaGeometry) -> np.ndarray:
@@ -37,18 +49,15 @@ def position_moves(geometry: DeltaGeometry) -> np.ndarray:
     Per limb, columns: axis point x, y, z [mm]; tilt about x0 [rad]; tilt about z0 [rad];
     encoder offset [rad]; arm length [mm]; mean rod length [mm].
     """
-    f = pair_frames(geometry)
     M = np.zeros((N_ELEMENTARY, 3, 8))
+    P = position_pair_rotations(geometry)
     for i in range(3):
         for k in range(3):
             M[axis_point_index(i, k), i, k] = 1.0
         for col, axis_k in ((3, 0), (4, 2)):
             M[actuator_rotation_index(i, axis_k), i, col] = 1.0
-            # turn the plate pair with the arm pair so the parallelogram stays perfect
-            pair = rotate_pair_moves(f["plate_half"][i], f["R0"][i][:, axis_k])
-            for j in range(2):
-                for k in range(3):
-                    M[plate_ball_index(i, j, k), i, col] = pair[j, k]
+            rot = P[:, i, col].reshape(2, 3, 3)
+            M[:, i, col] += pair_rotation_moves(geometry, rot[0], rot[1])
         M[actuator_rotation_index(i, 1), i, 5] = 1.0
         for j in range(2):
             M[arm_ball_index(i, j, 0), i, 6] = 1.0
@@ -77,4 +86,8 @@ class ClassicalModel(ErrorModel):
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Moves of the 24 parameters."""
-        return position_moves(geometry).transpose(0, 1, 2).reshape(N_ELEMENTARY, 24)
+        return position_moves(geometry).reshape(N_ELEMENTARY, 24)
+
+    def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray:
+        """Axis tilts turn the plate pairs exactly."""
+        return position_pair_rotations(geometry).reshape(18, 24)
