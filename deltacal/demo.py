@@ -46,7 +46,9 @@ class _Progress:
         print(f"[{time.perf_counter() - self.start:5.1f} s] {text}", file=sys.stderr, flush=True)
 
 
-def run_demo(out_dir: Path = Path("results"), seed: int = 2015, quick: bool = False, views: bool = True) -> dict:
+def run_demo(
+    out_dir: Path = Path("results"), seed: int = 2015, quick: bool = False, views: bool = True
+) -> dict:
     """Run the demo, print the comparison table and write the results.
 
     Args:

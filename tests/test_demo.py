@@ -10,9 +10,8 @@ from deltacal.demo import run_demo
 
 
 def _row(summary, tool, model, method):
-    return next(
-        r for r in summary["validation"] if r["tool"] == tool and r["model"] == model and r["method"] == method
-    )
+    rows = summary["validation"]
+    return next(r for r in rows if (r["tool"], r["model"], r["method"]) == (tool, model, method))
 
 
 @pytest.fixture(scope="module")
