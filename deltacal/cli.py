@@ -66,13 +66,36 @@ def _warn(lines: Sequence[str]) -> None:
         print(_one_line(f"warning: {line}"), file=sys.stderr)
 
 
-def _positive(text: str) -> float:
+def positive_float(text: str) -> float:
+    """Argparse type: a finite number > 0."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not math.isfinite(value) or value <= 0:
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """Argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"must be a finite non-negative number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """Argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
 
 
@@ -159,9 +182,9 @@ def _add_identify(sub) -> None:
     p.add_argument("measurements", help="measurements (CSV)")
     p.add_argument("--model", choices=MODEL_NAMES, default="complete", help="error model (default complete)")
     p.add_argument("-o", "--output", required=True, help="calibration file to write (TOML)")
-    p.add_argument("--sigma-position", type=_positive, default=0.005, metavar="MM",
+    p.add_argument("--sigma-position", type=positive_float, default=0.005, metavar="MM",
                    help="σ of each measured coordinate [mm] (default 0.005)")
-    p.add_argument("--sigma-angle", type=_positive, default=0.003, metavar="DEG",
+    p.add_argument("--sigma-angle", type=positive_float, default=0.003, metavar="DEG",
                    help="σ of each measured orientation component [deg] (default 0.003)")
     p.add_argument("--linear", action="store_true",
                    help="one-shot linear identification around the nominal geometry (the papers)")

@@ -155,13 +155,7 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
     q = virtual.inverse(x, check=False)
     bad = ~np.all(np.isfinite(q), axis=1)
     if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise UnreachableError(
-            f"{int(bad.sum())} target(s) out of reach, first: {np.round(targets[i], 6).tolist()} mm "
-            f"(index {i})",
-            np.flatnonzero(bad),
-            targets[bad],
-        )
+        raise UnreachableError.from_mask(bad, targets)
     return q
 
 
@@ -217,14 +211,12 @@ def compensate(
     margin = singularity_margin(geometry, q)
     near = margin < min_margin
     if np.any(near):
-        i = int(np.flatnonzero(near)[0])
-        raise UnreachableError(
-            f"{int(near.sum())} target(s) too close to a singularity (margin {margin[i]:.3g} < "
-            f"{min_margin:g}: arm and rod within {np.degrees(MIN_TRANSMISSION_ANGLE):g} deg of "
-            f"alignment or rods nearly coplanar), first: {np.round(targets[i], 6).tolist()} mm "
-            f"(index {i})",
-            np.flatnonzero(near),
-            targets[near],
+        worst = float(np.min(margin[near]))
+        raise UnreachableError.from_mask(
+            near,
+            targets,
+            f"too close to a singularity (margin down to {worst:.3g} < {min_margin:g}: arm and rod "
+            f"within {np.degrees(MIN_TRANSMISSION_ANGLE):g} deg of alignment or rods nearly coplanar)",
         )
     return q
 

@@ -6,6 +6,8 @@ that the command line can print it on one line without a traceback.
 
 from __future__ import annotations
 
+import numpy as np
+
 
 class DeltacalError(Exception):
     """Base class of every error deltacal raises on purpose."""
@@ -61,6 +63,17 @@ class UnreachableError(DeltacalError):
         self.indices = list(indices)
         self.targets = targets
         super().__init__(message)
+
+    @classmethod
+    def from_mask(cls, bad: np.ndarray, targets: np.ndarray, what: str = "out of reach of the robot"):
+        """The error for the targets where ``bad`` is true, naming the first one and its index."""
+        idx = np.flatnonzero(bad)
+        i = int(idx[0])
+        return cls(
+            f"{idx.size} target(s) {what}, first: {np.round(targets[i], 6).tolist()} mm (index {i})",
+            idx,
+            targets[idx],
+        )
 
 
 class ConvergenceError(DeltacalError):

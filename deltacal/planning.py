@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import positive_int
 from .errormodels import MODEL_NAMES, ErrorModel, get_model
 from .exceptions import DeltacalError, InputError
 from .geometry import DeltaGeometry, NominalDelta, Workspace, skew
@@ -757,16 +758,6 @@ def parse_epsilon(text: str) -> float:
     return value
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
 def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``deltacal plan`` on an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -785,7 +776,7 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--model", default="complete", choices=PLAN_MODELS,
                    help="error model (default: complete; 'rough': encoder offsets only)")
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--n", type=_positive_int, help="poses per circle (strategy bai)")
+    group.add_argument("--n", type=positive_int, help="poses per circle (strategy bai)")
     group.add_argument("--epsilon", type=parse_epsilon,
                        help="ε0 of the κ(n) rule, fraction or percentage (default: 1%%)")
     p.add_argument("--strategy", default="bai", choices=("bai", "doptimal"),
@@ -794,11 +785,11 @@ def add_plan_parser(subparsers) -> argparse.ArgumentParser:
                    help="measurement kind for κ and D-optimality (default: distance for Bai's "
                         "distance models bai18/bai36/bai32 and rough, pose otherwise)")
     p.add_argument("--points", help="comma-separated plate points measured (default: by model)")
-    p.add_argument("--count", type=_positive_int, help="poses to select (strategy doptimal; "
+    p.add_argument("--count", type=positive_int, help="poses to select (strategy doptimal; "
                    "default: twice the number of base parameters, divided by the rows per pose)")
-    p.add_argument("--pool", type=_positive_int, default=1000, help="candidate pool size (doptimal)")
+    p.add_argument("--pool", type=positive_int, default=1000, help="candidate pool size (doptimal)")
     p.add_argument("--seed", type=int, default=0, help="seed of the candidate pool (doptimal)")
-    p.add_argument("--n-max", type=_positive_int, default=20, help="largest n of the κ(n) curve")
+    p.add_argument("--n-max", type=positive_int, default=20, help="largest n of the κ(n) curve")
     p.add_argument("-o", "--output", required=True, metavar="POSES.csv", help="output file")
     p.set_defaults(func=plan_command)
     return p

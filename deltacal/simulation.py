@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli import non_negative_float, positive_int
 from .exceptions import InputError
 from .geometry import DeltaGeometry, Tolerances, rotation_from_vector, vector_from_rotation
 from .kinematics.exact import PlatePose
@@ -141,26 +142,6 @@ def truth_path(output: str | Path) -> Path:
     return output.with_name(f"{stem}.truth.toml")
 
 
-def _non_negative(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (math.isfinite(value) and value >= 0.0):
-        raise argparse.ArgumentTypeError(f"must be a finite non-negative number, got {text!r}")
-    return value
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
 def add_simulate_parser(subparsers) -> argparse.ArgumentParser:
     """Register ``deltacal simulate`` on an argparse subparsers object."""
     p = subparsers.add_parser(
@@ -181,12 +162,12 @@ def add_simulate_parser(subparsers) -> argparse.ArgumentParser:
     truth.add_argument("--truth", metavar="TRUE.toml", help="true robot: a geometry file")
     p.add_argument("--points", default="tcp",
                    help="comma-separated reflector points (tcp or [points] names; default tcp)")
-    p.add_argument("--sigma-position", type=_non_negative, default=0.005, metavar="MM",
+    p.add_argument("--sigma-position", type=non_negative_float, default=0.005, metavar="MM",
                    help="tracker noise per axis of one reading [mm] (default 0.005)")
-    p.add_argument("--sigma-angle", type=_non_negative, default=0.003, metavar="DEG",
+    p.add_argument("--sigma-angle", type=non_negative_float, default=0.003, metavar="DEG",
                    help="probe noise per component of one reading [deg] (default 0.003)")
     p.add_argument("--no-orientation", action="store_true", help="no orientation probe")
-    p.add_argument("--repeats", type=_positive_int, default=1,
+    p.add_argument("--repeats", type=positive_int, default=1,
                    help="readings averaged per measurement (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
     p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")

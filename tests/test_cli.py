@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, workspace_points
 from numpy.testing import assert_allclose
 
 from deltacal import ConvergenceError, InputError, NominalDelta, Tolerances
@@ -29,15 +29,6 @@ from deltacal.observations import Measurements
 
 NOMINAL = MODELS / "bai2015.toml"
 HEADER = "q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm,rx_deg,ry_deg,rz_deg,point"
-
-
-def spread_targets(nominal: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:
-    """Targets over the workspace cylinder: top and bottom layers, centre and rim [mm]."""
-    ws = nominal.workspace
-    r = ws.radius * np.sqrt(rng.uniform(0.0, 1.0, n))
-    a = rng.uniform(0.0, 2.0 * np.pi, n)
-    z = rng.uniform(ws.bottom_z, ws.top_z, n)
-    return np.stack([r * np.cos(a), r * np.sin(a), z], axis=1)
 
 
 def simulate(nominal: NominalDelta, truth, targets: np.ndarray, orientation: bool = True) -> Measurements:
@@ -58,9 +49,9 @@ def data(tmp_path_factory, bai):
     rng = np.random.default_rng(7)
     truth = bai.geometry().perturbed(Tolerances.bai2015(), rng)
     meas = folder / "meas.csv"
-    write_measurements(meas, simulate(bai, truth, spread_targets(bai, 30, rng)))
+    write_measurements(meas, simulate(bai, truth, workspace_points(bai, 30, rng)))
     targets = folder / "targets.csv"
-    t = spread_targets(bai, 8, rng)
+    t = workspace_points(bai, 8, rng)
     targets.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in t.tolist()))
     cal = folder / "cal.toml"
     assert main(["identify", str(NOMINAL), str(meas), "--model", "complete", "-o", str(cal)]) == 0
@@ -295,7 +286,7 @@ def test_position_only_measurements_get_hints(bai, capsys, tmp_path):
     rng = np.random.default_rng(6)
     truth = bai.geometry().perturbed(Tolerances.bai2015(), rng)
     meas = tmp_path / "pos.csv"
-    write_measurements(meas, simulate(bai, truth, spread_targets(bai, 30, rng), orientation=False))
+    write_measurements(meas, simulate(bai, truth, workspace_points(bai, 30, rng), orientation=False))
     code, out, _ = run(capsys, "identify", NOMINAL, meas, "-o", tmp_path / "c.toml")
     assert code == 0
     assert "hint: orientation measurements (rx_deg, ry_deg, rz_deg) would identify 4 more" in out

@@ -159,13 +159,7 @@ class VirtualDelta:
         if check:
             bad = ~np.all(np.isfinite(q), axis=1)
             if np.any(bad):
-                idx = np.flatnonzero(bad)
-                raise UnreachableError(
-                    f"{idx.size} target(s) out of reach, first: {np.round(x[idx[0]], 6).tolist()} mm"
-                    f" (index {idx[0]})",
-                    idx,
-                    x[idx],
-                )
+                raise UnreachableError.from_mask(bad, x)
         return q
 
     def velocity_matrices(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -260,12 +260,6 @@ def inverse(
     residual = np.max(np.concatenate([r_rod, r_pt], axis=1), axis=1)
     bad = ~(done & np.isfinite(residual) & (residual < 1e3 * tol))
     if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise UnreachableError(
-            f"{int(bad.sum())} target(s) out of reach of the robot, first: "
-            f"{np.round(target[i], 6).tolist()} mm (index {i})",
-            np.flatnonzero(bad),
-            target[bad],
-        )
+        raise UnreachableError.from_mask(bad, target)
     return q
 
