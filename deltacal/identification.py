@@ -295,6 +295,7 @@ def identify(
         sigma_step = np.sqrt(np.sum(Rinv**2, axis=1))
         t = 1.0
         accepted = False
+        assembled = 0
         for _ in range(12):
             try:
                 trial = error_model.apply(geometry, base.expand(t * step))
@@ -302,14 +303,17 @@ def identify(
             except (AssemblyError, GeometryError):
                 t *= 0.5
                 continue
+            assembled += 1
             trw = trial_rows.weighted[0]
             trial_cost = float(trw @ trw)
-            if trial_cost <= cost * (1.0 + 1e-12) or t < 1e-3:
+            if trial_cost <= cost * (1.0 + 1e-12):
                 accepted = True
                 break
             t *= 0.5
         if not accepted:
-            if iterations == 1:
+            # no step lowers the cost: the current geometry is the minimum (kept as it is),
+            # unless no trial geometry could even be assembled
+            if iterations == 1 and assembled == 0:
                 raise ConvergenceError(
                     "identification could not take a single step: every trial geometry failed to "
                     f"assemble at the measured readings (weighted residual {math.sqrt(cost):.6g})",
@@ -339,9 +343,11 @@ def identify(
     cov = Rinv @ Rinv.T
     sigma = np.sqrt(np.diag(cov))
     correlation = cov / np.outer(sigma, sigma)
-    dof = max(m - base.rank, 1)
+    dof = max(rw.size - base.rank, 1)
     variance_factor = float(rw @ rw) / dof
-    flagged = _outliers(Ww[:, kept], rw, rows.measurement, rows.kind)
+    # outliers are tested row group by row group, on the rows before whitening
+    rs, Ws = rows.scaled
+    flagged = _outliers(Ws[:, kept], rs, rows.measurement, rows.kind)
     assert measurements.lines is not None
     return IdentificationResult(
         model=error_model.name,

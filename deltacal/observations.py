@@ -105,6 +105,9 @@ class Rows:
         sigma: Standard deviation of each row [mm or rad], shape (m,).
         kind: POSITION, ORIENTATION or DISTANCE per row.
         measurement: Index of the measurement (first of the pair for distances) per row.
+        mixing: For distances, d(rows / σ)/d(measured positions / σ_position), shape
+            (m, 3M): distances that share a measured position are correlated, and this
+            gives their covariance ``mixing mixingᵀ`` (in units of σ²). None: rows independent.
     """
 
     residual: np.ndarray
@@ -112,11 +115,30 @@ class Rows:
     sigma: np.ndarray
     kind: np.ndarray
     measurement: np.ndarray
+    mixing: np.ndarray | None = None
+
+    @property
+    def scaled(self) -> tuple[np.ndarray, np.ndarray]:
+        """Residual and regressor divided row by row by σ (correlations ignored)."""
+        return self.residual / self.sigma, self.regressor / self.sigma[:, None]
 
     @property
     def weighted(self) -> tuple[np.ndarray, np.ndarray]:
-        """Residual and regressor divided row by row by σ."""
-        return self.residual / self.sigma, self.regressor / self.sigma[:, None]
+        """Whitened residual and regressor: uncorrelated rows of unit variance.
+
+        Rows divided by σ; for correlated rows (distances sharing positions) the
+        generalised least-squares whitening ``S⁻¹ Uᵀ`` of the mixing matrix's SVD
+        ``U S Vᵀ``, so that least squares on them is the best linear unbiased estimate
+        and its covariance is honest. Their number is the rank of the mixing (at most
+        3M − 6: distances cannot see a rigid motion of all positions).
+        """
+        rw, Ww = self.scaled
+        if self.mixing is None:
+            return rw, Ww
+        U, S, _ = np.linalg.svd(self.mixing, full_matrices=False)
+        keep = S > S[0] * 1e-10
+        T = U[:, keep].T / S[keep, None]
+        return T @ rw, T @ Ww
 
 
 def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray:
@@ -130,21 +152,27 @@ def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray
     Returns:
         Pairs, shape (K, 2).
     """
+    if pairs not in ("all", "reference"):
+        raise ValueError(f"pairs must be 'all' or 'reference', got {pairs!r}")
+    names = np.array(measurements.point)
     out = []
     for name in dict.fromkeys(measurements.point):
-        idx = [k for k, p in enumerate(measurements.point) if p == name]
+        idx = np.flatnonzero(names == name)
         if pairs == "all":
-            out += [(a, b) for n, a in enumerate(idx) for b in idx[n + 1 :]]
-        elif pairs == "reference":
-            out += [(idx[0], b) for b in idx[1:]]
+            a, b = np.triu_indices(idx.size, k=1)
+            out.append(np.stack([idx[a], idx[b]], axis=1))
         else:
-            raise ValueError(f"pairs must be 'all' or 'reference', got {pairs!r}")
-    return np.array(out, dtype=int).reshape(-1, 2)
+            out.append(np.stack([np.full(idx.size - 1, idx[0]), idx[1:]], axis=1))
+    ab = np.concatenate(out) if out else np.zeros((0, 2), dtype=int)
+    # two positions at the same readings are the same place: no distance to measure
+    same = np.all(np.abs(measurements.q[ab[:, 0]] - measurements.q[ab[:, 1]]) < 1e-9, axis=1)
+    return ab[~same].reshape(-1, 2)
 
 
 def predicted_points(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
     """Predicted positions of each measurement's point [mm], shape (M, 3)."""
-    local = np.stack([geometry.point(p) for p in measurements.point])
+    names, inverse = np.unique(np.array(measurements.point), return_inverse=True)
+    local = np.stack([geometry.point(str(p)) for p in names])[inverse.reshape(-1)]
     return pose.point(local)
 
 
@@ -187,12 +215,19 @@ def build_rows(
         n = vec / rho[:, None]
         measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
         regressor = np.einsum("kl,kln->kn", n, JP[b] - JP[a])
+        # each distance is n . (P_b - P_a): its noise comes from two positions, shared with
+        # the other pairs of those positions
+        K, M = len(ab), len(measurements)
+        mixing = np.zeros((K, M, 3))
+        mixing[np.arange(K), b] = n / np.sqrt(2.0)
+        mixing[np.arange(K), a] = -n / np.sqrt(2.0)
         return Rows(
             residual=measured - rho,
             regressor=regressor,
-            sigma=np.full(len(ab), np.sqrt(2.0) * sigma_position),
-            kind=np.full(len(ab), DISTANCE),
+            sigma=np.full(K, np.sqrt(2.0) * sigma_position),
+            kind=np.full(K, DISTANCE),
             measurement=a,
+            mixing=mixing.reshape(K, 3 * M),
         )
     M = len(measurements)
     res = [measurements.position - predicted]

@@ -264,7 +264,7 @@ def identification_matrix(
         distances=measurement == "distance",
         pose=pose,
     )
-    return rows.weighted[1]
+    return rows.scaled[1]  # Bai's H: rows divided by σ, not whitened
 
 
 def _scaled_condition(H: np.ndarray, scaled: bool) -> float:

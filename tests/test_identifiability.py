@@ -112,7 +112,7 @@ def _distance_regressor(nominal: NominalDelta, model_name: str, n: int, points: 
     model = get_model(model_name)
     rows = build_rows(g, meas, model.sensitivity, SIGMA_POSITION, SIGMA_ANGLE, distances=True)
     assert rows.residual.size == len(points) * len(q) * (len(q) - 1) // 2  # Bai's K = C(2n+1, 2)
-    return rows.weighted[1], model
+    return rows.scaled[1], model  # Bai's H: rows divided by σ (not whitened)
 
 
 def test_bai18_distances_of_one_point_identify_all_18(bai):
