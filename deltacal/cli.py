@@ -99,7 +99,8 @@ def positive_int(text: str) -> int:
     return value
 
 
-def _check_input(path: str) -> None:
+def check_input(path: str | Path) -> None:
+    """A usage error (exit 2) unless ``path`` is an existing file."""
     p = Path(path)
     if not p.exists():
         raise UsageError(f"{path}: file not found")
@@ -107,14 +108,15 @@ def _check_input(path: str) -> None:
         raise UsageError(f"{path}: not a file")
 
 
-def _check_output(path: str, inputs: Sequence[str] = ()) -> None:
+def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
+    """A usage error (exit 2) if the output's folder is missing, it is a folder, or an input."""
     out = Path(path)
     if not out.resolve().parent.is_dir():
         raise UsageError(f"{path}: the output folder does not exist")
     if out.is_dir():
         raise UsageError(f"{path}: is a folder; give the output file's name")
     for source in inputs:
-        if Path(source).exists() and out.resolve() == Path(source).resolve():
+        if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
             raise UsageError(f"{path}: the output would overwrite an input file")
 
 
@@ -130,8 +132,8 @@ def _identify(args: argparse.Namespace) -> int:
     from .io import read_measurements
 
     for path in (args.nominal, args.measurements):
-        _check_input(path)
-    _check_output(args.output, (args.nominal, args.measurements))
+        check_input(path)
+    check_output(args.output, (args.nominal, args.measurements))
     nominal = NominalDelta.from_toml(args.nominal)
     start = nominal.geometry()
     measurements, notes = read_measurements(args.measurements, start.point_names)
@@ -202,8 +204,8 @@ def _compensate(args: argparse.Namespace) -> int:
     from .io import read_target_table, write_joints
 
     for path in (args.calibration, args.targets):
-        _check_input(path)
-    _check_output(args.output, (args.calibration, args.targets))
+        check_input(path)
+    check_output(args.output, (args.calibration, args.targets))
     geometry = DeltaGeometry.load(args.calibration)
     table = read_target_table(args.targets)
     _warn(table.warnings)

@@ -799,21 +799,17 @@ def _default_measurement(model: str) -> str:
     return "distance" if model in ("bai18", "bai36", "bai32", ROUGH) else "pose"
 
 
-def check_output_folder(path: str | Path) -> None:
-    """Fail early, before any work, if the output file's folder does not exist."""
-    if not Path(path).resolve().parent.is_dir():
-        raise InputError("the output folder does not exist", str(path))
-
-
 def plan_command(args: argparse.Namespace) -> int:
     """Run ``deltacal plan``: print what was chosen, write the POSES file, return 0.
 
     Errors (:class:`DeltacalError`, ``ValueError``, ``OSError``) propagate to
     :func:`deltacal.cli.main`, which prints them on one line.
     """
+    from .cli import check_input, check_output
     from .io import load_nominal
 
-    check_output_folder(args.output)
+    check_input(args.nominal)
+    check_output(args.output, (args.nominal,))
     nominal = load_nominal(args.nominal)
     model = planning_model(args.model)
     measurement = args.measure or _default_measurement(args.model)

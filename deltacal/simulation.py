@@ -181,10 +181,17 @@ def simulate_command(args: argparse.Namespace) -> int:
     Errors (:class:`DeltacalError`, ``ValueError``, ``OSError``) propagate to
     :func:`deltacal.cli.main`, which prints them on one line.
     """
+    from .cli import check_input, check_output
     from .io import load_nominal, write_measurements
-    from .planning import check_output_folder, read_poses
+    from .planning import read_poses
 
-    check_output_folder(args.output)
+    inputs = (args.nominal, args.poses, args.truth)
+    for path in inputs:
+        if path is not None:
+            check_input(path)
+    check_output(args.output, inputs)
+    if args.truth is None:
+        check_output(truth_path(args.output), inputs)
     nominal = load_nominal(args.nominal)
     poses, warnings = read_poses(args.poses, nominal)
     for w in warnings:

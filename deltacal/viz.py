@@ -1388,8 +1388,15 @@ def view_command(args: argparse.Namespace) -> int:
     Returns:
         The exit status (0 on success, 1 on a bad file or value).
     """
+    from .cli import check_input, check_output
     from .geometry import NominalDelta, Tolerances
 
+    inputs = (args.nominal, args.truth, args.calibration)
+    for path in inputs:
+        if path is not None:
+            check_input(path)
+    if args.html is not None:
+        check_output(args.html, inputs)
     try:
         nominal = NominalDelta.from_toml(args.nominal)
         nominal_geometry = nominal.geometry()
@@ -1423,7 +1430,9 @@ def view_command(args: argparse.Namespace) -> int:
             return 130
         return 0
     except (DeltacalError, ValueError, OSError) as exc:
-        print(f"deltacal view: {exc}", file=sys.stderr)
+        if getattr(args, "debug", False):
+            raise
+        print(f"deltacal view: error: {exc}", file=sys.stderr)
         return 1
 
 
