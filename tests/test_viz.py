@@ -219,8 +219,10 @@ def test_view_command_reads_a_truth_file_and_rejects_bad_input(tmp_path, robots,
         view_parser().parse_args(["view", "x.toml", "--truth", "a.toml", "--perturb", "1"])
     capsys.readouterr()
     missing = tmp_path / "none.html"
-    args = view_parser().parse_args(["view", str(tmp_path / "nope.toml"), "--html", str(missing)])
-    assert viz.view_command(args) == 1
+    # a missing input is a usage error (exit 2), as for every command
+    from deltacal.cli import main
+
+    assert main(["view", str(tmp_path / "nope.toml"), "--html", str(missing)]) == 2
     err = capsys.readouterr().err
     assert "nope.toml" in err and len(err.strip().splitlines()) == 1
     assert not missing.exists()
