@@ -4,18 +4,11 @@ Units inside the library are millimetres and radians; files and the command
 line use millimetres and degrees.
 
 deltacal's matrices are small (tens of columns, a few hundred rows), where BLAS
-threads only contend: measured on a 2-core machine, a linear identification took
-16 ms single-threaded and 111 ms with OpenBLAS's default threads. So, when
-deltacal is imported before numpy, it sets ``OPENBLAS_NUM_THREADS``,
-``OMP_NUM_THREADS`` and ``MKL_NUM_THREADS`` to 1 unless they are already set.
+threads only contend: on a 2-core machine a linear identification took 16 ms
+single-threaded and 111 ms with OpenBLAS's default threads. The ``deltacal``
+command runs single-threaded (threadpoolctl); in your own programs, wrap the work
+in ``threadpoolctl.threadpool_limits(1)`` or set ``OPENBLAS_NUM_THREADS=1``.
 """
-
-import os as _os
-import sys as _sys
-
-if "numpy" not in _sys.modules:
-    for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        _os.environ.setdefault(_var, "1")
 
 from .exceptions import (
     AssemblyError,

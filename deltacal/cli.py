@@ -295,6 +295,14 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0, 1 bad data, 2 bad usage, 3 a bug)."""
+    from threadpoolctl import threadpool_limits
+
+    # small matrices: BLAS threads only contend (see the package docstring)
+    with threadpool_limits(limits=1):
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

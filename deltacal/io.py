@@ -15,6 +15,7 @@ import math
 import os
 import re
 import tempfile
+import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from decimal import Decimal, localcontext
@@ -23,7 +24,6 @@ from typing import Any
 from warnings import warn
 
 import numpy as np
-import tomllib
 
 from .exceptions import GeometryError, InputError
 
