@@ -129,7 +129,7 @@ def _lines_text(lines: Sequence[int], limit: int = 10) -> str:
 def _identify(args: argparse.Namespace) -> int:
     from .geometry import NominalDelta
     from .identification import identify
-    from .io import read_measurements
+    from .io import data_row, read_measurements
 
     for path in (args.nominal, args.measurements):
         check_input(path)
@@ -161,7 +161,7 @@ def _identify(args: argparse.Namespace) -> int:
         more = f"; {len(lines)} rows in all, lines {_lines_text(lines)}" if len(lines) > 1 else ""
         raise InputError(
             f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
-            args.measurements, f"line {lines[0]}, columns q1_deg..q3_deg",
+            args.measurements, f"{data_row(lines[0], k + 1)}, columns q1_deg..q3_deg",
         ) from exc
     except IdentificationError as exc:
         raise IdentificationError(f"{args.measurements}: {exc}") from exc
@@ -201,7 +201,7 @@ def _add_identify(sub) -> None:
 def _compensate(args: argparse.Namespace) -> int:
     from .compensation import compensate
     from .geometry import DeltaGeometry
-    from .io import read_target_table, write_joints
+    from .io import data_row, read_target_table, write_joints
 
     for path in (args.calibration, args.targets):
         check_input(path)
@@ -226,7 +226,7 @@ def _compensate(args: argparse.Namespace) -> int:
         more = f"; {len(lines)} targets in all, lines {_lines_text(lines)}" if len(lines) > 1 else ""
         raise InputError(
             f"target {np.round(targets[k], 6).tolist()} mm is {reason}{more}",
-            args.targets, f"line {lines[0]}, columns x_mm..z_mm",
+            args.targets, f"{data_row(lines[0], k + 1)}, columns x_mm..z_mm",
         ) from exc
     write_joints(args.output, targets, q)
     print(f"wrote {len(targets)} joint readings to {args.output}")

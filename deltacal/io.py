@@ -585,6 +585,11 @@ def _parse_number(value: str, source: str, where: str) -> float:
     return number
 
 
+def data_row(line: int, row: int) -> str:
+    """Where a CSV data row is: its line in the file (as an editor counts) and its row number."""
+    return f"line {int(line)} (data row {int(row)})"
+
+
 def read_csv_table(
     path: str | Path,
     required: list[str],
@@ -663,7 +668,8 @@ def read_csv_table(
     numbers: dict[str, list[float]] = {c: [] for c in wanted if c not in text_columns}
     texts: dict[str, list[str]] = {c: [] for c in wanted if c in text_columns}
     lines = []
-    for line_no, line in rows[1:]:
+    for row_no, (line_no, line) in enumerate(rows[1:], start=1):
+        where = data_row(line_no, row_no)
         fields = _csv_fields(line, source, line_no)
         if len(fields) != len(header):
             if len(fields) < len(header) and (";" in line or "\t" in line):
@@ -675,7 +681,7 @@ def read_csv_table(
             else:
                 hint = ""
             raise InputError(
-                f"{len(fields)} fields where the header has {len(header)}{hint}", source, f"line {line_no}"
+                f"{len(fields)} fields where the header has {len(header)}{hint}", source, where
             )
         for c in wanted:
             value = fields[index[c]].strip()
@@ -685,7 +691,7 @@ def read_csv_table(
             if value == "":
                 numbers[c].append(math.nan)
                 continue
-            numbers[c].append(_parse_number(value, source, f"line {line_no}, column {c}"))
+            numbers[c].append(_parse_number(value, source, f"{where}, column {c}"))
         lines.append(line_no)
     arrays = {c: np.array(v, dtype=float) for c, v in numbers.items()}
     line_arr = np.array(lines)
@@ -693,7 +699,7 @@ def read_csv_table(
         if c in arrays and np.any(np.isnan(arrays[c])):
             k = int(np.flatnonzero(np.isnan(arrays[c]))[0])
             raise InputError("empty value in a required column", source,
-                             f"line {line_arr[k]}, column {c}")
+                             f"{data_row(line_arr[k], k + 1)}, column {c}")
     for group in all_or_none:
         present = [c for c in group if c in arrays]
         if not present:
@@ -708,7 +714,7 @@ def read_csv_table(
             k = int(np.flatnonzero(partial)[0])
             col = group[int(np.flatnonzero(~filled[k])[0])]
             raise InputError(f"empty value while {', '.join(group)} are given together", source,
-                             f"line {line_arr[k]}, column {col}")
+                             f"{data_row(line_arr[k], k + 1)}, column {col}")
     warnings += _unit_warnings(arrays, source)
     numeric = np.column_stack([arrays[c] for c in arrays]) if arrays else np.zeros((len(lines), 0))
     keys = [tuple(np.round(numeric[k], 12)) + tuple(texts[c][k] for c in texts) for k in range(len(lines))]
@@ -769,7 +775,7 @@ def read_measurements(path: str | Path, point_names: list[str] | None = None):  
         for k, p in enumerate(points):
             if p not in point_names:
                 raise InputError(f"unknown point {p!r}; the robot's points are {', '.join(point_names)}",
-                                 str(path), f"line {table.lines[k]}, column point")
+                                 str(path), f"{data_row(table.lines[k], k + 1)}, column point")
     q = np.radians(np.column_stack([table.numbers[c] for c in JOINT_COLUMNS]))
     pos = np.column_stack([table.numbers[c] for c in TARGET_COLUMNS])
     rv = None

@@ -40,7 +40,7 @@ from .errormodels import MODEL_NAMES, ErrorModel, get_model
 from .exceptions import DeltacalError, InputError
 from .geometry import DeltaGeometry, NominalDelta, Workspace, skew
 from .identifiability import base_parameters
-from .io import atomic_write_text
+from .io import atomic_write_text, data_row
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
 from .observations import Measurements, build_rows
@@ -741,7 +741,7 @@ def read_poses(
             raise InputError(
                 f"{detail} ({int(bad.sum())} row(s); was the file planned for this robot?)",
                 str(path),
-                f"line {table.lines[k]}, columns q1_deg..z_mm",
+                f"{data_row(table.lines[k], k + 1)}, columns q1_deg..z_mm",
             )
     return PoseSet(q, targets), table.warnings
 

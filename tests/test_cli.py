@@ -234,7 +234,7 @@ def test_readings_the_robot_cannot_assemble_name_the_line(capsys, tmp_path, bai)
     code, _, err = run(capsys, "identify", robot, meas, "--model", "classical", "-o", tmp_path / "c.toml")
     assert code == 1
     line = error_line(err)
-    assert f"{meas}: line 14, columns q1_deg..q3_deg" in line
+    assert f"{meas}: line 14 (data row 13), columns q1_deg..q3_deg" in line
     assert "cannot be assembled at the readings q = [-90.0, -90.0, -90.0] deg" in line
 
 
@@ -420,14 +420,16 @@ def test_unreachable_and_singular_targets_name_their_lines(capsys, tmp_path):
     code, _, err = run(capsys, "compensate", geometry, targets, "-o", out)
     assert code == 1
     assert error_line(err) == (
-        f"deltacal compensate: error: {targets}: line 5, columns x_mm..z_mm: target [0.0, 0.0, -200.0] "
+        # line 5 of the file is its third data row (the blank line 3 is not a row)
+        f"deltacal compensate: error: {targets}: line 5 (data row 3), columns x_mm..z_mm: "
+        "target [0.0, 0.0, -200.0] "
         "mm is out of reach of the robot; 2 targets in all, lines 5, 6"
     )
     # 0.5 mm inside the reach of the arms and rods all but stretched: a serial singularity
     targets.write_text("x_mm,y_mm,z_mm\n0,0,-900\n0,0,-1316.5\n")
     code, _, err = run(capsys, "compensate", geometry, targets, "-o", out)
     assert code == 1
-    assert error_line(err).endswith("line 3, columns x_mm..z_mm: target [0.0, 0.0, -1316.5] mm is too close "
+    assert error_line(err).endswith("line 3 (data row 2), columns x_mm..z_mm: target [0.0, 0.0, -1316.5] mm is too close "
                                     "to a singularity")
     assert not out.exists()
 
@@ -436,7 +438,7 @@ def test_bad_target_value(data, capsys, tmp_path):
     targets = mutate(data["targets"], tmp_path / "t.csv", set_field(4, "y_mm", "12.5.3"))
     code, _, err = run(capsys, "compensate", data["cal"], targets, "-o", tmp_path / "j.csv")
     assert code == 1
-    assert error_line(err) == (f"deltacal compensate: error: {targets}: line 4, column y_mm: "
+    assert error_line(err) == (f"deltacal compensate: error: {targets}: line 4 (data row 3), column y_mm: "
                                "value '12.5.3' is not a number")
 
 
@@ -475,7 +477,7 @@ def test_help_and_version_exit_0(capsys):
 
 def test_debug_shows_the_traceback(data, tmp_path):
     bad = mutate(data["meas"], tmp_path / "bad.csv", set_field(3, "q1_deg", "abc"))
-    with pytest.raises(InputError, match="line 3, column q1_deg"):
+    with pytest.raises(InputError, match=r"line 3 \(data row 2\), column q1_deg"):
         main(["--debug", "identify", str(NOMINAL), str(bad), "-o", str(tmp_path / "c.toml")])
 
 
