@@ -429,8 +429,9 @@ def test_unreachable_and_singular_targets_name_their_lines(capsys, tmp_path):
     targets.write_text("x_mm,y_mm,z_mm\n0,0,-900\n0,0,-1316.5\n")
     code, _, err = run(capsys, "compensate", geometry, targets, "-o", out)
     assert code == 1
-    assert error_line(err).endswith("line 3 (data row 2), columns x_mm..z_mm: target [0.0, 0.0, -1316.5] mm is too close "
-                                    "to a singularity")
+    assert error_line(err).endswith(
+        "line 3 (data row 2), columns x_mm..z_mm: target [0.0, 0.0, -1316.5] mm is too close to a singularity"
+    )
     assert not out.exists()
 
 
