@@ -324,7 +324,7 @@ def load_nominal(path: str | Path):  # -> NominalDelta
                                   "robot file (such as deltacal/models/bai2015.toml)")
     top.check_unknown(["name", "description", "geometry", "points", "workspace"])
     name = top.string("name")
-    description = top.string("description", default="")
+    description = top.string("description")
     geo = top.table("geometry")
     assert geo is not None
     geo.check_unknown(
@@ -354,7 +354,7 @@ def load_nominal(path: str | Path):  # -> NominalDelta
             "±2π and put the limbs a few degrees apart: are these radians? deltacal reads degrees",
             InputWarning, stacklevel=2,
         )
-    tool = geo.vector("tool_mm", (3,)) if geo.has("tool_mm") else np.zeros(3)
+    tool = geo.vector("tool_mm", (3,))
     points: dict[str, np.ndarray] = {}
     pts = top.table("points", required=False)
     if pts is not None:

@@ -225,7 +225,7 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robot", type=Path, default=REPO_ROOT / "models" / "bai2015.toml")
+    parser.add_argument("--robot", type=Path, default=REPO_ROOT / "deltacal" / "models" / "bai2015.toml")
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each measurement")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     args = parser.parse_args()

@@ -63,7 +63,7 @@ from deltacal.validation import ValidationMetrics, metrics_from_positions, valid
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "results"
-ROBOT_FILE = REPO_ROOT / "models" / "bai2015.toml"
+ROBOT_FILE = REPO_ROOT / "deltacal" / "models" / "bai2015.toml"
 #: Seed of the true robot's manufacturing errors.
 ROBOT_SEED = 2015
 #: Seed of the tracker noise (each stage draws from its own child stream).

@@ -16,7 +16,7 @@ from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import ACCEPT, DeltaMultibody
 
-MODELS = Path(__file__).resolve().parents[1] / "models"
+MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 
 
 def nominal(name: str) -> NominalDelta:

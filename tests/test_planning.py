@@ -178,7 +178,7 @@ def test_poses_file_round_trip_and_validation(bai, tmp_path):
     bad = tmp_path / "bad.csv"
     fields = lines[2].split(",")
     bad.write_text("\n".join([lines[0], lines[1], ",".join([fields[0], "abc", *fields[2:]])]) + "\n")
-    with pytest.raises(InputError, match=r"bad.csv: line 3, column q2_deg: value 'abc' is not a number"):
+    with pytest.raises(InputError, match=r"bad.csv: line 3 \(data row 2\), column q2_deg: value 'abc'"):
         read_poses(bad)
     bad.write_text("q1_deg,q2_deg,x_mm,y_mm,z_mm\n1,2,3,4,5\n")
     with pytest.raises(InputError, match="missing required column.*q3_deg"):

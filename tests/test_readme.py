@@ -10,7 +10,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     text = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
     assert blocks, "the README has a Python example"
-    code = blocks[0].replace('"models/bai2015.toml"', repr(str(ROOT / "models" / "bai2015.toml")))
+    robot = ROOT / "deltacal" / "models" / "bai2015.toml"
+    code = blocks[0].replace('"models/bai2015.toml"', repr(str(robot)))
     monkeypatch.chdir(tmp_path)
     exec(compile(code, "README.md", "exec"), {})
     out = capsys.readouterr().out
