@@ -102,9 +102,11 @@ def test_identify_then_compensate_puts_the_true_tcp_on_the_targets(data, capsys,
     assert joints.read_text().splitlines()[0] == "x_mm,y_mm,z_mm,q1_deg,q2_deg,q3_deg"
     assert_allclose(table[:, :3], data["target_values"], atol=0.0)
     reached = exact.forward(data["truth"], np.radians(table[:, 3:])).point(data["truth"].tool)
-    # noise-free measurements: the identified complete model reproduces the true robot to well
-    # under a micrometre (Gauss-Newton stops when its steps are 1e-3 of their σ)
-    assert_allclose(reached, data["target_values"], atol=1e-3)
+    # noise-free measurements: the identified complete model reproduces the true robot to under
+    # a micrometre (0.19 µm measured). Not to 1e-9: Savoure's model moves the plate balls for an
+    # actuator-point error (Eq. 13), the same only while the plate is parallel; the true robot's
+    # tilt (up to 0.25 deg) times its actuator-point errors (0.15 mm) leaves up to ~0.6 µm
+    assert_allclose(reached, data["target_values"], atol=5e-4)
 
 
 def test_identify_report_and_permissions(data, capsys, tmp_path):

@@ -100,10 +100,9 @@ def test_noise_free_recovery_of_the_identifiable_combinations(bai, name):
     result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
     assert result.rank == (42 if name == "complete" else 24)
     assert_allclose(result.values, result.base.project(dk), rtol=0, atol=1e-6)
-    # the fit reaches the floating-point floor (7e-13 mm measured) for the complete model;
-    # the classical one keeps 6e-10 mm: its apply turns the plate pair to first order only
-    # (xfail below), which leaves second-order imperfections the iterates cannot undo
-    assert result.after.position_max < (1e-9 if name == "complete" else 1e-8)
+    # the fit reaches the floating-point floor for both models (7e-13 mm measured for the
+    # complete one; classical apply turns the ball pairs exactly, so its iterates stay perfect)
+    assert result.after.position_max < 1e-9
 
 
 def test_noise_free_recovery_of_large_errors_in_the_model_family(bai):
