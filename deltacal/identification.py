@@ -133,6 +133,13 @@ class IdentificationResult:
         """Readable base parameters (regroupings)."""
         return self.base.labels()
 
+    def strong_correlations(self, threshold: float = 0.9, limit: int = 5) -> list[tuple[int, int, float]]:
+        """Pairs of base parameters (indices) with |correlation| above ``threshold``, strongest first."""
+        C = np.triu(self.correlation, k=1)
+        a, b = np.nonzero(np.abs(C) > threshold)
+        order = np.argsort(-np.abs(C[a, b]))[:limit]
+        return [(int(a[k]), int(b[k]), float(C[a[k], b[k]])) for k in order]
+
     def report(self) -> str:
         """A readable report: base parameters with σ, what is not identifiable, residuals, outliers."""
         lines = [
@@ -174,6 +181,12 @@ class IdentificationResult:
             lines.append(f"  {key} RMS [{unit}]  {b_rms * scale:12.6f} {a_rms * scale:12.6f}")
             lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
         lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
+        strong = self.strong_correlations()
+        if strong:
+            lines.append(
+                "strongest correlations: "
+                + "; ".join(f"{self.labels[a]} ~ {self.labels[b]} {c:+.3f}" for a, b, c in strong)
+            )
         if self.outliers:
             lines.append(
                 f"outliers (data snooping at {OUTLIER_THRESHOLD:g} σ): "
@@ -207,6 +220,8 @@ class IdentificationResult:
             "residuals_after": self.after.as_dict(),
             "outlier_lines": [int(n) for n in self.outlier_lines],
             "base_parameter": params,
+            # correlation matrix of the base parameters, in the order of base_parameter
+            "correlation": np.round(self.correlation, 6).tolist(),
         }
 
     def save(self, path: str | Path) -> None:
@@ -384,6 +399,7 @@ def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray, kind: np.n
     measurements: one gross error no longer flags the rows it drags.
     """
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
+    quantile: dict[int, float] = {}
     ids = np.unique(measurement)
     active = np.ones(rw.size, dtype=bool)
     flagged: list[int] = []
@@ -404,7 +420,9 @@ def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray, kind: np.n
             Qg = Q[rows]
             A = np.eye(rows.size) - Qg @ Qg.T
             T = float(r[rows] @ np.linalg.lstsq(A, r[rows], rcond=1e-12)[0])
-            ratio = T / scipy.stats.chi2.isf(p_value, rows.size)
+            if rows.size not in quantile:
+                quantile[rows.size] = float(scipy.stats.chi2.isf(p_value, rows.size))
+            ratio = T / quantile[rows.size]
             if ratio > worst_ratio:
                 worst, worst_ratio = int(g), ratio
         if worst < 0:
