@@ -14,9 +14,10 @@ Three methods, vectorised over targets:
   A_rε A_εε⁻¹ B_ε Δp_ε)``; the tilt's effect on a tool below the plate is not
   compensated.
 
-The linear methods are first order in the identified deviations: with encoder
-offsets of a degree the neglected second-order terms are a few tenths of a
-millimetre (``L θ²/2``), which is why the exact method is the default.
+The linear methods are first order in the identified deviations. Encoder offsets,
+usually the largest, act in joint space, where the correction ``J_S^m J_S δθ = δθ``
+is exact; the neglected terms are products of the other deviations (0.003 mm in
+``deltacal demo``). The exact method has no such limit and is the default.
 Units: mm and rad.
 """
 

@@ -148,6 +148,23 @@ def run_demo(
     return summary
 
 
+def markdown_table(summary: dict) -> str:
+    """The comparison table of a demo run as Markdown (the README quotes it verbatim)."""
+    rows = summary["validation"]
+    tools = list(dict.fromkeys(r["tool"] for r in rows))
+    lines = [
+        "| model | compensation | " + " | ".join(f"{t}: max | RMS" for t in tools) + " |",
+        "| --- | --- | " + " | ".join("--- | ---" for _ in tools) + " |",
+    ]
+    for model, method in dict.fromkeys((r["model"], r["method"]) for r in rows):
+        cells = []
+        for t in tools:
+            r = next(r for r in rows if (r["tool"], r["model"], r["method"]) == (t, model, method))
+            cells += [f"{r['max_mm']:.4f}", f"{r['rms_mm']:.4f}"]
+        lines.append(f"| {model} | {method} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def _row(tool: str, model: str, method: str, metrics) -> dict:
     return {
         "tool": tool,

@@ -5,8 +5,9 @@ import subprocess
 import sys
 
 import pytest
+from conftest import ROOT
 
-from deltacal.demo import run_demo
+from deltacal.demo import markdown_table, run_demo
 
 
 def _row(summary, tool, model, method):
@@ -55,3 +56,6 @@ def test_demo_figures(tmp_path, seed):
     assert bai["max_mm"] > 10 * complete["max_mm"]
     # identification from noisy measurements: the variance factor says the σ were right
     assert 0.5 < summary["identification"]["complete"]["variance_factor"] < 2.0
+    if seed == 2015:  # the README quotes this run's table verbatim
+        readme = (ROOT / "README.md").read_text()
+        assert markdown_table(summary) in readme
