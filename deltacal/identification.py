@@ -415,16 +415,22 @@ def _outliers(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray, kind: np.n
             r[of_kind] /= max(1.0, 1.4826 * float(np.median(standardised[of_kind])))
         meas = measurement[active]
         worst, worst_ratio = -1, 1.0
-        for g in np.unique(meas):
-            rows = np.flatnonzero(meas == g)
-            Qg = Q[rows]
-            A = np.eye(rows.size) - Qg @ Qg.T
-            T = float(r[rows] @ np.linalg.lstsq(A, r[rows], rcond=1e-12)[0])
-            if rows.size not in quantile:
-                quantile[rows.size] = float(scipy.stats.chi2.isf(p_value, rows.size))
-            ratio = T / quantile[rows.size]
-            if ratio > worst_ratio:
-                worst, worst_ratio = int(g), ratio
+        ids_now, counts = np.unique(meas, return_counts=True)
+        order = np.argsort(meas, kind="stable")  # rows grouped by measurement
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        for size in np.unique(counts):  # groups of one size at once (poses: 6 rows, points: 3...)
+            groups = np.flatnonzero(counts == size)
+            rows = order[starts[groups][:, None] + np.arange(size)[None, :]]  # (G, size)
+            Qg = Q[rows]  # (G, size, rank)
+            A = np.eye(size)[None] - Qg @ np.swapaxes(Qg, 1, 2)
+            rg = r[rows]
+            T = np.einsum("gi,gi->g", rg, (np.linalg.pinv(A, rcond=1e-12) @ rg[..., None])[..., 0])
+            if size not in quantile:
+                quantile[size] = float(scipy.stats.chi2.isf(p_value, size))
+            ratio = T / quantile[size]
+            k = int(np.argmax(ratio))
+            if ratio[k] > worst_ratio:
+                worst, worst_ratio = int(ids_now[groups[k]]), float(ratio[k])
         if worst < 0:
             break
         flagged.append(worst)
