@@ -3,12 +3,22 @@
 Units inside the library are millimetres and radians; files and the command
 line use millimetres and degrees.
 
+The public API is importable from here: ``from deltacal import identify,
+compensate, d_optimal, ...``. Names are loaded on first use (PEP 562), so
+``import deltacal`` stays light: Pinocchio and meshcat are imported only by
+what needs them.
+
 deltacal's matrices are small (tens of columns, a few hundred rows), where BLAS
 threads only contend: on a 2-core machine a linear identification took 16 ms
 single-threaded and 111 ms with OpenBLAS's default threads. The ``deltacal``
 command runs single-threaded (threadpoolctl); in your own programs, wrap the work
 in ``threadpoolctl.threadpool_limits(1)`` or set ``OPENBLAS_NUM_THREADS=1``.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 from .exceptions import (
     AssemblyError,
@@ -17,31 +27,88 @@ from .exceptions import (
     GeometryError,
     IdentificationError,
     InputError,
+    InputWarning,
+    PlanningError,
     UnreachableError,
+    UsageError,
+    ViewerError,
 )
-from .geometry import DeltaGeometry, NominalDelta, Tolerances, Workspace, error_names
-from .kinematics.closed_form import VirtualDelta
-from .kinematics.exact import PlatePose
-from .kinematics.multibody import ClosureSolution, DeltaMultibody
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
+
+#: Public name -> module that defines it (loaded on first access).
+_LAZY = {
+    # geometry and kinematics
+    "DeltaGeometry": "geometry",
+    "NominalDelta": "geometry",
+    "Tolerances": "geometry",
+    "Workspace": "geometry",
+    "error_names": "geometry",
+    "VirtualDelta": "kinematics.closed_form",
+    "PlatePose": "kinematics.exact",
+    "ClosureSolution": "kinematics.multibody",
+    "DeltaMultibody": "kinematics.multibody",
+    "forward": "kinematics.exact",
+    "inverse": "kinematics.exact",
+    # models, measurements, identification
+    "ErrorModel": "errormodels",
+    "get_model": "errormodels",
+    "MODEL_NAMES": "errormodels",
+    "Measurements": "observations",
+    "BaseParameters": "identifiability",
+    "base_parameters": "identifiability",
+    "IdentificationResult": "identification",
+    "identify": "identification",
+    # compensation, planning, simulation, validation
+    "LinearCalibration": "compensation",
+    "compensate": "compensation",
+    "linear_calibration_from_result": "compensation",
+    "PoseSet": "planning",
+    "bai_poses": "planning",
+    "condition_curve": "planning",
+    "d_optimal": "planning",
+    "Metrology": "simulation",
+    "simulate_measurements": "simulation",
+    "ValidationMetrics": "validation",
+    "validate": "validation",
+    "validation_poses": "validation",
+    # files
+    "load_nominal": "io",
+    "load_geometry": "io",
+    "save_geometry": "io",
+    "save_calibration": "io",
+    "read_measurements": "io",
+    "write_measurements": "io",
+    # the whole job
+    "run_demo": "demo",
+}
 
 __all__ = [
     "AssemblyError",
-    "ClosureSolution",
     "ConvergenceError",
-    "DeltaGeometry",
-    "DeltaMultibody",
     "DeltacalError",
     "GeometryError",
     "IdentificationError",
     "InputError",
-    "NominalDelta",
-    "PlatePose",
-    "Tolerances",
+    "InputWarning",
+    "PlanningError",
     "UnreachableError",
-    "VirtualDelta",
-    "Workspace",
+    "UsageError",
+    "ViewerError",
     "__version__",
-    "error_names",
+    *sorted(_LAZY),
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'deltacal' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+

@@ -213,16 +213,20 @@ def compensate(
     near = margin < min_margin
     if np.any(near):
         worst = float(np.min(margin[near]))
-        raise UnreachableError.from_mask(
-            near,
-            targets,
-            f"too close to a singularity (margin down to {worst:.3g} < {min_margin:g}: arm and rod "
-            f"within {np.degrees(MIN_TRANSMISSION_ANGLE):g} deg of alignment or rods nearly coplanar)",
+        raise UnreachableError(
+            f"{int(near.sum())} target(s) too close to a singularity (margin down to {worst:.3g} < "
+            f"{min_margin:g}: arm and rod within {np.degrees(MIN_TRANSMISSION_ANGLE):g} deg of alignment "
+            f"or rods nearly coplanar), first: {np.round(targets[np.flatnonzero(near)[0]], 6).tolist()} mm "
+            f"(index {int(np.flatnonzero(near)[0])})",
+            np.flatnonzero(near),
+            targets[near],
+            UnreachableError.SINGULAR,
         )
     return q
 
 
-def linear_calibration_from_result(result) -> LinearCalibration:
-    """The linear compensators' inputs from an IdentificationResult."""
-    model = get_model(result.model)
-    return LinearCalibration(nominal=result.start, model=model, deviation=result.base.expand(result.values))
+def linear_calibration_from_result(result, tool: np.ndarray | None = None) -> LinearCalibration:
+    """The linear compensators' inputs from an IdentificationResult (optionally with another tool [mm])."""
+    nominal = result.start if tool is None else result.start.with_tool(tool)
+    deviation = result.base.expand(result.values)
+    return LinearCalibration(nominal=nominal, model=get_model(result.model), deviation=deviation)

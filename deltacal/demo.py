@@ -15,83 +15,84 @@ from __future__ import annotations
 
 import json
 import math
-import sys
-import time
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from .compensation import LinearCalibration, compensate
-from .errormodels import get_model
+from .compensation import METHODS, compensate, linear_calibration_from_result
+from .exceptions import ViewerError
 from .geometry import NominalDelta, Tolerances
 from .identification import identify
-from .io import atomic_write_text
+from .io import atomic_write_text, load_nominal
+from .kinematics import exact
+from .observations import SIGMA_ANGLE, SIGMA_POSITION
 from .planning import d_optimal
 from .simulation import Metrology, simulate_measurements
 from .validation import validate, validation_poses
+from .viz import export_views
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 #: Tools of the comparison: at the plate, and 200 mm below it [mm].
 TOOLS = {"tool 0 mm": np.zeros(3), "tool 200 mm": np.array([0.0, 0.0, -200.0])}
 MODELS = ("classical", "bai42", "complete")
-METHODS = ("exact", "savoure", "bai")
 
 
-@dataclass
-class _Progress:
-    start: float
-
-    def step(self, text: str) -> None:
-        print(f"[{time.perf_counter() - self.start:5.1f} s] {text}", file=sys.stderr, flush=True)
+def _silent(text: str) -> None:
+    """The default progress callback: says nothing."""
 
 
 def run_demo(
-    out_dir: Path = Path("results"), seed: int = 2015, quick: bool = False, views: bool = True
+    out_dir: Path = Path("results"),
+    seed: int = 2015,
+    quick: bool = False,
+    views: bool = True,
+    progress: Callable[[str], None] = _silent,
 ) -> dict:
-    """Run the demo, print the comparison table and write the results.
+    """Run the demo and write the results; :func:`text_table` gives its comparison table.
 
     Args:
         out_dir: Folder for demo.json, demo_errors.png, demo.html, demo.png (created if needed).
         seed: Seed of the true robot, the poses and the measurement noise.
         quick: Fewer poses (30 instead of 60) for a fast check.
         views: Write the meshcat scene (and its screenshot) too.
+        progress: Called with one line of text after each long step, and for each
+            output skipped because an optional part is missing (``"skipped: ..."``).
 
     Returns:
         The results written to demo.json.
     """
-    progress = _Progress(time.perf_counter())
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    nominal = NominalDelta.from_toml(MODELS_DIR / "bai2015.toml")
+    nominal = load_nominal(MODELS_DIR / "bai2015.toml")
     rng = np.random.default_rng(seed)
     start = nominal.geometry()
     truth = start.perturbed(Tolerances.bai2015(), rng)
-    progress.step(
+    progress(
         f"true robot (seed {seed}): encoder offsets "
         f"{np.round(np.degrees(truth.encoder_offset), 3).tolist()} deg"
     )
 
     count = 30 if quick else 60
     design = d_optimal(nominal, "complete", count, rng=rng, pool_size=400 if quick else 800)
-    progress.step(f"planned {count} D-optimal poses from {len(design.pool)} candidates")
+    progress(f"planned {count} D-optimal poses from {len(design.pool)} candidates")
 
-    metrology = Metrology(points=("smr_centre",), sigma_position=0.005, sigma_angle=math.radians(0.003))
+    metrology = Metrology(points=("smr_centre",), sigma_position=SIGMA_POSITION, sigma_angle=SIGMA_ANGLE)
     measurements = simulate_measurements(truth, design.poses.q, rng, metrology)
-    progress.step(f"simulated {len(measurements)} tracker + probe measurements on the Pinocchio model")
+    progress(f"simulated {len(measurements)} tracker + probe measurements on the Pinocchio model")
 
     results = {}
     for name in MODELS:
         results[name] = identify(start, measurements, name, method="iterated")
         r = results[name]
-        progress.step(
+        progress(
             f"identified {name}: rank {r.rank}/{len(r.base.names)}, {r.iterations} iterations, "
             f"residual RMS {r.after.position_rms * 1000:.1f} µm"
         )
 
     # the papers' pipeline: one linear identification around the nominal geometry
     one_shot = identify(start, measurements, "complete", method="linear")
-    progress.step(
+    progress(
         f"identified complete in one linear step: residual RMS {one_shot.after.position_rms * 1000:.1f} µm"
     )
 
@@ -103,15 +104,11 @@ def run_demo(
         before = validate(true_tool, poses.q, targets)
         rows.append(_row(tool_name, "uncalibrated", "-", before))
         for name, result in [*results.items(), ("complete (linear id.)", one_shot)]:
-            linear = LinearCalibration(
-                nominal=start.with_tool(tool),
-                model=get_model(result.model),
-                deviation=result.base.expand(result.values),
-            )
+            linear = linear_calibration_from_result(result, tool)
             for method in METHODS:
                 q = compensate(result.geometry.with_tool(tool), targets, method, linear)
                 rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
-        progress.step(f"validated every model and method on the true robot, {tool_name}")
+        progress(f"validated every model and method on the true robot, {tool_name}")
 
     tilt = _tilt_range(truth, nominal)
     summary = {
@@ -136,15 +133,14 @@ def run_demo(
         },
         "validation": rows,
     }
-    print(_table(rows, tilt))
     atomic_write_text(out_dir / "demo.json", json.dumps(summary, indent=2) + "\n")
     written = [out_dir / "demo.json"]
-    plot = _plot(rows, out_dir / "demo_errors.png")
+    plot = _plot(rows, out_dir / "demo_errors.png", progress)
     if plot is not None:
         written.append(plot)
     if views:
         written += _views(start, truth, nominal, out_dir, progress)
-    progress.step("wrote " + ", ".join(str(p) for p in written))
+    progress("wrote " + ", ".join(str(p) for p in written))
     return summary
 
 
@@ -178,14 +174,15 @@ def _row(tool: str, model: str, method: str, metrics) -> dict:
 
 
 def _tilt_range(truth, nominal: NominalDelta) -> tuple[float, float]:
-    from .kinematics import exact
-
     poses = validation_poses(nominal)
     tilt = np.degrees(exact.forward(truth, poses.q).tilt())
     return float(tilt.min()), float(tilt.max())
 
 
-def _table(rows: list[dict], tilt: tuple[float, float]) -> str:
+def text_table(summary: dict) -> str:
+    """The comparison table of a demo run as plain text (what ``deltacal demo`` prints)."""
+    rows = summary["validation"]
+    tilt = (summary["plate_tilt_deg"]["min"], summary["plate_tilt_deg"]["max"])
     tools = list(dict.fromkeys(r["tool"] for r in rows))
     header = f"{'model':<22} {'method':<8}" + "".join(f" | {t + ' max':>16} {'RMS':>8}" for t in tools)
     lines = [
@@ -208,14 +205,14 @@ def _table(rows: list[dict], tilt: tuple[float, float]) -> str:
     return "\n".join(lines)
 
 
-def _plot(rows: list[dict], path: Path) -> Path | None:
+def _plot(rows: list[dict], path: Path, progress: Callable[[str], None]) -> Path | None:
     try:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("matplotlib is not installed (pip install 'deltacal[plot]'): no plot", file=sys.stderr)
+        progress(f"skipped: {path.name} (matplotlib is not installed: pip install 'deltacal[plot]')")
         return None
     tools = list(dict.fromkeys(r["tool"] for r in rows))
     labels = list(dict.fromkeys(f"{r['model'].replace(' (', chr(10) + '(')}\n{r['method']}" for r in rows))
@@ -239,15 +236,14 @@ def _plot(rows: list[dict], path: Path) -> Path | None:
     return path
 
 
-def _views(start, truth, nominal: NominalDelta, out_dir: Path, progress: _Progress) -> list[Path]:
+def _views(start, truth, nominal: NominalDelta, out_dir: Path, progress: Callable[[str], None]) -> list[Path]:
+    """Write ``demo.html`` (animated, error arrows) and, with Chromium, ``demo.png``."""
     try:
-        from .viz import write_demo_views
-    except ImportError:
-        print("meshcat is not installed (pip install 'deltacal[viz]'): no 3-D view", file=sys.stderr)
+        paths = export_views(start, truth, out_dir / "demo.html", out_dir / "demo.png", nominal.workspace)
+    except ViewerError as exc:
+        progress(f"skipped: demo.html and demo.png ({exc})")
         return []
-    paths = write_demo_views(start, truth, out_dir, workspace=nominal.workspace)
-    progress.step("wrote the meshcat scene" + (" and its screenshot" if len(paths) > 1 else ""))
+    if "png" not in paths:
+        progress("skipped: demo.png (no Chromium to take the screenshot: apt-get install chromium)")
+    progress("wrote the meshcat scene" + (" and its screenshot" if "png" in paths else ""))
     return list(paths.values())
-
-
-__all__ = ["run_demo"]

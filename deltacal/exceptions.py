@@ -57,22 +57,40 @@ class UnreachableError(DeltacalError):
     Attributes:
         indices: Indices, in the batch, of the failing targets.
         targets: The failing targets [mm], shape (k, 3).
+        reason: Why: one of :data:`UnreachableError.REASONS` (``"out_of_reach"``,
+            ``"singular"``, ``"check_failed"``). Callers branch on it, never on the message.
     """
 
-    def __init__(self, message: str, indices=(), targets=None):
+    OUT_OF_REACH = "out_of_reach"
+    SINGULAR = "singular"
+    CHECK_FAILED = "check_failed"
+    REASONS = (OUT_OF_REACH, SINGULAR, CHECK_FAILED)
+    #: the words used for each reason in messages
+    WORDS = {
+        OUT_OF_REACH: "out of reach of the robot",
+        SINGULAR: "too close to a singularity",
+        CHECK_FAILED: "not reached by the joints computed (the output check failed)",
+    }
+
+    def __init__(self, message: str, indices=(), targets=None, reason: str = OUT_OF_REACH):
+        if reason not in self.REASONS:
+            raise ValueError(f"unknown reason {reason!r}; expected one of {self.REASONS}")
         self.indices = list(indices)
         self.targets = targets
+        self.reason = reason
         super().__init__(message)
 
     @classmethod
-    def from_mask(cls, bad: np.ndarray, targets: np.ndarray, what: str = "out of reach of the robot"):
+    def from_mask(cls, bad: np.ndarray, targets: np.ndarray, reason: str = OUT_OF_REACH):
         """The error for the targets where ``bad`` is true, naming the first one and its index."""
         idx = np.flatnonzero(bad)
         i = int(idx[0])
+        what = cls.WORDS[reason]
         return cls(
             f"{idx.size} target(s) {what}, first: {np.round(targets[i], 6).tolist()} mm (index {i})",
             idx,
             targets[idx],
+            reason,
         )
 
 
@@ -90,3 +108,23 @@ class ConvergenceError(DeltacalError):
 
 class IdentificationError(DeltacalError):
     """The measurements cannot identify what was asked (too few, rank deficient...)."""
+
+
+class PlanningError(DeltacalError):
+    """No pose set satisfies what was asked (κ rule never met, too few candidates...)."""
+
+
+class ViewerError(DeltacalError):
+    """The scene cannot be shown or rendered (no browser, browser failed, server failed)."""
+
+
+class UsageError(DeltacalError):
+    """The command line is wrong (a path that does not exist, an output over an input): status 2."""
+
+
+class InputWarning(UserWarning):
+    """Something in an input file looks wrong but may be right (units, repeated rows).
+
+    The command line prints these on one line each; library users get them
+    through the :mod:`warnings` machinery.
+    """

@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -236,13 +235,6 @@ class NominalDelta:
             points={k: v.copy() for k, v in self.points.items()},
             name=self.name,
         )
-
-    @classmethod
-    def from_toml(cls, path: str | Path) -> NominalDelta:
-        """Read a nominal robot file (see :func:`deltacal.io.load_nominal`)."""
-        from .io import load_nominal
-
-        return load_nominal(path)
 
 
 def radial_vectors(azimuth: np.ndarray) -> np.ndarray:
@@ -600,17 +592,3 @@ class DeltaGeometry:
         return same and all(
             np.allclose(self.points[k], other.points[k], atol=atol, rtol=0) for k in self.points
         )
-
-    # ---------------------------------------------------------------- files
-    def save(self, path: str | Path) -> None:
-        """Write this geometry to a TOML file (mm, deg), atomically; exact round trip."""
-        from .io import save_geometry
-
-        save_geometry(self, path)
-
-    @classmethod
-    def load(cls, path: str | Path) -> DeltaGeometry:
-        """Read a geometry TOML file written by :meth:`save`."""
-        from .io import load_geometry
-
-        return load_geometry(path)

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 import scipy.linalg
@@ -32,7 +31,16 @@ from .exceptions import AssemblyError, ConvergenceError, GeometryError, Identifi
 from .geometry import DeltaGeometry
 from .identifiability import BaseParameters, base_parameters
 from .kinematics import exact
-from .observations import DISTANCE, ORIENTATION, POSITION, Measurements, Rows, build_rows
+from .observations import (
+    DISTANCE,
+    ORIENTATION,
+    POSITION,
+    SIGMA_ANGLE,
+    SIGMA_POSITION,
+    Measurements,
+    Rows,
+    build_rows,
+)
 
 #: Standardised residual [σ] above which a measurement is flagged as an outlier.
 OUTLIER_THRESHOLD = 4.0
@@ -224,12 +232,6 @@ class IdentificationResult:
             "correlation": np.round(self.correlation, 6).tolist(),
         }
 
-    def save(self, path: str | Path) -> None:
-        """Write the calibration TOML: the identified geometry in full plus this report."""
-        from .io import save_calibration
-
-        save_calibration(self, path)
-
 
 def _solve_wls(Ww: np.ndarray, rw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Least squares by QR: solution, Q, and the inverse of R (covariance ``R⁻¹ R⁻ᵀ``)."""
@@ -244,8 +246,8 @@ def identify(
     measurements: Measurements,
     model: str | ErrorModel = "complete",
     method: str = "iterated",
-    sigma_position: float = 0.005,
-    sigma_angle: float = math.radians(0.003),
+    sigma_position: float = SIGMA_POSITION,
+    sigma_angle: float = SIGMA_ANGLE,
     distances: bool = False,
     pairs: str = "all",
     rtol: float = 1e-8,

@@ -18,6 +18,7 @@ rotation vector of the plate frame {C} in {O}. Units: mm and rad.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -28,6 +29,13 @@ from .kinematics.exact import PlatePose
 
 #: Row kinds.
 POSITION, ORIENTATION, DISTANCE = 0, 1, 2
+
+#: Default σ of a measured coordinate [mm] (a laser tracker), for weighting and simulation.
+SIGMA_POSITION = 0.005
+#: Default σ of a measured orientation component [deg] (a 6-DoF probe).
+SIGMA_ANGLE_DEG = 0.003
+#: The same [rad].
+SIGMA_ANGLE = math.radians(SIGMA_ANGLE_DEG)
 
 
 @dataclass(frozen=True)

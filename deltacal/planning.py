@@ -27,7 +27,6 @@ nominal TCP target they reach. Units: mm and rad inside, mm and deg in files.
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -35,15 +34,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import positive_int
 from .errormodels import MODEL_NAMES, ErrorModel, get_model
-from .exceptions import DeltacalError, InputError
+from .exceptions import InputError, PlanningError
 from .geometry import DeltaGeometry, NominalDelta, Workspace, skew
 from .identifiability import base_parameters
 from .io import atomic_write_text, data_row
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
-from .observations import Measurements, build_rows
+from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, build_rows
 
 #: Columns of the POSES file, in order.
 POSES_COLUMNS = ["q1_deg", "q2_deg", "q3_deg", "x_mm", "y_mm", "z_mm"]
@@ -53,18 +51,11 @@ MEASUREMENTS = ("pose", "position", "distance")
 ROUGH = "rough"
 #: Model names :func:`planning_model` accepts.
 PLAN_MODELS = (*MODEL_NAMES, ROUGH)
-#: Default measurement noise for the weighting of pose rows: σ position [mm], σ angle [rad].
-SIGMA_POSITION = 0.005
-SIGMA_ANGLE = math.radians(0.003)
 #: A POSES file row whose readings put the nominal TCP farther than this from its target
 #: is rejected by :func:`read_poses` [mm].
 POSES_TOLERANCE = 1e-6
 #: Relative rank tolerance of the scaled regressors (as :func:`base_parameters`).
 _RTOL = 1e-8
-
-
-class PlanningError(DeltacalError):
-    """No pose set satisfies what was asked (κ rule never met, too few candidates...)."""
 
 
 # --------------------------------------------------------------------------- pose sets
@@ -747,138 +738,3 @@ def read_poses(
 
 
 # --------------------------------------------------------------------------- command line
-def parse_epsilon(text: str) -> float:
-    """ε0 from the command line: a fraction (``0.01``) or a percentage (``1%``)."""
-    try:
-        value = float(text[:-1]) / 100.0 if text.strip().endswith("%") else float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number or percentage: {text!r}") from None
-    if not (0.0 < value < 1.0):
-        raise argparse.ArgumentTypeError(f"epsilon must be in (0, 1) or (0 %, 100 %), got {text!r}")
-    return value
-
-
-def add_plan_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``deltacal plan`` on an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "plan",
-        help="plan measurement poses (Bai's circles and κ(n) rule, or D-optimal)",
-        description=(
-            "Plan measurement poses for a robot file and write a POSES CSV "
-            "(q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm: readings, then the nominal TCP target). "
-            "Strategy 'bai': the centre and n poses on each of the top and bottom circles of "
-            "the workspace (the middle circle for --model rough), n given or chosen by Bai's "
-            "κ(n) rule (Eq. 21). Strategy 'doptimal': COUNT poses of a random pool maximising "
-            "log det of the scaled base regressor."
-        ),
-    )
-    p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML) with a [workspace]")
-    p.add_argument("--model", default="complete", choices=PLAN_MODELS,
-                   help="error model (default: complete; 'rough': encoder offsets only)")
-    group = p.add_mutually_exclusive_group()
-    group.add_argument("--n", type=positive_int, help="poses per circle (strategy bai)")
-    group.add_argument("--epsilon", type=parse_epsilon,
-                       help="ε0 of the κ(n) rule, fraction or percentage (default: 1%%)")
-    p.add_argument("--strategy", default="bai", choices=("bai", "doptimal"),
-                   help="Bai's circles (default) or D-optimal selection from a random pool")
-    p.add_argument("--measure", choices=MEASUREMENTS,
-                   help="measurement kind for κ and D-optimality (default: distance for Bai's "
-                        "distance models bai18/bai36/bai32 and rough, pose otherwise)")
-    p.add_argument("--points", help="comma-separated plate points measured (default: by model)")
-    p.add_argument("--count", type=positive_int, help="poses to select (strategy doptimal; "
-                   "default: twice the number of base parameters, divided by the rows per pose)")
-    p.add_argument("--pool", type=positive_int, default=1000, help="candidate pool size (doptimal)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the candidate pool (doptimal)")
-    p.add_argument("--n-max", type=positive_int, default=20, help="largest n of the κ(n) curve")
-    p.add_argument("-o", "--output", required=True, metavar="POSES.csv", help="output file")
-    p.set_defaults(func=plan_command)
-    return p
-
-
-def _default_measurement(model: str) -> str:
-    return "distance" if model in ("bai18", "bai36", "bai32", ROUGH) else "pose"
-
-
-def plan_command(args: argparse.Namespace) -> int:
-    """Run ``deltacal plan``: print what was chosen, write the POSES file, return 0.
-
-    Errors (:class:`DeltacalError`, ``ValueError``, ``OSError``) propagate to
-    :func:`deltacal.cli.main`, which prints them on one line.
-    """
-    from .cli import check_input, check_output
-    from .io import load_nominal
-
-    check_input(args.nominal)
-    check_output(args.output, (args.nominal,))
-    nominal = load_nominal(args.nominal)
-    model = planning_model(args.model)
-    measurement = args.measure or _default_measurement(args.model)
-    geometry = nominal.geometry()
-    if args.points:
-        points = [p.strip() for p in args.points.split(",") if p.strip()]
-        for p in points:
-            if p not in geometry.point_names:
-                raise InputError(
-                    f"unknown point {p!r}; the robot's points are {', '.join(geometry.point_names)}",
-                    "--points",
-                )
-    else:
-        points = default_points(geometry, model, measurement)
-    if args.strategy == "bai":
-        poses, report = _plan_bai(args, nominal, model, measurement, points)
-    else:
-        poses, report = _plan_doptimal(args, nominal, model, measurement, points)
-    write_poses(args.output, poses)
-    print(report)
-    print(f"wrote {len(poses)} poses to {args.output}")
-    return 0
-
-
-def _plan_bai(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
-    rough = model.name == ROUGH
-    where = "centre + middle circle" if rough else "centre + top and bottom circles"
-    lines = []
-    if args.n is not None:
-        n = args.n
-        lines.append(f"bai pose set, n = {n} given")
-    else:
-        eps0 = 0.01 if args.epsilon is None else args.epsilon
-        curve = condition_curve(nominal, model, measurement, points, n_max=args.n_max)
-        n = curve.least_n(eps0)
-        k = int(np.flatnonzero(curve.n == n)[0])
-        lines.append(
-            f"κ(n) rule (Bai Eq. 21) for model {model.name}, {measurement} measurements of "
-            f"{','.join(points)}, {len(curve.base_names)} base parameters, column-scaled κ:"
-        )
-        lines.append(curve.table())
-        lines.append(
-            f"chosen n = {n}: ε_n = {100.0 * curve.epsilon[k]:.3g} % <= ε0 = {100.0 * eps0:g} %, "
-            f"κ_n = {curve.kappa[k]:.6g}"
-        )
-    poses = rough_poses(nominal, n) if rough else bai_poses(nominal, n)
-    ws = require_workspace(nominal)
-    lines.append(f"{len(poses)} poses ({where}, radius {ws.radius:g} mm)")
-    return poses, "\n".join(lines)
-
-
-def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
-    if args.n is not None or args.epsilon is not None:
-        raise PlanningError("--n and --epsilon apply to --strategy bai, not doptimal")
-    if measurement == "distance":
-        raise PlanningError("D-optimal selection is for pose or position measurements (--measure)")
-    rng = np.random.default_rng(args.seed)
-    pool = candidate_pool(nominal, args.pool, rng)
-    count = args.count
-    if count is None:
-        rows = 6 if measurement == "pose" else 3 * len(points)
-        geometry = nominal.geometry()
-        H = identification_matrix(geometry, model, pool.q[:200], measurement, points)
-        rank = base_parameters(H, model.names, rtol=_RTOL).rank
-        count = max(math.ceil(2 * rank / rows), 3)
-    design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points)
-    text = (
-        f"D-optimal selection for model {model.name}, {measurement} measurements of {','.join(points)}: "
-        f"{count} of {len(pool)} candidates (seed {args.seed}), {len(design.base_names)} base "
-        f"parameters, log det(WᵀW) of the scaled base regressor = {design.log_det:.6g}"
-    )
-    return design.poses, text

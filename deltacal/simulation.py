@@ -23,20 +23,16 @@ Units: mm and rad inside; the measurements file is in mm and deg.
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .cli import non_negative_float, positive_int
-from .exceptions import InputError
-from .geometry import DeltaGeometry, Tolerances, rotation_from_vector, vector_from_rotation
+from .geometry import DeltaGeometry, rotation_from_vector, vector_from_rotation
 from .kinematics.exact import PlatePose
-from .observations import Measurements
+from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements
 
 #: Forward kinematics of a true robot: (geometry, readings (N, 3) [rad]) -> plate poses.
 ForwardKinematics = Callable[[DeltaGeometry, np.ndarray], PlatePose]
@@ -62,8 +58,8 @@ class Metrology:
     """
 
     points: tuple[str, ...] = ("tcp",)
-    sigma_position: float = 0.005
-    sigma_angle: float = math.radians(0.003)
+    sigma_position: float = SIGMA_POSITION
+    sigma_angle: float = SIGMA_ANGLE
     orientation: bool = True
     repeats: int = 1
 
@@ -140,91 +136,3 @@ def truth_path(output: str | Path) -> Path:
     output = Path(output)
     stem = output.stem if output.suffix.lower() == ".csv" else output.name
     return output.with_name(f"{stem}.truth.toml")
-
-
-def add_simulate_parser(subparsers) -> argparse.ArgumentParser:
-    """Register ``deltacal simulate`` on an argparse subparsers object."""
-    p = subparsers.add_parser(
-        "simulate",
-        help="simulate tracker (and probe) measurements of a true robot at planned poses",
-        description=(
-            "Simulate the measurements of a true robot (perturbed nominal or a geometry file) "
-            "standing at the readings of a POSES file, through the Pinocchio closed-loop model, "
-            "and write a measurements CSV. With --perturb, the true geometry is also written "
-            "next to the output (MEAS.truth.toml)."
-        ),
-    )
-    p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML)")
-    p.add_argument("poses", metavar="POSES", help="POSES CSV written by 'deltacal plan'")
-    truth = p.add_mutually_exclusive_group(required=True)
-    truth.add_argument("--perturb", type=int, metavar="SEED",
-                       help="true robot: the nominal perturbed with Bai's tolerances, seeded")
-    truth.add_argument("--truth", metavar="TRUE.toml", help="true robot: a geometry file")
-    p.add_argument("--points", default="tcp",
-                   help="comma-separated reflector points (tcp or [points] names; default tcp)")
-    p.add_argument("--sigma-position", type=non_negative_float, default=0.005, metavar="MM",
-                   help="tracker noise per axis of one reading [mm] (default 0.005)")
-    p.add_argument("--sigma-angle", type=non_negative_float, default=0.003, metavar="DEG",
-                   help="probe noise per component of one reading [deg] (default 0.003)")
-    p.add_argument("--no-orientation", action="store_true", help="no orientation probe")
-    p.add_argument("--repeats", type=positive_int, default=1,
-                   help="readings averaged per measurement (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
-    p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
-    p.set_defaults(func=simulate_command)
-    return p
-
-
-def simulate_command(args: argparse.Namespace) -> int:
-    """Run ``deltacal simulate``: write the measurements (and the true geometry), return 0.
-
-    Errors (:class:`DeltacalError`, ``ValueError``, ``OSError``) propagate to
-    :func:`deltacal.cli.main`, which prints them on one line.
-    """
-    from .cli import check_input, check_output
-    from .io import load_nominal, write_measurements
-    from .planning import read_poses
-
-    inputs = (args.nominal, args.poses, args.truth)
-    for path in inputs:
-        if path is not None:
-            check_input(path)
-    check_output(args.output, inputs)
-    if args.truth is None:
-        check_output(truth_path(args.output), inputs)
-    nominal = load_nominal(args.nominal)
-    poses, warnings = read_poses(args.poses, nominal)
-    for w in warnings:
-        print(f"warning: {w}", file=sys.stderr)
-    if args.truth is not None:
-        truth = DeltaGeometry.load(args.truth)
-    else:
-        truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
-    points = tuple(p.strip() for p in args.points.split(",") if p.strip())
-    for name in points:
-        if name not in truth.point_names:
-            raise InputError(
-                f"unknown point {name!r}; the robot's points are {', '.join(truth.point_names)}",
-                "--points",
-            )
-    metrology = Metrology(
-        points=points,
-        sigma_position=args.sigma_position,
-        sigma_angle=math.radians(args.sigma_angle),
-        orientation=not args.no_orientation,
-        repeats=args.repeats,
-    )
-    measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
-    if args.perturb is not None:
-        truth.save(truth_path(args.output))
-    write_measurements(args.output, measurements)
-    orientation = (
-        f", orientation σ {math.degrees(metrology.angle_noise):.3g} deg" if metrology.orientation else ""
-    )
-    print(
-        f"simulated {len(measurements)} measurements ({len(poses)} poses x {len(points)} point(s): "
-        f"{', '.join(points)}; σ {metrology.position_noise:.3g} mm per axis{orientation}) -> {args.output}"
-    )
-    if args.perturb is not None:
-        print(f"true geometry (seed {args.perturb}) -> {truth_path(args.output)}")
-    return 0

@@ -40,7 +40,6 @@ always stops it.
 
 from __future__ import annotations
 
-import argparse
 import base64
 import contextlib
 import io
@@ -49,9 +48,7 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import tempfile
-import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from .exceptions import DeltacalError, UnreachableError
+from .exceptions import UnreachableError, ViewerError
 from .geometry import DeltaGeometry, Workspace, rotation_from_vector, vector_from_rotation
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
@@ -105,10 +102,6 @@ _COLOUR_STOPS = np.array(
         [0.993, 0.906, 0.144],
     ]
 )
-
-
-class ViewerError(DeltacalError):
-    """The scene cannot be shown or rendered (no browser, browser failed, server failed)."""
 
 
 # =============================================================================== meshcat helpers
@@ -1321,132 +1314,28 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
         proc.wait(timeout=30)
 
 
-def write_demo_views(
+def export_views(
     nominal_geometry: DeltaGeometry,
     true_geometry: DeltaGeometry,
-    out_dir: str | Path,
+    html: str | Path,
+    png: str | Path | None = None,
     workspace: Workspace | None = None,
     exaggerate: float = DEFAULT_EXAGGERATION,
 ) -> dict[str, Path]:
-    """Write ``demo.html`` (animated, error arrows) and, with Chromium, ``demo.png``.
+    """Write the animated page (error arrows) and, with Chromium, a still screenshot of it.
 
-    The PNG is a screenshot of the same scene without the animation (the robot
-    at the workspace centre, tilt exaggerated, error arrows).
+    The PNG shows the same scene without the animation (the robot at the
+    workspace centre, tilt exaggerated, error arrows).
 
     Returns:
-        ``{"html": path}`` and ``"png": path`` when a screenshot was written.
+        ``{"html": path}``, and ``"png": path`` when ``png`` was asked for and Chromium is there.
     """
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     options: dict[str, Any] = {"workspace": workspace, "exaggerate": exaggerate, "arrows": True}
-    out = {"html": out_dir / "demo.html"}
+    out = {"html": Path(html)}
     export_html(nominal_geometry, true_geometry, out["html"], animate=True, **options)
-    if find_chromium() is not None:
+    if png is not None and find_chromium() is not None:
         with tempfile.TemporaryDirectory(prefix="deltacal-view-") as tmp:
             still = Path(tmp) / "still.html"
             export_html(nominal_geometry, true_geometry, still, animate=False, **options)
-            out["png"] = render_png(still, out_dir / "demo.png")
+            out["png"] = render_png(still, png)
     return out
-
-
-# ======================================================================================== CLI
-def add_view_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``deltacal view`` on an ``argparse`` subparsers object (sets ``func``)."""
-    p = subparsers.add_parser(
-        "view",
-        help="show a robot in 3-D (meshcat): true robot over its nominal ghost, TCP errors",
-        description=(
-            "Show the true robot over its nominal ghost at the workspace centre, the plate "
-            "tilt exaggerated, TCP error arrows over the workspace and an animation along a path. "
-            "Without --html, serve the scene with meshcat until Ctrl-C."
-        ),
-    )
-    p.add_argument("nominal", metavar="NOMINAL", type=Path, help="nominal robot file (TOML)")
-    source = p.add_mutually_exclusive_group()
-    source.add_argument("--truth", metavar="TRUE.toml", type=Path, help="geometry file of the true robot")
-    source.add_argument(
-        "--calibration", metavar="CAL", type=Path, help="calibration file: show its identified geometry"
-    )
-    source.add_argument(
-        "--perturb", metavar="SEED", type=int, help="a random robot around the nominal (Bai 2015 tolerances)"
-    )
-    p.add_argument(
-        "--exaggerate",
-        metavar="K",
-        type=float,
-        default=DEFAULT_EXAGGERATION,
-        help=f"factor on the drawn plate tilt (default {DEFAULT_EXAGGERATION:g})",
-    )
-    p.add_argument("--html", metavar="OUT.html", type=Path, help="write a standalone HTML page and exit")
-    p.set_defaults(func=view_command)
-    return p
-
-
-def view_command(args: argparse.Namespace) -> int:
-    """Run ``deltacal view``: write the HTML page, or serve the scene until Ctrl-C.
-
-    Returns:
-        The exit status (0 on success, 1 on a bad file or value).
-    """
-    from .cli import check_input, check_output
-    from .geometry import NominalDelta, Tolerances
-
-    inputs = (args.nominal, args.truth, args.calibration)
-    for path in inputs:
-        if path is not None:
-            check_input(path)
-    if args.html is not None:
-        check_output(args.html, inputs)
-    try:
-        nominal = NominalDelta.from_toml(args.nominal)
-        nominal_geometry = nominal.geometry()
-        if args.truth is not None:
-            true_geometry = DeltaGeometry.load(args.truth)
-        elif args.calibration is not None:
-            true_geometry = DeltaGeometry.load(args.calibration)
-        elif args.perturb is not None:
-            true_geometry = nominal_geometry.perturbed(
-                Tolerances.bai2015(), np.random.default_rng(args.perturb)
-            )
-        else:
-            true_geometry = nominal_geometry
-        if not (math.isfinite(args.exaggerate) and args.exaggerate > 0.0):
-            raise ValueError(f"--exaggerate must be a positive number, got {args.exaggerate!r}")
-        options: dict[str, Any] = {"exaggerate": args.exaggerate, "workspace": nominal.workspace}
-        if args.html is not None:
-            summary = export_html(nominal_geometry, true_geometry, args.html, animate=True, **options)
-            print(
-                f"wrote {args.html}: plate tilt {math.degrees(summary.tilt):.4f} deg "
-                f"(drawn x{summary.exaggerate:g}), largest TCP error {summary.max_error:.3f} mm"
-            )
-            return 0
-        try:
-            with meshcat_server() as vis:
-                build_scene(vis, nominal_geometry, true_geometry, animate=True, **options)
-                print(vis.url(), flush=True)
-                print("serving the scene; press Ctrl-C to stop", file=sys.stderr, flush=True)
-                _wait_for_interrupt()
-        except KeyboardInterrupt:  # before the scene was up; the server is stopped all the same
-            return 130
-        return 0
-    except (DeltacalError, ValueError, OSError) as exc:
-        if getattr(args, "debug", False):
-            raise
-        print(f"deltacal view: error: {exc}", file=sys.stderr)
-        return 1
-
-
-def _wait_for_interrupt() -> None:
-    """Sleep until Ctrl-C (or SIGTERM, treated the same)."""
-
-    def on_term(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, on_term)
-    try:
-        while True:
-            time.sleep(0.5)
-    except KeyboardInterrupt:
-        pass
-    finally:
-        signal.signal(signal.SIGTERM, previous)

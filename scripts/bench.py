@@ -33,6 +33,7 @@ import numpy as np
 from deltacal.compensation import compensate, linear_calibration_from_result
 from deltacal.geometry import DeltaGeometry, NominalDelta, Tolerances, vector_from_rotation
 from deltacal.identification import identify
+from deltacal.io import load_nominal, save_calibration
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
@@ -201,7 +202,7 @@ def bench_cli_compensate(setup: Setup, n: int = 100_000) -> list[Row]:
     command = [exe] if exe else [sys.executable, "-m", "deltacal.cli"]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        identify(start, meas, "complete").save(folder / "cal.toml")
+        save_calibration(identify(start, meas, "complete"), folder / "cal.toml")
         lines = ["x_mm,y_mm,z_mm"] + [f"{x:.6f},{y:.6f},{z:.6f}" for x, y, z in targets]
         (folder / "targets.csv").write_text("\n".join(lines) + "\n")
         args = command + ["compensate", str(folder / "cal.toml"), str(folder / "targets.csv"),
@@ -229,7 +230,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each measurement")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     args = parser.parse_args()
-    nominal = NominalDelta.from_toml(args.robot)
+    nominal = load_nominal(args.robot)
     geometry = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(SEED))
     setup = Setup(nominal, geometry, args.repeat, SEED)
     rows: list[Row] = []

@@ -48,6 +48,7 @@ from deltacal.compensation import LinearCalibration, compensate  # noqa: E402
 from deltacal.errormodels import MODEL32_REMOVED, get_model  # noqa: E402
 from deltacal.identifiability import base_parameters  # noqa: E402
 from deltacal.identification import IdentificationResult, identify  # noqa: E402
+from deltacal.io import load_nominal
 from deltacal.observations import Measurements  # noqa: E402
 from deltacal.planning import (  # noqa: E402
     ConditionCurve,
@@ -542,7 +543,7 @@ def run(out_dir: Path, n_max: int = N_MAX, figures: bool = True) -> dict[str, ob
     """Run everything, write ``bai2015.json`` (and the figures) into ``out_dir``, return it."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    nominal = NominalDelta.from_toml(ROBOT_FILE)
+    nominal = load_nominal(ROBOT_FILE)
     curves = condition_curves(nominal, n_max)
     n_scaled = chosen_n(curves, "scaled")
     n_plain = chosen_n(curves, "plain")

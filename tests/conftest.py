@@ -10,6 +10,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 from deltacal import NominalDelta  # noqa: E402
+from deltacal.io import load_nominal  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"
@@ -17,12 +18,12 @@ MODELS = ROOT / "deltacal" / "models"
 
 @pytest.fixture(scope="session")
 def bai() -> NominalDelta:
-    return NominalDelta.from_toml(MODELS / "bai2015.toml")
+    return load_nominal(MODELS / "bai2015.toml")
 
 
 @pytest.fixture(scope="session")
 def flexpicker() -> NominalDelta:
-    return NominalDelta.from_toml(MODELS / "flexpicker.toml")
+    return load_nominal(MODELS / "flexpicker.toml")
 
 
 def workspace_points(nominal: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:

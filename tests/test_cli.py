@@ -22,7 +22,7 @@ from deltacal import ConvergenceError, InputError, NominalDelta, Tolerances
 from deltacal.cli import main
 from deltacal.errormodels import get_model
 from deltacal.identification import identify
-from deltacal.io import atomic_write_text, write_measurements
+from deltacal.io import atomic_write_text, load_nominal, save_geometry, write_measurements
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.observations import Measurements
@@ -194,7 +194,7 @@ def test_radians_in_a_degree_column_warn_then_fail_as_implausible(data, capsys, 
 
 def test_metres_in_a_millimetre_column_warn(capsys, tmp_path):
     geometry = tmp_path / "g.toml"
-    NominalDelta.from_toml(NOMINAL).geometry().save(geometry)
+    save_geometry(load_nominal(NOMINAL).geometry(), geometry)
     targets = tmp_path / "targets.csv"
     targets.write_text("x_mm,y_mm,z_mm\n0.1,0.0,-0.9\n0.0,0.2,-1.0\n-0.1,0.0,-0.8\n")
     code, _, err = run(capsys, "compensate", geometry, targets, "-o", tmp_path / "j.csv")
@@ -223,7 +223,7 @@ def test_readings_the_robot_cannot_assemble_name_the_line(capsys, tmp_path, bai)
     robot = tmp_path / "short.toml"
     robot.write_text(NOMINAL.read_text().replace("rod_length_mm = 950.0", "rod_length_mm = 400.0")
                      .split("[workspace]")[0])
-    nominal = NominalDelta.from_toml(robot)
+    nominal = load_nominal(robot)
     rng = np.random.default_rng(3)
     q = np.radians(rng.uniform(60.0, 80.0, (20, 3)))
     q[12] = np.radians([-90.0, -90.0, -90.0])
@@ -405,7 +405,7 @@ def test_bad_calibration_file_names_the_key(data, capsys, tmp_path, edit, where,
 
 def test_linear_method_needs_the_calibration_report(data, capsys, tmp_path):
     geometry = tmp_path / "g.toml"
-    NominalDelta.from_toml(NOMINAL).geometry().save(geometry)
+    save_geometry(load_nominal(NOMINAL).geometry(), geometry)
     code, _, err = run(capsys, "compensate", geometry, data["targets"], "--method", "savoure", "-o",
                        tmp_path / "j.csv")
     assert code == 1
@@ -415,7 +415,7 @@ def test_linear_method_needs_the_calibration_report(data, capsys, tmp_path):
 # --------------------------------------------------------------------------- bad targets
 def test_unreachable_and_singular_targets_name_their_lines(capsys, tmp_path):
     geometry = tmp_path / "g.toml"
-    NominalDelta.from_toml(NOMINAL).geometry().save(geometry)  # a calibration of the perfect robot
+    save_geometry(load_nominal(NOMINAL).geometry(), geometry)  # a calibration of the perfect robot
     targets = tmp_path / "targets.csv"
     targets.write_text("x_mm,y_mm,z_mm\n0,0,-900\n\n100,0,-1000\n0,0,-200\n0,0,-100\n")
     out = tmp_path / "joints.csv"

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from conftest import MODELS
 
-from deltacal import DeltaGeometry, GeometryError, InputError, NominalDelta, Tolerances, error_names
-from deltacal.io import exact_degrees, radians_from_text
+from deltacal import GeometryError, InputError, Tolerances, error_names
+from deltacal.io import exact_degrees, load_geometry, load_nominal, radians_from_text, save_geometry
 
 
 def test_bai2015_file_matches_table1(bai):
@@ -37,12 +37,12 @@ def test_geometry_toml_round_trip_is_exact(bai, tmp_path):
     rng = np.random.default_rng(7)
     g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
     path = tmp_path / "g.toml"
-    g.save(path)
-    back = DeltaGeometry.load(path)
+    save_geometry(g, path)
+    back = load_geometry(path)
     assert back.allclose(g, atol=0.0)
     assert back.name == g.name and set(back.points) == set(g.points)
     path2 = tmp_path / "g2.toml"
-    back.save(path2)
+    save_geometry(back, path2)
     assert path.read_text() == path2.read_text()
 
 
@@ -106,21 +106,21 @@ def test_bad_robot_file_names_the_key(tmp_path, old, new, key):
     path = tmp_path / "bad.toml"
     path.write_text(text.replace(old, new))
     with pytest.raises(InputError) as info:
-        NominalDelta.from_toml(path)
+        load_nominal(path)
     assert str(path) in str(info.value)
     assert f"key {key}" in str(info.value)
 
 
 def test_missing_and_empty_robot_files(tmp_path):
     with pytest.raises(InputError, match="not found"):
-        NominalDelta.from_toml(tmp_path / "nope.toml")
+        load_nominal(tmp_path / "nope.toml")
     (tmp_path / "empty.toml").write_text("")
     with pytest.raises(InputError, match="empty"):
-        NominalDelta.from_toml(tmp_path / "empty.toml")
+        load_nominal(tmp_path / "empty.toml")
     (tmp_path / "broken.toml").write_text("name = \n")
     with pytest.raises(InputError, match="not valid TOML"):
-        NominalDelta.from_toml(tmp_path / "broken.toml")
+        load_nominal(tmp_path / "broken.toml")
     text = (MODELS / "bai2015.toml").read_text().replace("arm_length_mm = 375.0", "")
     (tmp_path / "missing.toml").write_text(text)
     with pytest.raises(InputError, match="key geometry.arm_length_mm: missing required key"):
-        NominalDelta.from_toml(tmp_path / "missing.toml")
+        load_nominal(tmp_path / "missing.toml")

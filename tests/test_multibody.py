@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 
 from deltacal.exceptions import AssemblyError, UnreachableError
 from deltacal.geometry import NominalDelta, Tolerances, vector_from_rotation
+from deltacal.io import load_nominal
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import ACCEPT, DeltaMultibody
@@ -20,7 +21,7 @@ MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 
 
 def nominal(name: str) -> NominalDelta:
-    return NominalDelta.from_toml(MODELS / f"{name}.toml")
+    return load_nominal(MODELS / f"{name}.toml")
 
 
 def workspace_readings(robot: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:

@@ -10,9 +10,9 @@ import pytest
 from conftest import MODELS
 from numpy.testing import assert_allclose
 
-from deltacal import NominalDelta
 from deltacal.cli import main
 from deltacal.exceptions import InputError
+from deltacal.io import load_nominal
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.planning import (
@@ -218,7 +218,7 @@ def test_plan_command(tmp_path, capsys):
     assert main(["plan", robot, "--model", "rough", "--epsilon", "1%", "-o", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "chosen n = 5" in printed
-    poses, _ = read_poses(out, NominalDelta.from_toml(robot))
+    poses, _ = read_poses(out, load_nominal(robot))
     assert len(poses) == 6
 
     out = tmp_path / "fixed.csv"

@@ -24,7 +24,7 @@ from numpy.testing import assert_allclose
 from deltacal import DeltaMultibody, NominalDelta, Tolerances
 from deltacal.cli import main
 from deltacal.identification import identify
-from deltacal.io import write_measurements
+from deltacal.io import load_nominal, write_measurements
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.observations import Measurements
@@ -34,7 +34,7 @@ ROBOTS = ("bai2015", "flexpicker")
 
 @cache
 def nominal(name: str) -> NominalDelta:
-    return NominalDelta.from_toml(MODELS / f"{name}.toml")
+    return load_nominal(MODELS / f"{name}.toml")
 
 
 def tolerances(scale: float) -> Tolerances:

@@ -9,10 +9,10 @@ import pytest
 from conftest import MODELS, workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import DeltaGeometry, NominalDelta, Tolerances
+from deltacal import DeltaGeometry, Tolerances
 from deltacal.cli import main
 from deltacal.geometry import rotation_from_vector, vector_from_rotation
-from deltacal.io import read_measurements
+from deltacal.io import load_geometry, load_nominal, read_measurements
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
@@ -91,7 +91,7 @@ def test_layout_seeds_and_options(truth, readings):
 
 def test_simulate_command(tmp_path, capsys):
     robot = MODELS / "bai2015.toml"
-    nominal = NominalDelta.from_toml(robot)
+    nominal = load_nominal(robot)
     poses_path = tmp_path / "poses.csv"
     write_poses(poses_path, bai_poses(nominal, 3))
     out = tmp_path / "meas.csv"
@@ -99,7 +99,7 @@ def test_simulate_command(tmp_path, capsys):
             "--repeats", "3", "--seed", "2", "-o", str(out)]
     assert main(args) == 0
     assert truth_path(out) == tmp_path / "meas.truth.toml"
-    truth = DeltaGeometry.load(truth_path(out))
+    truth = load_geometry(truth_path(out))
     assert truth.allclose(nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(11)))
     meas, _ = read_measurements(out, truth.point_names)
     assert len(meas) == 14 and meas.point[:2] == ["smr_centre", "smr_offset"]

@@ -24,6 +24,8 @@ meshcat = pytest.importorskip("meshcat")
 umsgpack = pytest.importorskip("umsgpack")
 
 from deltacal import viz  # noqa: E402
+from deltacal.cli import view as view_cli  # noqa: E402
+from deltacal.io import load_nominal, save_geometry  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"
@@ -33,7 +35,7 @@ SEED = 20150601
 
 @pytest.fixture(scope="module")
 def nominal() -> NominalDelta:
-    return NominalDelta.from_toml(MODELS / "bai2015.toml")
+    return load_nominal(MODELS / "bai2015.toml")
 
 
 @pytest.fixture(scope="module")
@@ -191,7 +193,7 @@ def test_live_server_is_always_stopped():
 
 def view_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="deltacal")
-    viz.add_view_parser(parser.add_subparsers(dest="command", required=True))
+    view_cli.add_parser(parser.add_subparsers(dest="command", required=True))
     return parser
 
 
@@ -209,12 +211,12 @@ def test_view_command_writes_html(tmp_path, capsys):
 def test_view_command_reads_a_truth_file_and_rejects_bad_input(tmp_path, robots, capsys):
     nominal_geometry, true_geometry = robots
     truth = tmp_path / "truth.toml"
-    true_geometry.save(truth)
+    save_geometry(true_geometry, truth)
     out = tmp_path / "view.html"
     args = view_parser().parse_args(
         ["view", str(MODELS / "bai2015.toml"), "--truth", str(truth), "--html", str(out)]
     )
-    assert viz.view_command(args) == 0 and out.exists()
+    assert view_cli.run(args) == 0 and out.exists()
     with pytest.raises(SystemExit):
         view_parser().parse_args(["view", "x.toml", "--truth", "a.toml", "--perturb", "1"])
     capsys.readouterr()
@@ -226,20 +228,15 @@ def test_view_command_reads_a_truth_file_and_rejects_bad_input(tmp_path, robots,
     err = capsys.readouterr().err
     assert "nope.toml" in err and len(err.strip().splitlines()) == 1
     assert not missing.exists()
-    args = view_parser().parse_args(
-        ["view", str(MODELS / "bai2015.toml"), "--exaggerate", "-1", "--html", str(missing)]
-    )
-    assert viz.view_command(args) == 1 and not missing.exists()
+    assert main(["view", str(MODELS / "bai2015.toml"), "--exaggerate", "-1", "--html", str(missing)]) == 2
+    assert "--exaggerate" in capsys.readouterr().err and not missing.exists()
 
 
 def test_view_command_serves_until_ctrl_c_and_stops_the_server(tmp_path):
     script = (
-        "import argparse, sys\n"
-        "from deltacal import viz\n"
-        "p = argparse.ArgumentParser()\n"
-        "viz.add_view_parser(p.add_subparsers(dest='command'))\n"
-        "a = p.parse_args(sys.argv[1:])\n"
-        "sys.exit(a.func(a))\n"
+        "import sys\n"
+        "from deltacal.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
     )
     proc = subprocess.Popen(
         [sys.executable, "-c", script, "view", str(MODELS / "bai2015.toml"), "--perturb", "3"],
@@ -303,8 +300,8 @@ def test_render_shows_the_robot_and_its_plate_apart_from_the_ghost(tmp_path, nom
     from PIL import Image
 
     # the demo views: an animated page and a still screenshot of the robot
-    views = viz.write_demo_views(
-        nominal_geometry, true_geometry, tmp_path / "demo", workspace=nominal.workspace
+    views = viz.export_views(
+        nominal_geometry, true_geometry, tmp_path / "demo.html", tmp_path / "demo.png", nominal.workspace
     )
     assert views["html"].exists() and views["png"].exists()
     with Image.open(views["png"]) as image:

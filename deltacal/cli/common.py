@@ -1,0 +1,104 @@
+"""What every subcommand shares: exit codes, argument types, input and output checks, warnings."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..exceptions import InputError, UsageError
+
+EXIT_DATA = 1
+EXIT_USAGE = 2
+EXIT_BUG = 3
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors and exit status 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        """Print the one-line usage error and exit with status 2."""
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def one_line(text: str) -> str:
+    """Text made one printable line: newlines become spaces, other control characters escapes."""
+    text = text.replace("\r\n", " ").replace("\n", " ")
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def warn(lines: Sequence[str]) -> None:
+    """Print each line on stderr as ``warning: ...``, one line each."""
+    for line in lines:
+        print(one_line(f"warning: {line}"), file=sys.stderr)
+
+
+def positive_float(text: str) -> float:
+    """Argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """Argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"must be a finite non-negative number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """Argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def check_input(path: str | Path) -> None:
+    """A usage error (exit 2) unless ``path`` is an existing file."""
+    p = Path(path)
+    if not p.exists():
+        raise UsageError(f"{path}: file not found")
+    if not p.is_file():
+        raise UsageError(f"{path}: not a file")
+
+
+def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
+    """A usage error (exit 2) if the output's folder is missing, it is a folder, or an input."""
+    out = Path(path)
+    if not out.resolve().parent.is_dir():
+        raise UsageError(f"{path}: the output folder does not exist")
+    if out.is_dir():
+        raise UsageError(f"{path}: is a folder; give the output file's name")
+    for source in inputs:
+        if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
+            raise UsageError(f"{path}: the output would overwrite an input file")
+
+
+def lines_text(lines: Sequence[int], limit: int = 10) -> str:
+    """``"3, 5, 9"`` (and ``"and N more"`` past ``limit``)."""
+    shown = ", ".join(str(int(n)) for n in lines[:limit])
+    return shown + (f" and {len(lines) - limit} more" if len(lines) > limit else "")
+
+
+def point_list(text: str, known: Sequence[str], option: str = "--points") -> list[str]:
+    """Comma-separated point names, each checked against the robot's points."""
+    points = [p.strip() for p in text.split(",") if p.strip()]
+    for name in points:
+        if name not in known:
+            raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(known)}", option)
+    return points

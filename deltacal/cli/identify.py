@@ -1,0 +1,82 @@
+"""``deltacal identify``: the geometry from measurements."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from ..errormodels import MODEL_NAMES
+from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError
+from ..identification import identify
+from ..io import data_row, load_nominal, read_measurements, save_calibration
+from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
+from .common import check_input, check_output, lines_text, positive_float, warn
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deltacal identify``; returns the exit status."""
+    for path in (args.nominal, args.measurements):
+        check_input(path)
+    check_output(args.output, (args.nominal, args.measurements))
+    nominal = load_nominal(args.nominal)
+    start = nominal.geometry()
+    measurements, notes = read_measurements(args.measurements, start.point_names)
+    warn(notes)
+    if args.distances and np.any(measurements.has_orientation):
+        warn(["orientations are ignored when identifying from distances"])
+    try:
+        result = identify(
+            start,
+            measurements,
+            args.model,
+            method="linear" if args.linear else "iterated",
+            sigma_position=args.sigma_position,
+            sigma_angle=math.radians(args.sigma_angle),
+            distances=args.distances,
+            pairs=args.pairs,
+        )
+    except AssemblyError as exc:
+        # at the nominal geometry: the readings themselves are impossible
+        lines = np.asarray(measurements.lines)[exc.indices].tolist() if exc.indices else []
+        if not lines:
+            raise
+        k = exc.indices[0]
+        q = np.round(np.degrees(measurements.q[k]), 6).tolist()
+        more = f"; {len(lines)} rows in all, lines {lines_text(lines)}" if len(lines) > 1 else ""
+        raise InputError(
+            f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
+            args.measurements, f"{data_row(lines[0], k + 1)}, columns q1_deg..q3_deg",
+        ) from exc
+    except IdentificationError as exc:
+        raise IdentificationError(f"{args.measurements}: {exc}") from exc
+    except ConvergenceError as exc:
+        raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
+    print(result.report())
+    if result.outlier_lines:
+        warn([f"{args.measurements}: line(s) {lines_text(result.outlier_lines)} look like outliers "
+              "(see the report): check them, or remove them and identify again"])
+    save_calibration(result, args.output)
+    print(f"\nwrote {args.output}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Register ``identify``."""
+    p = sub.add_parser("identify", help="identify the geometry from measurements")
+    p.add_argument("nominal", help="nominal robot file (TOML)")
+    p.add_argument("measurements", help="measurements (CSV)")
+    p.add_argument("--model", choices=MODEL_NAMES, default="complete", help="error model (default complete)")
+    p.add_argument("-o", "--output", required=True, help="calibration file to write (TOML)")
+    p.add_argument("--sigma-position", type=positive_float, default=SIGMA_POSITION, metavar="MM",
+                   help=f"σ of each measured coordinate [mm] (default {SIGMA_POSITION:g})")
+    p.add_argument("--sigma-angle", type=positive_float, default=SIGMA_ANGLE_DEG, metavar="DEG",
+                   help=f"σ of each measured orientation component [deg] (default {SIGMA_ANGLE_DEG:g})")
+    p.add_argument("--linear", action="store_true",
+                   help="one-shot linear identification around the nominal geometry (the papers)")
+    p.add_argument("--distances", action="store_true",
+                   help="identify from distances between positions of a same point (no frame needed)")
+    p.add_argument("--pairs", choices=("all", "reference"), default="all",
+                   help="distance pairs: all pairs, or each pose with the first (default all)")
+    p.set_defaults(func=run)

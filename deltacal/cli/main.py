@@ -1,0 +1,91 @@
+"""The ``deltacal`` command: parser, dispatch, exit codes and one-line errors.
+
+Commands (files in mm and deg; see the README for formats):
+
+* ``deltacal demo``: the whole job on a simulated robot (plan, measure, identify,
+  compensate, validate).
+* ``deltacal identify NOMINAL MEASUREMENTS --model M -o CAL``
+* ``deltacal compensate CAL TARGETS -o JOINTS``
+* ``deltacal plan NOMINAL --model M [--n N | --epsilon E] -o POSES``
+* ``deltacal simulate NOMINAL POSES (--perturb SEED | --truth TRUE) -o MEAS``
+* ``deltacal view NOMINAL [...] [--html OUT]``
+
+Errors in the user's input print one line on stderr naming the file, line,
+column or key and value, and exit with status 1 (bad data) or 2 (bad usage:
+arguments, missing input file, missing output folder, output overwriting an
+input); ``--debug`` shows the traceback. An unexpected failure (a bug) exits
+with status 3. Outputs are written atomically: a failing command leaves any
+earlier output file as it was.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from collections.abc import Sequence
+
+from .. import __version__
+from ..exceptions import DeltacalError, UsageError
+from . import compensate, demo, identify, plan, simulate, view
+from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, Parser, one_line
+
+#: The subcommands, in the order ``--help`` lists them.
+SUBCOMMANDS = (demo, identify, compensate, plan, simulate, view)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``deltacal`` command."""
+    parser = Parser(prog="deltacal", description="Geometric calibration of Delta parallel robots.")
+    parser.add_argument("--version", action="version", version=f"deltacal {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for command in SUBCOMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings from the library on one line each, without the source location."""
+    print(one_line(f"warning: {message}"), file=sys.stderr)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0, 1 bad data, 2 bad usage, 3 a bug)."""
+    from threadpoolctl import threadpool_limits
+
+    # small matrices: BLAS threads only contend (see the package docstring)
+    with threadpool_limits(limits=1):
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # usage error (status 2), --help or --version (status 0)
+        if exc.code is None or isinstance(exc.code, int):
+            return int(exc.code or 0)
+        return EXIT_USAGE
+    with warnings.catch_warnings():
+        if not args.debug:
+            warnings.showwarning = _show_warning
+        try:
+            return int(args.func(args) or 0)
+        except KeyboardInterrupt:
+            print("deltacal: interrupted", file=sys.stderr)
+            return 130
+        except (DeltacalError, ValueError, OSError) as exc:
+            if args.debug:
+                raise
+            message = str(exc)
+            if isinstance(exc, OSError) and not isinstance(exc, DeltacalError):
+                message = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
+            print(one_line(f"deltacal {args.command}: error: {message}"), file=sys.stderr)
+            return EXIT_USAGE if isinstance(exc, UsageError) else EXIT_DATA
+        except Exception as exc:
+            if args.debug:
+                raise
+            print(one_line(f"deltacal {args.command}: internal error: {type(exc).__name__}: {exc} "
+                           "(a bug: please report it with the output of --debug)"), file=sys.stderr)
+            return EXIT_BUG
