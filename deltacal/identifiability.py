@@ -15,11 +15,11 @@ dropped ones (for instance ``δa2x − δb2x``, Savoure Eq. 70-72).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 #: Regrouping coefficients below this (relative) are printed as absent.
 _COEFF_PRINT_TOL = 1e-6
@@ -103,11 +103,66 @@ class BaseParameters:
         return full
 
 
+#: Two columns whose remaining norms differ by less than this (the columns are scaled to unit
+#: norm, so it is relative to the largest pivot) are tied in the pivoted QR; the tie goes to the
+#: one earlier in the model's parameter order. Symmetric columns (the three encoder offsets of a
+#: symmetric pose set) differ only in the last bits, which BLAS rounds differently on different
+#: CPUs: without this rule the base parameters named would depend on the machine.
+TIE_RTOL = 1e-9
+
+
+def pivoted_qr(A: np.ndarray, tie_rtol: float = TIE_RTOL) -> tuple[np.ndarray, np.ndarray]:
+    """Householder QR with column pivoting whose ties are broken by column order.
+
+    At step j the column with the largest remaining norm is moved to position j,
+    as in LAPACK's ``geqp3``, except that every column within ``tie_rtol * |R_00|``
+    of that largest norm counts as tied and the one with the lowest original index
+    wins. Remaining norms are recomputed at each step (no downdating), so the
+    choice does not drift with rounding. Cost O(m n min(m, n)), vectorised per step.
+
+    Args:
+        A: Matrix, shape (m, n).
+        tie_rtol: Tie tolerance relative to the first pivot |R_00|.
+
+    Returns:
+        ``(diag, perm)``: |R_jj| for j < min(m, n), and the column permutation (R = Qᵀ A[:, perm]).
+    """
+    R = np.array(A, dtype=float, copy=True)
+    m, n = R.shape
+    perm = np.arange(n)
+    steps = min(m, n)
+    diag = np.zeros(steps)
+    top = 0.0
+    for j in range(steps):
+        remaining = np.sqrt(np.einsum("ij,ij->j", R[j:, j:], R[j:, j:]))
+        best = float(remaining.max())
+        if j == 0:
+            top = best
+        if best <= 0.0:
+            break
+        tied = np.flatnonzero(remaining >= best - tie_rtol * top)
+        p = j + int(tied[np.argmin(perm[j + tied])])
+        if p != j:
+            R[:, [j, p]] = R[:, [p, j]]
+            perm[[j, p]] = perm[[p, j]]
+        x = R[j:, j]
+        alpha = -math.copysign(float(np.linalg.norm(x)), float(x[0]))
+        v = x.copy()
+        v[0] -= alpha
+        vnorm = float(np.linalg.norm(v))
+        if vnorm > 0.0:
+            v /= vnorm
+            R[j:, j:] -= 2.0 * np.outer(v, v @ R[j:, j:])
+        diag[j] = abs(alpha)
+    return diag, perm
+
+
 def base_parameters(
     regressor: np.ndarray,
     names: Sequence[str],
     rtol: float = 1e-8,
     prefer: Sequence[str] | None = None,
+    tie_rtol: float = TIE_RTOL,
 ) -> BaseParameters:
     """Find the base parameters of a regressor.
 
@@ -119,7 +174,9 @@ def base_parameters(
         prefer: Optional preference order of parameter names: the rank comes from the
             pivoted QR as always, but when parameters are regrouped the earliest in this
             list is kept (Gram-Schmidt of the columns in this order). Without it, the
-            pivoted QR's choice is kept (the best-conditioned columns).
+            pivoted QR's choice is kept (the best-conditioned columns, ties to the
+            earlier parameter: see :data:`TIE_RTOL`).
+        tie_rtol: Tie tolerance of the pivoted QR (:func:`pivoted_qr`).
 
     Returns:
         The base parameters.
@@ -131,8 +188,7 @@ def base_parameters(
     scale = np.linalg.norm(W, axis=0)
     scale = np.where(scale > 0.0, scale, 1.0)
     Ws = W / scale
-    _, R, perm = scipy.linalg.qr(Ws, mode="economic", pivoting=True)
-    diag = np.abs(np.diag(R))
+    diag, perm = pivoted_qr(Ws, tie_rtol)
     top = diag[0] if diag.size else 0.0
     rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
     pivots = diag

@@ -14,7 +14,7 @@ from deltacal import NominalDelta, VirtualDelta
 from deltacal.errormodels import get_model
 from deltacal.errormodels.bai import MODEL32_REMOVED
 from deltacal.geometry import vector_from_rotation
-from deltacal.identifiability import base_parameters
+from deltacal.identifiability import base_parameters, pivoted_qr
 from deltacal.kinematics import exact
 from deltacal.observations import Measurements, build_rows
 
@@ -155,9 +155,10 @@ def test_bai36_distances_of_two_points_rank_32(bai):
     base = base_parameters(W, model.names)
     assert base.rank == 32
     # Bai's Eq. 19: the four dependencies tie the actuator tilts (LΔα0, LΔβ0) and encoder
-    # offsets (LΔθ) to the pair orientation errors (Δα03, Δβ03, Δα2). Pivoted QR keeps the
-    # better-conditioned orientation errors and drops three LΔα0 and one LΔβ0 ...
-    assert base.unidentifiable_names == ["Ldalpha0_1", "Ldalpha0_2", "Ldalpha0_3", "Ldbeta0_3"]
+    # offsets (LΔθ) to the pair orientation errors (Δα03, Δβ03, Δα2). The pivoted QR keeps the
+    # orientation errors and drops actuator parameters; where columns tie (all have unit norm at
+    # the first step, and the limbs are symmetric) the earlier parameter is kept ...
+    assert base.unidentifiable_names == ["Ldtheta2", "Ldalpha0_2", "Ldalpha0_3", "Ldbeta0_3"]
     # ... preferring the position group instead drops exactly Bai's four (model 32)
     prefer = [n for n in model.names if n not in MODEL32_REMOVED]
     assert base_parameters(W, model.names, prefer=prefer).unidentifiable_names == MODEL32_REMOVED
@@ -201,3 +202,29 @@ def test_complete_model_with_pose_measurements_rank_42(bai):
     null = np.array(null).T
     assert np.linalg.matrix_rank(null) == 9
     assert np.max(np.abs(W @ null)) < 1e-12 * np.max(np.abs(W)) * np.max(np.abs(null))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_named_base_parameters_do_not_depend_on_rounding(bai, seed):
+    """Ties are broken by the model's order, not by the last bits of BLAS (which vary by CPU)."""
+    W, model = _distance_regressor(bai, "bai36", 9, ["smr_centre", "smr_offset"])
+    base = base_parameters(W, model.names)
+    rng = np.random.default_rng(seed)
+    noisy = W * (1.0 + 1e-12 * rng.standard_normal(W.shape))
+    again = base_parameters(noisy, model.names)
+    assert again.rank == base.rank
+    assert again.base_names == base.base_names
+    assert again.unidentifiable_names == base.unidentifiable_names
+
+
+def test_pivoted_qr_breaks_exact_ties_by_column_order():
+    # three identical columns and a fourth independent: the first of the three is kept
+    a = np.array([1.0, 2.0, 3.0, 4.0])
+    b = np.array([0.0, 1.0, 0.0, -1.0])
+    W = np.column_stack([a, a, a, b])
+    for names in (["p0", "p1", "p2", "p3"], ["x", "y", "z", "w"]):
+        base = base_parameters(W, names)
+        assert base.rank == 2
+        assert base.base_names[0] == names[0] and set(base.base_names) == {names[0], names[3]}
+    diag, perm = pivoted_qr(W / np.linalg.norm(W, axis=0))
+    assert perm[0] == 0 and diag[0] == pytest.approx(1.0) and diag[2] < 1e-12

@@ -48,8 +48,9 @@ def test_ranks_and_the_four_unidentifiable(summary):
     s, _ = summary
     assert s["rank_model18"] == 18
     assert s["rank_model36"] == 32
-    # the column-scaled pivoted QR drops these; Bai's choice spans the same null space
-    assert s["unidentifiable_model36"] == ["Ldalpha0_1", "Ldalpha0_2", "Ldalpha0_3", "Ldbeta0_3"]
+    # the column-scaled pivoted QR drops these (ties to the earlier parameter); Bai's choice
+    # spans the same null space
+    assert s["unidentifiable_model36"] == ["Ldtheta2", "Ldalpha0_2", "Ldalpha0_3", "Ldbeta0_3"]
     ident = s["identifiability"]
     assert ident["bai_choice_valid"]
     assert ident["bai_choice_null_block_condition"] < 1e3

@@ -1,0 +1,202 @@
+"""What an identification returns: the identified geometry, base parameters with σ, residuals."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..geometry import DeltaGeometry
+from ..identifiability import BaseParameters
+from ..observations import DISTANCE, ORIENTATION, POSITION, Rows
+from .outliers import OUTLIER_THRESHOLD
+
+
+@dataclass(frozen=True)
+class ResidualStats:
+    """RMS and max of residuals by kind: positions and distances [mm], orientations [rad]."""
+
+    position_rms: float = float("nan")
+    position_max: float = float("nan")
+    orientation_rms: float = float("nan")
+    orientation_max: float = float("nan")
+    distance_rms: float = float("nan")
+    distance_max: float = float("nan")
+
+    @classmethod
+    def from_rows(cls, rows: Rows) -> ResidualStats:
+        """Statistics of a set of rows; a position's error is its 3-D norm."""
+        out = {}
+        for kind, key in ((POSITION, "position"), (ORIENTATION, "orientation"), (DISTANCE, "distance")):
+            mask = rows.kind == kind
+            if not np.any(mask):
+                continue
+            r = rows.residual[mask]
+            if kind != DISTANCE:
+                r = np.linalg.norm(r.reshape(-1, 3), axis=1)
+            out[f"{key}_rms"] = float(np.sqrt(np.mean(r**2)))
+            out[f"{key}_max"] = float(np.max(np.abs(r)))
+        return cls(**out)
+
+    def as_dict(self) -> dict[str, float]:
+        """The statistics that exist, orientations in degrees."""
+        out = {}
+        for k, v in self.__dict__.items():
+            if math.isfinite(v):
+                out[k.replace("orientation", "orientation_deg") if "orientation" in k else k + "_mm"] = (
+                    math.degrees(v) if "orientation" in k else v
+                )
+        return out
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """The outcome of an identification.
+
+    Attributes:
+        model: Name of the error model.
+        method: ``"linear"`` or ``"iterated"``.
+        geometry: The identified full geometry.
+        start: The geometry identification started from (nominal).
+        base: Base parameters (rank, regroupings, condition number).
+        values: Identified value of each base parameter (units of its kept parameter).
+        sigma: Standard deviation of each base parameter.
+        correlation: Correlation matrix of the base parameters.
+        before: Residual statistics at the start.
+        after: Residual statistics at the identified geometry.
+        outliers: Indices of measurements flagged as outliers.
+        outlier_lines: Their line numbers in the measurement file.
+        iterations: Gauss-Newton iterations (1 for linear).
+        variance_factor: s0² = χ² / (m − r) at the end.
+        units: Unit of each base parameter.
+        n_rows: Number of regressor rows.
+        residual_after: Residual of every row at the end [mm or rad].
+    """
+
+    model: str
+    method: str
+    geometry: DeltaGeometry
+    start: DeltaGeometry
+    base: BaseParameters
+    values: np.ndarray
+    sigma: np.ndarray
+    correlation: np.ndarray
+    before: ResidualStats
+    after: ResidualStats
+    outliers: list[int]
+    outlier_lines: list[int]
+    iterations: int
+    variance_factor: float
+    units: list[str]
+    n_rows: int
+    residual_after: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    hints: tuple[str, ...] = ()
+
+    @property
+    def rank(self) -> int:
+        """Numerical rank of the regressor."""
+        return self.base.rank
+
+    @property
+    def condition_number(self) -> float:
+        """Condition number of the column-scaled base regressor."""
+        return self.base.condition_number
+
+    @property
+    def labels(self) -> list[str]:
+        """Readable base parameters (regroupings)."""
+        return self.base.labels()
+
+    def strong_correlations(self, threshold: float = 0.9, limit: int = 5) -> list[tuple[int, int, float]]:
+        """Pairs of base parameters (indices) with |correlation| above ``threshold``, strongest first."""
+        C = np.triu(self.correlation, k=1)
+        a, b = np.nonzero(np.abs(C) > threshold)
+        # strongest first; equal to 1e-9 (symmetric limbs give equal correlations, which
+        # rounding would order differently on different CPUs) in the order of the parameters
+        order = np.lexsort((b, a, -np.round(np.abs(C[a, b]), 9)))[:limit]
+        return [(int(a[k]), int(b[k]), float(C[a[k], b[k]])) for k in order]
+
+    def report(self) -> str:
+        """A readable report: base parameters with σ, what is not identifiable, residuals, outliers."""
+        lines = [
+            f"model {self.model} ({len(self.base.names)} parameters), method {self.method}, "
+            f"{self.iterations} iteration(s), {self.n_rows} equations",
+            f"rank {self.rank} of {len(self.base.names)}, condition number {self.condition_number:.4g}",
+            "",
+            "identified base parameters (value ± σ):",
+        ]
+        width = max((len(s) for s in self.labels), default=10)
+        for label, v, s, u in zip(self.labels, self.values, self.sigma, self.units, strict=True):
+            if u == "rad":
+                lines.append(f"  {label:<{width}}  {math.degrees(v):+12.6f} ± {math.degrees(s):.6f} deg")
+            else:
+                lines.append(f"  {label:<{width}}  {v:+12.6f} ± {s:.6f} mm")
+        absent = self.base.absent
+        folded = [k for k in self.base.unidentifiable if k not in absent]
+        if folded:
+            lines.append("")
+            lines.append("not identifiable on their own (folded into the base parameters above):")
+            lines.append("  " + ", ".join(self.base.names[k] for k in folded))
+        if absent:
+            lines.append("not seen by these measurements at all (left at their start value):")
+            lines.append("  " + ", ".join(self.base.names[k] for k in absent))
+        lines += [f"hint: {h}" for h in self.hints]
+        lines.append("")
+        lines.append("residuals             before        after")
+        for key, unit, scale in (
+            ("position", "mm", 1.0),
+            ("distance", "mm", 1.0),
+            ("orientation", "deg", math.degrees(1.0)),
+        ):
+            b_rms = getattr(self.before, f"{key}_rms")
+            if not math.isfinite(b_rms):
+                continue
+            a_rms = getattr(self.after, f"{key}_rms")
+            b_max = getattr(self.before, f"{key}_max")
+            a_max = getattr(self.after, f"{key}_max")
+            lines.append(f"  {key} RMS [{unit}]  {b_rms * scale:12.6f} {a_rms * scale:12.6f}")
+            lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
+        lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
+        strong = self.strong_correlations()
+        if strong:
+            lines.append(
+                "strongest correlations: "
+                + "; ".join(f"{self.labels[a]} ~ {self.labels[b]} {c:+.3f}" for a, b, c in strong)
+            )
+        if self.outliers:
+            lines.append(
+                f"outliers (data snooping at {OUTLIER_THRESHOLD:g} σ): "
+                + ", ".join(f"line {n}" for n in self.outlier_lines)
+            )
+        else:
+            lines.append("outliers: none")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The calibration report as plain data (angles in degrees)."""
+        params = []
+        for label, name, v, s, u in zip(
+            self.labels, self.base.base_names, self.values, self.sigma, self.units, strict=True
+        ):
+            if u == "rad":
+                params.append({"name": name, "regrouping": label, "value_deg": math.degrees(v),
+                               "sigma_deg": math.degrees(s)})
+            else:
+                params.append({"name": name, "regrouping": label, "value_mm": v, "sigma_mm": s})
+        return {
+            "model": self.model,
+            "method": self.method,
+            "rank": self.rank,
+            "parameters": len(self.base.names),
+            "condition_number": self.condition_number,
+            "iterations": self.iterations,
+            "variance_factor": self.variance_factor,
+            "unidentifiable": self.base.unidentifiable_names,
+            "residuals_before": self.before.as_dict(),
+            "residuals_after": self.after.as_dict(),
+            "outlier_lines": [int(n) for n in self.outlier_lines],
+            "base_parameter": params,
+            # correlation matrix of the base parameters, in the order of base_parameter
+            "correlation": np.round(self.correlation, 6).tolist(),
+        }
