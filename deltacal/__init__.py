@@ -20,6 +20,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from ._version import __version__
 from .exceptions import (
     AssemblyError,
     ConvergenceError,
@@ -33,8 +34,6 @@ from .exceptions import (
     UsageError,
     ViewerError,
 )
-
-__version__ = "0.2.0"
 
 #: Public name -> module that defines it (loaded on first access).
 _LAZY = {

@@ -28,11 +28,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errormodels import ErrorModel, get_model
-from .errormodels.base import ACTUATOR_ROTATIONS, ARM_BALLS, AXIS_POINTS, PLATE_BALLS, RODS
+from .errormodels.base import elementary_jacobian
 from .exceptions import UnreachableError
 from .geometry import DeltaGeometry
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
+from .kinematics.exact import PlatePose
 
 METHODS = ("exact", "savoure", "bai")
 
@@ -52,62 +53,19 @@ class LinearCalibration:
     deviation: np.ndarray
 
 
-def _arm_terms(geometry: DeltaGeometry, local: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Constants (K1, K2, K3), each (3, k, 3), with ``R0_i Ry(θ_i) local_ik = cos θ_i K1 + sin θ_i K2 + K3``.
-
-    The arm-frame vectors ``local`` (3, k, 3) turned into the base frame at any true angle
-    θ, without forming the (N, 3, 3, 3) arm rotations (memory-bound for many readings).
-    """
-    R0 = geometry.actuator_rotation()
-    x0, w, z0 = R0[:, None, :, 0], R0[:, None, :, 1], R0[:, None, :, 2]
-    lx, ly, lz = local[..., 0, None], local[..., 1, None], local[..., 2, None]
-    return lx * x0 + lz * z0, lz * x0 - lx * z0, ly * w
-
-
-def _turned_by_arms(geometry: DeltaGeometry, q: np.ndarray, local: np.ndarray) -> np.ndarray:
-    """Arm-frame vectors ``local`` (3, k, 3) in the base frame at readings q (N, 3): (N, 3, k, 3).
-
-    The same as ``geometry.arm_rotation(q) @ local``.
-    """
-    K1, K2, K3 = _arm_terms(geometry, local)
-    theta = (q + geometry.encoder_offset)[:, :, None, None]
-    out = np.cos(theta) * K1
-    out += np.sin(theta) * K2
-    out += K3
-    return out
-
-
 def predicted_plate_displacement(calibration: LinearCalibration, q: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``δX = S(q) δk`` around the nominal geometry at readings q, plate at x, (N, 6).
 
-    Computed as ``−J_X⁻¹ (J_k e)`` with the elementary moves ``e = M δk``, without
-    forming S (so it is cheap for many targets).
+    Computed as ``−J_X⁻¹ (J_k e)`` (Savoure Eq. 17) with the elementary moves
+    ``e = M δk``, at the plate parallel at x, without forming S (so it is cheap for
+    many targets).
     """
     g = calibration.nominal
     e = calibration.model.moves(g) @ calibration.deviation
-    N = q.shape[0]
-    theta = q + g.encoder_offset
-    cos, sin = np.cos(theta)[:, :, None], np.sin(theta)[:, :, None]
-    lever = _turned_by_arms(g, q, g.arm_ball)  # arm balls relative to the axis points, (N, 3, 2, 3)
-    d = x[:, None, None, :] + g.plate_ball[None] - g.axis_point[:, None, :] - lever  # plate parallel
-    n = d / np.sqrt(np.einsum("nijk,nijk->nij", d, d))[..., None]
-    # move of the arm balls: dA = R_arm δa + δp + ω × (R_arm a), also cos θ M1 + sin θ M2 + M3
-    omega = np.einsum("ikl,il->ik", g.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))[:, None, :]
-    K = _arm_terms(g, g.arm_ball)
-    D = _arm_terms(g, e[ARM_BALLS].reshape(3, 2, 3))
-    M1 = D[0] + np.cross(omega, K[0])
-    M2 = D[1] + np.cross(omega, K[1])
-    M3 = D[2] + np.cross(omega, K[2]) + e[AXIS_POINTS].reshape(3, 1, 3)
-    dB = e[PLATE_BALLS].reshape(3, 2, 3)
-    Jk_e = (
-        np.einsum("nijk,ijk->nij", n, dB - M3)
-        - cos * np.einsum("nijk,ijk->nij", n, M1)
-        - sin * np.einsum("nijk,ijk->nij", n, M2)
-        - e[RODS].reshape(3, 2)
-    )
-    nn = n.reshape(N, 6, 3)
-    JX = np.concatenate([nn, np.cross(g.plate_ball.reshape(6, 3), nn)], axis=2)
-    return -np.linalg.solve(JX, Jk_e.reshape(N, 6, 1))[..., 0]
+    pose = PlatePose(x, np.broadcast_to(np.eye(3), (x.shape[0], 3, 3)))
+    Jk_e = elementary_jacobian(g, q, pose, moves=e)
+    JX = exact.pose_jacobian(g, q, pose)
+    return -np.linalg.solve(JX, Jk_e[..., None])[..., 0]
 
 
 def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -118,7 +76,7 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
     virtual rods ``n_i = x + a_i − E_i``.
     """
     elbow = geometry.arm_ball.mean(axis=1)
-    lever = _turned_by_arms(geometry, q, elbow[:, None, :])[:, :, 0]  # E_i - P_i, (N, 3, 3)
+    lever = np.einsum("nikl,il->nik", geometry.arm_rotation(q), elbow)  # E_i - P_i, (N, 3, 3)
     n = x[:, None, :] + geometry.plate_ball.mean(axis=1) - geometry.axis_point - lever
     dE = np.cross(geometry.actuator_rotation()[:, :, 1], lever)
     return n / np.einsum("nik,nik->ni", n, dE)[..., None]

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 
 from deltacal import DeltaGeometry, NominalDelta, Tolerances, VirtualDelta
 from deltacal.errormodels import MODEL_NAMES, ClassicalModel, ErrorModel, SubModel, get_model
+from deltacal.errormodels.base import elementary_jacobian
 from deltacal.geometry import vector_from_rotation
 from deltacal.kinematics import exact
 
@@ -226,3 +227,14 @@ def test_bai42_dltilde_is_bai_eq_9(bai):
     for k in range(len(q)):
         C_e = _bai_closed_form(bai, x[k], q[k])[2]
         assert_allclose(S[k, 3:, 24:][:, cols], C_e[:, cols], rtol=0, atol=1e-12 * np.max(np.abs(C_e)))
+
+
+def test_elementary_jacobian_times_moves_is_the_product(bai):
+    """J_k e without forming J_k (compensation's path) equals J_k @ e, at any pose."""
+    rng = np.random.default_rng(5)
+    g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    q = np.radians(rng.uniform(-10.0, 40.0, (20, 3)))
+    pose = exact.forward(g, q)
+    e = rng.standard_normal(60)
+    full = np.einsum("nke,e->nk", elementary_jacobian(g, q, pose), e)
+    assert np.max(np.abs(elementary_jacobian(g, q, pose, moves=e) - full)) < 1e-12 * np.max(np.abs(full))

@@ -25,7 +25,7 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from .. import __version__
+from .._version import __version__
 from ..exceptions import DeltacalError, UsageError
 from . import compensate, demo, identify, plan, simulate, view
 from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, Parser, one_line

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..geometry import DeltaGeometry, rotation_from_vector
 from ..kinematics import exact
-from ..kinematics.exact import PlatePose
+from ..kinematics.exact import PlatePose, pose_jacobian
 
 N_ELEMENTARY = 60
 PLATE_BALLS = slice(0, 18)
@@ -77,16 +77,24 @@ def actuator_rotation_index(i: int, k: int) -> int:
     return ACTUATOR_ROTATIONS.start + 3 * i + k
 
 
-def elementary_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
+def elementary_jacobian(
+    geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose, moves: np.ndarray | None = None
+) -> np.ndarray:
     """J_k: derivative of the rod residuals ``|d_ij| - l_ij`` by the elementary moves.
+
+    The one copy of J_k in deltacal. With ``moves`` it returns ``J_k e`` without
+    forming J_k (cheap for many readings): the rod residuals' change for the moves e.
 
     Args:
         geometry: Geometry around which to differentiate.
         q: Readings [rad], shape (N, 3).
-        pose: The exact plate poses of ``geometry`` at q.
+        pose: The plate poses at q (the exact ones of ``geometry``, or any pose at which
+            to differentiate, e.g. the plate parallel at a target).
+        moves: Elementary moves e, shape (60,): return ``J_k e`` instead of J_k.
 
     Returns:
-        J_k, shape (N, 6, 60); rows are rods (1,1), (1,2), (2,1), ..., (3,2).
+        J_k, shape (N, 6, 60), or ``J_k e``, shape (N, 6); rows are rods (1,1), (1,2), (2,1),
+        ..., (3,2).
     """
     q = np.atleast_2d(q)
     N = q.shape[0]
@@ -95,6 +103,16 @@ def elementary_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose)
     B = pose.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", pose.rotation, geometry.plate_ball)
     d = B - A
     n = d / np.linalg.norm(d, axis=-1, keepdims=True)  # (N, 3, 2, 3)
+    if moves is not None:
+        e = np.asarray(moves, dtype=float)
+        omega = np.einsum("ikl,il->ik", geometry.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))
+        dA = (
+            np.einsum("nikl,ijl->nijk", R_arm, e[ARM_BALLS].reshape(3, 2, 3))
+            + e[AXIS_POINTS].reshape(1, 3, 1, 3)
+            + np.cross(omega[None, :, None, :], A - geometry.axis_point[None, :, None, :])
+        )
+        dB = np.einsum("nkl,ijl->nijk", pose.rotation, e[PLATE_BALLS].reshape(3, 2, 3))
+        return (np.einsum("nijk,nijk->nij", n, dB - dA) - e[RODS].reshape(1, 3, 2)).reshape(N, 6)
     J = np.zeros((N, 3, 2, N_ELEMENTARY))
     R0 = geometry.actuator_rotation()
     lever = A - geometry.axis_point[None, :, None, :]
@@ -111,18 +129,6 @@ def elementary_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose)
             s = actuator_rotation_index(i, 0)
             J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
     return J.reshape(N, 6, N_ELEMENTARY)
-
-
-def pose_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
-    """J_X: derivative of the rod residuals by the plate displacement (dx, dalpha), (N, 6, 6).
-
-    Savoure Eq. 18 with the actual (not nominal) rod directions.
-    """
-    A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
-    RB = np.einsum("nkl,jl->njk", pose.rotation, geometry.plate_ball.reshape(6, 3))
-    d = pose.position[:, None, :] + RB - A
-    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    return np.concatenate([n, np.cross(RB, n)], axis=2)
 
 
 def elementary_sensitivity(

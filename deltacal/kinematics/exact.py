@@ -71,10 +71,33 @@ def _rod_terms(geometry: DeltaGeometry, q: np.ndarray, p: np.ndarray, R: np.ndar
     return A, d, np.linalg.norm(d, axis=2), RB
 
 
+def rod_pose_jacobian(n: np.ndarray, RB: np.ndarray) -> np.ndarray:
+    """J_X from the unit rod directions: d|d|/d(p, phi), rows ``[nᵀ, (R B × n)ᵀ]`` (Savoure Eq. 18).
+
+    The one copy of J_X in deltacal.
+
+    Args:
+        n: Unit rod directions (plate ball minus arm ball), shape (..., 6, 3).
+        RB: Plate balls relative to the plate's origin, in {O}, shape (..., 6, 3) or (6, 3).
+
+    Returns:
+        J_X, shape (..., 6, 6).
+    """
+    return np.concatenate([n, np.cross(np.broadcast_to(RB, n.shape), n)], axis=-1)
+
+
 def _pose_jacobian(d: np.ndarray, dist: np.ndarray, RB: np.ndarray) -> np.ndarray:
-    """d|d|/d(p, phi), shape (N, 6, 6): rows [n^T, (R B x n)^T], n = d / |d| (Savoure Eq. 18)."""
-    n = d / dist[..., None]
-    return np.concatenate([n, np.cross(RB, n)], axis=2)
+    return rod_pose_jacobian(d / dist[..., None], RB)
+
+
+def pose_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
+    """J_X: derivative of the rod residuals by the plate displacement (dx, dalpha), (N, 6, 6).
+
+    Savoure Eq. 18 with the actual (not nominal) rod directions at an assembled pose.
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    _, d, dist, RB = _rod_terms(geometry, q, pose.position, pose.rotation)
+    return _pose_jacobian(d, dist, RB)
 
 
 def _joint_jacobian(geometry: DeltaGeometry, A: np.ndarray, d: np.ndarray, dist: np.ndarray):
@@ -124,7 +147,6 @@ def forward(
     R = np.array(pose.rotation, dtype=float)
     N = q.shape[0]
     done = np.zeros(N, dtype=bool)
-    residual = np.full(N, np.inf)
     active = np.all(np.isfinite(p), axis=1)
     for _ in range(max_iter):
         idx = np.flatnonzero(active & ~done)
@@ -133,7 +155,6 @@ def forward(
         A, d, dist, RB = _rod_terms(geometry, q[idx], p[idx], R[idx])
         r = dist - geometry.rod_length.reshape(1, 6)
         res = np.max(np.abs(r), axis=1)
-        residual[idx] = res
         conv = res <= tol
         done[idx[conv]] = True
         todo = ~conv
@@ -221,7 +242,6 @@ def inverse(
     R = np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
     done = np.zeros(N, dtype=bool)
     active = np.all(np.isfinite(q), axis=1)
-    residual = np.full(N, np.inf)
     for _ in range(max_iter):
         idx = np.flatnonzero(active & ~done)
         if idx.size == 0:
@@ -231,7 +251,6 @@ def inverse(
         r_pt = p[idx] + R[idx] @ tool - target[idx]
         r = np.concatenate([r_rod, r_pt], axis=1)
         res = np.max(np.abs(r), axis=1)
-        residual[idx] = res
         conv = res <= tol
         done[idx[conv]] = True
         todo = ~conv
