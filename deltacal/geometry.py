@@ -33,91 +33,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .exceptions import GeometryError
+from .rotations import rotation_about_y as rotation_about_y  # re-exported: old import paths
+from .rotations import rotation_from_vector as rotation_from_vector
+from .rotations import skew as skew
+from .rotations import vector_from_rotation as vector_from_rotation
 
 #: Names of the three coordinates, used in error names.
 AXES = ("x", "y", "z")
-
-
-def rotation_about_y(angle: np.ndarray) -> np.ndarray:
-    """Rotation matrices about the local y axis.
-
-    Args:
-        angle: Angles [rad], any shape ``S``.
-
-    Returns:
-        Rotation matrices, shape ``S + (3, 3)``.
-    """
-    angle = np.asarray(angle, dtype=float)
-    c, s = np.cos(angle), np.sin(angle)
-    out = np.zeros(angle.shape + (3, 3))
-    out[..., 0, 0] = c
-    out[..., 0, 2] = s
-    out[..., 1, 1] = 1.0
-    out[..., 2, 0] = -s
-    out[..., 2, 2] = c
-    return out
-
-
-def rotation_from_vector(rotvec: np.ndarray) -> np.ndarray:
-    """Rotation matrices from rotation vectors (axis times angle), Rodrigues' formula.
-
-    Args:
-        rotvec: Rotation vectors [rad], shape ``S + (3,)``.
-
-    Returns:
-        Rotation matrices, shape ``S + (3, 3)``.
-    """
-    rotvec = np.asarray(rotvec, dtype=float)
-    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
-    K = skew(rotvec)
-    small = theta < 1e-8
-    safe = np.where(small, 1.0, theta)
-    a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    eye = np.broadcast_to(np.eye(3), K.shape)
-    return eye + a * K + b * (K @ K)
-
-
-def vector_from_rotation(R: np.ndarray) -> np.ndarray:
-    """Rotation vectors (axis times angle) of rotation matrices (angles below pi).
-
-    Args:
-        R: Rotation matrices, shape ``S + (3, 3)``.
-
-    Returns:
-        Rotation vectors [rad], shape ``S + (3,)``.
-    """
-    R = np.asarray(R, dtype=float)
-    cos_t = np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-    theta = np.arccos(cos_t)
-    v = np.stack(
-        [R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
-        axis=-1,
-    )
-    small = theta < 1e-6
-    sin_t = np.where(small, 1.0, np.sin(theta))
-    factor = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * sin_t))
-    return factor[..., None] * v
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrices: ``skew(v) @ w == cross(v, w)``.
-
-    Args:
-        v: Vectors, shape ``S + (3,)``.
-
-    Returns:
-        Skew-symmetric matrices, shape ``S + (3, 3)``.
-    """
-    v = np.asarray(v, dtype=float)
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1] = -v[..., 2]
-    out[..., 0, 2] = v[..., 1]
-    out[..., 1, 0] = v[..., 2]
-    out[..., 1, 2] = -v[..., 0]
-    out[..., 2, 0] = -v[..., 1]
-    out[..., 2, 1] = v[..., 0]
-    return out
 
 
 @dataclass(frozen=True)

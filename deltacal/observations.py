@@ -23,9 +23,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import DeltaGeometry, skew, vector_from_rotation
+from .geometry import DeltaGeometry
 from .kinematics import exact
 from .kinematics.exact import PlatePose
+from .rotations import rotation_from_vector, skew, vector_from_rotation
 
 #: Row kinds.
 POSITION, ORIENTATION, DISTANCE = 0, 1, 2
@@ -246,8 +247,6 @@ def build_rows(
     has = measurements.has_orientation
     if np.any(has):
         assert measurements.rotation_vector is not None
-        from .geometry import rotation_from_vector
-
         R_meas = rotation_from_vector(measurements.rotation_vector[has])
         err = vector_from_rotation(R_meas @ np.swapaxes(pose.rotation[has], 1, 2))
         res.append(err)

@@ -30,9 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .geometry import DeltaGeometry, rotation_from_vector, vector_from_rotation
+from .geometry import DeltaGeometry
 from .kinematics.exact import PlatePose
 from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements
+from .rotations import rotation_from_vector, vector_from_rotation
 
 #: Forward kinematics of a true robot: (geometry, readings (N, 3) [rad]) -> plate poses.
 ForwardKinematics = Callable[[DeltaGeometry, np.ndarray], PlatePose]

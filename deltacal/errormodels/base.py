@@ -40,9 +40,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..geometry import DeltaGeometry, rotation_from_vector
+from ..geometry import DeltaGeometry
 from ..kinematics import exact
 from ..kinematics.exact import PlatePose, pose_jacobian
+from ..rotations import rotation_from_vector
 
 N_ELEMENTARY = 60
 PLATE_BALLS = slice(0, 18)

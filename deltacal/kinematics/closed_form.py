@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry, NominalDelta, rotation_about_y
+from ..geometry import DeltaGeometry, NominalDelta
+from ..rotations import rotation_about_y
 
 
 @dataclass(frozen=True, eq=False)

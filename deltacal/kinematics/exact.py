@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry, rotation_from_vector, skew, vector_from_rotation
+from ..geometry import DeltaGeometry
+from ..rotations import rotation_from_vector, skew, vector_from_rotation
 from .closed_form import VirtualDelta
 
 #: Convergence threshold on the rod residuals [mm].

@@ -52,7 +52,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry, rotation_about_y
+from ..geometry import DeltaGeometry
+from ..rotations import rotation_about_y
 from .closed_form import VirtualDelta
 from .exact import PlatePose
 
