@@ -186,5 +186,4 @@ def compensate(
 def linear_calibration_from_result(result, tool: np.ndarray | None = None) -> LinearCalibration:
     """The linear compensators' inputs from an IdentificationResult (optionally with another tool [mm])."""
     nominal = result.start if tool is None else result.start.with_tool(tool)
-    deviation = result.base.expand(result.values)
-    return LinearCalibration(nominal=nominal, model=get_model(result.model), deviation=deviation)
+    return LinearCalibration(nominal=nominal, model=get_model(result.model), deviation=result.deviation)

@@ -365,6 +365,22 @@ class DeltaGeometry:
         """Names of the plate points: ``tcp`` then the named points."""
         return ["tcp", *self.points]
 
+    def moved_rigidly(self, rotation: np.ndarray, translation: np.ndarray) -> DeltaGeometry:
+        """The same robot moved as one rigid body in {O}: ``x -> rotation @ x + translation``.
+
+        The actuator axes (points and directions) turn and shift; each actuator frame
+        turns rigidly, so where the derived zero direction (``r_i`` made orthogonal to the
+        new axis) differs from the turned one, the difference goes into the encoder
+        offset. Everything held in the arm and plate frames is unchanged. At the same
+        readings the plate of the moved robot is the moved plate.
+        """
+        R = np.asarray(rotation, dtype=float).reshape(3, 3)
+        t = np.asarray(translation, dtype=float).reshape(3)
+        turned = np.einsum("kl,ilm->ikm", R, self.actuator_rotation())
+        moved = replace(self, axis_point=self.axis_point @ R.T + t, axis_direction=turned[:, :, 1])
+        rel = np.einsum("ilk,ilm->ikm", moved.actuator_rotation(), turned)  # a rotation about y
+        return replace(moved, encoder_offset=self.encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]))
+
     # ------------------------------------------------------------ perturbation
     def with_tool(self, tool: np.ndarray) -> DeltaGeometry:
         """The same robot with another TCP in the plate frame [mm]."""

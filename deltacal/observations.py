@@ -31,6 +31,8 @@ from .rotations import rotation_from_vector, skew, vector_from_rotation
 #: Row kinds.
 POSITION, ORIENTATION, DISTANCE = 0, 1, 2
 
+#: Station name of measurements without a station column (one instrument frame).
+DEFAULT_STATION = "default"
 #: Default σ of a measured coordinate [mm] (a laser tracker), for weighting and simulation.
 SIGMA_POSITION = 0.005
 #: Default σ of a measured orientation component [deg] (a 6-DoF probe).
@@ -49,6 +51,8 @@ class Measurements:
         point: Name of the plate point measured in each row (``"tcp"`` or a named point).
         rotation_vector: Measured plate orientation [rad], shape (M, 3); NaN rows where
             orientation was not measured.
+        station: Name of the instrument station of each row (a tracker moved during the
+            session has one frame per station); default :data:`DEFAULT_STATION` for all.
         lines: Line number of each measurement in its file (for messages), or row indices.
         source: File the measurements came from.
     """
@@ -57,6 +61,7 @@ class Measurements:
     position: np.ndarray
     point: list[str] = field(default_factory=list)
     rotation_vector: np.ndarray | None = None
+    station: list[str] = field(default_factory=list)
     lines: np.ndarray | None = None
     source: str = ""
 
@@ -78,6 +83,10 @@ class Measurements:
             else np.atleast_2d(np.asarray(self.rotation_vector, dtype=float))
         )
         object.__setattr__(self, "rotation_vector", rv)
+        station = [str(s) for s in self.station] if self.station else [DEFAULT_STATION] * M
+        if len(station) != M:
+            raise ValueError(f"{len(station)} station names for {M} measurements")
+        object.__setattr__(self, "station", station)
         lines = np.arange(M) if self.lines is None else np.asarray(self.lines)
         object.__setattr__(self, "lines", lines)
 
@@ -90,15 +99,22 @@ class Measurements:
         assert self.rotation_vector is not None
         return np.all(np.isfinite(self.rotation_vector), axis=1)
 
+    @property
+    def stations(self) -> list[str]:
+        """The station names, in the order they first appear."""
+        return list(dict.fromkeys(self.station))
+
     def subset(self, index: np.ndarray) -> Measurements:
         """The measurements of some rows."""
         index = np.asarray(index)
         assert self.rotation_vector is not None and self.lines is not None
+        rows = np.atleast_1d(np.arange(len(self))[index])
         return Measurements(
             q=self.q[index],
             position=self.position[index],
-            point=[self.point[k] for k in np.atleast_1d(np.arange(len(self))[index])],
+            point=[self.point[k] for k in rows],
             rotation_vector=self.rotation_vector[index],
+            station=[self.station[k] for k in rows],
             lines=self.lines[index],
             source=self.source,
         )

@@ -12,10 +12,13 @@ from ..exceptions import AssemblyError, IdentificationError
 from ..geometry import DeltaGeometry
 from ..identifiability import BaseParameters, base_parameters
 from ..kinematics import exact
-from ..observations import DISTANCE, POSITION, Measurements, Rows, build_rows
+from ..observations import DISTANCE, POSITION, Measurements, Rows, build_rows, predicted_points
+from .frames import frame_columns
 
 
-def check_plausible(start: DeltaGeometry, measurements: Measurements, rows: Rows) -> None:
+def check_plausible(
+    start: DeltaGeometry, measurements: Measurements, rows: Rows, frame_free: bool = False
+) -> None:
     """Refuse measurements no robot near ``start`` can have produced, before fitting them.
 
     Manufacturing errors move the measured points by similar amounts all over the
@@ -37,10 +40,15 @@ def check_plausible(start: DeltaGeometry, measurements: Measurements, rows: Rows
         return
     median = float(np.median(error))
     if median > 0.2 * arm:
+        where = (
+            "that each station's measurements are of one rigid set-up"
+            if frame_free
+            else "the frame (measured in a tracker's own frame? identify with --frame free)"
+        )
         raise IdentificationError(
             f"the measured positions are a median {median:.4g} mm from where the nominal robot puts "
-            f"them (arms of {arm:.4g} mm): check the units (readings in degrees, positions in mm), that "
-            "positions are in the robot base frame, and the robot file"
+            f"them (arms of {arm:.4g} mm): check the units (readings in degrees, positions in mm), "
+            f"{where}, and the robot file"
         )
     spread = 1.4826 * float(np.median(np.abs(error - median)))
     gross = error > max(3.0 * median, median + 10.0 * spread, 0.05 * arm)
@@ -58,7 +66,8 @@ def check_plausible(start: DeltaGeometry, measurements: Measurements, rows: Rows
 
 def _reference_regressor(
     start: DeltaGeometry, measurements: Measurements, model: ErrorModel, sigma_position: float,
-    sigma_angle: float, distances: bool, pairs: str, orientation: bool = False, extra_point: bool = False,
+    sigma_angle: float, distances: bool, pairs: str, stations: list[str], orientation: bool = False,
+    extra_point: bool = False,
 ) -> np.ndarray | None:
     """Weighted regressor of well-spread poses with the same kinds of measurement, or richer ones.
 
@@ -86,14 +95,22 @@ def _reference_regressor(
         return None
     point = [name for _ in q for name, _ in kinds]
     has = np.array([o for _ in q for _, o in kinds])
+    # with free frames, the poses shared round-robin among the stations
+    station = [stations[k % len(stations)] for k in range(len(q)) for _ in kinds] if stations else []
     ref = Measurements(q=np.repeat(q, len(kinds), axis=0), position=np.zeros((has.size, 3)), point=point,
-                       rotation_vector=np.where(has[:, None], 0.0, np.full((has.size, 3), np.nan)))
+                       rotation_vector=np.where(has[:, None], 0.0, np.full((has.size, 3), np.nan)),
+                       station=station)
     try:
+        pose = exact.forward(geometry, ref.q)
         rows = build_rows(geometry, ref, model.sensitivity, sigma_position, sigma_angle,
-                          distances=distances, pairs=pairs)
+                          distances=distances, pairs=pairs, pose=pose)
     except AssemblyError:
         return None
-    return rows.weighted[1]
+    W = rows.weighted[1]
+    if stations:
+        seen = replace(ref, position=predicted_points(geometry, ref, pose))
+        W = np.hstack([W, frame_columns(rows, seen, stations) / rows.sigma[:, None]])
+    return W
 
 
 def _separated(
@@ -113,6 +130,7 @@ def _separated(
 def check_rank(
     start: DeltaGeometry, measurements: Measurements, model: ErrorModel, base: BaseParameters,
     W: np.ndarray, sigma_position: float, sigma_angle: float, distances: bool, pairs: str, rtol: float,
+    stations: list[str] | None = None,
 ) -> list[str]:
     """Compare the rank with what well-spread poses of the same kinds give.
 
@@ -120,11 +138,12 @@ def check_rank(
     parameters lost and how many poses are needed; returns hints on what richer
     measurements (orientations, a second point) would identify.
     """
-    args = (start, measurements, model, sigma_position, sigma_angle, distances, pairs)
+    stations = list(stations or [])
+    args = (start, measurements, model, sigma_position, sigma_angle, distances, pairs, stations)
     W_ref = _reference_regressor(*args)
     if W_ref is None:
         return []
-    ref = base_parameters(W_ref, model.names, rtol=rtol)
+    ref = base_parameters(W_ref, base.names, rtol=rtol)
     M = len(measurements)
     if base.rank < ref.rank:
         if distances:
@@ -156,7 +175,7 @@ def check_rank(
         W_rich = _reference_regressor(*args, orientation=orientation, extra_point=extra_point)
         if W_rich is None:
             continue
-        rich = base_parameters(W_rich, model.names, rtol=rtol)
+        rich = base_parameters(W_rich, base.names, rtol=rtol)
         if rich.rank > ref.rank:
             gained = _separated(ref, W_ref, rich, W_rich)
             hints.append(f"{label} would identify {rich.rank - ref.rank} more base parameter(s), "

@@ -20,6 +20,7 @@ variance factor ``s0² = χ²/(m − r)`` says whether those σ were right.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import scipy.linalg
@@ -28,8 +29,18 @@ from ..errormodels import ErrorModel, get_model
 from ..exceptions import AssemblyError, ConvergenceError, GeometryError, IdentificationError
 from ..geometry import DeltaGeometry
 from ..identifiability import base_parameters
+from ..kinematics import exact
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows, build_rows
 from .diagnostics import check_plausible, check_rank
+from .frames import (
+    FRAME_UNITS,
+    InstrumentFrame,
+    frame_columns,
+    frame_parameter_names,
+    in_base_frame,
+    initial_frames,
+    to_axes_gauge,
+)
 from .outliers import data_snooping
 from .result import IdentificationResult, ResidualStats
 
@@ -53,6 +64,7 @@ def identify(
     pairs: str = "all",
     rtol: float = 1e-8,
     max_iter: int = 30,
+    frame: str = "base",
 ) -> IdentificationResult:
     """Identify the geometry of a robot from measurements.
 
@@ -67,6 +79,9 @@ def identify(
         pairs: ``"all"`` pairs or pairs with the ``"reference"`` (first) pose.
         rtol: Rank tolerance relative to the largest scaled pivot.
         max_iter: Iterations at most for ``"iterated"``.
+        frame: ``"base"``: the measurements are in the robot base frame {O};
+            ``"free"``: each station's instrument frame is identified with the geometry
+            (see :mod:`deltacal.identification.frames`).
 
     Returns:
         The result, holding the identified geometry.
@@ -81,22 +96,51 @@ def identify(
     error_model = get_model(model) if isinstance(model, str) else model
     if method not in ("linear", "iterated"):
         raise ValueError(f"method must be 'linear' or 'iterated', got {method!r}")
+    if frame not in ("base", "free"):
+        raise ValueError(f"frame must be 'base' or 'free', got {frame!r}")
+    if frame == "free" and distances:
+        raise IdentificationError(
+            "distances do not depend on the instrument frame: a free frame is for positions and poses"
+        )
+    stations = measurements.stations if frame == "free" else []
+    n_model = len(error_model.names)
+    names = list(error_model.names) + frame_parameter_names(stations)
+    frames: dict[str, InstrumentFrame] = {}
+    if stations:
+        frames = initial_frames(start, measurements, exact.forward(start, measurements.q))
 
-    def rows_at(geometry: DeltaGeometry) -> Rows:
-        return build_rows(
-            geometry, measurements, error_model.sensitivity, sigma_position, sigma_angle,
+    def rows_at(geometry: DeltaGeometry, frames: dict[str, InstrumentFrame]) -> Rows:
+        seen = in_base_frame(measurements, frames) if frames else measurements
+        rows = build_rows(
+            geometry, seen, error_model.sensitivity, sigma_position, sigma_angle,
             distances=distances, pairs=pairs,
         )
+        if not frames:
+            return rows
+        return replace(rows, regressor=np.hstack([rows.regressor, frame_columns(rows, seen, stations)]))
 
-    rows = rows_at(start)
+    def moved(
+        geometry: DeltaGeometry, frames: dict[str, InstrumentFrame], full: np.ndarray
+    ) -> tuple[DeltaGeometry, dict[str, InstrumentFrame]]:
+        corrections = full[n_model:].reshape(-1, 6)
+        return (
+            error_model.apply(geometry, full[:n_model]),
+            {s: frames[s].corrected(c) for s, c in zip(stations, corrections, strict=True)},
+        )
+
+    rows = rows_at(start, frames)
     m = rows.residual.size
     rw, Ww = rows.weighted
-    base = base_parameters(Ww, error_model.names, rtol=rtol, prefer=error_model.preferred)
+    # with a free frame its parameters are kept first: the base drops what they absorb
+    prefer = error_model.preferred
+    if stations:
+        prefer = names[n_model:] + list(error_model.preferred or error_model.names)
+    base = base_parameters(Ww, names, rtol=rtol, prefer=prefer)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
-    check_plausible(start, measurements, rows)
+    check_plausible(start, measurements, rows, frame_free=bool(stations))
     hints = check_rank(start, measurements, error_model, base, Ww, sigma_position, sigma_angle,
-                        distances, pairs, rtol)
+                       distances, pairs, rtol, stations)
     kept = base.base
     before = ResidualStats.from_rows(rows)
     geometry = start
@@ -107,8 +151,8 @@ def identify(
         step, Q, Rinv = _solve_wls(Ww[:, kept], rw)
         if method == "linear":
             total = total + step
-            geometry = error_model.apply(geometry, base.expand(step))
-            rows = rows_at(geometry)
+            geometry, frames = moved(geometry, frames, base.expand(step))
+            rows = rows_at(geometry, frames)
             break
         sigma_step = np.sqrt(np.sum(Rinv**2, axis=1))
         t = 1.0
@@ -116,8 +160,8 @@ def identify(
         assembled = 0
         for _ in range(12):
             try:
-                trial = error_model.apply(geometry, base.expand(t * step))
-                trial_rows = rows_at(trial)
+                trial, trial_frames = moved(geometry, frames, base.expand(t * step))
+                trial_rows = rows_at(trial, trial_frames)
             except (AssemblyError, GeometryError):
                 t *= 0.5
                 continue
@@ -138,7 +182,7 @@ def identify(
                     math.sqrt(cost),
                 )
             break
-        geometry, rows, total = trial, trial_rows, total + t * step
+        geometry, frames, rows, total = trial, trial_frames, trial_rows, total + t * step
         previous, cost = cost, trial_cost
         rw, Ww = rows.weighted
         small_step = np.all(np.abs(t * step) <= 1e-3 * sigma_step)
@@ -167,6 +211,18 @@ def identify(
     rs, Ws = rows.scaled
     flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind)
     assert measurements.lines is not None
+    gauge = (0.0, 0.0)
+    if frames:
+        # each frame's covariance: its kept parameters' block (a dropped one stays at zero)
+        full_cov = np.zeros((len(names), len(names)))
+        full_cov[np.ix_(kept, kept)] = cov
+        frames = {
+            s: replace(f, covariance=full_cov[n_model + 6 * k : n_model + 6 * k + 6,
+                                              n_model + 6 * k : n_model + 6 * k + 6])
+            for k, (s, f) in enumerate(frames.items())
+        }
+        geometry, frames, shift, turn = to_axes_gauge(start, geometry, frames)
+        gauge = (shift, turn)
     return IdentificationResult(
         model=error_model.name,
         method=method,
@@ -182,8 +238,10 @@ def identify(
         outlier_lines=[int(measurements.lines[k]) for k in flagged],
         iterations=iterations,
         variance_factor=variance_factor,
-        units=[error_model.units[k] for k in kept],
+        units=[(list(error_model.units) + list(FRAME_UNITS) * len(stations))[k] for k in kept],
         n_rows=m,
         residual_after=rows.residual,
         hints=tuple(hints),
+        frames=frames,
+        gauge_motion=gauge,
     )

@@ -10,6 +10,7 @@ import numpy as np
 from ..geometry import DeltaGeometry
 from ..identifiability import BaseParameters
 from ..observations import DISTANCE, ORIENTATION, POSITION, Rows
+from .frames import InstrumentFrame
 from .outliers import OUTLIER_THRESHOLD
 
 
@@ -72,6 +73,10 @@ class IdentificationResult:
         units: Unit of each base parameter.
         n_rows: Number of regressor rows.
         residual_after: Residual of every row at the end [mm or rad].
+        hints: What richer measurements would identify.
+        frames: The identified instrument frame of each station (``frame="free"``), or empty.
+        gauge_motion: Rigid motion removed to put the robot in the axes gauge: (translation
+            [mm], rotation [rad]) (``frame="free"``).
     """
 
     model: str
@@ -92,6 +97,14 @@ class IdentificationResult:
     n_rows: int
     residual_after: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
     hints: tuple[str, ...] = ()
+    frames: dict[str, InstrumentFrame] = field(default_factory=dict)
+    gauge_motion: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def deviation(self) -> np.ndarray:
+        """Deviations of the error model's parameters from the start (instrument frames left out)."""
+        full = self.base.expand(self.values)
+        return full[[not name.startswith("T[") for name in self.base.names]]
 
     @property
     def rank(self) -> int:
@@ -157,6 +170,7 @@ class IdentificationResult:
             a_max = getattr(self.after, f"{key}_max")
             lines.append(f"  {key} RMS [{unit}]  {b_rms * scale:12.6f} {a_rms * scale:12.6f}")
             lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
+        lines += self._frame_lines()
         lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
         strong = self.strong_correlations()
         if strong:
@@ -172,6 +186,26 @@ class IdentificationResult:
         else:
             lines.append("outliers: none")
         return "\n".join(lines)
+
+    def _frame_lines(self) -> list[str]:
+        if not self.frames:
+            return []
+        lines = ["instrument frame(s): pose of the robot base {O} in each station's frame {T}"]
+        for name, f in self.frames.items():
+            rv, rs = np.degrees(f.rotation_vector), np.degrees(f.rotation_sigma)
+            lines.append(
+                f"  station {name}: rotation {np.array2string(rv, precision=6)} ± "
+                f"{np.array2string(rs, precision=6)} deg, translation "
+                f"{np.array2string(f.translation, precision=4)} ± "
+                f"{np.array2string(f.translation_sigma, precision=4)} mm"
+            )
+        lines.append(
+            "  gauge: {O} is where the identified actuator axes have no net rigid motion from the nominal "
+            f"ones (the fit's frame moved by {self.gauge_motion[0]:.4g} mm and "
+            f"{math.degrees(self.gauge_motion[1]):.4g} deg to get there; the base parameter values above "
+            "are the fit's, before that move)"
+        )
+        return lines
 
     def to_dict(self) -> dict:
         """The calibration report as plain data (angles in degrees)."""

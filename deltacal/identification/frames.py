@@ -1,0 +1,258 @@
+"""The instrument frame {T}: where a laser tracker measures, identified with the geometry.
+
+A tracker measures in its own frame {T}, metres from the robot, yawed, not levelled.
+Its pose is ``y_T = R y_O + t`` (``R``: rotation of {O} in {T}; ``t``: origin of {O} in
+{T}), one per station. Identification with a free frame:
+
+1. a closed-form first estimate per station (Horn/Kabsch: the rotation and translation
+   that best map the nominal robot's predicted points onto the measured ones; from the
+   orientations when the positions lie on a line), so any distance and yaw work;
+2. 6 parameters per station in the iterated least squares: a small rotation ``δθ`` and a
+   shift ``δu``, both about/along the axes of {O} (``R <- R exp(δθ)``, ``t <- t + R δu``);
+   the measurements are carried into {O} by the current estimate and the frame's columns
+   appended to the geometry's;
+3. the base-parameter QR keeps the frame's parameters first: the combinations of the
+   geometry that a rigid motion of the whole robot would absorb are dropped and named;
+4. the gauge: the rigid motion that {T} and the robot's base share is fixed afterwards by
+   moving the identified robot (and the frames with it, so that nothing measured changes)
+   until its actuator axes have no net rigid motion from the nominal ones (the least-squares
+   rigid motion between the segments ``[P_i, P_i + L w_i]`` of the nominal and identified
+   axes is the identity). {O} is that frame: centred on the actuator axes, z along their
+   mean normal, as the conventions define it for a real robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..exceptions import IdentificationError
+from ..geometry import DeltaGeometry
+from ..kinematics.exact import PlatePose
+from ..observations import ORIENTATION, POSITION, Measurements, Rows, predicted_points
+from ..rotations import rotation_from_vector, skew, vector_from_rotation
+
+#: The six parameters of a frame, in the order of its columns.
+FRAME_PARAMETERS = ("rx", "ry", "rz", "tx", "ty", "tz")
+#: Their units.
+FRAME_UNITS = ("rad", "rad", "rad", "mm", "mm", "mm")
+
+
+@dataclass(frozen=True)
+class InstrumentFrame:
+    """Pose of the robot base {O} in an instrument frame {T}: ``y_T = rotation @ y_O + translation``.
+
+    Attributes:
+        rotation: Rotation of {O} in {T}, (3, 3).
+        translation: Origin of {O} in {T} [mm], (3,).
+        covariance: Covariance of the 6 small corrections (δθ [rad], δu [mm]) about and along
+            the axes of {O}, (6, 6); zeros when not identified.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    covariance: np.ndarray = field(default_factory=lambda: np.zeros((6, 6)))
+
+    @classmethod
+    def identity(cls) -> InstrumentFrame:
+        """{T} = {O}."""
+        return cls(np.eye(3), np.zeros(3))
+
+    @classmethod
+    def from_vectors(cls, rotation_vector: np.ndarray, translation: np.ndarray) -> InstrumentFrame:
+        """From a rotation vector [rad] and a translation [mm]."""
+        rotation = rotation_from_vector(np.asarray(rotation_vector, dtype=float))
+        return cls(rotation, np.asarray(translation, dtype=float))
+
+    @property
+    def rotation_vector(self) -> np.ndarray:
+        """Rotation vector of {O} in {T} [rad], (3,)."""
+        return vector_from_rotation(self.rotation)
+
+    @property
+    def rotation_sigma(self) -> np.ndarray:
+        """σ of a small rotation of {O} about the axes of {T} [rad], (3,)."""
+        C = self.rotation @ self.covariance[:3, :3] @ self.rotation.T
+        return np.sqrt(np.clip(np.diag(C), 0.0, None))
+
+    @property
+    def translation_sigma(self) -> np.ndarray:
+        """σ of the origin of {O} along the axes of {T} [mm], (3,)."""
+        C = self.rotation @ self.covariance[3:, 3:] @ self.rotation.T
+        return np.sqrt(np.clip(np.diag(C), 0.0, None))
+
+    def to_base(self, y: np.ndarray) -> np.ndarray:
+        """Points given in {T} expressed in {O}, (..., 3)."""
+        return (np.asarray(y, dtype=float) - self.translation) @ self.rotation
+
+    def from_base(self, p: np.ndarray) -> np.ndarray:
+        """Points given in {O} expressed in {T}, (..., 3)."""
+        return np.asarray(p, dtype=float) @ self.rotation.T + self.translation
+
+    def corrected(self, step: np.ndarray) -> InstrumentFrame:
+        """The frame after a correction (δθ, δu) about and along the axes of {O}."""
+        step = np.asarray(step, dtype=float)
+        return InstrumentFrame(
+            self.rotation @ rotation_from_vector(step[:3]), self.translation + self.rotation @ step[3:]
+        )
+
+    def after_moving_base(self, rotation: np.ndarray, translation: np.ndarray) -> InstrumentFrame:
+        """The frame seen from {O'} when the robot is moved rigidly by ``p' = rotation p + translation``.
+
+        Nothing measured changes: ``y_T = R p + t = (R Gᵀ) p' + (t - R Gᵀ g)``.
+        """
+        G, g = np.asarray(rotation, float), np.asarray(translation, float)
+        R = self.rotation @ G.T
+        # the corrections are about the axes of {O}: turned with it
+        J = np.zeros((6, 6))
+        J[:3, :3] = G
+        J[3:, 3:] = G
+        return InstrumentFrame(R, self.translation - R @ g, J @ self.covariance @ J.T)
+
+
+def frame_parameter_names(stations: list[str]) -> list[str]:
+    """Names of the frame parameters of each station: ``T[station].rx`` ... ``T[station].tz``."""
+    return [f"T[{s}].{p}" for s in stations for p in FRAME_PARAMETERS]
+
+
+def rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation and translation that best map points ``source`` onto ``target`` (Horn/Kabsch).
+
+    Least squares over the points, proper rotation (determinant +1).
+
+    Args:
+        source: Points, (n, 3).
+        target: Points, (n, 3).
+
+    Returns:
+        ``(R, t)`` with ``target ≈ source @ R.T + t``.
+    """
+    cs, ct = source.mean(axis=0), target.mean(axis=0)
+    H = (source - cs).T @ (target - ct)
+    U, _, Vt = np.linalg.svd(H)
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T))) or 1.0])
+    R = Vt.T @ D @ U.T
+    return R, ct - R @ cs
+
+
+def _mean_rotation(rotations: np.ndarray) -> np.ndarray:
+    """The rotation nearest (Frobenius) to the mean of rotations, (3, 3)."""
+    U, _, Vt = np.linalg.svd(np.mean(rotations, axis=0))
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt))) or 1.0])
+    return U @ D @ Vt
+
+
+def initial_frames(
+    geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose
+) -> dict[str, InstrumentFrame]:
+    """Closed-form first estimate of each station's frame from the geometry's predictions.
+
+    Positions: Horn/Kabsch on the predicted and measured points (at least three not on
+    one line). Otherwise, orientations: the mean of ``R_measured R_predictedᵀ``, then the
+    translation from the positions' centroids.
+
+    Raises:
+        IdentificationError: a station has neither three positions off a line nor an orientation.
+    """
+    predicted = predicted_points(geometry, measurements, pose)
+    station = np.array(measurements.station)
+    has = measurements.has_orientation
+    frames = {}
+    for name in measurements.stations:
+        rows = station == name
+        P, Y = predicted[rows], measurements.position[rows]
+        spread = np.linalg.svd(P - P.mean(axis=0), compute_uv=False) if len(P) > 1 else np.zeros(3)
+        line_like = len(P) < 3 or spread[1] < 1e-3 * max(spread[0], 1e-300)
+        if not line_like:
+            R, t = rigid_fit(P, Y)
+        elif np.any(has[rows]):
+            assert measurements.rotation_vector is not None
+            sel = rows & has
+            measured = rotation_from_vector(measurements.rotation_vector[sel])
+            R = _mean_rotation(measured @ np.swapaxes(pose.rotation[sel], 1, 2))
+            t = Y.mean(axis=0) - R @ P.mean(axis=0)
+        else:
+            raise IdentificationError(
+                f"station {name!r}: {len(P)} position(s) on a line and no orientation: a free instrument "
+                "frame needs at least three positions not on one line, or an orientation"
+            )
+        frames[name] = InstrumentFrame(R, t)
+    return frames
+
+
+def in_base_frame(measurements: Measurements, frames: dict[str, InstrumentFrame]) -> Measurements:
+    """The measurements carried from their stations' frames into {O}."""
+    position = np.array(measurements.position)
+    assert measurements.rotation_vector is not None
+    rotation_vector = np.array(measurements.rotation_vector)
+    station = np.array(measurements.station)
+    has = measurements.has_orientation
+    for name, frame in frames.items():
+        rows = station == name
+        position[rows] = frame.to_base(position[rows])
+        sel = rows & has
+        if np.any(sel):
+            R = frame.rotation.T @ rotation_from_vector(rotation_vector[sel])
+            rotation_vector[sel] = vector_from_rotation(R)
+    return replace(measurements, position=position, rotation_vector=rotation_vector)
+
+
+def frame_columns(rows: Rows, in_base: Measurements, stations: list[str]) -> np.ndarray:
+    """Regressor columns of the frames' corrections for rows built in {O}, (m, 6 S).
+
+    With the measurements carried into {O} by the frame, a correction (δθ, δu) moves a
+    measured position by ``-δθ × y - δu`` and a measured orientation by ``-δθ``; the
+    regressor holds d(predicted)/d(parameter), so the columns are ``[-[y]×, I]`` for a
+    position and ``[I, 0]`` for an orientation.
+    """
+    index = {name: k for k, name in enumerate(stations)}
+    st = np.array([index[s] for s in in_base.station])
+    F = np.zeros((rows.residual.size, 6 * len(stations)))
+    which = rows.measurement
+    pos = np.flatnonzero(rows.kind == POSITION)
+    if pos.size:
+        m = which[pos]
+        k = pos % 3  # positions come first, three rows each
+        y = in_base.position[m]
+        S = skew(y)  # (r, 3, 3)
+        base = 6 * st[m]
+        F[pos[:, None], base[:, None] + np.arange(3)] = -S[np.arange(pos.size), k]
+        F[pos, base + 3 + k] = 1.0
+    ori = np.flatnonzero(rows.kind == ORIENTATION)
+    if ori.size:
+        m = which[ori]
+        k = (ori - 3 * len(in_base)) % 3
+        F[ori, 6 * st[m] + k] = 1.0
+    return F
+
+
+def axes_motion(nominal: DeltaGeometry, geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Net rigid motion of the actuator axes from the nominal ones: ``(G, g)``, identified ≈ G nominal + g.
+
+    Least squares over the segments ``[P_i, P_i + L w_i]`` of the three axes (L: the mean
+    arm length, so that directions weigh like points an arm away).
+    """
+    L = float(np.mean(np.linalg.norm(nominal.arm_ball.mean(axis=1), axis=1)))
+
+    def segments(g: DeltaGeometry) -> np.ndarray:
+        w = g.axis_direction / np.linalg.norm(g.axis_direction, axis=1, keepdims=True)
+        return np.concatenate([g.axis_point, g.axis_point + L * w])
+
+    return rigid_fit(segments(nominal), segments(geometry))
+
+
+def to_axes_gauge(
+    nominal: DeltaGeometry, geometry: DeltaGeometry, frames: dict[str, InstrumentFrame]
+) -> tuple[DeltaGeometry, dict[str, InstrumentFrame], float, float]:
+    """Move the identified robot and its frames so that its actuator axes have no net rigid motion.
+
+    Returns:
+        The moved geometry, the frames seen from the new {O} (nothing measured changes), and
+        the size of the motion removed: translation [mm] and rotation [rad].
+    """
+    G, g = axes_motion(nominal, geometry)
+    back, shift = G.T, -G.T @ g
+    moved = geometry.moved_rigidly(back, shift)
+    new_frames = {name: f.after_moving_base(back, shift) for name, f in frames.items()}
+    return moved, new_frames, float(np.linalg.norm(g)), float(np.linalg.norm(vector_from_rotation(G)))
