@@ -163,6 +163,7 @@ def base_parameters(
     rtol: float = 1e-8,
     prefer: Sequence[str] | None = None,
     tie_rtol: float = TIE_RTOL,
+    exclude: Sequence[str] = (),
 ) -> BaseParameters:
     """Find the base parameters of a regressor.
 
@@ -177,6 +178,8 @@ def base_parameters(
             pivoted QR's choice is kept (the best-conditioned columns, ties to the
             earlier parameter: see :data:`TIE_RTOL`).
         tie_rtol: Tie tolerance of the pivoted QR (:func:`pivoted_qr`).
+        exclude: Parameters never kept (held at their start value, folded into the others
+            where the regressor allows, like any dependent parameter).
 
     Returns:
         The base parameters.
@@ -188,7 +191,10 @@ def base_parameters(
     scale = np.linalg.norm(W, axis=0)
     scale = np.where(scale > 0.0, scale, 1.0)
     Ws = W / scale
-    diag, perm = pivoted_qr(Ws, tie_rtol)
+    excluded = [k for k, name in enumerate(names) if name in set(exclude)]
+    allowed = np.setdiff1d(np.arange(n), excluded)
+    diag, perm = pivoted_qr(Ws[:, allowed], tie_rtol)
+    perm = np.concatenate([allowed[perm], np.asarray(excluded, dtype=int)])
     top = diag[0] if diag.size else 0.0
     rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
     pivots = diag
@@ -199,6 +205,7 @@ def base_parameters(
         # same rank; the kept columns chosen in the preferred order (Gram-Schmidt, twice)
         order = [list(names).index(p) for p in prefer if p in names]
         order += [k for k in range(n) if k not in order]
+        order = [k for k in order if k not in excluded] + excluded
         kept, dropped = [], []
         basis = np.zeros((m, 0))
         for k in order:
@@ -206,7 +213,7 @@ def base_parameters(
             resid = col - basis @ (basis.T @ col)
             resid = resid - basis @ (basis.T @ resid)
             norm = float(np.linalg.norm(resid))
-            if len(kept) < rank and norm > rtol * max(top, 1e-300):
+            if len(kept) < rank and k not in excluded and norm > rtol * max(top, 1e-300):
                 kept.append(k)
                 basis = np.column_stack([basis, resid / norm])
             else:

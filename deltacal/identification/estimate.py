@@ -35,6 +35,7 @@ from .diagnostics import check_plausible, check_rank
 from .frames import (
     FRAME_UNITS,
     InstrumentFrame,
+    absorbed_by_frames,
     frame_columns,
     frame_parameter_names,
     in_base_frame,
@@ -117,7 +118,9 @@ def identify(
         )
         if not frames:
             return rows
-        return replace(rows, regressor=np.hstack([rows.regressor, frame_columns(rows, seen, stations)]))
+        centres = np.array([frames[name].centre for name in stations])
+        F = frame_columns(rows, seen, stations, centres)
+        return replace(rows, regressor=np.hstack([rows.regressor, F]))
 
     def moved(
         geometry: DeltaGeometry, frames: dict[str, InstrumentFrame], full: np.ndarray
@@ -133,9 +136,13 @@ def identify(
     rw, Ww = rows.weighted
     # with a free frame its parameters are kept first: the base drops what they absorb
     prefer = error_model.preferred
+    absorbed: list[str] = []
     if stations:
-        prefer = names[n_model:] + list(error_model.preferred or error_model.names)
-    base = base_parameters(Ww, names, rtol=rtol, prefer=prefer)
+        # the geometry's own base first, as with measurements in {O}; then what the frames absorb
+        own = base_parameters(Ww[:, :n_model], names[:n_model], rtol=rtol, prefer=prefer)
+        absorbed = absorbed_by_frames(Ww, names, n_model, own.base)
+        prefer = names[n_model:] + [names[k] for k in own.base]
+    base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=absorbed)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
     check_plausible(start, measurements, rows, frame_free=bool(stations))
@@ -244,4 +251,5 @@ def identify(
         hints=tuple(hints),
         frames=frames,
         gauge_motion=gauge,
+        absorbed=tuple(absorbed),
     )

@@ -37,6 +37,12 @@ from ..rotations import rotation_from_vector, skew, vector_from_rotation
 FRAME_PARAMETERS = ("rx", "ry", "rz", "tx", "ty", "tz")
 #: Their units.
 FRAME_UNITS = ("rad", "rad", "rad", "mm", "mm", "mm")
+#: A combination of the geometry's parameters whose effect on the measurements is within this
+#: fraction of a rigid motion of the whole robot is absorbed by the frame (held at its start
+#: value): told apart from the frame only through that 1 %, it would be estimated with 100
+#: times the noise, and the fit would wander along it (the complete model mimics a rotation of
+#: the robot by its ball centres, except for the lever of the measured points).
+FRAME_RTOL = 1e-2
 
 
 @dataclass(frozen=True)
@@ -48,11 +54,15 @@ class InstrumentFrame:
         translation: Origin of {O} in {T} [mm], (3,).
         covariance: Covariance of the 6 small corrections (δθ [rad], δu [mm]) about and along
             the axes of {O}, (6, 6); zeros when not identified.
+        centre: Pivot of the rotation corrections, in {O} [mm]: the centroid of the measured
+            points, so that a correction's rotation and shift are nearly independent (about
+            {O}'s origin, a metre above the points, each would need the other).
     """
 
     rotation: np.ndarray
     translation: np.ndarray
     covariance: np.ndarray = field(default_factory=lambda: np.zeros((6, 6)))
+    centre: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     @classmethod
     def identity(cls) -> InstrumentFrame:
@@ -79,7 +89,8 @@ class InstrumentFrame:
     @property
     def translation_sigma(self) -> np.ndarray:
         """σ of the origin of {O} along the axes of {T} [mm], (3,)."""
-        C = self.rotation @ self.covariance[3:, 3:] @ self.rotation.T
+        A = self.rotation @ np.hstack([skew(self.centre), np.eye(3)])  # dt = R ([c]x dθ + du)
+        C = A @ self.covariance @ A.T
         return np.sqrt(np.clip(np.diag(C), 0.0, None))
 
     def to_base(self, y: np.ndarray) -> np.ndarray:
@@ -91,11 +102,15 @@ class InstrumentFrame:
         return np.asarray(p, dtype=float) @ self.rotation.T + self.translation
 
     def corrected(self, step: np.ndarray) -> InstrumentFrame:
-        """The frame after a correction (δθ, δu) about and along the axes of {O}."""
+        """The frame after a correction (δθ, δu) about and along the axes of {O}.
+
+        Points seen in {O} move by ``y -> c + exp(-δθ) (y - c) - δu`` (c: :attr:`centre`).
+        """
         step = np.asarray(step, dtype=float)
-        return InstrumentFrame(
-            self.rotation @ rotation_from_vector(step[:3]), self.translation + self.rotation @ step[3:]
-        )
+        R = self.rotation @ rotation_from_vector(step[:3])
+        c = self.centre
+        t = self.translation + self.rotation @ c - R @ (c - step[3:])
+        return InstrumentFrame(R, t, self.covariance, c)
 
     def after_moving_base(self, rotation: np.ndarray, translation: np.ndarray) -> InstrumentFrame:
         """The frame seen from {O'} when the robot is moved rigidly by ``p' = rotation p + translation``.
@@ -108,12 +123,52 @@ class InstrumentFrame:
         J = np.zeros((6, 6))
         J[:3, :3] = G
         J[3:, 3:] = G
-        return InstrumentFrame(R, self.translation - R @ g, J @ self.covariance @ J.T)
+        return InstrumentFrame(R, self.translation - R @ g, J @ self.covariance @ J.T, G @ self.centre + g)
 
 
 def frame_parameter_names(stations: list[str]) -> list[str]:
     """Names of the frame parameters of each station: ``T[station].rx`` ... ``T[station].tz``."""
     return [f"T[{s}].{p}" for s in stations for p in FRAME_PARAMETERS]
+
+
+def absorbed_by_frames(
+    W: np.ndarray, names: list[str], n_model: int, kept: list[int], frame_rtol: float = FRAME_RTOL
+) -> list[str]:
+    """Parameters of the geometry that the frames (nearly) absorb.
+
+    Column by column in the order ``kept`` (the geometry's own base parameters, in its
+    preferred order), with the frames' columns first: a column is absorbed when what is
+    left of it once the frames and the columns kept before it are projected out is below
+    ``frame_rtol`` of what is left once only those columns are projected out.
+
+    Args:
+        W: Weighted regressor, geometry columns then frame columns, (m, n_model + 6 S).
+        names: Parameter names of the columns.
+        n_model: Number of geometry columns.
+        kept: Indices of the geometry's base parameters (without the frames), in order.
+        frame_rtol: See :data:`FRAME_RTOL`.
+
+    Returns:
+        Names of the absorbed parameters.
+    """
+    Ws = W / np.where(np.linalg.norm(W, axis=0) > 0, np.linalg.norm(W, axis=0), 1.0)
+    F = Ws[:, n_model:]
+    geo = np.zeros((Ws.shape[0], 0))
+    absorbed = []
+    for k in kept:
+        col = Ws[:, k]
+        alone = col - geo @ (geo.T @ col)
+        alone -= geo @ (geo.T @ alone)
+        # the part of the frames' span outside the kept geometry's, orthonormal
+        Fp = F - geo @ (geo.T @ F)
+        U, sv, _ = np.linalg.svd(Fp, full_matrices=False)
+        U = U[:, sv > 1e-8 * max(float(sv[0]), 1e-300)] if sv.size else U
+        with_frames = alone - U @ (U.T @ alone)
+        if np.linalg.norm(with_frames) < frame_rtol * np.linalg.norm(alone):
+            absorbed.append(names[k])
+            continue
+        geo = np.column_stack([geo, alone / np.linalg.norm(alone)])
+    return absorbed
 
 
 def rigid_fit(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -177,7 +232,7 @@ def initial_frames(
                 f"station {name!r}: {len(P)} position(s) on a line and no orientation: a free instrument "
                 "frame needs at least three positions not on one line, or an orientation"
             )
-        frames[name] = InstrumentFrame(R, t)
+        frames[name] = InstrumentFrame(R, t, centre=P.mean(axis=0))
     return frames
 
 
@@ -198,13 +253,16 @@ def in_base_frame(measurements: Measurements, frames: dict[str, InstrumentFrame]
     return replace(measurements, position=position, rotation_vector=rotation_vector)
 
 
-def frame_columns(rows: Rows, in_base: Measurements, stations: list[str]) -> np.ndarray:
+def frame_columns(
+    rows: Rows, in_base: Measurements, stations: list[str], centres: np.ndarray | None = None
+) -> np.ndarray:
     """Regressor columns of the frames' corrections for rows built in {O}, (m, 6 S).
 
     With the measurements carried into {O} by the frame, a correction (δθ, δu) moves a
     measured position by ``-δθ × y - δu`` and a measured orientation by ``-δθ``; the
     regressor holds d(predicted)/d(parameter), so the columns are ``[-[y]×, I]`` for a
-    position and ``[I, 0]`` for an orientation.
+    position (``y`` taken from the frame's :attr:`~InstrumentFrame.centre`) and ``[I, 0]``
+    for an orientation.
     """
     index = {name: k for k, name in enumerate(stations)}
     st = np.array([index[s] for s in in_base.station])
@@ -214,7 +272,7 @@ def frame_columns(rows: Rows, in_base: Measurements, stations: list[str]) -> np.
     if pos.size:
         m = which[pos]
         k = pos % 3  # positions come first, three rows each
-        y = in_base.position[m]
+        y = in_base.position[m] - (0.0 if centres is None else np.asarray(centres)[st[m]])
         S = skew(y)  # (r, 3, 3)
         base = 6 * st[m]
         F[pos[:, None], base[:, None] + np.arange(3)] = -S[np.arange(pos.size), k]

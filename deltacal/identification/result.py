@@ -77,6 +77,8 @@ class IdentificationResult:
         frames: The identified instrument frame of each station (``frame="free"``), or empty.
         gauge_motion: Rigid motion removed to put the robot in the axes gauge: (translation
             [mm], rotation [rad]) (``frame="free"``).
+        absorbed: Parameters of the geometry that the frames (nearly) absorb, held at their
+            start value (see :data:`deltacal.identification.frames.FRAME_RTOL`).
     """
 
     model: str
@@ -99,6 +101,7 @@ class IdentificationResult:
     hints: tuple[str, ...] = ()
     frames: dict[str, InstrumentFrame] = field(default_factory=dict)
     gauge_motion: tuple[float, float] = (0.0, 0.0)
+    absorbed: tuple[str, ...] = ()
 
     @property
     def deviation(self) -> np.ndarray:
@@ -146,7 +149,13 @@ class IdentificationResult:
             else:
                 lines.append(f"  {label:<{width}}  {v:+12.6f} ± {s:.6f} mm")
         absent = self.base.absent
-        folded = [k for k in self.base.unidentifiable if k not in absent]
+        folded = [
+            k for k in self.base.unidentifiable if k not in absent and self.base.names[k] not in self.absorbed
+        ]
+        if self.absorbed:
+            lines.append("")
+            lines.append("absorbed by the instrument frame(s) (within 1 % of a rigid motion; held):")
+            lines.append("  " + ", ".join(self.absorbed))
         if folded:
             lines.append("")
             lines.append("not identifiable on their own (folded into the base parameters above):")
