@@ -205,7 +205,8 @@ def test_metres_in_a_millimetre_column_warn(capsys, tmp_path):
 
 def test_duplicate_rows_warn_once(data, capsys, tmp_path):
     dup = mutate(data["meas"], tmp_path / "dup.csv", lambda ls: [*ls, ls[3], ls[5]])
-    code, _, err = run(capsys, "identify", NOMINAL, dup, "--model", "classical", "-o", tmp_path / "c.toml")
+    code, _, err = run(capsys, "identify", NOMINAL, dup, "--model", "classical",
+        "--accept-poor-fit", "-o", tmp_path / "c.toml")
     assert code == 0
     assert f"warning: {dup}: 2 duplicate row(s): line 32 repeats line 4; line 33 repeats line 6" in err
 
@@ -213,7 +214,8 @@ def test_duplicate_rows_warn_once(data, capsys, tmp_path):
 def test_unused_column_warns(data, capsys, tmp_path):
     extra = mutate(data["meas"], tmp_path / "extra.csv",
                    lambda ls: [ls[0] + ",operator", *[s + ",bob" for s in ls[1:]]])
-    code, _, err = run(capsys, "identify", NOMINAL, extra, "--model", "classical", "-o", tmp_path / "c.toml")
+    code, _, err = run(capsys, "identify", NOMINAL, extra, "--model", "classical",
+        "--accept-poor-fit", "-o", tmp_path / "c.toml")
     assert code == 0
     assert "column 'operator' is not used by deltacal and is ignored" in err
 
@@ -233,7 +235,8 @@ def test_readings_the_robot_cannot_assemble_name_the_line(capsys, tmp_path, bai)
     position[ok] = pose.position
     meas = tmp_path / "meas.csv"
     write_measurements(meas, Measurements(q=q, position=position))
-    code, _, err = run(capsys, "identify", robot, meas, "--model", "classical", "-o", tmp_path / "c.toml")
+    code, _, err = run(capsys, "identify", robot, meas, "--model", "classical",
+        "--accept-poor-fit", "-o", tmp_path / "c.toml")
     assert code == 1
     line = error_line(err)
     assert f"{meas}: line 14 (data row 13), columns q1_deg..q3_deg" in line
@@ -532,7 +535,8 @@ def test_a_failing_save_during_identify_keeps_the_old_calibration(data, capsys, 
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr("deltacal.io.os.fsync", full_disk)
-    code, _, err = run(capsys, "identify", NOMINAL, data["meas"], "--model", "classical", "-o", cal)
+    code, _, err = run(capsys, "identify", NOMINAL, data["meas"], "--model", "classical",
+        "--accept-poor-fit", "-o", cal)
     assert code == 1
     assert "No space left on device" in error_line(err)
     assert cal.read_text() == "earlier\n"

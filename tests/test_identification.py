@@ -117,7 +117,7 @@ def test_noise_free_recovery_of_large_errors_in_the_model_family(bai):
     dk = rng.normal(0.0, 1.0, model.size) * _error_sizes(model)
     # the base parameters depend on the weights: choose them with the σ used below
     meas = _pose_measurements(model.apply(g0, dk), q, None)
-    base = identify(g0, meas, model, "linear", EXACT_POSITION, EXACT_ANGLE).base
+    base = identify(g0, meas, model, "linear", EXACT_POSITION, EXACT_ANGLE, accept_poor_fit=True).base
     truth = model.apply(g0, base.expand(base.project(dk)))
     result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
     assert result.base.base == base.base
@@ -152,7 +152,7 @@ def test_reported_sigma_is_honest(bai, name):
     q = _poses(bai, 60, rng)
     dk = rng.normal(0.0, 1.0, model.size) * _error_sizes(model)
     meas = _pose_measurements(model.apply(g0, dk), q, None)
-    base = identify(g0, meas, model, "linear", SIGMA_POSITION, SIGMA_ANGLE).base
+    base = identify(g0, meas, model, "linear", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True).base
     beta = base.project(dk)
     truth = model.apply(g0, base.expand(beta))
     z, variance_factor = [], []
@@ -186,7 +186,7 @@ def test_iterated_beats_linear_for_encoder_offsets_of_degrees(bai):
     )
     meas = _pose_measurements(truth, _poses(bai, 60, rng), rng)
     targets = validation_targets(bai)
-    linear = identify(g0, meas, "complete", "linear", SIGMA_POSITION, SIGMA_ANGLE)
+    linear = identify(g0, meas, "complete", "linear", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True)
     iterated = identify(g0, meas, "complete", "iterated", SIGMA_POSITION, SIGMA_ANGLE)
     assert 0.8 < iterated.variance_factor < 1.25 and linear.variance_factor > 100.0
     assert iterated.iterations <= 8
@@ -254,7 +254,10 @@ def test_end_to_end_on_the_pinocchio_robot(flexpicker):
     targets = validation_targets(flexpicker)
 
     def max_error(measurements: Measurements, model: str) -> float:
-        result = identify(g0, measurements, model, "iterated", SIGMA_POSITION, SIGMA_ANGLE)
+        # classical is too simple for this robot: its poor fit is kept, to compare
+        result = identify(
+            g0, measurements, model, "iterated", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True
+        )
         q_cmd = compensate(result.geometry, targets, "exact")
         return float(np.max(np.linalg.norm(robot.forward(q_cmd).point(truth.tool) - targets, axis=1)))
 

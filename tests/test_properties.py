@@ -133,7 +133,7 @@ def valid_files() -> dict[str, bytes]:
                                               rotation_vector=pose.rotation_vector()))
         cal = Path(folder) / "cal.toml"
         assert main(["identify", str(MODELS / "bai2015.toml"), str(meas), "--model", "classical",
-                     "-o", str(cal)]) == 0
+                     "--accept-poor-fit", "-o", str(cal)]) == 0
         files = {"meas.csv": meas.read_bytes(), "cal.toml": cal.read_bytes()}
     targets = workspace_points(nom, 5, rng)
     rows = "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in targets.tolist())
@@ -273,7 +273,8 @@ MALFORMED = settings(max_examples=150, deadline=None, suppress_health_check=[Hea
 def test_malformed_measurements_never_crash_nor_write(data):
     files = dict(valid_files())
     files["meas.csv"] = data.draw(csv_mutation(files["meas.csv"]))
-    run_cli(files, ["identify", "robot.toml", "meas.csv", "--model", "classical", "-o", "out.toml"],
+    run_cli(files, ["identify", "robot.toml", "meas.csv", "--model", "classical",
+        "--accept-poor-fit", "-o", "out.toml"],
             "out.toml")
 
 
@@ -282,7 +283,8 @@ def test_malformed_measurements_never_crash_nor_write(data):
 def test_malformed_robot_files_never_crash_nor_write(data):
     files = dict(valid_files())
     files["robot.toml"] = data.draw(toml_mutation(files["robot.toml"]))
-    run_cli(files, ["identify", "robot.toml", "meas.csv", "--model", "classical", "-o", "out.toml"],
+    run_cli(files, ["identify", "robot.toml", "meas.csv", "--model", "classical",
+        "--accept-poor-fit", "-o", "out.toml"],
             "out.toml")
 
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from ..errormodels import MODEL_NAMES
-from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError
-from ..identification import identify
+from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
+from ..identification import PoorFitError, identify
 from ..io import data_row, load_nominal, read_measurements, save_calibration
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from .common import check_input, check_output, lines_text, positive_float, warn
@@ -17,6 +17,11 @@ from .common import check_input, check_output, lines_text, positive_float, warn
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal identify``; returns the exit status."""
+    if args.pairs is not None and not args.distances:
+        raise UsageError("--pairs applies to --distances only")
+    args.pairs = args.pairs or "all"
+    if args.frame == "free" and args.distances:
+        raise UsageError("--frame free applies to positions and poses: distances do not depend on the frame")
     for path in (args.nominal, args.measurements):
         check_input(path)
     check_output(args.output, (args.nominal, args.measurements))
@@ -36,6 +41,8 @@ def run(args: argparse.Namespace) -> int:
             sigma_angle=math.radians(args.sigma_angle),
             distances=args.distances,
             pairs=args.pairs,
+            frame=args.frame,
+            accept_poor_fit=args.accept_poor_fit,
         )
     except AssemblyError as exc:
         # at the nominal geometry: the readings themselves are impossible
@@ -49,10 +56,15 @@ def run(args: argparse.Namespace) -> int:
             f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
             args.measurements, f"{data_row(lines[0], k + 1)}, columns q1_deg..q3_deg",
         ) from exc
+    except PoorFitError as exc:
+        raise IdentificationError(
+            f"{args.measurements}: {exc}; nothing written (--accept-poor-fit keeps such a fit)"
+        ) from exc
     except IdentificationError as exc:
         raise IdentificationError(f"{args.measurements}: {exc}") from exc
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
+    warn(result.warnings)
     print(result.report())
     if result.outlier_lines:
         warn([f"{args.measurements}: line(s) {lines_text(result.outlier_lines)} look like outliers "
@@ -77,6 +89,11 @@ def add_parser(sub) -> None:
                    help="one-shot linear identification around the nominal geometry (the papers)")
     p.add_argument("--distances", action="store_true",
                    help="identify from distances between positions of a same point (no frame needed)")
-    p.add_argument("--pairs", choices=("all", "reference"), default="all",
-                   help="distance pairs: all pairs, or each pose with the first (default all)")
+    p.add_argument("--pairs", choices=("all", "reference"), default=None,
+                   help="with --distances: all pairs, or each pose with the first (default all)")
+    p.add_argument("--frame", choices=("base", "free"), default="base",
+                   help="base: measurements in the robot base frame {O} (default); free: in an instrument's "
+                        "own frame, one per station, identified with the geometry")
+    p.add_argument("--accept-poor-fit", action="store_true",
+                   help="keep a fit whose residuals are far beyond the σ given (warned, not refused)")
     p.set_defaults(func=run)

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errormodels import ErrorModel, get_model
-from ..exceptions import AssemblyError, ConvergenceError, GeometryError, IdentificationError
+from ..exceptions import AssemblyError, ConvergenceError, DeltacalError, GeometryError, IdentificationError
 from ..geometry import DeltaGeometry
 from ..identifiability import base_parameters
 from ..kinematics import exact
@@ -43,6 +43,14 @@ from .frames import (
     to_axes_gauge,
 )
 from .outliers import data_snooping
+from .quality import (
+    PoorFitError,
+    implausible_deviations,
+    needs_review,
+    poor_fit_message,
+    readings,
+    verdict,
+)
 from .result import IdentificationResult, ResidualStats
 
 
@@ -66,8 +74,75 @@ def identify(
     rtol: float = 1e-8,
     max_iter: int = 30,
     frame: str = "base",
+    accept_poor_fit: bool = False,
 ) -> IdentificationResult:
-    """Identify the geometry of a robot from measurements.
+    """Identify the geometry of a robot from measurements, and refuse a fit that cannot be right.
+
+    The fit is :func:`fit`; then its residuals are tested against the σ given and its
+    deviations for plausibility (:mod:`deltacal.identification.quality`). When they fail,
+    the same data are fitted under other readings (orientations in radians, another point,
+    swapped labels, an instrument frame) to name the likely causes.
+
+    Args:
+        start: Nominal geometry (the linearisation point of the first step).
+        measurements: Readings and measured positions (and orientations).
+        model: Error model or its name.
+        method: ``"iterated"`` or ``"linear"``.
+        sigma_position: σ of each measured coordinate [mm].
+        sigma_angle: σ of each measured orientation component [rad].
+        distances: Identify from distances between positions of a same point.
+        pairs: Distance pairs, ``"all"`` or ``"reference"``.
+        rtol: Rank tolerance.
+        max_iter: Iterations at most.
+        frame: ``"base"`` or ``"free"`` (see :func:`fit`).
+        accept_poor_fit: Return a poor fit instead of raising (its ``warnings`` say why).
+
+    Returns:
+        The result, holding the identified geometry.
+
+    Raises:
+        PoorFitError: the fit is far from the σ given or implausible (unless ``accept_poor_fit``).
+        IdentificationError, AssemblyError, ConvergenceError: see :func:`fit`.
+    """
+    options = dict(method=method, sigma_position=sigma_position, sigma_angle=sigma_angle, distances=distances,
+                   pairs=pairs, rtol=rtol, max_iter=max_iter)
+    result = fit(start, measurements, model, frame=frame, **options)  # type: ignore[arg-type]
+    if not needs_review(result, start):
+        return result
+    alternatives = []
+    for cause, other, other_frame in readings(measurements, start.point_names, frame, distances):
+        try:
+            alt = fit(start, other, model, frame=other_frame, **options)  # type: ignore[arg-type]
+        except DeltacalError:
+            continue
+        alternatives.append((cause, alt.variance_factor, implausible_deviations(start, alt.geometry)))
+    poor, causes = verdict(result, start, alternatives)
+    note = poor_fit_message(result, start, causes)
+    if poor and not accept_poor_fit:
+        raise PoorFitError(note, result, causes)
+    if poor:
+        return replace(result, warnings=(*result.warnings, note + " (kept: poor fit accepted)"))
+    s0 = result.inlier_variance_factor
+    excess = (f"variance factor s0² = {s0:.3g}: the residuals exceed the σ given "
+              "(unmodelled effects, or σ too small): the σ of the parameters are too small by "
+              f"a factor up to {math.sqrt(s0):.3g}")
+    return replace(result, warnings=(*result.warnings, excess))
+
+
+def fit(
+    start: DeltaGeometry,
+    measurements: Measurements,
+    model: str | ErrorModel = "complete",
+    method: str = "iterated",
+    sigma_position: float = SIGMA_POSITION,
+    sigma_angle: float = SIGMA_ANGLE,
+    distances: bool = False,
+    pairs: str = "all",
+    rtol: float = 1e-8,
+    max_iter: int = 30,
+    frame: str = "base",
+) -> IdentificationResult:
+    """Fit the geometry of a robot to measurements (weighted least squares, base parameters).
 
     Args:
         start: Nominal geometry (the linearisation point of the first step).
@@ -218,6 +293,11 @@ def identify(
     rs, Ws = rows.scaled
     flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind)
     assert measurements.lines is not None
+    # the fit's quality without the outliers (they are named on their own; distances mix rows)
+    inlier_factor = variance_factor
+    if flagged.size and rows.mixing is None:
+        inliers = ~np.isin(rows.measurement, flagged)
+        inlier_factor = float(rs[inliers] @ rs[inliers]) / max(int(inliers.sum()) - base.rank, 1)
     gauge = (0.0, 0.0)
     if frames:
         # each frame's covariance: its kept parameters' block (a dropped one stays at zero)
@@ -252,4 +332,5 @@ def identify(
         frames=frames,
         gauge_motion=gauge,
         absorbed=tuple(absorbed),
+        inlier_variance_factor=inlier_factor,
     )

@@ -79,6 +79,8 @@ class IdentificationResult:
             [mm], rotation [rad]) (``frame="free"``).
         absorbed: Parameters of the geometry that the frames (nearly) absorb, held at their
             start value (see :data:`deltacal.identification.frames.FRAME_RTOL`).
+        warnings: What is doubtful about the fit (see :mod:`deltacal.identification.quality`).
+        inlier_variance_factor: s0² of the rows of the measurements not flagged as outliers.
     """
 
     model: str
@@ -102,6 +104,8 @@ class IdentificationResult:
     frames: dict[str, InstrumentFrame] = field(default_factory=dict)
     gauge_motion: tuple[float, float] = (0.0, 0.0)
     absorbed: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+    inlier_variance_factor: float = float("nan")
 
     @property
     def deviation(self) -> np.ndarray:
@@ -181,6 +185,7 @@ class IdentificationResult:
             lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
         lines += self._frame_lines()
         lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
+        lines += [f"warning: {w}" for w in self.warnings]
         strong = self.strong_correlations()
         if strong:
             lines.append(
