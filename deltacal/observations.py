@@ -194,6 +194,18 @@ def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray
     return ab[~same].reshape(-1, 2)
 
 
+def distance_residuals(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
+    """Measured minus predicted distance of every pair of positions of a same point [mm], (K,).
+
+    Memory linear in the number of pairs (no regressor): for the report of large sets.
+    """
+    predicted = predicted_points(geometry, measurements, pose)
+    ab = distance_pairs(measurements, "all")
+    a, b = ab[:, 0], ab[:, 1]
+    measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
+    return measured - np.linalg.norm(predicted[b] - predicted[a], axis=1)
+
+
 def predicted_points(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
     """Predicted positions of each measurement's point [mm], shape (M, 3)."""
     names, inverse = np.unique(np.array(measurements.point), return_inverse=True)

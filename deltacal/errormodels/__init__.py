@@ -26,13 +26,17 @@ def get_model(name: str) -> ErrorModel:
         return BaiModel(orientation=True)
     if name == "bai24":
         return BaiModel(orientation=False)
+    model: ErrorModel
     if name == "bai18":
-        return BaiModel(orientation=False).without(DISTANCE_GAUGE, "bai18")
-    if name == "bai36":
-        return BaiModel(orientation=True).without(DISTANCE_GAUGE, "bai36")
-    if name == "bai32":
-        return BaiModel(orientation=True).without(DISTANCE_GAUGE + MODEL32_REMOVED, "bai32")
-    raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")
+        model = BaiModel(orientation=False).without(DISTANCE_GAUGE, "bai18")
+    elif name == "bai36":
+        model = BaiModel(orientation=True).without(DISTANCE_GAUGE, "bai36")
+    elif name == "bai32":
+        model = BaiModel(orientation=True).without(DISTANCE_GAUGE + MODEL32_REMOVED, "bai32")
+    else:
+        raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")
+    model.rigid_motion_free = True  # Bai's Eq. 11 gauge
+    return model
 
 
 __all__ = [

@@ -198,6 +198,9 @@ class ErrorModel(ABC):
     tilts_plate: bool = True
     #: Preference order of the parameters kept when some must be regrouped (None: pivoted QR's).
     preferred: list[str] | None = None
+    #: The model holds no rigid motion of the robot (a gauge such as Bai's Eq. 11 removed it):
+    #: distances of all pairs are then fitted as positions with a free frame per point.
+    rigid_motion_free: bool = False
 
     @property
     @abstractmethod

@@ -30,7 +30,7 @@ from ..exceptions import AssemblyError, ConvergenceError, DeltacalError, Geometr
 from ..geometry import DeltaGeometry
 from ..identifiability import base_parameters
 from ..kinematics import exact
-from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows, build_rows
+from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows, build_rows, distance_residuals
 from .diagnostics import check_plausible, check_rank
 from .frames import (
     FRAME_UNITS,
@@ -60,6 +60,41 @@ def _solve_wls(Ww: np.ndarray, rw: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     x = scipy.linalg.solve_triangular(R, Q.T @ rw, check_finite=False)
     Rinv = scipy.linalg.solve_triangular(R, np.eye(R.shape[0]), check_finite=False)
     return x, Q, Rinv
+
+
+def _as_distance_fit(result: IdentificationResult, start: DeltaGeometry, measurements: Measurements):
+    """A fit of positions with a free frame per point, reported as the distance fit it stands for."""
+    pose0, pose1 = exact.forward(start, measurements.q), exact.forward(result.geometry, measurements.q)
+    before = distance_residuals(start, measurements, pose0)
+    after = distance_residuals(result.geometry, measurements, pose1)
+
+    def stats(r: np.ndarray) -> ResidualStats:
+        if not r.size:
+            return ResidualStats()
+        rms, worst = float(np.sqrt(np.mean(r**2))), float(np.max(np.abs(r)))
+        return ResidualStats(distance_rms=rms, distance_max=worst)
+
+    # the frames are nuisance parameters here: the geometry's base parameters, their σ and
+    # correlations are the marginal ones (the frames' rows and columns dropped)
+    model_cols = [k for k, name in enumerate(result.base.names) if not name.startswith("T[")]
+    keep = [i for i, k in enumerate(result.base.base) if k in model_cols]
+    renumber = {k: j for j, k in enumerate(model_cols)}
+    base = replace(
+        result.base,
+        names=[result.base.names[k] for k in model_cols],
+        rank=len(keep),
+        base=[renumber[result.base.base[i]] for i in keep],
+        regrouping=result.base.regrouping[np.ix_(keep, model_cols)],
+        unidentifiable=[renumber[k] for k in result.base.unidentifiable if k in renumber],
+        scale=result.base.scale[model_cols],
+    )
+    note = ("distances of all pairs: identified from the positions with a free frame per point (the same "
+            "information, at a cost linear in the positions)")
+    return replace(
+        result, base=base, values=result.values[keep], sigma=result.sigma[keep],
+        correlation=result.correlation[np.ix_(keep, keep)], units=[result.units[i] for i in keep],
+        before=stats(before), after=stats(after), frames={}, hints=(*result.hints, note),
+    )
 
 
 def identify(
@@ -104,9 +139,31 @@ def identify(
         PoorFitError: the fit is far from the σ given or implausible (unless ``accept_poor_fit``).
         IdentificationError, AssemblyError, ConvergenceError: see :func:`fit`.
     """
+    error_model = get_model(model) if isinstance(model, str) else model
+    routed = distances and pairs == "all" and error_model.rigid_motion_free
+    if routed:
+        if frame == "free":
+            raise IdentificationError(
+                "distances do not depend on the instrument frame: a free frame is for positions and poses"
+            )
+        # all the distances between positions of a point say what those positions say, up to a
+        # rigid motion: fit the positions with a free frame per point (cost linear in the
+        # positions, where the C(n, 2) correlated distances cost n^4). For models without
+        # rigid motions (Bai's distance models): with them, the frames leave near-null
+        # directions that Gauss-Newton creeps along, and the whitened pairs are kept.
+        measurements = replace(measurements, station=list(measurements.point),
+                               rotation_vector=np.full((len(measurements), 3), np.nan))
+        distances, frame = False, "free"
     options = dict(method=method, sigma_position=sigma_position, sigma_angle=sigma_angle, distances=distances,
                    pairs=pairs, rtol=rtol, max_iter=max_iter)
-    result = fit(start, measurements, model, frame=frame, **options)  # type: ignore[arg-type]
+    try:
+        result = fit(start, measurements, model, frame=frame, **options)  # type: ignore[arg-type]
+    except IdentificationError as exc:
+        if routed:
+            raise IdentificationError(str(exc).replace("station", "point")) from exc
+        raise
+    if routed:
+        result = _as_distance_fit(result, start, measurements)
     if not needs_review(result, start):
         return result
     alternatives = []
