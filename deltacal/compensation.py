@@ -29,7 +29,7 @@ import numpy as np
 
 from .errormodels import ErrorModel, get_model
 from .errormodels.base import elementary_jacobian
-from .exceptions import UnreachableError
+from .exceptions import AssemblyError, UnreachableError
 from .geometry import DeltaGeometry
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
@@ -118,6 +118,41 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
     return q
 
 
+#: Readings a real arm can take [rad]: from straight up (-90 deg) to folded under (135 deg).
+ARM_RANGE = (np.radians(-90.0), np.radians(135.0))
+#: How far from the target the identified robot may put the TCP at the readings a method
+#: gives [mm]: exact solves the closed loops (Newton to 1e-9 mm); Savoure's linear scheme
+#: leaves the products of deviations (micrometres for real robots); Bai's ignores the tilt's
+#: lever on the tool (Eq. 22-25 move the plate centre), millimetres with a long tool.
+CHECK_TOLERANCE = {"exact": 1e-6, "savoure": 0.1, "bai": 5.0}
+
+
+def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str) -> np.ndarray:
+    """Targets whose readings are not finite, out of the arm's range, or miss the target, (N,) bool.
+
+    Missing is judged through the exact forward kinematics of ``geometry`` (the identified
+    robot), against :data:`CHECK_TOLERANCE` of the method. The exact method's Newton
+    already checked its closure and TCP residuals: only finiteness and range are checked.
+    """
+    bad = ~np.all(np.isfinite(q), axis=1)
+    with np.errstate(invalid="ignore"):
+        bad |= np.any((q < ARM_RANGE[0]) | (q > ARM_RANGE[1]), axis=1)
+    if method == "exact":
+        return bad
+    ok = np.flatnonzero(~bad)
+    while ok.size:
+        try:
+            pose = exact.forward(geometry, q[ok])
+        except AssemblyError as exc:
+            bad[ok[exc.indices]] = True
+            ok = np.delete(ok, exc.indices)
+            continue
+        miss = np.linalg.norm(pose.point(geometry.tool) - targets[ok], axis=1) > CHECK_TOLERANCE[method]
+        bad[ok[miss]] = True
+        break
+    return bad
+
+
 #: Least transmission angle (arm to rod) of a commanded pose [rad].
 MIN_TRANSMISSION_ANGLE = np.radians(3.0)
 #: Least inverse condition number of the unit rod directions of a commanded pose.
@@ -167,6 +202,9 @@ def compensate(
         q = compensate_linear(linear, targets, method)
     else:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    failed = check_readings(geometry, targets, q, method)
+    if np.any(failed):
+        raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)
     margin = singularity_margin(geometry, q)
     near = margin < min_margin
     if np.any(near):

@@ -79,3 +79,41 @@ def test_refuses_targets_out_of_reach_and_near_singularities(bai):
     with pytest.raises(UnreachableError, match="singularity"):
         compensate(g, pts[:1])
     compensate(g, pts[-1:])
+
+
+@pytest.mark.parametrize("method", ["exact", "savoure", "bai"])
+def test_targets_on_the_reach_limit_are_refused_never_answered_with_garbage(bai, method):
+    """Issue 12: on the nominal reach limit savoure and bai wrote joints of 1e14 deg, exit 0."""
+    from deltacal.compensation import linear_calibration_from_result
+    from deltacal.identification import identify
+    from deltacal.planning import d_optimal
+    from deltacal.simulation import Metrology, simulate_measurements
+
+    rng = np.random.default_rng(2015)
+    truth = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    poses = d_optimal(bai, "complete", 40, rng=rng).poses
+    result = identify(bai.geometry(), simulate_measurements(truth, poses.q, rng, Metrology()), "complete")
+    limit = np.array([[0.0, 0.0, -555.3593431283929], [815.1039511850273, 0.0, -850.0]])
+    inside = np.array([[0.0, 0.0, -850.0]])
+    linear = linear_calibration_from_result(result)
+    for target in limit:
+        with pytest.raises(UnreachableError) as caught:
+            compensate(result.geometry, target[None], method, linear)
+        assert caught.value.reason in UnreachableError.REASONS  # out of reach, singular, or check failed
+    q = compensate(result.geometry, inside, method, linear)
+    assert np.all(np.isfinite(q))
+
+
+def test_the_output_check_catches_what_a_method_gets_wrong(bai):
+    from deltacal.compensation import CHECK_TOLERANCE, check_readings
+
+    g = bai.geometry()
+    targets = np.array([[0.0, 0.0, -850.0], [100.0, 50.0, -800.0], [0.0, 0.0, -900.0]])
+    q = compensate(g, targets)
+    assert not np.any(check_readings(g, targets, q, "savoure"))
+    garbage = q.copy()
+    garbage[0] = [2.6e12, 0.1, 0.1]  # the 1.5e14 deg of the first release
+    garbage[1] += np.radians(0.5)  # assembles, but a few mm off the target
+    garbage[2, 0] = np.nan
+    assert check_readings(g, targets, garbage, "savoure").tolist() == [True, True, True]
+    assert CHECK_TOLERANCE["exact"] < CHECK_TOLERANCE["savoure"] < CHECK_TOLERANCE["bai"]
