@@ -27,6 +27,7 @@ from warnings import warn
 import numpy as np
 
 from .exceptions import GeometryError, InputError
+from .observations import DEFAULT_STATION
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
 CALIBRATION_FORMAT = "deltacal-calibration-1"
@@ -547,6 +548,17 @@ def save_calibration(result, path: str | Path) -> None:
         "geometry": geometry_to_dict(result.geometry),
         "nominal": geometry_to_dict(result.start),
     }
+    if result.frames:
+        # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
+        data["instrument"] = {
+            name: {
+                "rotation_deg": [exact_degrees(v) for v in frame.rotation_vector],
+                "translation_mm": [float(v) for v in frame.translation],
+                "rotation_sigma_deg": [float(np.degrees(v)) for v in frame.rotation_sigma],
+                "translation_sigma_mm": [float(v) for v in frame.translation_sigma],
+            }
+            for name, frame in result.frames.items()
+        }
     header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
     atomic_write_text(path, header + toml_dumps(data))
 
@@ -781,12 +793,14 @@ def read_measurements(path: str | Path, point_names: list[str] | None = None):  
     from .observations import Measurements
 
     table = read_csv_table(
-        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point"], text_columns=("point",),
+        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point", "station"],
+        text_columns=("point", "station"),
         all_or_none=(tuple(ORIENTATION_COLUMNS),),
     )
     n = len(table.lines)
     points = table.text.get("point", ["tcp"] * n)
     points = [p if p else "tcp" for p in points]
+    stations = [s if s else DEFAULT_STATION for s in table.text.get("station", [DEFAULT_STATION] * n)]
     if point_names is not None:
         for k, p in enumerate(points):
             if p not in point_names:
@@ -797,8 +811,8 @@ def read_measurements(path: str | Path, point_names: list[str] | None = None):  
     rv = None
     if "rx_deg" in table.numbers:
         rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
-    return Measurements(q=q, position=pos, point=points, rotation_vector=rv, lines=table.lines,
-                        source=str(path)), table.warnings
+    return Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations,
+                        lines=table.lines, source=str(path)), table.warnings
 
 
 def _format_rows(columns: list[np.ndarray], header: list[str], extra: list[list[str]] | None = None) -> str:
@@ -822,6 +836,10 @@ def write_measurements(path: str | Path, measurements) -> None:
         rv = np.degrees(np.where(has[:, None], measurements.rotation_vector, np.nan))
         cols += list(rv.T)
         header = header + ORIENTATION_COLUMNS
+    if any(s != DEFAULT_STATION for s in measurements.station):
+        extra = [[p, s] for p, s in zip(measurements.point, measurements.station, strict=True)]
+        atomic_write_text(path, _format_rows(cols, header + ["point", "station"], extra))
+        return
     extra = [[p] for p in measurements.point]
     atomic_write_text(path, _format_rows(cols, header + ["point"], extra))
 
@@ -841,6 +859,34 @@ def write_joints(path: str | Path, targets: np.ndarray, q: np.ndarray) -> None:
     """Write the joints CSV: targets [mm] then readings to command [deg], atomically."""
     qd = np.degrees(q)
     atomic_write_text(path, _format_rows([*targets.T, *qd.T], TARGET_COLUMNS + JOINT_COLUMNS))
+
+
+def load_instrument(path: str | Path) -> dict:
+    """The instrument frames of a calibration file (``[instrument]``), by station; empty if none.
+
+    Returns:
+        Station name -> :class:`~deltacal.identification.frames.InstrumentFrame`.
+    """
+    from .identification.frames import InstrumentFrame
+
+    source = str(path)
+    data = read_toml(path)
+    _check_not_nominal(data, source)
+    if data.get("format") != CALIBRATION_FORMAT:
+        raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
+                         "key format")
+    raw = data.get("instrument", {})
+    if not isinstance(raw, Mapping):
+        raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
+    frames = {}
+    for name, item in raw.items():
+        if not isinstance(item, Mapping):
+            raise InputError("must be a table", source, f"key instrument.{name}")
+        t = _Table(item, source, f"instrument.{name}.")
+        rotation = np.radians(t.vector("rotation_deg", (3,)))
+        translation = t.vector("translation_mm", (3,))
+        frames[str(name)] = InstrumentFrame.from_vectors(rotation, translation)
+    return frames
 
 
 def load_linear_calibration(path: str | Path):  # -> LinearCalibration
@@ -875,6 +921,8 @@ def load_linear_calibration(path: str | Path):  # -> LinearCalibration
     for k, item in enumerate(params):
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
+        if name.startswith("T["):  # an instrument frame's parameter, not the robot's
+            continue
         if name not in model.names:
             raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
         if t.has("value_deg"):

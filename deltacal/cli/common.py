@@ -8,6 +8,8 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
+
 from ..exceptions import InputError, UsageError
 
 EXIT_DATA = 1
@@ -102,3 +104,22 @@ def point_list(text: str, known: Sequence[str], option: str = "--points") -> lis
         if name not in known:
             raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(known)}", option)
     return points
+
+
+def station_frame(text: str):
+    """Argparse type: ``NAME:RX,RY,RZ:X,Y,Z`` -> (name, InstrumentFrame) (degrees, mm)."""
+    from ..identification.frames import InstrumentFrame
+
+    parts = text.split(":")
+    if len(parts) != 3 or not parts[0].strip():
+        raise argparse.ArgumentTypeError(f"expected NAME:RX,RY,RZ:X,Y,Z (deg, mm), got {text!r}")
+    values = []
+    for part in parts[1:]:
+        try:
+            vector = [float(v) for v in part.split(",")]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not numbers: {part!r} in {text!r}") from None
+        if len(vector) != 3 or not all(math.isfinite(v) for v in vector):
+            raise argparse.ArgumentTypeError(f"expected three finite numbers, got {part!r} in {text!r}")
+        values.append(vector)
+    return parts[0].strip(), InstrumentFrame.from_vectors(np.radians(values[0]), np.array(values[1]))

@@ -7,8 +7,15 @@ import argparse
 import numpy as np
 
 from ..compensation import METHODS, compensate
-from ..exceptions import InputError, UnreachableError
-from ..io import data_row, load_geometry, load_linear_calibration, read_target_table, write_joints
+from ..exceptions import InputError, UnreachableError, UsageError
+from ..io import (
+    data_row,
+    load_geometry,
+    load_instrument,
+    load_linear_calibration,
+    read_target_table,
+    write_joints,
+)
 from .common import check_input, check_output, lines_text, warn
 
 
@@ -21,9 +28,31 @@ def run(args: argparse.Namespace) -> int:
     table = read_target_table(args.targets)
     warn(table.warnings)
     targets = np.column_stack([table.numbers[c] for c in ("x_mm", "y_mm", "z_mm")])
+    frames = load_instrument(args.calibration)
+    if frames and args.method != "exact":
+        raise UsageError(
+            f"{args.calibration}: identified with a free instrument frame: its base parameters are in the "
+            "fit's own gauge, which savoure and bai cannot follow; use --method exact"
+        )
+    if args.frame == "instrument":
+        if not frames:
+            raise UsageError(f"{args.calibration}: no [instrument] table: --frame instrument needs a "
+                             "calibration identified with --frame free")
+        station = args.station
+        if station is None:
+            if len(frames) > 1:
+                raise UsageError(f"--station is needed: the calibration has stations {', '.join(frames)}")
+            station = next(iter(frames))
+        if station not in frames:
+            raise UsageError(f"--station {station!r}: the calibration's stations are {', '.join(frames)}")
+        targets_in_base = frames[station].to_base(targets)
+    elif args.station is not None:
+        raise UsageError("--station applies to --frame instrument only")
+    else:
+        targets_in_base = targets
     linear = load_linear_calibration(args.calibration) if args.method != "exact" else None
     try:
-        q = compensate(geometry, targets, args.method, linear)
+        q = compensate(geometry, targets_in_base, args.method, linear)
     except UnreachableError as exc:
         if not exc.indices:
             raise
@@ -47,4 +76,8 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", required=True, help="joints file to write (CSV)")
     p.add_argument("--method", choices=METHODS, default="exact",
                    help="exact (default), or a linear compensator: savoure (Eq. 29-33), bai (Eq. 22-25)")
+    p.add_argument("--frame", choices=("base", "instrument"), default="base",
+                   help="targets in the robot base frame {O} (default), or in the instrument frame {T} of a "
+                        "calibration identified with --frame free")
+    p.add_argument("--station", help="with --frame instrument: the station whose frame the targets are in")
     p.set_defaults(func=run)

@@ -4,15 +4,26 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 
 import numpy as np
 
+from ..exceptions import UsageError
 from ..geometry import Tolerances
+from ..identification.frames import in_instrument_frames
 from ..io import load_geometry, load_nominal, save_geometry, write_measurements
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from ..planning import read_poses
 from ..simulation import Metrology, simulate_measurements, truth_path
-from .common import check_input, check_output, non_negative_float, point_list, positive_int, warn
+from .common import (
+    check_input,
+    check_output,
+    non_negative_float,
+    point_list,
+    positive_int,
+    station_frame,
+    warn,
+)
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -44,6 +55,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="readings averaged per measurement (default 1)")
     p.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
     p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
+    p.add_argument("--station", action="append", type=station_frame, metavar="NAME:RX,RY,RZ:X,Y,Z",
+                   help="write the measurements in an instrument frame: rotation vector of {O} in it [deg] "
+                        "and origin of {O} in it [mm]; repeat for several stations (the poses split "
+                        "among them in order)")
     p.set_defaults(func=run)
     return p
 
@@ -73,6 +88,18 @@ def run(args: argparse.Namespace) -> int:
         repeats=args.repeats,
     )
     measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
+    names = [name for name, _ in args.station or []]
+    if len(set(names)) != len(names):
+        raise UsageError(f"--station: each station once, got {', '.join(names)}")
+    if args.station:
+        # contiguous blocks of poses, one per station (a tracker moved during the session)
+        frames = dict(args.station)
+        block = np.array_split(np.arange(len(poses)), len(frames))
+        owner = np.empty(len(poses), dtype=object)
+        for name, rows in zip(frames, block, strict=True):
+            owner[rows] = name
+        station = [str(owner[k % len(poses)]) for k in range(len(measurements))]
+        measurements = in_instrument_frames(replace(measurements, station=station), frames)
     if args.perturb is not None:
         save_geometry(truth, truth_path(args.output))
     write_measurements(args.output, measurements)

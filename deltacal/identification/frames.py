@@ -253,6 +253,23 @@ def in_base_frame(measurements: Measurements, frames: dict[str, InstrumentFrame]
     return replace(measurements, position=position, rotation_vector=rotation_vector)
 
 
+def in_instrument_frames(measurements: Measurements, frames: dict[str, InstrumentFrame]) -> Measurements:
+    """Measurements given in {O} expressed in their stations' frames (what a tracker reads)."""
+    position = np.array(measurements.position)
+    assert measurements.rotation_vector is not None
+    rotation_vector = np.array(measurements.rotation_vector)
+    station = np.array(measurements.station)
+    has = measurements.has_orientation
+    for name, frame in frames.items():
+        rows = station == name
+        position[rows] = frame.from_base(position[rows])
+        sel = rows & has
+        if np.any(sel):
+            turned = frame.rotation @ rotation_from_vector(rotation_vector[sel])
+            rotation_vector[sel] = vector_from_rotation(turned)
+    return replace(measurements, position=position, rotation_vector=rotation_vector)
+
+
 def frame_columns(
     rows: Rows, in_base: Measurements, stations: list[str], centres: np.ndarray | None = None
 ) -> np.ndarray:
