@@ -872,6 +872,8 @@ def load_instrument(path: str | Path) -> dict:
     source = str(path)
     data = read_toml(path)
     _check_not_nominal(data, source)
+    if data.get("format") == GEOMETRY_FORMAT:
+        return {}  # a geometry file: the robot alone, measured in its own base frame
     if data.get("format") != CALIBRATION_FORMAT:
         raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
                          "key format")

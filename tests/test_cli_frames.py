@@ -56,7 +56,8 @@ def test_the_calibration_file_holds_each_station(calibrated):
     frames = load_instrument(calibrated / "cal.toml")
     assert set(frames) == {"east", "west"}
     text = (calibrated / "cal.toml").read_text()
-    keys = ("[instrument.east]", "rotation_deg", "translation_mm", "rotation_sigma_deg", "translation_sigma_mm")
+    keys = ("[instrument.east]", "rotation_deg", "translation_mm", "rotation_sigma_deg",
+            "translation_sigma_mm")
     for key in keys:
         assert key in text
 

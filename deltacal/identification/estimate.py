@@ -157,7 +157,8 @@ def identify(
     options = dict(method=method, sigma_position=sigma_position, sigma_angle=sigma_angle, distances=distances,
                    pairs=pairs, rtol=rtol, max_iter=max_iter)
     try:
-        result = fit(start, measurements, model, frame=frame, **options)  # type: ignore[arg-type]
+        result = fit(start, measurements, model, frame=frame, axes_gauge=not routed,
+                     **options)  # type: ignore[arg-type]
     except IdentificationError as exc:
         if routed:
             raise IdentificationError(str(exc).replace("station", "point")) from exc
@@ -198,6 +199,7 @@ def fit(
     rtol: float = 1e-8,
     max_iter: int = 30,
     frame: str = "base",
+    axes_gauge: bool = True,
 ) -> IdentificationResult:
     """Fit the geometry of a robot to measurements (weighted least squares, base parameters).
 
@@ -215,6 +217,9 @@ def fit(
         frame: ``"base"``: the measurements are in the robot base frame {O};
             ``"free"``: each station's instrument frame is identified with the geometry
             (see :mod:`deltacal.identification.frames`).
+        axes_gauge: With free frames, move the identified robot (and the frames) to the gauge
+            where its actuator axes have no net rigid motion; False keeps the model's own gauge
+            (Bai's distance models fix it by their parameters, Eq. 11).
 
     Returns:
         The result, holding the identified geometry.
@@ -365,8 +370,9 @@ def fit(
                                               n_model + 6 * k : n_model + 6 * k + 6])
             for k, (s, f) in enumerate(frames.items())
         }
-        geometry, frames, shift, turn = to_axes_gauge(start, geometry, frames)
-        gauge = (shift, turn)
+        if axes_gauge:
+            geometry, frames, shift, turn = to_axes_gauge(start, geometry, frames)
+            gauge = (shift, turn)
     return IdentificationResult(
         model=error_model.name,
         method=method,
