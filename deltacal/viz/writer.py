@@ -1,0 +1,156 @@
+"""Writing objects into a scene: the shared writer of the robot, plate and text objects."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..geometry import (
+    DeltaGeometry,
+)
+from ._meshcat import _meshcat
+from .meshes import (
+    _TRUE_COLOURS,
+    _material,
+    _prism_mesh,
+    _rotation_y_to,
+    _segment,
+    _transform,
+)
+from .state import RobotState
+
+
+class _SceneWriter:
+    """Sends the robot's objects to a visualizer under the ``deltacal`` node and notes their paths."""
+
+    def __init__(self, vis: Any) -> None:
+        self.vis = vis
+        self.root = vis["deltacal"]
+        self.paths: list[str] = []
+        self.g = _meshcat().geometry
+
+    def object(
+        self, path: str, geometry: Any, material: Any = None, transform: np.ndarray | None = None
+    ) -> None:
+        node = self.root[path]
+        node.set_object(geometry, material)
+        if transform is not None:
+            node.set_transform(transform)
+        self.paths.append(path)
+
+    def transform(self, path: str, transform: np.ndarray) -> None:
+        self.root[path].set_transform(transform)
+
+    def robot(
+        self, name: str, geometry: DeltaGeometry, state: RobotState, ghost: bool, plate_shape: np.ndarray
+    ) -> None:
+        """Draw one robot at the first pose of ``state``."""
+        g = self.g
+        C = _TRUE_COLOURS
+        b = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
+        s, fat = _sizes(geometry, ghost)
+        ball_r, rod_r, arm_r = 11.0 * s * fat, 4.5 * s * fat, 13.0 * s * fat
+        mat = {k: _material(v, ghost) for k, v in C.items()}
+        # base disc above the actuators
+        housing_r = 32.0 * s * fat
+        base_T = _transform(_rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, 44.0 * s])
+        self.object(f"{name}/base", g.Cylinder(16.0 * s, b + 55.0 * s), mat["base"], base_T)
+        R0 = geometry.actuator_rotation()
+        for i in range(3):
+            limb = f"{name}/limb{i + 1}"
+            self.object(
+                f"{limb}/actuator",
+                g.Cylinder(120.0 * s, housing_r),
+                mat["actuator"],
+                _transform(R0[i], geometry.axis_point[i]),
+            )
+            elbow = geometry.arm_ball[i].mean(axis=0)
+            R, mid, length = _segment(np.zeros(3), elbow)
+            self.object(
+                f"{limb}/arm/link", g.Cylinder(1.0, arm_r), mat["arm"], _transform(R, mid, (1, length, 1))
+            )
+            R, mid, length = _segment(geometry.arm_ball[i, 0], geometry.arm_ball[i, 1])
+            self.object(
+                f"{limb}/arm/elbow",
+                g.Cylinder(1.0, 0.55 * arm_r),
+                mat["elbow"],
+                _transform(R, mid, (1, length, 1)),
+            )
+            for j in range(2):
+                self.object(
+                    f"{limb}/arm/ball{j + 1}",
+                    g.Sphere(ball_r),
+                    mat["ball"],
+                    _transform(np.eye(3), geometry.arm_ball[i, j]),
+                )
+                self.object(f"{limb}/rod{j + 1}", g.Cylinder(1.0, rod_r), mat["rod"])
+        self.plate(f"{name}/plate", geometry, ghost, plate_shape)
+        self.pose(name, state, 0)
+
+    def plate(self, prefix: str, geometry: DeltaGeometry, ghost: bool, plate_shape: np.ndarray) -> None:
+        """Draw the plate and what it carries, in the plate frame, under ``prefix``."""
+        g = self.g
+        s, fat = _sizes(geometry, ghost)
+        mat = {k: _material(v, ghost) for k, v in _TRUE_COLOURS.items()}
+        vertices, faces = _prism_mesh(plate_shape, 12.0 * s)
+        self.object(f"{prefix}/body", g.TriangularMeshGeometry(vertices, faces), mat["plate"])
+        for i in range(3):
+            for j in range(2):
+                self.object(
+                    f"{prefix}/ball{i + 1}{j + 1}",
+                    g.Sphere(11.0 * s * fat),
+                    mat["ball"],
+                    _transform(np.eye(3), geometry.plate_ball[i, j]),
+                )
+        axis_len = 2.5 * float(np.max(np.linalg.norm(plate_shape, axis=1)))
+        R, mid, length = _segment(np.zeros(3), np.array([0.0, 0.0, -axis_len]))
+        self.object(
+            f"{prefix}/axis", g.Cylinder(1.0, 4.0 * s * fat), mat["axis"], _transform(R, mid, (1, length, 1))
+        )
+        if np.linalg.norm(geometry.tool) > 1e-6:
+            R, mid, length = _segment(np.zeros(3), geometry.tool)
+            self.object(
+                f"{prefix}/tool",
+                g.Cylinder(1.0, 6.0 * s * fat),
+                mat["tool"],
+                _transform(R, mid, (1, length, 1)),
+            )
+        self.object(
+            f"{prefix}/tcp", g.Sphere(9.0 * s * fat), mat["tool"], _transform(np.eye(3), geometry.tool)
+        )
+
+    def pose(self, name: str, state: RobotState, k: int, frame: Any = None) -> None:
+        """Set the moving parts of a robot to pose k (into an animation frame when given)."""
+        target = self.root if frame is None else frame["deltacal"]
+        for i in range(3):
+            limb = f"{name}/limb{i + 1}"
+            arm_T = _transform(state.arm_rotation[k, i], state.axis_point[i])
+            target[f"{limb}/arm"].set_transform(arm_T)
+            for j in range(2):
+                R, mid, length = _segment(state.arm_balls[k, i, j], state.plate_balls[k, i, j])
+                if frame is None:
+                    target[f"{limb}/rod{j + 1}"].set_transform(_transform(R, mid, (1, length, 1)))
+                else:
+                    target[f"{limb}/rod{j + 1}"].set_transform(_transform(R, mid))
+                    target[f"{limb}/rod{j + 1}"].set_property("scale", "vector3", [1.0, length, 1.0])
+        target[f"{name}/plate"].set_transform(_transform(state.shown_rotation[k], state.plate.position[k]))
+
+    def inset_pose(self, true_state: RobotState, ghost_state: RobotState, k: int, frame: Any = None) -> None:
+        """Set the inset's true plate relative to the ghost plate (at the inset's origin)."""
+        target = self.root if frame is None else frame["deltacal"]
+        offset = true_state.plate.position[k] - ghost_state.plate.position[k]
+        target["inset/true"].set_transform(_transform(true_state.shown_rotation[k], offset))
+
+
+def _sizes(geometry: DeltaGeometry, ghost: bool) -> tuple[float, float]:
+    """Size unit of the drawn parts (1 for a 375 mm arm) and the ghost's fattening."""
+    L = float(np.mean(np.linalg.norm(geometry.arm_ball.mean(axis=1), axis=1)))
+    return L / 375.0, (1.35 if ghost else 1.0)  # the ghost's round parts sheathe the true ones
+
+
+def _plate_polygon(geometry: DeltaGeometry) -> np.ndarray:
+    """The plate's outline in its frame: the six plate ball centres in xy, by angle [mm], (6, 2)."""
+    xy = geometry.plate_ball.reshape(6, 3)[:, :2]
+    order = np.argsort(np.arctan2(xy[:, 1], xy[:, 0]))
+    return xy[order]
