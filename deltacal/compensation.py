@@ -34,6 +34,7 @@ from .geometry import DeltaGeometry
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
 from .kinematics.exact import PlatePose
+from .kinematics.singularity import COMMAND_MARGIN
 
 METHODS = ("exact", "savoure", "bai")
 
@@ -153,21 +154,19 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     return bad
 
 
-#: Least transmission angle (arm to rod) of a commanded pose [rad].
-MIN_TRANSMISSION_ANGLE = np.radians(3.0)
+#: Least transmission angle (arm to rod) of a commanded pose [rad] (:data:`COMMAND_MARGIN`).
+MIN_TRANSMISSION_ANGLE = COMMAND_MARGIN.min_arm_rod_angle
 #: Least inverse condition number of the unit rod directions of a commanded pose.
-MIN_ROD_CONDITIONING = 0.02
+MIN_ROD_CONDITIONING = COMMAND_MARGIN.min_rod_conditioning
 
 
 def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
     """Distance to the nearest singularity, as a fraction of the refusal thresholds, (N,).
 
-    The smaller of (transmission angle / MIN_TRANSMISSION_ANGLE) and (rod-direction
-    inverse condition number / MIN_ROD_CONDITIONING) (see
-    :meth:`VirtualDelta.singularity_measures`): below 1 the pose is refused.
+    :data:`~deltacal.kinematics.singularity.COMMAND_MARGIN`'s margin on the virtual model
+    of ``geometry``: below 1 the pose is refused.
     """
-    angle, conditioning = VirtualDelta.from_geometry(geometry).singularity_measures(q)
-    return np.minimum(angle / MIN_TRANSMISSION_ANGLE, conditioning / MIN_ROD_CONDITIONING)
+    return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q)
 
 
 def compensate(

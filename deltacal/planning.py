@@ -20,7 +20,7 @@ Three ways of choosing poses:
   maximisation of ``log det(Wᵀ W)`` of the column-scaled base regressor over a
   pool of reachable candidates kept away from singularities (:func:`candidate_pool`).
 
-The POSES file (:func:`write_poses`, :func:`read_poses`) has the header
+The POSES file (:func:`deltacal.io.write_poses`, :func:`deltacal.io.read_poses`) has the header
 ``q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm``: the readings to command, then the
 nominal TCP target they reach. Units: mm and rad inside, mm and deg in files.
 """
@@ -30,30 +30,24 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from .errormodels import MODEL_NAMES, ErrorModel, get_model
-from .exceptions import InputError, PlanningError
+from .exceptions import PlanningError
 from .geometry import DeltaGeometry, NominalDelta, Workspace, skew
 from .identifiability import base_parameters
-from .io import atomic_write_text, data_row
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
+from .kinematics.singularity import PLANNING_MARGIN, SingularityMargin
 from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, build_rows
 
-#: Columns of the POSES file, in order.
-POSES_COLUMNS = ["q1_deg", "q2_deg", "q3_deg", "x_mm", "y_mm", "z_mm"]
 #: Measurement kinds a regressor can be built for.
 MEASUREMENTS = ("pose", "position", "distance")
 #: Name of the 3-parameter encoder-offset model of the rough step (Bai §5.1).
 ROUGH = "rough"
 #: Model names :func:`planning_model` accepts.
 PLAN_MODELS = (*MODEL_NAMES, ROUGH)
-#: A POSES file row whose readings put the nominal TCP farther than this from its target
-#: is rejected by :func:`read_poses` [mm].
-POSES_TOLERANCE = 1e-6
 #: Relative rank tolerance of the scaled regressors (as :func:`base_parameters`).
 _RTOL = 1e-8
 
@@ -403,37 +397,6 @@ def condition_curve(
 
 
 # --------------------------------------------------------------------------- candidates
-@dataclass(frozen=True)
-class SingularityMargin:
-    """How far from singularities a candidate pose must be (virtual, nominal model).
-
-    Attributes:
-        min_arm_rod_angle: Least transmission angle of every limb [rad]: the angle
-            ``asin |n̂ · (w × û)|`` between the (virtual) rod n and the arm û as seen
-            in the arm's plane of motion (w: actuator axis). It is 90° when the rod
-            pulls along the elbow's velocity and 0 at a serial (inverse-kinematics)
-            singularity, arm and rod aligned.
-        max_condition: Largest condition number of the virtual Jacobian J_S
-            (``xdot = J_S qdot``, Savoure Table 1); it grows without bound near
-            parallel singularities (coplanar rods) as well as serial ones.
-    """
-
-    min_arm_rod_angle: float = math.radians(20.0)
-    max_condition: float = 10.0
-
-
-def singularity_measures(nominal: NominalDelta, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Transmission angle (least over the limbs) [rad] and κ(J_S) at readings q, each (N,).
-
-    The angle is :meth:`VirtualDelta.singularity_measures`'s; see
-    :class:`SingularityMargin` for both. Vectorised over poses.
-    """
-    virtual = VirtualDelta.from_nominal(nominal)
-    q = np.atleast_2d(np.asarray(q, dtype=float))
-    angle, _ = virtual.singularity_measures(q)
-    return angle, np.linalg.cond(virtual.jacobian(q))
-
-
 def candidate_pool(
     nominal: NominalDelta,
     count: int,
@@ -452,7 +415,7 @@ def candidate_pool(
         nominal: The robot, with a workspace.
         count: Candidates wanted.
         rng: Random generator.
-        margin: Singularity margin (default :class:`SingularityMargin`).
+        margin: Singularity margin (default :data:`~deltacal.kinematics.singularity.PLANNING_MARGIN`).
         tool: TCP for the targets (see the module docstring).
         max_draws: Give up after drawing ``max_draws * count`` points.
 
@@ -460,7 +423,7 @@ def candidate_pool(
         PlanningError: too few admissible points in the cylinder.
     """
     ws = require_workspace(nominal)
-    margin = SingularityMargin() if margin is None else margin
+    margin = PLANNING_MARGIN if margin is None else margin
     virtual = VirtualDelta.from_nominal(nominal)
     kept: list[np.ndarray] = []
     have = drawn = 0
@@ -479,8 +442,7 @@ def candidate_pool(
         drawn += m
         q = virtual.inverse(ref - nominal.tool, check=False)
         ok = np.all(np.isfinite(q), axis=1)
-        angle, cond = singularity_measures(nominal, np.where(ok[:, None], q, 0.0))
-        ok &= (angle >= margin.min_arm_rod_angle) & (cond <= margin.max_condition)
+        ok &= margin.admits(virtual, np.where(ok[:, None], q, 0.0))
         kept.append(ref[ok])
         have += int(ok.sum())
     return poses_from_reference(nominal, np.concatenate(kept)[:count], tool)
@@ -668,73 +630,3 @@ def d_optimal(
         points=pts,
         blocks=blocks,
     )
-
-
-# --------------------------------------------------------------------------- files
-def _format_poses(poses: PoseSet) -> str:
-    lines = [",".join(POSES_COLUMNS)]
-    qd = np.degrees(poses.q)
-    for q, t in zip(qd, poses.targets, strict=True):
-        lines.append(",".join(repr(float(v)) for v in (*q, *t)))
-    return "\n".join(lines) + "\n"
-
-
-def write_poses(path: str | Path, poses: PoseSet) -> None:
-    """Write a POSES file (readings [deg], then nominal TCP targets [mm]), atomically.
-
-    Raises:
-        ValueError: a reading or target is not finite (nothing is written).
-    """
-    finite = np.all(np.isfinite(poses.q), axis=1) & np.all(np.isfinite(poses.targets), axis=1)
-    if not np.all(finite):
-        raise ValueError(f"pose {int(np.argmin(finite))} is not finite; nothing written to {path}")
-    atomic_write_text(path, _format_poses(poses))
-
-
-def read_poses(
-    path: str | Path,
-    nominal: NominalDelta | None = None,
-    tolerance: float = POSES_TOLERANCE,
-) -> tuple[PoseSet, list[str]]:
-    """Read and validate a POSES file.
-
-    Checks the CSV (:func:`deltacal.io.read_csv_table`: every column present,
-    finite numbers, one clear error naming the file, line and column) and, with a
-    nominal robot, that each row's readings put its nominal TCP on the row's target.
-
-    Args:
-        path: The file.
-        nominal: The robot the file was planned for (optional check).
-        tolerance: Largest target mismatch of that check [mm].
-
-    Returns:
-        The poses and the warnings to show (ignored columns, duplicate rows...).
-
-    Raises:
-        InputError: naming the file, the line and the column of the first problem.
-    """
-    from .io import read_csv_table
-
-    table = read_csv_table(path, POSES_COLUMNS)
-    q = np.radians(np.column_stack([table.numbers[c] for c in POSES_COLUMNS[:3]]))
-    targets = np.column_stack([table.numbers[c] for c in POSES_COLUMNS[3:]])
-    if nominal is not None:
-        x = VirtualDelta.from_nominal(nominal).forward(q, check=False) + nominal.tool
-        miss = np.linalg.norm(x - targets, axis=1)
-        bad = ~(miss <= tolerance)
-        if np.any(bad):
-            k = int(np.flatnonzero(bad)[0])
-            detail = (
-                "the robot cannot be assembled at these readings"
-                if not np.isfinite(miss[k])
-                else f"the readings put the TCP of {nominal.name!r} {miss[k]:.6g} mm from the target"
-            )
-            raise InputError(
-                f"{detail} ({int(bad.sum())} row(s); was the file planned for this robot?)",
-                str(path),
-                f"{data_row(table.lines[k], k + 1)}, columns q1_deg..z_mm",
-            )
-    return PoseSet(q, targets), table.warnings
-
-
-# --------------------------------------------------------------------------- command line

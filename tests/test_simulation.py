@@ -12,12 +12,12 @@ from numpy.testing import assert_allclose
 from deltacal import DeltaGeometry, Tolerances
 from deltacal.cli import main
 from deltacal.geometry import rotation_from_vector, vector_from_rotation
-from deltacal.io import load_geometry, load_nominal, read_measurements
+from deltacal.io import load_geometry, load_nominal, read_measurements, write_poses
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import build_rows
-from deltacal.planning import bai_poses, write_poses
+from deltacal.planning import bai_poses
 from deltacal.simulation import Metrology, ground_truth_forward, simulate_measurements, truth_path
 
 

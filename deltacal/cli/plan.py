@@ -9,7 +9,7 @@ import numpy as np
 
 from ..exceptions import PlanningError
 from ..identifiability import base_parameters
-from ..io import load_nominal
+from ..io import load_nominal, write_poses
 from ..planning import (
     _RTOL,
     MEASUREMENTS,
@@ -25,7 +25,6 @@ from ..planning import (
     planning_model,
     require_workspace,
     rough_poses,
-    write_poses,
 )
 from .common import check_input, check_output, point_list, positive_int
 

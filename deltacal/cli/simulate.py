@@ -11,9 +11,8 @@ import numpy as np
 from ..exceptions import UsageError
 from ..geometry import Tolerances
 from ..identification.frames import in_instrument_frames
-from ..io import load_geometry, load_nominal, save_geometry, write_measurements
+from ..io import load_geometry, load_nominal, read_poses, save_geometry, write_measurements
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from ..planning import read_poses
 from ..simulation import Metrology, simulate_measurements, truth_path
 from .common import (
     check_input,

@@ -181,30 +181,6 @@ class VirtualDelta:
         B[:, idx, idx] = np.sum(n * dE, axis=2)
         return n, B
 
-    def singularity_measures(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """How far readings are from the two kinds of singularity, each (N,).
-
-        Returns:
-            The least transmission angle over the limbs [rad]: ``asin |n̂ · (w × û)|``
-            between the (virtual) rod n̂ and the arm's direction of motion (w: actuator
-            axis, û: arm), 90° when the rod pulls along the elbow's velocity, 0 at a
-            serial singularity (arm and rod aligned, J_S^m unbounded); and the inverse
-            condition number of the matrix of unit rod directions, 0 at a parallel
-            singularity (rods coplanar, J_S unbounded).
-        """
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        x = self.forward(q)
-        E = self.elbows(q)
-        w = self.actuator_rotation[:, :, 1]
-        arm = E - self.axis_point[None]
-        u = arm / np.linalg.norm(arm, axis=2, keepdims=True)
-        rod = x[:, None, :] + self.plate_attachment[None] - E
-        rod /= np.linalg.norm(rod, axis=2, keepdims=True)
-        sin_t = np.abs(np.sum(rod * np.cross(w[None], u), axis=2))
-        angle = np.arcsin(np.clip(sin_t, 0.0, 1.0)).min(axis=1)
-        s = np.linalg.svd(rod, compute_uv=False)
-        return angle, s[:, -1] / s[:, 0]
-
     def jacobian(self, q: np.ndarray) -> np.ndarray:
         """Forward velocity relation J_S: ``xdot = J_S(q) qdot`` (Savoure Table 1).
 
