@@ -26,21 +26,13 @@ from warnings import warn
 
 import numpy as np
 
-from .exceptions import GeometryError, InputError
+from .exceptions import GeometryError, InputError, InputWarning
 from .kinematics.closed_form import VirtualDelta
 from .observations import DEFAULT_STATION
 from .planning import PoseSet
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
 CALIBRATION_FORMAT = "deltacal-calibration-1"
-
-
-class InputWarning(UserWarning):
-    """Something in an input file looks wrong but may be right (units, repeated rows).
-
-    The command line prints these on one line each; library users get them
-    through the :mod:`warnings` machinery.
-    """
 
 
 # --------------------------------------------------------------------------- writing

@@ -11,7 +11,6 @@ from ..exceptions import PlanningError
 from ..identifiability import base_parameters
 from ..io import load_nominal, write_poses
 from ..planning import (
-    _RTOL,
     MEASUREMENTS,
     PLAN_MODELS,
     ROUGH,
@@ -26,6 +25,7 @@ from ..planning import (
     require_workspace,
     rough_poses,
 )
+from ..planning.regressor import _RTOL
 from .common import check_input, check_output, point_list, positive_int
 
 

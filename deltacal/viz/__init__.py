@@ -6,6 +6,7 @@ workspace, an animation; standalone HTML pages and Chromium screenshots.
 meshcat is imported by :mod:`._meshcat` only, and only when a scene is drawn or served.
 """
 
+from ..exceptions import ViewerError
 from .layout import (
     CAMERA_AZIMUTH,
     CAMERA_ELEVATION,
@@ -36,6 +37,7 @@ from .state import (
 )
 
 __all__ = [
+    "ViewerError",
     "ARROW_RADIUS",
     "CAMERA_AZIMUTH",
     "CAMERA_ELEVATION",
