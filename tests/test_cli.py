@@ -516,7 +516,7 @@ def test_a_write_that_fails_midway_leaves_the_old_file_and_no_temporary(tmp_path
     def broken_replace(src, dst):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("deltacal.io.os.replace", broken_replace)
+    monkeypatch.setattr("deltacal.io.atomic.os.replace", broken_replace)
     with pytest.raises(OSError, match="No space left"):
         atomic_write_text(target, "new\n")
     assert target.read_text() == "old\n"
@@ -534,7 +534,7 @@ def test_a_failing_save_during_identify_keeps_the_old_calibration(data, capsys, 
     def full_disk(fd):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr("deltacal.io.os.fsync", full_disk)
+    monkeypatch.setattr("deltacal.io.atomic.os.fsync", full_disk)
     code, _, err = run(capsys, "identify", NOMINAL, data["meas"], "--model", "classical",
         "--accept-poor-fit", "-o", cal)
     assert code == 1

@@ -1,0 +1,69 @@
+"""Reading and writing deltacal's files: robot TOML, geometry TOML, atomic writes.
+
+Files are in millimetres and degrees; the library works in millimetres and
+radians. Every reader validates what it reads and raises
+:class:`~deltacal.exceptions.InputError` naming the file and the key (or row
+and column). Every writer writes a temporary file in the destination folder and
+renames it, so a failure never leaves a half-written output.
+"""
+
+from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
+from .calibration import load_instrument, load_linear_calibration, save_calibration
+from .geometry_file import (
+    CALIBRATION_FORMAT,
+    GEOMETRY_FORMAT,
+    geometry_from_dict,
+    geometry_to_dict,
+    load_geometry,
+    save_geometry,
+)
+from .measurements import read_measurements, write_measurements
+from .poses import POSES_COLUMNS, POSES_TOLERANCE, read_poses, write_poses
+from .robot import load_nominal
+from .tables import (
+    JOINT_COLUMNS,
+    MEASUREMENT_COLUMNS,
+    ORIENTATION_COLUMNS,
+    TARGET_COLUMNS,
+    CsvTable,
+    data_row,
+    read_csv_table,
+)
+from .targets import read_target_table, write_joints
+from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
+
+__all__ = [
+    "CALIBRATION_FORMAT",
+    "CsvTable",
+    "GEOMETRY_FORMAT",
+    "JOINT_COLUMNS",
+    "MEASUREMENT_COLUMNS",
+    "ORIENTATION_COLUMNS",
+    "POSES_COLUMNS",
+    "POSES_TOLERANCE",
+    "RawToml",
+    "TARGET_COLUMNS",
+    "atomic_output",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "data_row",
+    "exact_degrees",
+    "geometry_from_dict",
+    "geometry_to_dict",
+    "load_geometry",
+    "load_instrument",
+    "load_linear_calibration",
+    "load_nominal",
+    "radians_from_text",
+    "read_csv_table",
+    "read_measurements",
+    "read_poses",
+    "read_target_table",
+    "read_toml",
+    "save_calibration",
+    "save_geometry",
+    "toml_dumps",
+    "write_joints",
+    "write_measurements",
+    "write_poses",
+]

@@ -1,0 +1,119 @@
+"""Geometry files: a DeltaGeometry in full, in mm and degrees, exact round trip."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import GeometryError, InputError
+from ..geometry import DeltaGeometry
+from .atomic import atomic_write_text
+from .toml import _Table, exact_degrees, read_toml, toml_dumps
+
+GEOMETRY_FORMAT = "deltacal-geometry-1"
+
+
+CALIBRATION_FORMAT = "deltacal-calibration-1"
+
+
+def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
+    """The TOML tables of a DeltaGeometry (mm, deg), as written by :func:`save_geometry`."""
+    limbs = []
+    for i in range(3):
+        limbs.append(
+            {
+                "azimuth_deg": exact_degrees(float(geometry.limb_azimuth[i])),
+                "axis_point_mm": geometry.axis_point[i].tolist(),
+                "axis_direction": geometry.axis_direction[i].tolist(),
+                "encoder_offset_deg": exact_degrees(float(geometry.encoder_offset[i])),
+                "arm_ball_mm": geometry.arm_ball[i].tolist(),
+                "plate_ball_mm": geometry.plate_ball[i].tolist(),
+                "rod_length_mm": geometry.rod_length[i].tolist(),
+            }
+        )
+    out: dict[str, Any] = {
+        "format": GEOMETRY_FORMAT,
+        "name": geometry.name,
+        "tool_mm": geometry.tool.tolist(),
+        "limb": limbs,
+    }
+    if geometry.points:
+        out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
+    return out
+
+
+def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -> DeltaGeometry:
+    """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
+    top = _Table(data, source, prefix)
+    top.check_unknown(["format", "name", "tool_mm", "limb", "points"])
+    fmt = top.string("format")
+    if fmt != GEOMETRY_FORMAT:
+        raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
+    name = top.string("name", default="")
+    tool = top.vector("tool_mm", (3,))
+    limbs = top.raw("limb")
+    if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):
+        raise top.error("limb", "must be an array of exactly 3 tables [[limb]]")
+    fields: dict[str, list[Any]] = {k: [] for k in (
+        "limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
+        "rod_length")}
+    for i, limb_data in enumerate(limbs):
+        t = _Table(limb_data, source, f"{prefix}limb[{i + 1}].")
+        t.check_unknown([
+            "azimuth_deg", "axis_point_mm", "axis_direction", "encoder_offset_deg", "arm_ball_mm",
+            "plate_ball_mm", "rod_length_mm"])
+        fields["limb_azimuth"].append(t.angle("azimuth_deg"))
+        fields["axis_point"].append(t.vector("axis_point_mm", (3,)))
+        w = t.vector("axis_direction", (3,))
+        if abs(float(np.linalg.norm(w)) - 1.0) > 1e-9:
+            raise t.error("axis_direction", f"must be a unit vector, got {w.tolist()}")
+        fields["axis_direction"].append(w)
+        fields["encoder_offset"].append(t.angle("encoder_offset_deg"))
+        fields["arm_ball"].append(t.vector("arm_ball_mm", (2, 3)))
+        fields["plate_ball"].append(t.vector("plate_ball_mm", (2, 3)))
+        rods = t.vector("rod_length_mm", (2,))
+        if np.any(rods <= 0):
+            raise t.error("rod_length_mm", f"must be positive, got {rods.tolist()}")
+        fields["rod_length"].append(rods)
+    points = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        for k in pts.data:
+            points[k] = pts.vector(k, (3,))
+    try:
+        return DeltaGeometry(
+            **{k: np.array(v) for k, v in fields.items()}, tool=tool, points=points, name=name
+        )
+    except GeometryError as exc:
+        raise InputError(str(exc), source) from None
+
+
+def save_geometry(geometry: DeltaGeometry, path: str | Path) -> None:
+    """Write a DeltaGeometry to TOML (mm, deg), atomically; it reads back bit for bit."""
+    header = "# deltacal geometry: every element of a real Delta robot (mm, deg)\n"
+    atomic_write_text(path, header + toml_dumps(geometry_to_dict(geometry)))
+
+
+def load_geometry(path: str | Path) -> DeltaGeometry:
+    """Read a geometry TOML file, or the ``[geometry]`` part of a calibration file."""
+    data = read_toml(path)
+    _check_not_nominal(data, str(path))
+    if data.get("format") == CALIBRATION_FORMAT:
+        if not isinstance(data.get("geometry"), Mapping):
+            raise InputError("missing required table", str(path), "key geometry")
+        return geometry_from_dict(data["geometry"], str(path), "geometry.")
+    return geometry_from_dict(data, str(path))
+
+
+def _check_not_nominal(data: Mapping[str, Any], source: str) -> None:
+    """A nominal robot file where a geometry or calibration file is expected gets a clear error."""
+    geo = data.get("geometry")
+    if "format" not in data and isinstance(geo, Mapping) and "base_radius_mm" in geo:
+        raise InputError(
+            "this is a nominal robot file, not a geometry or calibration file "
+            "(give the calibration file written by 'deltacal identify')",
+            source, "key format",
+        )

@@ -1,0 +1,75 @@
+"""Measurements CSV files (conventions: readings, positions, orientations, point, station)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import InputError
+from ..observations import DEFAULT_STATION, Measurements
+from .atomic import atomic_write_text
+from .tables import (
+    JOINT_COLUMNS,
+    MEASUREMENT_COLUMNS,
+    ORIENTATION_COLUMNS,
+    TARGET_COLUMNS,
+    _format_rows,
+    data_row,
+    read_csv_table,
+)
+
+
+def read_measurements(
+    path: str | Path, point_names: list[str] | None = None
+) -> tuple[Measurements, list[str]]:
+    """Read a measurements CSV (conventions: q, position, optional orientation and point).
+
+    Args:
+        path: The file.
+        point_names: Names of the plate's points (``tcp`` and the robot's named points);
+            a row naming another point is an error.
+
+    Returns:
+        The measurements (radians inside) and the warnings to show.
+    """
+    table = read_csv_table(
+        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point", "station"],
+        text_columns=("point", "station"),
+        all_or_none=(tuple(ORIENTATION_COLUMNS),),
+    )
+    n = len(table.lines)
+    points = table.text.get("point", ["tcp"] * n)
+    points = [p if p else "tcp" for p in points]
+    stations = [s if s else DEFAULT_STATION for s in table.text.get("station", [DEFAULT_STATION] * n)]
+    if point_names is not None:
+        for k, p in enumerate(points):
+            if p not in point_names:
+                raise InputError(f"unknown point {p!r}; the robot's points are {', '.join(point_names)}",
+                                 str(path), f"{data_row(table.lines[k], k + 1)}, column point")
+    q = np.radians(np.column_stack([table.numbers[c] for c in JOINT_COLUMNS]))
+    pos = np.column_stack([table.numbers[c] for c in TARGET_COLUMNS])
+    rv = None
+    if "rx_deg" in table.numbers:
+        rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
+    return Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations,
+                        lines=table.lines, source=str(path)), table.warnings
+
+
+def write_measurements(path: str | Path, measurements: Measurements) -> None:
+    """Write measurements in the CSV format of the conventions (mm, deg), atomically."""
+    q = np.degrees(measurements.q)
+    cols = [q[:, 0], q[:, 1], q[:, 2], *measurements.position.T]
+    header = JOINT_COLUMNS + TARGET_COLUMNS
+    has = measurements.has_orientation
+    if np.any(has):
+        assert measurements.rotation_vector is not None
+        rv = np.degrees(np.where(has[:, None], measurements.rotation_vector, np.nan))
+        cols += list(rv.T)
+        header = header + ORIENTATION_COLUMNS
+    if any(s != DEFAULT_STATION for s in measurements.station):
+        extra = [[p, s] for p, s in zip(measurements.point, measurements.station, strict=True)]
+        atomic_write_text(path, _format_rows(cols, header + ["point", "station"], extra))
+        return
+    extra = [[p] for p in measurements.point]
+    atomic_write_text(path, _format_rows(cols, header + ["point"], extra))

@@ -1,0 +1,119 @@
+"""The nominal robot file (conventions: [geometry], [points], [workspace])."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from warnings import warn
+
+import numpy as np
+
+from ..exceptions import GeometryError, InputError, InputWarning
+from ..geometry import NominalDelta, Workspace
+from ..kinematics.closed_form import VirtualDelta
+from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
+from .toml import _Table, read_toml
+
+
+def load_nominal(path: str | Path) -> NominalDelta:
+    """Read and validate a nominal robot file (format of the project's conventions).
+
+    Raises:
+        InputError: naming the file and the key of the first problem found.
+    """
+    source = str(path)
+    top = _Table(read_toml(path), source)
+    if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
+        raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
+                                  "robot file (such as deltacal/models/bai2015.toml)")
+    top.check_unknown(["name", "description", "geometry", "points", "workspace"])
+    name = top.string("name")
+    description = top.string("description")
+    geo = top.table("geometry")
+    assert geo is not None
+    geo.check_unknown(
+        [
+            "base_radius_mm",
+            "plate_radius_mm",
+            "arm_length_mm",
+            "rod_length_mm",
+            "rod_spacing_mm",
+            "limb_azimuth_deg",
+            "tool_mm",
+        ]
+    )
+    values = {
+        "base_radius": geo.number("base_radius_mm", positive=True),
+        "plate_radius": geo.number("plate_radius_mm", positive=True),
+        "arm_length": geo.number("arm_length_mm", positive=True),
+        "rod_length": geo.number("rod_length_mm", positive=True),
+        "rod_spacing": geo.number("rod_spacing_mm", positive=True),
+    }
+    azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
+    if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
+        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
+    if np.max(np.abs(azimuth_deg)) <= 2.0 * math.pi and np.ptp(azimuth_deg) > 1.0:
+        warn(
+            f"{source}: key geometry.limb_azimuth_deg: azimuths {azimuth_deg.tolist()} are within "
+            "±2π and put the limbs a few degrees apart: are these radians? deltacal reads degrees",
+            InputWarning, stacklevel=2,
+        )
+    tool = geo.vector("tool_mm", (3,))
+    points: dict[str, np.ndarray] = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        for k in pts.data:
+            if k == "tcp":
+                raise pts.error(k, "'tcp' is reserved for the tool centre point")
+            points[k] = pts.vector(k, (3,))
+    workspace = None
+    ws = top.table("workspace", required=False)
+    if ws is not None:
+        ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
+        workspace = Workspace(
+            radius=ws.number("radius_mm", positive=True),
+            height=ws.number("height_mm", positive=True),
+            top_z=ws.number("top_z_mm"),
+        )
+        if workspace.top_z >= 0.0:
+            raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
+    if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
+        raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
+    if l_rod <= 0.25 * L:
+        raise geo.error("rod_length_mm", f"rods of {l_rod} mm are too short for arms of {L} mm "
+                                         "(at least a quarter of the arm length)")
+    try:
+        nominal = NominalDelta(
+            name=name,
+            description=description,
+            limb_azimuth=np.radians(azimuth_deg),
+            tool=tool,
+            points=points,
+            workspace=workspace,
+            **values,
+        )
+    except GeometryError as exc:
+        raise InputError(str(exc), source) from None
+    if workspace is not None:
+        _check_workspace_reachable(nominal, source)
+    return nominal
+
+
+def _check_workspace_reachable(nominal, source: str) -> None:
+    """The workspace cylinder's rim must be reachable by the nominal robot."""
+    ws = nominal.workspace
+    ang = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
+    rim = []
+    for z in (ws.top_z, ws.bottom_z):
+        rim.append(np.stack([ws.radius * np.cos(ang), ws.radius * np.sin(ang), np.full_like(ang, z)], 1))
+    pts = np.concatenate(rim)
+    q = VirtualDelta.from_nominal(nominal).inverse(pts - nominal.tool, check=False)
+    bad = ~np.all(np.isfinite(q), axis=1)
+    if np.any(bad):
+        p = pts[np.argmax(bad)]
+        raise InputError(
+            f"the workspace reaches {np.round(p, 3).tolist()} mm, out of reach of the robot",
+            source,
+            "key workspace",
+        )

@@ -1,0 +1,245 @@
+"""TOML files: reading with one-line errors naming the key, writing with exact angles."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Iterable, Mapping
+from decimal import Decimal, localcontext
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..exceptions import InputError
+
+_PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816406286")
+
+
+class RawToml(str):
+    """Text written to TOML as is (a number with more digits than a float's repr)."""
+
+
+def exact_degrees(angle: float) -> RawToml:
+    """An angle [rad] in degrees, as TOML number text that reads back to exactly ``angle``.
+
+    Degrees are computed with 50-digit decimal arithmetic and written with 25
+    significant digits; :func:`radians_from_text` converts back with the same
+    precision and rounds once, so geometry files round-trip bit for bit (plain
+    ``math.degrees``/``math.radians`` do not: they are not exact inverses).
+    """
+    if not math.isfinite(angle):
+        return RawToml(_toml_value(float(angle)))
+    with localcontext() as ctx:
+        ctx.prec = 50
+        deg = Decimal(angle) * 180 / _PI
+        text = format(deg, ".25e")
+    return RawToml(text.replace("E", "e"))
+
+
+def radians_from_text(value: Decimal | float) -> float:
+    """Degrees read from a file (Decimal keeps every digit) to radians, rounded once."""
+    if isinstance(value, float):
+        return math.radians(value)
+    with localcontext() as ctx:
+        ctx.prec = 50
+        return float(Decimal(value) * _PI / 180)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, RawToml):
+        return str(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(value, str):
+        escaped = (
+            value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
+        )
+        return f'"{escaped}"'
+    if isinstance(value, np.ndarray):
+        return _toml_value(value.tolist())
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")
+
+
+def _toml_key(key: str) -> str:
+    if key and all(c.isalnum() or c in "_-" for c in key):
+        return key
+    return _toml_value(key)
+
+
+def toml_dumps(data: Mapping[str, Any]) -> str:
+    """Serialise nested mappings of numbers, strings and arrays to TOML.
+
+    Floats are written with ``repr`` (shortest exact form), so they read back
+    bit for bit. Lists of mappings become arrays of tables.
+    """
+    lines: list[str] = []
+
+    def emit(table: Mapping[str, Any], prefix: str) -> None:
+        scalars = [
+            (k, v)
+            for k, v in table.items()
+            if not isinstance(v, Mapping) and not _is_table_array(v)
+        ]
+        for k, v in scalars:
+            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
+        for k, v in table.items():
+            name = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
+            if isinstance(v, Mapping):
+                lines.append("")
+                lines.append(f"[{name}]")
+                emit(v, name)
+            elif _is_table_array(v):
+                for item in v:
+                    lines.append("")
+                    lines.append(f"[[{name}]]")
+                    emit(item, name)
+
+    emit(data, "")
+    return "\n".join(lines).lstrip("\n") + "\n"
+
+
+def _shown(value: Any, limit: int = 80) -> str:
+    """A value read from TOML as the user wrote it (Decimal numbers without their class name)."""
+    if isinstance(value, Decimal):
+        text = str(value)
+    elif isinstance(value, list):
+        text = "[" + ", ".join(_shown(v, limit) for v in value) + "]"
+    else:
+        try:
+            text = repr(value)
+        except ValueError:  # an integer with more digits than Python converts
+            text = "<an integer too large to show>"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _is_table_array(v: Any) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) > 0 and all(isinstance(i, Mapping) for i in v)
+
+
+# --------------------------------------------------------------------------- reading
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file; a missing, unreadable or malformed file raises InputError."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError("file not found", str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read file ({exc.strerror})", str(path)) from None
+    if not raw.strip():
+        raise InputError("file is empty", str(path))
+    try:
+        return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
+    except UnicodeDecodeError as exc:
+        raise _not_utf8(raw, exc, str(path)) from None
+    except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer too long to read
+        raise InputError(f"not valid TOML ({exc})", str(path)) from None
+
+
+def _not_utf8(raw: bytes, exc: UnicodeDecodeError, source: str) -> InputError:
+    """The error for a file that is not UTF-8, naming the line and the first bad byte."""
+    line = raw[: exc.start].count(b"\n") + 1
+    hint = " (UTF-16? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+    return InputError(f"file is not UTF-8 text: byte 0x{raw[exc.start]:02x}{hint}", source, f"line {line}")
+
+
+class _Table:
+    """A TOML table read with checks that name the file and the key."""
+
+    def __init__(self, data: Mapping[str, Any], source: str, prefix: str = "") -> None:
+        self.data = data
+        self.source = source
+        self.prefix = prefix
+        self.used: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return f"{self.prefix}{name}"
+
+    def error(self, name: str, detail: str) -> InputError:
+        return InputError(detail, self.source, f"key {self.key(name)}")
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def raw(self, name: str) -> Any:
+        if name not in self.data:
+            raise self.error(name, "missing required key")
+        self.used.add(name)
+        return self.data[name]
+
+    def table(self, name: str, required: bool = True) -> _Table | None:
+        if name not in self.data:
+            if required:
+                raise self.error(name, "missing required table")
+            return None
+        value = self.raw(name)
+        if not isinstance(value, Mapping):
+            raise self.error(name, f"must be a table, got {_shown(value)}")
+        return _Table(value, self.source, f"{self.key(name)}.")
+
+    def string(self, name: str, default: str | None = None) -> str:
+        if default is not None and name not in self.data:
+            return default
+        value = self.raw(name)
+        if not isinstance(value, str):
+            raise self.error(name, f"must be a string, got {_shown(value)}")
+        return value
+
+    def number(self, name: str, positive: bool = False) -> float:
+        value = self.raw(name)
+        return self._check_number(name, value, positive)
+
+    def _check_number(self, name: str, value: Any, positive: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float, Decimal)):
+            raise self.error(name, f"must be a number, got {_shown(value)}")
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond the float range
+            number = math.inf
+        if not math.isfinite(number):
+            raise self.error(name, f"must be finite, got {_shown(value)}")
+        value = number
+        if positive and value <= 0.0:
+            raise self.error(name, f"must be positive, got {value!r}")
+        return value
+
+    def angle(self, name: str) -> float:
+        """A number in degrees, returned in radians exactly as written (see exact_degrees)."""
+        value = self.raw(name)
+        self._check_number(name, value)
+        return radians_from_text(value)
+
+    def vector(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        value = self.raw(name)
+        return self.array_value(name, value, shape)
+
+    def array_value(self, name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+        def flat(v: Any, depth: int) -> list[float]:
+            if depth == len(shape):
+                return [self._check_number(name, v)]
+            if not isinstance(v, list) or len(v) != shape[depth]:
+                raise self.error(name, f"must be an array of shape {list(shape)}, got {_shown(value)}")
+            out: list[float] = []
+            for item in v:
+                out += flat(item, depth + 1)
+            return out
+
+        return np.array(flat(value, 0), dtype=float).reshape(shape)
+
+    def check_unknown(self, allowed: Iterable[str]) -> None:
+        allowed = set(allowed)
+        for k in self.data:
+            if k not in allowed:
+                raise self.error(k, "unknown key")
