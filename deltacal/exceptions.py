@@ -107,7 +107,22 @@ class ConvergenceError(DeltacalError):
 
 
 class IdentificationError(DeltacalError):
-    """The measurements cannot identify what was asked (too few, rank deficient...)."""
+    """The measurements cannot identify what was asked (too few, rank deficient...).
+
+    Attributes:
+        detail: What is wrong, without the rows it concerns.
+        rows: Indices of the measurements at fault (empty when none in particular); the
+            message names them as 1-based measurement rows, and the command line, which
+            knows the file, names their lines instead.
+    """
+
+    def __init__(self, detail: str, rows=()) -> None:
+        self.detail = detail
+        self.rows = [int(k) for k in rows]
+        if self.rows:
+            shown = ", ".join(str(k + 1) for k in self.rows[:10]) + (", ..." if len(self.rows) > 10 else "")
+            detail = f"measurement row{'s' if len(self.rows) > 1 else ''} {shown}: {detail}"
+        super().__init__(detail)
 
 
 class PlanningError(DeltacalError):

@@ -53,8 +53,6 @@ class Measurements:
             orientation was not measured.
         station: Name of the instrument station of each row (a tracker moved during the
             session has one frame per station); default :data:`DEFAULT_STATION` for all.
-        lines: Line number of each measurement in its file (for messages), or row indices.
-        source: File the measurements came from.
     """
 
     q: np.ndarray
@@ -62,8 +60,6 @@ class Measurements:
     point: list[str] = field(default_factory=list)
     rotation_vector: np.ndarray | None = None
     station: list[str] = field(default_factory=list)
-    lines: np.ndarray | None = None
-    source: str = ""
 
     def __post_init__(self) -> None:
         q = np.atleast_2d(np.asarray(self.q, dtype=float))
@@ -87,8 +83,6 @@ class Measurements:
         if len(station) != M:
             raise ValueError(f"{len(station)} station names for {M} measurements")
         object.__setattr__(self, "station", station)
-        lines = np.arange(M) if self.lines is None else np.asarray(self.lines)
-        object.__setattr__(self, "lines", lines)
 
     def __len__(self) -> int:
         return self.q.shape[0]
@@ -107,7 +101,7 @@ class Measurements:
     def subset(self, index: np.ndarray) -> Measurements:
         """The measurements of some rows."""
         index = np.asarray(index)
-        assert self.rotation_vector is not None and self.lines is not None
+        assert self.rotation_vector is not None
         rows = np.atleast_1d(np.arange(len(self))[index])
         return Measurements(
             q=self.q[index],
@@ -115,8 +109,6 @@ class Measurements:
             point=[self.point[k] for k in rows],
             rotation_vector=self.rotation_vector[index],
             station=[self.station[k] for k in rows],
-            lines=self.lines[index],
-            source=self.source,
         )
 
 

@@ -11,6 +11,7 @@ import math
 import os
 import re
 import stat
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -265,6 +266,10 @@ def test_outlier_is_flagged_in_the_report(data, capsys, tmp_path):
     assert code == 0
     assert "outliers (data snooping at 4 σ): line 9\n" in out
     assert f"warning: {bad}: line(s) 9 look like outliers" in err
+    # the file keeps the line (the io layer knows it) and the 1-based row (the data know it)
+    saved = tomllib.loads((tmp_path / "c.toml").read_text())["calibration"]
+    assert saved["outlier_lines"] == [9]
+    assert saved["outlier_rows"] == [8]
 
 
 def test_poses_too_alike_say_what_is_lost_and_what_helps(bai, capsys, tmp_path):

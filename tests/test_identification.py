@@ -299,11 +299,12 @@ def test_one_blunder_is_flagged_and_only_it(bai):
     assert identify(g0, meas, "complete").outliers == []
     position = np.array(meas.position)
     position[17] += np.array([0.0, 0.6, -0.8])  # a 1 mm blunder
-    lines = np.arange(60) + 2  # a file's line numbers (header on line 1)
-    bad = Measurements(meas.q, position, rotation_vector=meas.rotation_vector, lines=lines)
+    bad = Measurements(meas.q, position, rotation_vector=meas.rotation_vector)
     result = identify(g0, bad, "complete")
     assert result.outliers == [17]
-    assert result.outlier_lines == [19]
+    assert "row 18" in result.report()
+    lines = np.arange(60) + 2  # a file's line numbers (header on line 1)
+    assert "line 19" in result.report(lines)
 
 
 def test_distance_sigma_is_honest(bai):

@@ -10,7 +10,7 @@ import numpy as np
 from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
 from ..identification import PoorFitError, identify
-from ..io import data_row, load_nominal, read_measurements, save_calibration
+from ..io import data_row, load_nominal, read_measurement_file, save_calibration
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from .common import check_input, check_output, lines_text, positive_float, warn
 
@@ -27,8 +27,9 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, (args.nominal, args.measurements))
     nominal = load_nominal(args.nominal)
     start = nominal.geometry()
-    measurements, notes = read_measurements(args.measurements, start.point_names)
-    warn(notes)
+    read = read_measurement_file(args.measurements, start.point_names)
+    measurements, lines = read.measurements, read.lines
+    warn(read.warnings)
     if args.distances and np.any(measurements.has_orientation):
         warn(["orientations are ignored when identifying from distances"])
     try:
@@ -46,30 +47,33 @@ def run(args: argparse.Namespace) -> int:
         )
     except AssemblyError as exc:
         # at the nominal geometry: the readings themselves are impossible
-        lines = np.asarray(measurements.lines)[exc.indices].tolist() if exc.indices else []
-        if not lines:
+        at = lines[exc.indices].tolist() if exc.indices else []
+        if not at:
             raise
         k = exc.indices[0]
         q = np.round(np.degrees(measurements.q[k]), 6).tolist()
-        more = f"; {len(lines)} rows in all, lines {lines_text(lines)}" if len(lines) > 1 else ""
+        more = f"; {len(at)} rows in all, lines {lines_text(at)}" if len(at) > 1 else ""
         raise InputError(
             f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
-            args.measurements, f"{data_row(lines[0], k + 1)}, columns q1_deg..q3_deg",
+            args.measurements, f"{data_row(at[0], k + 1)}, columns q1_deg..q3_deg",
         ) from exc
     except PoorFitError as exc:
         raise IdentificationError(
             f"{args.measurements}: {exc}; nothing written (--accept-poor-fit keeps such a fit)"
         ) from exc
     except IdentificationError as exc:
-        raise IdentificationError(f"{args.measurements}: {exc}") from exc
+        at = lines[exc.rows].tolist()
+        where = f"line{'s' if len(at) > 1 else ''} {lines_text(at)}: " if at else ""
+        raise IdentificationError(f"{args.measurements}: {where}{exc.detail}") from exc
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
     warn(result.warnings)
-    print(result.report())
-    if result.outlier_lines:
-        warn([f"{args.measurements}: line(s) {lines_text(result.outlier_lines)} look like outliers "
-              "(see the report): check them, or remove them and identify again"])
-    save_calibration(result, args.output)
+    print(result.report(lines))
+    if result.outliers:
+        flagged = lines_text(lines[result.outliers].tolist())
+        warn([f"{args.measurements}: line(s) {flagged} look like outliers (see the report): "
+              "check them, or remove them and identify again"])
+    save_calibration(result, args.output, lines)
     print(f"\nwrote {args.output}")
     return 0
 

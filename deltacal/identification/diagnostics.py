@@ -53,14 +53,12 @@ def check_plausible(
     spread = 1.4826 * float(np.median(np.abs(error - median)))
     gross = error > max(3.0 * median, median + 10.0 * spread, 0.05 * arm)
     if which.size and np.any(gross):
-        assert measurements.lines is not None
-        lines = [int(measurements.lines[k]) for k in which[gross]]
         k = int(np.argmax(np.where(gross, error, -np.inf)))
         raise IdentificationError(
-            f"line{'s' if len(lines) > 1 else ''} {', '.join(map(str, lines[:10]))}: the measured "
-            f"position is up to {error[k]:.4g} mm from where the nominal robot puts it at the row's "
-            f"readings, the other rows a median {median:.4g} mm: a typing error in the readings or the "
-            "position? Correct or remove the row"
+            f"the measured position is up to {error[k]:.4g} mm from where the nominal robot puts it "
+            f"at the row's readings, the other rows a median {median:.4g} mm: a typing error in the "
+            "readings or the position? Correct or remove the row",
+            rows=which[gross],
         )
 
 

@@ -354,7 +354,6 @@ def fit(
     # outliers are tested row group by row group, on the rows before whitening
     rs, Ws = rows.scaled
     flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind)
-    assert measurements.lines is not None
     # the fit's quality without the outliers (they are named on their own; distances mix rows)
     inlier_factor = variance_factor
     if flagged.size and rows.mixing is None:
@@ -385,7 +384,6 @@ def fit(
         before=before,
         after=ResidualStats.from_rows(rows),
         outliers=[int(k) for k in flagged],
-        outlier_lines=[int(measurements.lines[k]) for k in flagged],
         iterations=iterations,
         variance_factor=variance_factor,
         units=[(list(error_model.units) + list(FRAME_UNITS) * len(stations))[k] for k in kept],

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,7 +68,6 @@ class IdentificationResult:
         before: Residual statistics at the start.
         after: Residual statistics at the identified geometry.
         outliers: Indices of measurements flagged as outliers.
-        outlier_lines: Their line numbers in the measurement file.
         iterations: Gauss-Newton iterations (1 for linear).
         variance_factor: s0² = χ² / (m − r) at the end.
         units: Unit of each base parameter.
@@ -94,7 +94,6 @@ class IdentificationResult:
     before: ResidualStats
     after: ResidualStats
     outliers: list[int]
-    outlier_lines: list[int]
     iterations: int
     variance_factor: float
     units: list[str]
@@ -137,8 +136,16 @@ class IdentificationResult:
         order = np.lexsort((b, a, -np.round(np.abs(C[a, b]), 9)))[:limit]
         return [(int(a[k]), int(b[k]), float(C[a[k], b[k]])) for k in order]
 
-    def report(self) -> str:
-        """A readable report: base parameters with σ, what is not identifiable, residuals, outliers."""
+    def report(self, file_lines: Sequence[int] | np.ndarray | None = None) -> str:
+        """A readable report: base parameters with σ, what is not identifiable, residuals, outliers.
+
+        Args:
+            file_lines: The line in its file of each measurement, to name the outliers by; without
+                it they are named by their 1-based row.
+        """
+        named = [
+            f"line {int(file_lines[k])}" if file_lines is not None else f"row {k + 1}" for k in self.outliers
+        ]
         lines = [
             f"model {self.model} ({len(self.base.names)} parameters), method {self.method}, "
             f"{self.iterations} iteration(s), {self.n_rows} equations",
@@ -195,7 +202,7 @@ class IdentificationResult:
         if self.outliers:
             lines.append(
                 f"outliers (data snooping at {OUTLIER_THRESHOLD:g} σ): "
-                + ", ".join(f"line {n}" for n in self.outlier_lines)
+                + ", ".join(named)
             )
         else:
             lines.append("outliers: none")
@@ -243,7 +250,7 @@ class IdentificationResult:
             "unidentifiable": self.base.unidentifiable_names,
             "residuals_before": self.before.as_dict(),
             "residuals_after": self.after.as_dict(),
-            "outlier_lines": [int(n) for n in self.outlier_lines],
+            "outlier_rows": [int(k) + 1 for k in self.outliers],
             "base_parameter": params,
             # correlation matrix of the base parameters, in the order of base_parameter
             "correlation": np.round(self.correlation, 6).tolist(),

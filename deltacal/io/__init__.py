@@ -17,7 +17,7 @@ from .geometry_file import (
     load_geometry,
     save_geometry,
 )
-from .measurements import read_measurements, write_measurements
+from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, read_poses, write_poses
 from .robot import load_nominal
 from .tables import (
@@ -57,6 +57,8 @@ __all__ = [
     "radians_from_text",
     "read_csv_table",
     "read_measurements",
+    "read_measurement_file",
+    "MeasurementFile",
     "read_poses",
     "read_target_table",
     "read_toml",

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -24,15 +24,26 @@ from .geometry_file import (
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 
-def save_calibration(result: IdentificationResult, path: str | Path) -> None:
+def save_calibration(
+    result: IdentificationResult, path: str | Path, lines: Sequence[int] | np.ndarray | None = None
+) -> None:
     """Write a calibration file: the identified geometry in full and the identification report.
 
     ``compensate`` needs only this file: its ``[geometry]`` table is a complete
     DeltaGeometry (see :func:`load_geometry`).
+
+    Args:
+        result: The identification.
+        path: The file to write (atomically).
+        lines: The line of each measurement in the measurements file it came from: the
+            outliers are then also saved by line (``outlier_lines``).
     """
+    report = result.to_dict()
+    if lines is not None:
+        report["outlier_lines"] = [int(lines[k]) for k in result.outliers]
     data = {
         "format": CALIBRATION_FORMAT,
-        "calibration": result.to_dict(),
+        "calibration": report,
         "geometry": geometry_to_dict(result.geometry),
         "nominal": geometry_to_dict(result.start),
     }

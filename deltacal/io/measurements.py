@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,23 @@ from .tables import (
 )
 
 
+@dataclass(frozen=True)
+class MeasurementFile:
+    """A measurements file as read: the data and where each row stands in the file.
+
+    Attributes:
+        measurements: The measurements (radians inside).
+        lines: The line of each measurement in the file (as an editor counts), shape (M,).
+        warnings: What the reader noticed and the user should see.
+        path: The file.
+    """
+
+    measurements: Measurements
+    lines: np.ndarray
+    warnings: list[str]
+    path: str
+
+
 def read_measurements(
     path: str | Path, point_names: list[str] | None = None
 ) -> tuple[Measurements, list[str]]:
@@ -33,6 +51,12 @@ def read_measurements(
     Returns:
         The measurements (radians inside) and the warnings to show.
     """
+    read = read_measurement_file(path, point_names)
+    return read.measurements, read.warnings
+
+
+def read_measurement_file(path: str | Path, point_names: list[str] | None = None) -> MeasurementFile:
+    """Read a measurements CSV and keep each row's line (for messages); see :func:`read_measurements`."""
     table = read_csv_table(
         path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point", "station"],
         text_columns=("point", "station"),
@@ -52,8 +76,8 @@ def read_measurements(
     rv = None
     if "rx_deg" in table.numbers:
         rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
-    return Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations,
-                        lines=table.lines, source=str(path)), table.warnings
+    measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations)
+    return MeasurementFile(measurements, np.asarray(table.lines), table.warnings, str(path))
 
 
 def write_measurements(path: str | Path, measurements: Measurements) -> None:
