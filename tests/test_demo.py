@@ -36,6 +36,7 @@ def test_demo_runs_from_any_folder_and_writes_results(demo_from_elsewhere):
     for model in ("uncalibrated", "classical", "bai42", "complete"):
         assert model in proc.stdout
     assert "identified complete" in proc.stderr  # progress on long steps
+    assert "a real cell: tracker 2.8 m away" in proc.stdout
     assert len(summary["validation"]) == 2 * (1 + 4 * 3)
 
 
@@ -56,6 +57,13 @@ def test_demo_figures(tmp_path, seed):
     assert bai["max_mm"] > 10 * complete["max_mm"]
     # identification from noisy measurements: the variance factor says the σ were right
     assert 0.5 < summary["identification"]["complete"]["variance_factor"] < 2.0
+    # the real cell: the tracker's two frames identified with the robot reach the noise floor the
+    # complete model reaches with the same data given in {O}, not the classical model's error
+    tracker = summary["tracker"]
+    assert tracker["tracker_frame"]["max_mm"] <= 0.02
+    assert tracker["base_frame"]["max_mm"] <= 0.02
+    assert classical["max_mm"] >= 10 * tracker["tracker_frame"]["max_mm"]
+    assert 0.5 < tracker["tracker_frame"]["variance_factor"] < 2.0
     if seed == 2015:  # the README quotes this run's table verbatim
         readme = (ROOT / "README.md").read_text()
         assert markdown_table(summary) in readme

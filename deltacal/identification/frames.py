@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..exceptions import IdentificationError
 from ..geometry import DeltaGeometry
@@ -70,7 +71,7 @@ class InstrumentFrame:
         return cls(np.eye(3), np.zeros(3))
 
     @classmethod
-    def from_vectors(cls, rotation_vector: np.ndarray, translation: np.ndarray) -> InstrumentFrame:
+    def from_vectors(cls, rotation_vector: ArrayLike, translation: ArrayLike) -> InstrumentFrame:
         """From a rotation vector [rad] and a translation [mm]."""
         rotation = rotation_from_vector(np.asarray(rotation_vector, dtype=float))
         return cls(rotation, np.asarray(translation, dtype=float))
