@@ -20,6 +20,8 @@ def run(args: argparse.Namespace) -> int:
     if args.pairs is not None and not args.distances:
         raise UsageError("--pairs applies to --distances only")
     args.pairs = args.pairs or "all"
+    if args.free_points and args.distances:
+        raise UsageError("--free-points applies to positions and poses, not to --distances")
     if args.frame == "free" and args.distances:
         raise UsageError("--frame free applies to positions and poses: distances do not depend on the frame")
     for path in (args.nominal, args.measurements):
@@ -27,6 +29,10 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, (args.nominal, args.measurements))
     nominal = load_nominal(args.nominal)
     start = nominal.geometry()
+    for name in args.free_points:
+        if name not in start.point_names:
+            raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(start.point_names)}",
+                             "--free-points")
     read = read_measurement_file(args.measurements, start.point_names)
     measurements, lines = read.measurements, read.lines
     warn(read.warnings)
@@ -44,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
             pairs=args.pairs,
             frame=args.frame,
             accept_poor_fit=args.accept_poor_fit,
+            free_points=args.free_points,
         )
     except AssemblyError as exc:
         # at the nominal geometry: the readings themselves are impossible
@@ -100,4 +107,7 @@ def add_parser(sub) -> None:
                         "own frame, one per station, identified with the geometry")
     p.add_argument("--accept-poor-fit", action="store_true",
                    help="keep a fit whose residuals are far beyond the σ given (warned, not refused)")
+    p.add_argument("--free-points", nargs="+", metavar="NAME", default=[],
+                   help="identify the position on the plate of these measured points (reflectors) too, "
+                        "where the data can tell it from the plate geometry")
     p.set_defaults(func=run)

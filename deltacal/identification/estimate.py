@@ -20,6 +20,7 @@ variance factor ``s0² = χ²/(m − r)`` says whether those σ were right.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -43,6 +44,7 @@ from .frames import (
     to_axes_gauge,
 )
 from .outliers import data_snooping
+from .points import point_columns, point_parameter_names, with_points_moved
 from .quality import (
     PoorFitError,
     implausible_deviations,
@@ -110,6 +112,7 @@ def identify(
     max_iter: int = 30,
     frame: str = "base",
     accept_poor_fit: bool = False,
+    free_points: Sequence[str] = (),
 ) -> IdentificationResult:
     """Identify the geometry of a robot from measurements, and refuse a fit that cannot be right.
 
@@ -131,6 +134,7 @@ def identify(
         max_iter: Iterations at most.
         frame: ``"base"`` or ``"free"`` (see :func:`fit`).
         accept_poor_fit: Return a poor fit instead of raising (its ``warnings`` say why).
+        free_points: Plate points whose position on the plate is identified too (see :func:`fit`).
 
     Returns:
         The result, holding the identified geometry.
@@ -141,6 +145,8 @@ def identify(
     """
     error_model = get_model(model) if isinstance(model, str) else model
     routed = distances and pairs == "all" and error_model.rigid_motion_free
+    if free_points and distances:
+        raise IdentificationError("free points are identified from positions and poses, not from distances")
     if routed:
         if frame == "free":
             raise IdentificationError(
@@ -155,7 +161,7 @@ def identify(
                                rotation_vector=np.full((len(measurements), 3), np.nan))
         distances, frame = False, "free"
     options = dict(method=method, sigma_position=sigma_position, sigma_angle=sigma_angle, distances=distances,
-                   pairs=pairs, rtol=rtol, max_iter=max_iter)
+                   pairs=pairs, rtol=rtol, max_iter=max_iter, free_points=tuple(free_points))
     try:
         result = fit(start, measurements, model, frame=frame, axes_gauge=not routed,
                      **options)  # type: ignore[arg-type]
@@ -168,9 +174,11 @@ def identify(
     if not needs_review(result, start):
         return result
     alternatives = []
-    for cause, other, other_frame in readings(measurements, start.point_names, frame, distances):
+    for cause, other, other_frame, points in readings(measurements, start.point_names, frame, distances,
+                                                      free_points):
         try:
-            alt = fit(start, other, model, frame=other_frame, **options)  # type: ignore[arg-type]
+            alt_options = {**options, "free_points": points}
+            alt = fit(start, other, model, frame=other_frame, **alt_options)  # type: ignore[arg-type]
         except DeltacalError:
             continue
         alternatives.append((cause, alt.variance_factor, implausible_deviations(start, alt.geometry)))
@@ -200,6 +208,7 @@ def fit(
     max_iter: int = 30,
     frame: str = "base",
     axes_gauge: bool = True,
+    free_points: Sequence[str] = (),
 ) -> IdentificationResult:
     """Fit the geometry of a robot to measurements (weighted least squares, base parameters).
 
@@ -220,6 +229,12 @@ def fit(
         axes_gauge: With free frames, move the identified robot (and the frames) to the gauge
             where its actuator axes have no net rigid motion; False keeps the model's own gauge
             (Bai's distance models fix it by their parameters, Eq. 11).
+        free_points: Measured plate points (reflectors) whose position on the plate is
+            identified with the geometry, three parameters ``P[name].x/y/z`` each (plate
+            frame). What the geometry's own parameters already account for (a common shift
+            of every plate point with the plate balls: the plate frame's origin is a
+            convention) is not: those coordinates are held at their given values and listed
+            in the result's ``confounded``.
 
     Returns:
         The result, holding the identified geometry.
@@ -241,30 +256,45 @@ def fit(
             "distances do not depend on the instrument frame: a free frame is for positions and poses"
         )
     stations = measurements.stations if frame == "free" else []
+    free_points = list(dict.fromkeys(free_points))
+    for name in free_points:
+        if name not in measurements.point:
+            measured = ", ".join(dict.fromkeys(measurements.point))
+            raise IdentificationError(
+                f"free point {name!r} is not measured; the measured points are {measured}"
+            )
     n_model = len(error_model.names)
     names = list(error_model.names) + frame_parameter_names(stations)
+    n_fixed = len(names)  # columns before the free points
+    names += point_parameter_names(free_points)
     frames: dict[str, InstrumentFrame] = {}
     if stations:
         frames = initial_frames(start, measurements, exact.forward(start, measurements.q))
 
     def rows_at(geometry: DeltaGeometry, frames: dict[str, InstrumentFrame]) -> Rows:
         seen = in_base_frame(measurements, frames) if frames else measurements
+        pose = exact.forward(geometry, seen.q)
         rows = build_rows(
             geometry, seen, error_model.sensitivity, sigma_position, sigma_angle,
-            distances=distances, pairs=pairs,
+            distances=distances, pairs=pairs, pose=pose,
         )
-        if not frames:
-            return rows
-        centres = np.array([frames[name].centre for name in stations])
-        F = frame_columns(rows, seen, stations, centres)
-        return replace(rows, regressor=np.hstack([rows.regressor, F]))
+        extra = []
+        if frames:
+            centres = np.array([frames[name].centre for name in stations])
+            extra.append(frame_columns(rows, seen, stations, centres))
+        if free_points:
+            extra.append(point_columns(rows, seen, free_points, pose.rotation))
+        return replace(rows, regressor=np.hstack([rows.regressor, *extra])) if extra else rows
 
     def moved(
         geometry: DeltaGeometry, frames: dict[str, InstrumentFrame], full: np.ndarray
     ) -> tuple[DeltaGeometry, dict[str, InstrumentFrame]]:
-        corrections = full[n_model:].reshape(-1, 6)
+        corrections = full[n_model:n_fixed].reshape(-1, 6)
+        moved_geometry = error_model.apply(geometry, full[:n_model])
+        if free_points:
+            moved_geometry = with_points_moved(moved_geometry, free_points, full[n_fixed:].reshape(-1, 3))
         return (
-            error_model.apply(geometry, full[:n_model]),
+            moved_geometry,
             {s: frames[s].corrected(c) for s, c in zip(stations, corrections, strict=True)},
         )
 
@@ -277,14 +307,20 @@ def fit(
     if stations:
         # the geometry's own base first, as with measurements in {O}; then what the frames absorb
         own = base_parameters(Ww[:, :n_model], names[:n_model], rtol=rtol, prefer=prefer)
-        absorbed = absorbed_by_frames(Ww, names, n_model, own.base)
-        prefer = names[n_model:] + [names[k] for k in own.base]
-    base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=absorbed)
+        absorbed = absorbed_by_frames(Ww[:, :n_fixed], names[:n_fixed], n_model, own.base)
+        prefer = names[n_model:n_fixed] + [names[k] for k in own.base]
+    base = base_parameters(Ww[:, :n_fixed], names[:n_fixed], rtol=rtol, prefer=prefer, exclude=absorbed)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
     check_plausible(start, measurements, rows, frame_free=bool(stations))
-    hints = check_rank(start, measurements, error_model, base, Ww, sigma_position, sigma_angle,
+    hints = check_rank(start, measurements, error_model, base, Ww[:, :n_fixed], sigma_position, sigma_angle,
                        distances, pairs, rtol, stations)
+    confounded: list[str] = []
+    if free_points:
+        # the points only where the geometry (and the frames) leave them something to say
+        prefer = [names[k] for k in base.base] + names[n_fixed:]
+        base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=absorbed)
+        confounded = [names[k] for k in range(n_fixed, len(names)) if k not in base.base]
     kept = base.base
     before = ResidualStats.from_rows(rows)
     geometry = start
@@ -386,7 +422,8 @@ def fit(
         outliers=[int(k) for k in flagged],
         iterations=iterations,
         variance_factor=variance_factor,
-        units=[(list(error_model.units) + list(FRAME_UNITS) * len(stations))[k] for k in kept],
+        units=[(list(error_model.units) + list(FRAME_UNITS) * len(stations)
+                + ["mm"] * (len(names) - n_fixed))[k] for k in kept],
         n_rows=m,
         residual_after=rows.residual,
         hints=tuple(hints),
@@ -394,4 +431,5 @@ def fit(
         gauge_motion=gauge,
         absorbed=tuple(absorbed),
         inlier_variance_factor=inlier_factor,
+        confounded=tuple(confounded),
     )

@@ -24,7 +24,7 @@ deviations of χ²).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -95,16 +95,22 @@ def implausible_deviations(start: DeltaGeometry, geometry: DeltaGeometry) -> lis
 
 
 def readings(
-    measurements: Measurements, point_names: list[str], frame: str, distances: bool
-) -> Iterator[tuple[str, Measurements, str]]:
-    """Other readings of the same data: ``(cause, measurements, frame)``, one per plausible mistake.
+    measurements: Measurements, point_names: list[str], frame: str, distances: bool,
+    free_points: Sequence[str] = (),
+) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+    """Other readings of the same data, one per plausible mistake.
 
     Args:
         measurements: The measurements as read.
         point_names: The robot's plate points (``tcp`` and the named ones).
         frame: The frame asked for (``"base"`` or ``"free"``).
         distances: Whether the fit uses distances.
+        free_points: The points freed by the fit asked for.
+
+    Yields:
+        ``(cause, measurements, frame, free_points)``: the cause in words and the fit to try.
     """
+    points = tuple(free_points)
     has = measurements.has_orientation
     if np.any(has) and not distances:
         assert measurements.rotation_vector is not None
@@ -112,6 +118,7 @@ def readings(
             "the orientation columns rx_deg, ry_deg, rz_deg hold radians, not degrees",
             replace(measurements, rotation_vector=measurements.rotation_vector * (180.0 / math.pi)),
             frame,
+            points,
         )
     names = list(dict.fromkeys(measurements.point))
     if len(names) == 1:
@@ -121,6 +128,7 @@ def readings(
                     f"the rows measure point {other!r}, not {names[0]!r} (a point column missing or wrong)",
                     replace(measurements, point=[other] * len(measurements)),
                     frame,
+                    (),
                 )
     elif len(names) <= 4:
         for i, a in enumerate(names):
@@ -130,12 +138,25 @@ def readings(
                     f"the point labels {a!r} and {b!r} are swapped",
                     replace(measurements, point=[swap.get(p, p) for p in measurements.point]),
                     frame,
+                    points,
                 )
+    named = tuple(n for n in names if n != "tcp")
+    if len(names) > 1 and named and set(named) - set(points) and not distances:
+        # one point is held so that the rest can be told from the plate geometry
+        freed = named[1:] if len(named) == len(names) else named
+        yield (
+            f"the position on the plate of {', '.join(map(repr, freed))} differs from the robot file "
+            f"(a reflector offset: identify with --free-points {' '.join(freed)})",
+            measurements,
+            frame,
+            tuple(dict.fromkeys(points + freed)),
+        )
     if frame == "base" and not distances:
         yield (
             "the measurements are in the instrument's own frame (identify with --frame free)",
             measurements,
             "free",
+            points,
         )
 
 

@@ -81,6 +81,8 @@ class IdentificationResult:
             start value (see :data:`deltacal.identification.frames.FRAME_RTOL`).
         warnings: What is doubtful about the fit (see :mod:`deltacal.identification.quality`).
         inlier_variance_factor: s0² of the rows of the measurements not flagged as outliers.
+        confounded: Coordinates of free points that the geometry's own parameters already
+            account for (held at their given values).
     """
 
     model: str
@@ -105,12 +107,13 @@ class IdentificationResult:
     absorbed: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     inlier_variance_factor: float = float("nan")
+    confounded: tuple[str, ...] = ()
 
     @property
     def deviation(self) -> np.ndarray:
         """Deviations of the error model's parameters from the start (instrument frames left out)."""
         full = self.base.expand(self.values)
-        return full[[not name.startswith("T[") for name in self.base.names]]
+        return full[[not name.startswith(("T[", "P[")) for name in self.base.names]]
 
     @property
     def rank(self) -> int:
@@ -161,8 +164,15 @@ class IdentificationResult:
                 lines.append(f"  {label:<{width}}  {v:+12.6f} ± {s:.6f} mm")
         absent = self.base.absent
         folded = [
-            k for k in self.base.unidentifiable if k not in absent and self.base.names[k] not in self.absorbed
+            k for k in self.base.unidentifiable
+            if k not in absent and self.base.names[k] not in (*self.absorbed, *self.confounded)
         ]
+        if self.confounded:
+            lines.append("")
+            lines.append("free point coordinates confounded with the plate geometry (its own parameters "
+                         "already account for them, e.g. a common shift of every plate point with the "
+                         "plate balls moves nothing measured; held at their given values):")
+            lines.append("  " + ", ".join(self.confounded))
         if self.absorbed:
             lines.append("")
             lines.append("absorbed by the instrument frame(s) (within 1 % of a rigid motion; held):")

@@ -119,7 +119,7 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     for k, item in enumerate(params):
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
-        if name.startswith("T["):  # an instrument frame's parameter, not the robot's
+        if name.startswith(("T[", "P[")):  # an instrument frame's or a free point's, not the model's
             continue
         if name not in model.names:
             raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
