@@ -360,3 +360,24 @@ def test_both_robot_files_export_and_load(robot, tmp_path):
     assert np.max(np.abs(d.efc_pos[d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY])) < 1e-13
     assert np.allclose(d.qpos[m.jnt_qposadr[[m.joint(f"arm{i}").id for i in (1, 2, 3)]]],
                        np.radians([10.0, -5.0, 20.0]), rtol=0, atol=1e-15)
+
+
+def test_mujoco_drives_the_arms_to_compensated_readings():
+    """A dynamic smoke test: the position servos take the arms to the readings, the loops stay closed.
+
+    The servos are proportional only, so gravity leaves a small sag (a fraction of a millimetre).
+    """
+    geometry = load_nominal(BAI).geometry()
+    m = mujoco.MjModel.from_xml_string(mjcf_model(geometry))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key(HOME_KEY).id)
+    target = np.array([100.0, -50.0, -850.0])
+    q = compensate(geometry, target[None])[0]
+    d.ctrl[:] = q
+    for _ in range(1500):
+        mujoco.mj_step(m, d)
+    arms = m.jnt_qposadr[[m.joint(f"arm{i}").id for i in (1, 2, 3)]]
+    assert np.max(np.abs(d.qpos[arms] - q)) < 2e-3
+    assert np.max(np.abs(d.efc_pos[d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY])) < 1e-4  # [m]
+    assert np.linalg.norm(d.site("tcp").xpos * 1000.0 - target) < 1.0
+    assert np.max(np.abs(d.qvel)) < 1e-3
