@@ -381,3 +381,13 @@ def test_mujoco_drives_the_arms_to_compensated_readings():
     assert np.max(np.abs(d.efc_pos[d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY])) < 1e-4  # [m]
     assert np.linalg.norm(d.site("tcp").xpos * 1000.0 - target) < 1.0
     assert np.max(np.abs(d.qvel)) < 1e-3
+
+
+def test_odd_names_stay_well_formed_xml(tmp_path):
+    geometry = load_nominal(BAI).geometry()
+    odd = replace(geometry, points={'a "quoted" <point> & co': np.array([1.0, 2.0, 3.0])})
+    text = mjcf_model(odd, name="robot <1> & 'two'", stations=["st--1"], source="my--file.toml")
+    root = ET.fromstring(text)
+    assert root.get("model") == "robot <1> & 'two'"
+    m = mujoco.MjModel.from_xml_string(text)
+    assert m.site('a "quoted" <point> & co').id >= 0

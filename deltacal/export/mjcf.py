@@ -323,7 +323,7 @@ def mjcf_model(
             "station's frame. "
         )
     for line in lines:
-        root.append(ET.Comment(line))
+        root.append(ET.Comment(line.replace("--", "- -")))  # "--" may not appear in an XML comment
     ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true"})
     ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast"})
     world = ET.SubElement(root, "worldbody")
