@@ -6,6 +6,7 @@ Commands (files in mm and deg; see the README for formats):
   compensate, validate).
 * ``deltacal identify NOMINAL MEASUREMENTS --model M -o CAL``
 * ``deltacal compensate CAL TARGETS -o JOINTS``
+* ``deltacal export CAL --mjcf ROBOT.xml``
 * ``deltacal plan NOMINAL --model M [--n N | --epsilon E] -o POSES``
 * ``deltacal simulate NOMINAL POSES (--perturb SEED | --truth TRUE) -o MEAS``
 * ``deltacal view NOMINAL [...] [--html OUT]``
@@ -27,11 +28,11 @@ from collections.abc import Sequence
 
 from .._version import __version__
 from ..exceptions import DeltacalError, UsageError
-from . import compensate, demo, identify, plan, simulate, view
+from . import compensate, demo, export, identify, plan, simulate, view
 from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, Parser, one_line
 
 #: The subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (demo, identify, compensate, plan, simulate, view)
+SUBCOMMANDS = (demo, identify, compensate, export, plan, simulate, view)
 
 
 def build_parser() -> argparse.ArgumentParser:

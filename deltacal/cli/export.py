@@ -1,0 +1,69 @@
+"""``deltacal export``: the identified robot as an MJCF model (MuJoCo, Pinocchio)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from ..export import write_mjcf
+from ..geometry import DeltaGeometry
+from ..io import CALIBRATION_FORMAT, GEOMETRY_FORMAT, load_geometry, load_instrument, load_nominal, read_toml
+from .common import check_input, check_output
+
+
+def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
+    """The geometry of a calibration, geometry or nominal robot file, and the calibration's stations.
+
+    Raises:
+        InputError: naming the file, key and value of the first problem found.
+    """
+    fmt = read_toml(path).get("format")
+    if fmt in (CALIBRATION_FORMAT, GEOMETRY_FORMAT):
+        return load_geometry(path), list(load_instrument(path))
+    return load_nominal(path).geometry(), []
+
+
+def _readings_deg(text: str) -> np.ndarray:
+    """Argparse type: ``Q1,Q2,Q3`` in degrees -> readings [rad]."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected three numbers Q1,Q2,Q3 (deg), got {text!r}") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers Q1,Q2,Q3 (deg), got {text!r}")
+    return np.radians(values)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deltacal export``; returns the exit status."""
+    check_input(args.calibration)
+    check_output(args.mjcf, (args.calibration,))
+    geometry, stations = load_robot(args.calibration)
+    write_mjcf(args.mjcf, geometry, name=args.name, home=args.home, stations=stations,
+               source=str(args.calibration))
+    frame = " (robot base frame {O}; the instrument frames are not exported)" if stations else ""
+    print(f"wrote the MJCF model of {args.name or geometry.name or 'delta'} to {args.mjcf}{frame}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Register ``export``."""
+    p = sub.add_parser(
+        "export",
+        help="write the robot as an MJCF model (MuJoCo, Pinocchio)",
+        description=(
+            "Write the identified robot (a calibration file from identify, a geometry file or a nominal "
+            "robot file) as an MJCF model in SI units: hinge joints arm1..arm3 whose values are the "
+            "encoder readings [rad], ball-jointed rods closed on the plate by <connect> constraints, "
+            "sites tcp and the named points, and a keyframe 'home' holding an assembly."
+        ),
+    )
+    p.add_argument("calibration", metavar="CALIBRATION",
+                   help="calibration file written by identify, or a geometry or robot file (TOML)")
+    p.add_argument("--mjcf", required=True, metavar="ROBOT.xml", help="MJCF file to write")
+    p.add_argument("--name", help="model name (default: the robot's name)")
+    p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
+                   help="readings of the 'home' keyframe [deg] (default 0,0,0)")
+    p.set_defaults(func=run)
