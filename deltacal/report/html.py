@@ -35,11 +35,10 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: now
 figure { margin: 1rem 0; break-inside: avoid; page-break-inside: avoid; }
 figcaption { font-size: 0.85rem; color: var(--muted); max-width: 48rem; }
 svg.figure { display: block; width: 100%; height: auto; max-width: 48rem; }
-iframe.scene { width: 100%; height: 70vh; min-height: 22rem; border: 1px solid var(--line); }
+iframe.scene { width: 100%; height: 36rem; max-height: 80vh; border: 1px solid var(--line); }
 .print-only { display: none; }
 @media (max-width: 40rem) {
   body { padding: 0.5rem 0.6rem 2rem; } h1 { font-size: 1.25rem; } table { font-size: 0.8rem; }
-  iframe.scene { height: 60vh; }
 }
 @media print {
   body { max-width: none; padding: 0; font-size: 10pt; }
