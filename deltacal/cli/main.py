@@ -10,6 +10,7 @@ Commands (files in mm and deg; see the README for formats):
 * ``deltacal plan NOMINAL --model M [--n N | --epsilon E] -o POSES``
 * ``deltacal simulate NOMINAL POSES (--perturb SEED | --truth TRUE) -o MEAS``
 * ``deltacal view NOMINAL [...] [--html OUT]``
+* ``deltacal report CAL -o REPORT.html [--measurements MEAS] [--truth TRUE] [--tool X,Y,Z]``
 
 Errors in the user's input print one line on stderr naming the file, line,
 column or key and value, and exit with status 1 (bad data) or 2 (bad usage:
@@ -28,11 +29,11 @@ from collections.abc import Sequence
 
 from .._version import __version__
 from ..exceptions import DeltacalError, UsageError
-from . import compensate, demo, export, identify, plan, simulate, view
+from . import compensate, demo, export, identify, plan, report, simulate, view
 from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, Parser, one_line
 
 #: The subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (demo, identify, compensate, export, plan, simulate, view)
+SUBCOMMANDS = (demo, identify, compensate, report, export, plan, simulate, view)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,79 @@
+"""``deltacal report``: one self-contained HTML page of a calibration."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from ..io import load_geometry, load_nominal
+from ..report import write_report
+from .common import check_input, check_output, warn
+
+
+def tool_vector(text: str) -> np.ndarray:
+    """Argparse type: ``X,Y,Z`` [mm], three finite numbers."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in mm, got {text!r}") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z in mm, got {text!r}")
+    return np.array(values)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deltacal report``; returns the exit status."""
+    inputs = [args.calibration, args.measurements, args.truth, args.robot]
+    for path in inputs:
+        if path is not None:
+            check_input(path)
+    check_output(args.output, inputs)
+    truth = load_geometry(args.truth) if args.truth is not None else None
+    workspace = load_nominal(args.robot).workspace if args.robot is not None else None
+    summary = write_report(
+        args.calibration,
+        args.output,
+        measurements=args.measurements,
+        truth=truth,
+        truth_source=args.truth,
+        tool=args.tool,
+        workspace=workspace,
+        view=not args.no_view,
+    )
+    warn(summary.warnings)
+    w = summary.worst_point
+    print(f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "
+          f"({w[0]:.1f}, {w[1]:.1f}, {w[2]:.1f}) mm")
+    print(f"wrote {args.output}")
+    return 0
+
+
+def add_parser(sub) -> None:
+    """Register ``report``."""
+    p = sub.add_parser(
+        "report",
+        help="an HTML report of a calibration: parameters, residuals, predicted accuracy map",
+        description=(
+            "Write one self-contained HTML page (no network access, readable on a phone, printable) "
+            "of a calibration file: the fit, the base parameters with σ and correlations, what is not "
+            "identifiable and why, residuals per measurement, the predicted σ of the TCP over the "
+            "workspace and a 3-D view of the identified robot."
+        ),
+    )
+    p.add_argument("calibration", metavar="CALIBRATION.toml", help="calibration file written by identify")
+    p.add_argument("-o", "--output", required=True, metavar="REPORT.html", help="HTML file to write")
+    p.add_argument("--measurements", metavar="MEAS.csv",
+                   help="the measurements the calibration was identified from (residual plots)")
+    p.add_argument("--truth", metavar="TRUE.toml",
+                   help="true geometry of a simulation (simulate --perturb writes MEAS.truth.toml): actual "
+                        "TCP errors beside the predicted σ")
+    p.add_argument("--tool", type=tool_vector, metavar="X,Y,Z",
+                   help="TCP in the plate frame for the accuracy map [mm] (default: the calibration's tool)")
+    p.add_argument(
+        "--robot", metavar="ROBOT.toml",
+        help="robot file whose [workspace] the accuracy map covers (default: sized from the robot)",
+    )
+    p.add_argument("--no-view", action="store_true", help="leave out the 3-D view (a smaller file)")
+    p.set_defaults(func=run)

@@ -1,0 +1,146 @@
+"""Calibration reports: one self-contained HTML page per calibration file.
+
+* :mod:`.data`: the calibration file as the report reads it;
+* :mod:`.accuracy`: the predicted σ of the TCP over the workspace (covariance propagation);
+* :mod:`.residuals`: each measurement's residual before and after;
+* :mod:`.figures`: matplotlib figures as inline SVG;
+* :mod:`.html`: the page.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import DeltacalError
+from ..geometry import DeltaGeometry, Workspace
+from ..io import atomic_write_text
+from . import figures
+from .accuracy import (
+    AccuracyMap,
+    accuracy_map,
+    actual_tcp_error,
+    predicted_tcp_covariance,
+    predicted_tcp_sigma,
+    sigma_3d,
+    tcp_jacobian,
+)
+from .data import BaseParameter, CalibrationReport, load_calibration_report
+from .html import Page, render_page
+from .residuals import MeasurementResiduals, measurement_residuals
+
+
+@dataclass(frozen=True)
+class ReportSummary:
+    """What :func:`write_report` wrote.
+
+    Attributes:
+        path: The HTML file.
+        worst_sigma: Largest predicted 3-D σ of the TCP over the slices [mm].
+        worst_point: Where [mm].
+        figures: Names of the figures drawn.
+        warnings: What the page warns about.
+    """
+
+    path: Path
+    worst_sigma: float
+    worst_point: np.ndarray
+    figures: tuple[str, ...]
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _scene(calibration: CalibrationReport, workspace: Workspace) -> tuple[str | None, str]:
+    """Meshcat's standalone page of the identified robot over its nominal ghost, or None and why."""
+    try:
+        from ..viz import DEFAULT_EXAGGERATION, build_scene, recording_visualizer
+
+        vis = recording_visualizer(f"deltacal: {calibration.robot}")
+        summary = build_scene(vis, calibration.nominal, calibration.geometry, workspace=workspace,
+                              arrows=True, animate=False, title=f"{calibration.robot} (identified)")
+    except (DeltacalError, ImportError) as exc:
+        return None, f"No 3-D view: {exc}"
+    note = (f"The identified robot (solid) over the nominal one (ghost), plate tilt exaggerated "
+            f"{DEFAULT_EXAGGERATION:g} times (real tilt {np.degrees(summary.tilt):.4f}° at the drawn pose); "
+            "arrows: where the identified robot's TCP goes when commanded with the nominal model (the "
+            "correction the calibration makes). Drag to turn, scroll to zoom.")
+    return vis.static_html(), note
+
+
+def write_report(
+    calibration: str | Path,
+    output: str | Path,
+    measurements: str | Path | None = None,
+    truth: DeltaGeometry | None = None,
+    truth_source: str | None = None,
+    tool: np.ndarray | None = None,
+    workspace: Workspace | None = None,
+    view: bool = True,
+    grid: int = 41,
+) -> ReportSummary:
+    """Write the HTML report of a calibration file, atomically.
+
+    Args:
+        calibration: Calibration file written by ``deltacal identify``.
+        output: The HTML file to write.
+        measurements: The measurement CSV the calibration was identified from (residual plots).
+        truth: The true geometry (simulations): actual TCP errors beside the predicted σ.
+        truth_source: Where the truth came from (shown).
+        tool: TCP in the plate frame for the accuracy map [mm] (default: the calibration's).
+        workspace: Cylinder of the accuracy map (default: one sized from the robot).
+        view: Embed the meshcat 3-D view.
+        grid: Points along each side of a slice.
+
+    Returns:
+        A summary of what was written.
+    """
+    from ..viz import default_workspace
+
+    cal = load_calibration_report(calibration)
+    ws = workspace if workspace is not None else default_workspace(cal.nominal)
+    ws_text = (f"Workspace cylinder: radius {ws.radius:.0f} mm, z from {ws.bottom_z:.0f} to {ws.top_z:.0f} mm"
+               + ("" if workspace is not None else " (sized from the robot; give a robot file for its own)"))
+    warnings: list[str] = []
+    res: MeasurementResiduals | None = None
+    if measurements is not None:
+        res = measurement_residuals(cal, measurements)
+        warnings += list(res.warnings)
+    amap = accuracy_map(cal, ws, tool, truth, grid)
+    svg = {
+        "correlation": figures.correlation_heatmap([p.name for p in cal.base], cal.correlation),
+        "accuracy": figures.accuracy_slices(amap, res.position if res is not None else None),
+    }
+    if res is not None:
+        svg["residuals_index"] = figures.residuals_by_pose(res)
+        svg["residuals_workspace"] = figures.residuals_over_workspace(res)
+    if truth is not None:
+        svg["error"] = figures.error_slices(amap)
+        svg["error_vs_sigma"] = figures.error_vs_sigma(amap)
+    scene, note = _scene(cal, ws) if view else (None, "3-D view left out.")
+    page = Page(
+        calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
+        measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
+        scene_html=scene, scene_note=note, warnings=warnings,
+    )
+    path = Path(output)
+    atomic_write_text(path, render_page(page))
+    return ReportSummary(path, amap.worst, amap.worst_point, tuple(svg), tuple(warnings))
+
+
+__all__ = [
+    "AccuracyMap",
+    "BaseParameter",
+    "CalibrationReport",
+    "MeasurementResiduals",
+    "ReportSummary",
+    "accuracy_map",
+    "actual_tcp_error",
+    "load_calibration_report",
+    "measurement_residuals",
+    "predicted_tcp_covariance",
+    "predicted_tcp_sigma",
+    "sigma_3d",
+    "tcp_jacobian",
+    "write_report",
+]

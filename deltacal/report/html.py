@@ -1,0 +1,309 @@
+"""The report page: one self-contained HTML file (inline CSS and SVG, no script or request of its own).
+
+Every text that comes from a file or the user is escaped. The 3-D view is meshcat's standalone
+page (its viewer script inlined) in an ``<iframe srcdoc>``.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .accuracy import AccuracyMap
+from .data import CalibrationReport
+from .residuals import MeasurementResiduals
+
+CSS = """
+:root { --fg: #1b1b1b; --muted: #5a5a5a; --line: #d0d0d0; --accent: #2166ac; --warn: #b2182b; }
+* { box-sizing: border-box; }
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, "DejaVu Sans", sans-serif; color: var(--fg);
+       line-height: 1.45; margin: 0 auto; padding: 0.8rem 1rem 3rem; max-width: 64rem; }
+h1 { font-size: 1.5rem; margin: 0.6rem 0; } h2 { font-size: 1.2rem; margin-top: 2rem;
+  border-bottom: 1px solid var(--line); padding-bottom: 0.2rem; }
+p, li { max-width: 48rem; }
+.muted { color: var(--muted); font-size: 0.9em; }
+.warning { color: var(--warn); }
+.scroll { overflow-x: auto; -webkit-overflow-scrolling: touch; margin: 0.6rem 0; }
+table { border-collapse: collapse; font-size: 0.88rem; }
+th, td { border-bottom: 1px solid var(--line); padding: 0.25rem 0.5rem; text-align: left;
+         vertical-align: top; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+figure { margin: 1rem 0; break-inside: avoid; page-break-inside: avoid; }
+figcaption { font-size: 0.85rem; color: var(--muted); max-width: 48rem; }
+svg.figure { display: block; width: 100%; height: auto; max-width: 48rem; }
+iframe.scene { width: 100%; height: 36rem; max-height: 80vh; border: 1px solid var(--line); }
+.print-only { display: none; }
+@media (max-width: 40rem) {
+  body { padding: 0.5rem 0.6rem 2rem; } h1 { font-size: 1.25rem; } table { font-size: 0.8rem; }
+}
+@media print {
+  body { max-width: none; padding: 0; font-size: 10pt; }
+  iframe.scene { display: none; } .print-only { display: block; }
+  h2 { break-after: avoid; page-break-after: avoid; }
+  .scroll { overflow: visible; }
+  a { color: inherit; text-decoration: none; }
+}
+"""
+
+
+def esc(value: object) -> str:
+    """HTML-escaped text (quotes too)."""
+    return html.escape(str(value), quote=True)
+
+
+def num(value: float, digits: int = 6) -> str:
+    """A number for a table cell: ``digits`` significant digits, NaN as a dash."""
+    if not math.isfinite(value):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def cell(value: float, digits: int = 6) -> str:
+    """A numeric ``<td>`` holding the exact value in ``data-value`` and a rounded one as its text."""
+    return f'<td class="num" data-value="{esc(repr(float(value)))}">{esc(num(value, digits))}</td>'
+
+
+def table(header: Sequence[str], rows: Sequence[Sequence[str]], ident: str) -> str:
+    """A table in a horizontally scrolling box; ``rows`` hold ready ``<td>`` cells."""
+    head = "".join(f"<th>{esc(h)}</th>" for h in header)
+    body = "".join("<tr>" + "".join(r) + "</tr>" for r in rows)
+    return (f'<div class="scroll"><table id="{esc(ident)}"><thead><tr>{head}</tr></thead>'
+            f"<tbody>{body}</tbody></table></div>")
+
+
+def td(text: object) -> str:
+    """A text cell."""
+    return f"<td>{esc(text)}</td>"
+
+
+def figure(svg: str, caption: str, ident: str) -> str:
+    """A figure with its inline SVG and an escaped caption."""
+    return f'<figure id="{esc(ident)}">{svg}<figcaption>{esc(caption)}</figcaption></figure>'
+
+
+def regrouping_words(regrouping: str, terms: list[str]) -> str:
+    """A regrouping said in words."""
+    if len(terms) <= 1:
+        return f"{terms[0] if terms else regrouping} alone"
+    others = ", ".join(terms[1:])
+    return (f"{terms[0]} together with {others}: the measurements see only this combination, "
+            f"so {terms[0]} carries the effect of {others} too")
+
+
+@dataclass
+class Page:
+    """What goes into the page (the figures already drawn as SVG)."""
+
+    calibration: CalibrationReport
+    accuracy: AccuracyMap
+    figures: dict[str, str]
+    residuals: MeasurementResiduals | None = None
+    truth_source: str | None = None
+    measurements_source: str | None = None
+    workspace_text: str = ""
+    scene_html: str | None = None
+    scene_note: str = ""
+    warnings: list[str] = field(default_factory=list)
+
+
+def _summary(page: Page) -> str:
+    c = page.calibration
+    s0 = c.variance_factor
+    if math.isfinite(s0):
+        verdict = ("the residuals match the σ given" if 0.5 <= s0 <= 2.0 else
+                   f"the σ of the parameters (and the accuracy map) are off by a factor of about "
+                   f"{math.sqrt(s0):.3g}")
+    else:
+        verdict = ""
+    rows = [
+        [td("robot"), td(c.robot)],
+        [td("calibration file"), td(c.source)],
+        [td("error model"), td(f"{c.model.name} ({c.parameters} parameters)")],
+        [td("method"), td(f"{c.method}, {c.iterations} iteration(s)")],
+        [td("rank (base parameters)"), cell(c.rank)],
+        [td("condition number"), cell(c.condition_number)],
+        [td("variance factor s0²"), cell(s0, 4)],
+        [td("outliers (lines)"), td(", ".join(map(str, c.outlier_lines)) or "none")],
+    ]
+    if page.measurements_source:
+        rows.insert(2, [td("measurement file"), td(page.measurements_source)])
+    out = table(["", ""], rows, "summary")
+    if verdict:
+        out += f"<p>s0² = {esc(num(s0, 4))}: {esc(verdict)} (1 when the measurement σ given were right).</p>"
+    if c.frames:
+        frows = []
+        for name, f in c.frames.items():
+            frows.append([td(name)] + [cell(v) for v in f.rotation_deg] + [cell(v) for v in f.translation_mm]
+                         + [td(", ".join(num(v, 3) for v in f.rotation_sigma_deg)),
+                            td(", ".join(num(v, 3) for v in f.translation_sigma_mm))])
+        out += ("<h3>Instrument frames</h3><p>The measurements were taken in instrument frames {T} "
+            "identified "
+                "with the robot (one per station): the pose of the robot base {O} in each, "
+                "y<sub>T</sub> = R(rotation) y<sub>O</sub> + translation.</p>")
+        out += table(["station", "rx [deg]", "ry [deg]", "rz [deg]", "tx [mm]", "ty [mm]", "tz [mm]",
+                      "σ rotation [deg]", "σ translation [mm]"], frows, "frames")
+    else:
+        out += ("<p id=\"frames-none\">Instrument frame: the measurements are in the robot base frame {O} "
+                "(no [instrument] table).</p>")
+    return out
+
+
+def _parameters(page: Page) -> str:
+    c = page.calibration
+    rows = []
+    for k, p in enumerate(c.base, start=1):
+        rows.append([cell(k), td(p.name), td(p.regrouping), cell(p.value), cell(p.sigma), td(p.unit),
+                     td(regrouping_words(p.regrouping, p.terms))])
+    out = ("<p>Each base parameter is what the measurements identify: a kept parameter, plus any "
+        "others whose "
+           "effect it cannot be told apart from (the regrouping). Values are deviations from the nominal "
+           "geometry; σ from the measurement σ given.</p>")
+    out += table(["#", "name", "regrouping", "value", "σ", "unit", "in words"], rows, "base-parameters")
+    if c.unidentifiable:
+        urows = [[td(name), td(c.explain(name))] for name in c.unidentifiable]
+        out += "<h3>Not identifiable</h3>"
+        out += table(["parameter", "why"], urows, "unidentifiable")
+    else:
+        out += "<p>Every parameter of the model is identifiable from these measurements.</p>"
+    return out
+
+
+def _correlation(page: Page) -> str:
+    c = page.calibration
+    C = c.correlation
+    iu = np.triu_indices(len(C), k=1)
+    order = np.argsort(-np.abs(C[iu]), kind="stable")[:5]
+    items = "".join(
+        f"<li>{esc(c.base[iu[0][k]].regrouping)} ~ {esc(c.base[iu[1][k]].regrouping)}: "
+        f"{esc(f'{C[iu[0][k], iu[1][k]]:+.3f}')}</li>" for k in order)
+    text = figure(page.figures["correlation"], "Correlation of the base parameters (rows and columns in the "
+                  "order of the table above). Strong correlations (dark) mean the measurements "
+                  "separate these "
+                  "parameters poorly: more varied poses help.", "fig-correlation")
+    return text + (f"<p>Strongest correlations:</p><ul>{items}</ul>" if items else "")
+
+
+def _residuals(page: Page) -> str:
+    c = page.calibration
+    keys = sorted(set(c.residuals_before) | set(c.residuals_after))
+    rows = [[td(k), cell(c.residuals_before.get(k, math.nan)), cell(c.residuals_after.get(k, math.nan))]
+            for k in keys]
+    out = "<p>As recorded in the calibration file:</p>" + table(["statistic", "before", "after"], rows,
+                                                                 "residual-summary")
+    r = page.residuals
+    if r is None:
+        return out + ("<p class=\"muted\">Give the measurement file (--measurements) to see each "
+            "measurement's "
+                      "residual.</p>")
+    out += (f"<p>Recomputed from {esc(r.source)} ({len(r.lines)} measurements, {esc(r.kind)} residuals): RMS "
+            f"{esc(num(r.rms_before, 4))} mm before, {esc(num(r.rms_after, 4))} mm after. ")
+    if np.any(r.outlier):
+        out += ("Outliers (circled in red) at line(s) "
+                f"{esc(', '.join(str(int(n)) for n in r.lines[r.outlier]))} of the file.</p>")
+    else:
+        out += "No outlier.</p>"
+    out += figure(page.figures["residuals_index"], "Residual of each measurement, in file order, at "
+        "the nominal "
+                  "geometry (top) and at the identified one (bottom).", "fig-residuals-index")
+    out += figure(page.figures["residuals_workspace"], "Residual after calibration where each "
+        "measurement was "
+                  "taken (robot base frame).", "fig-residuals-workspace")
+    return out
+
+
+def _accuracy(page: Page) -> str:
+    a = page.accuracy
+    w = a.worst_point
+    out = (
+        "<p>The predicted accuracy map is the standard deviation of the TCP position the calibration leaves, "
+        "at each place of the workspace, for the tool "
+        f"({esc(', '.join(num(v, 6) for v in a.tool))}) mm in the plate frame: the uncertainty of the "
+        "identified base parameters (their σ and correlations) carried through the error model to the TCP. "
+        "It is the 3-D RMS, √(σx² + σy² + σz²). It covers what the measurement noise leaves in the "
+        "identified "
+        "geometry, not modelling errors (joint play, thermal drift, elasticity) nor the repeatability of the "
+        "robot.</p>"
+        f"<p id=\"worst\">Largest predicted σ: <b>{esc(num(a.worst * 1000.0, 4))} µm</b> at "
+        f"x = {esc(num(w[0], 5))}, y = {esc(num(w[1], 5))}, z = {esc(num(w[2], 5))} mm (σx, σy, σz = "
+        f"{esc(', '.join(num(v * 1000.0, 3) for v in a.worst_axes))} µm), marked with a star.</p>"
+        f"<p class=\"muted\">{esc(page.workspace_text)}</p>"
+    )
+    out += figure(page.figures["accuracy"], "Predicted σ of the TCP position on three horizontal "
+        "slices (top, "
+                  "middle, bottom of the workspace) and the vertical slice y = 0. White dots: measured poses "
+                  "near the slice. Blank: out of reach.", "fig-accuracy")
+    rows = [[td(s.label), cell(float(np.nanmin(v)) * 1000.0, 4), cell(float(np.nanmax(v)) * 1000.0, 4)]
+            for s, v in zip(a.slices, a.sigma, strict=True)]
+    out += table(["slice", "smallest σ [µm]", "largest σ [µm]"], rows, "accuracy-slices")
+    out += ("<p><b>How to use it.</b> Where σ is large, the measurements say little about the robot "
+        "there: add "
+            "measurement poses in that region (around the star first, and at the edges of the "
+            "workspace where "
+            "the map rises), or plan with <code>deltacal plan --strategy doptimal</code> over the whole "
+            "workspace, then measure and identify again. Where σ is already below what the task needs, more "
+            "measurements there do not help. If s0² is well above 1, the map is too optimistic by about "
+            "√s0².</p>")
+    return out
+
+
+def _truth(page: Page) -> str:
+    a = page.accuracy
+    assert a.error is not None
+    s = np.concatenate([v.ravel() for v in a.sigma])
+    e = np.concatenate([v.ravel() for v in a.error])
+    ok = np.isfinite(s) & np.isfinite(e)
+    ratio = float(np.sqrt(np.mean((e[ok] / s[ok]) ** 2))) if np.any(ok) else math.nan
+    within = float(np.mean(e[ok] <= 2.0 * s[ok])) if np.any(ok) else math.nan
+    out = (f"<p>The true geometry ({esc(page.truth_source)}) is known (a simulation): commanding "
+        f"the readings "
+           "that put the identified robot's TCP at each point, the true robot's TCP lands this far from it "
+           "(exact kinematics of both).</p>"
+           f"<p id=\"truth-summary\">Largest actual error {esc(num(float(np.max(e[ok])) * 1000.0, 4))} µm, "
+           f"RMS {esc(num(float(np.sqrt(np.mean(e[ok] ** 2))) * 1000.0, 4))} µm; RMS of error / predicted σ "
+           f"{esc(num(ratio, 3))} (about 1 expected, one draw of correlated errors); error below 2σ at "
+           f"{esc(num(100.0 * within, 3))} % of the points.</p>")
+    out += figure(page.figures["error"], "Actual TCP error of the calibrated robot on the same slices.",
+                  "fig-error")
+    out += figure(page.figures["error_vs_sigma"], "Actual error against predicted σ at every slice point.",
+                  "fig-error-vs-sigma")
+    return out
+
+
+def _scene(page: Page) -> str:
+    if page.scene_html is None:
+        return f"<p class=\"muted\">{esc(page.scene_note or 'No 3-D view.')}</p>"
+    return (f"<p>{esc(page.scene_note)}</p>"
+            f'<iframe class="scene" title="3-D view of the identified robot" '
+            f'srcdoc="{esc(page.scene_html)}"></iframe>'
+            "<p class=\"print-only muted\">The interactive 3-D view is not printed: open the HTML file in a "
+            "browser.</p>")
+
+
+def render_page(page: Page) -> str:
+    """The whole HTML document."""
+    c = page.calibration
+    sections = [
+        ("overview", "Robot, model and fit", _summary(page)),
+        ("parameters", "Base parameters", _parameters(page)),
+        ("correlation", "Correlations", _correlation(page)),
+        ("residuals", "Residuals", _residuals(page)),
+        ("accuracy", "Predicted accuracy map", _accuracy(page)),
+    ]
+    if page.accuracy.error is not None:
+        sections.append(("truth", "Actual errors against the true geometry", _truth(page)))
+    sections.append(("view", "3-D view of the identified robot", _scene(page)))
+    toc = "".join(f'<li><a href="#{k}">{esc(t)}</a></li>' for k, t, _ in sections)
+    warn = "".join(f'<p class="warning">warning: {esc(w)}</p>' for w in page.warnings)
+    body = "".join(f'<section id="{k}"><h2>{esc(t)}</h2>{text}</section>' for k, t, text in sections)
+    title = f"Calibration report: {c.robot}"
+    return (
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+        "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
+        f"<title>{esc(title)}</title>\n<style>{CSS}</style>\n</head>\n<body>\n"
+        f"<h1>{esc(title)}</h1>\n<p class=\"muted\">deltacal report of {esc(c.source)}</p>\n{warn}"
+        f"<nav><ul>{toc}</ul></nav>\n{body}\n</body>\n</html>\n"
+    )
