@@ -12,7 +12,10 @@ moved once for line of sight (two stations); the complete model is identified
 with the instrument frames free and the targets are given in the tracker's
 frame. It prints one comparison table and writes ``demo.json``,
 ``demo_errors.png`` (a plot), ``demo.html`` (a meshcat scene) and, with
-Chromium, ``demo.png`` (its screenshot).
+Chromium, ``demo.png`` (its screenshot); and what a calibration hands over:
+``demo_calibration.toml`` (the complete model's), ``demo_measurements.csv``,
+``demo_report.html`` (the HTML report with its predicted-accuracy map) and
+``demo_robot.xml`` (the calibrated robot as MJCF).
 """
 
 from __future__ import annotations
@@ -27,13 +30,15 @@ import numpy as np
 
 from .compensation import METHODS, compensate, linear_calibration_from_result
 from .exceptions import ViewerError
+from .export import write_mjcf
 from .geometry import NominalDelta, Tolerances
 from .identification import identify
 from .identification.frames import InstrumentFrame, in_instrument_frames
-from .io import atomic_write_text, load_nominal
+from .io import atomic_write_text, load_nominal, save_calibration, write_measurements
 from .kinematics import exact
 from .observations import SIGMA_ANGLE, SIGMA_POSITION
 from .planning import d_optimal
+from .report import write_report
 from .simulation import Metrology, simulate_measurements
 from .validation import validate, validation_poses
 from .viz import export_views
@@ -159,10 +164,28 @@ def run_demo(
     plot = _plot(rows, out_dir / "demo_errors.png", progress)
     if plot is not None:
         written.append(plot)
+    written += _handover(results["complete"], measurements, truth, nominal, out_dir, views, progress)
     if views:
         written += _views(start, truth, nominal, out_dir, progress)
     progress("wrote " + ", ".join(str(p) for p in written))
     return summary
+
+
+def _handover(result, measurements, truth, nominal: NominalDelta, out_dir: Path, views: bool,
+              progress: Callable[[str], None]) -> list[Path]:
+    """What a calibration hands over: its file, the measurements, the HTML report, the MJCF model."""
+    paths = [out_dir / name for name in ("demo_calibration.toml", "demo_measurements.csv",
+                                          "demo_report.html", "demo_robot.xml")]
+    calibration, measured, report, mjcf = paths
+    save_calibration(result, calibration)
+    write_measurements(measured, measurements)
+    summary = write_report(calibration, report, measurements=measured, truth=truth,
+                           truth_source="the demo's simulated robot", tool=TOOLS["tool 200 mm"],
+                           workspace=nominal.workspace, view=views)
+    write_mjcf(mjcf, result.geometry, name=f"{nominal.name} (identified)", source=str(calibration))
+    progress(f"wrote the calibration report (largest predicted TCP σ {summary.worst_sigma * 1000:.1f} µm) "
+             "and the calibrated robot as MJCF")
+    return paths
 
 
 def _tracker_cell(start, truth, nominal: NominalDelta, q: np.ndarray, metrology: Metrology,

@@ -17,6 +17,7 @@ import numpy as np
 from ..exceptions import DeltacalError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text
+from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer
 from . import figures
 from .accuracy import (
     AccuracyMap,
@@ -54,8 +55,6 @@ class ReportSummary:
 def _scene(calibration: CalibrationReport, workspace: Workspace) -> tuple[str | None, str]:
     """Meshcat's standalone page of the identified robot over its nominal ghost, or None and why."""
     try:
-        from ..viz import DEFAULT_EXAGGERATION, build_scene, recording_visualizer
-
         vis = recording_visualizer(f"deltacal: {calibration.robot}")
         summary = build_scene(vis, calibration.nominal, calibration.geometry, workspace=workspace,
                               arrows=True, animate=False, title=f"{calibration.robot} (identified)")
@@ -95,8 +94,6 @@ def write_report(
     Returns:
         A summary of what was written.
     """
-    from ..viz import default_workspace
-
     cal = load_calibration_report(calibration)
     ws = workspace if workspace is not None else default_workspace(cal.nominal)
     ws_text = (f"Workspace cylinder: radius {ws.radius:.0f} mm, z from {ws.bottom_z:.0f} to {ws.top_z:.0f} mm"
