@@ -367,3 +367,6 @@ def test_distances_through_positions_with_a_frame_per_point_match_the_whitened_p
         assert np.max(np.abs(positions.sigma[order] / pairs.sigma - 1.0)) < 1e-2
         assert any("free frame per point" in h for h in positions.hints)
         assert positions.after.distance_rms == pytest.approx(pairs.after.distance_rms, rel=1e-2)
+        # and it reports the distances' own figures: how many, and their conditioning
+        assert positions.n_rows == pairs.n_rows == 2 * len(q) * (len(q) - 1) // 2
+        assert positions.condition_number == pytest.approx(pairs.condition_number, rel=1e-2)

@@ -81,6 +81,15 @@ def _as_distance_fit(result: IdentificationResult, start: DeltaGeometry, measure
     model_cols = [k for k, name in enumerate(result.base.names) if not name.startswith("T[")]
     keep = [i for i, k in enumerate(result.base.base) if k in model_cols]
     renumber = {k: j for j, k in enumerate(model_cols)}
+    # the condition number of the distances' own (whitened) regressor: to first order its
+    # Gram matrix is the information of the geometry's base parameters, the inverse of their
+    # marginal covariance; column-scaled, as base_parameters scales
+    sigma, corr = result.sigma[keep], result.correlation[np.ix_(keep, keep)]
+    info = np.linalg.inv(corr) / np.outer(sigma, sigma)
+    d = np.sqrt(np.diag(info))
+    eig = np.linalg.eigvalsh(info / np.outer(d, d))
+    condition = float(np.sqrt(eig[-1] / eig[0])) if eig[0] > 0 else float("inf")
+    counts = np.unique(measurements.point, return_counts=True)[1]
     base = replace(
         result.base,
         names=[result.base.names[k] for k in model_cols],
@@ -89,6 +98,7 @@ def _as_distance_fit(result: IdentificationResult, start: DeltaGeometry, measure
         regrouping=result.base.regrouping[np.ix_(keep, model_cols)],
         unidentifiable=[renumber[k] for k in result.base.unidentifiable if k in renumber],
         scale=result.base.scale[model_cols],
+        condition_number=condition,
     )
     note = ("distances of all pairs: identified from the positions with a free frame per point (the same "
             "information, at a cost linear in the positions)")
@@ -96,6 +106,7 @@ def _as_distance_fit(result: IdentificationResult, start: DeltaGeometry, measure
         result, base=base, values=result.values[keep], sigma=result.sigma[keep],
         correlation=result.correlation[np.ix_(keep, keep)], units=[result.units[i] for i in keep],
         before=stats(before), after=stats(after), frames={}, hints=(*result.hints, note),
+        n_rows=int(np.sum(counts * (counts - 1) // 2)),
     )
 
 
