@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import InputError, UsageError
+from ..io.atomic import check_output_path
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
@@ -80,12 +81,13 @@ def check_input(path: str | Path) -> None:
 
 
 def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
-    """A usage error (exit 2) if the output's folder is missing, it is a folder, or an input."""
+    """A usage error (exit 2) if ``path`` cannot be an output file, or is one of the inputs.
+
+    Called before any work is done, so that a bad ``-o`` costs nothing (see
+    :func:`deltacal.io.atomic.output_problem` for what is refused).
+    """
+    check_output_path(path)
     out = Path(path)
-    if not out.resolve().parent.is_dir():
-        raise UsageError(f"{path}: the output folder does not exist")
-    if out.is_dir():
-        raise UsageError(f"{path}: is a folder; give the output file's name")
     for source in inputs:
         if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
             raise UsageError(f"{path}: the output would overwrite an input file")

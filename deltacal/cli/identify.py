@@ -75,12 +75,12 @@ def run(args: argparse.Namespace) -> int:
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
     warn(result.warnings)
+    save_calibration(result, args.output, lines)  # saved first: a failing stdout loses no result
     print(result.report(lines))
     if result.outliers:
         flagged = lines_text(lines[result.outliers].tolist())
         warn([f"{args.measurements}: line(s) {flagged} look like outliers (see the report): "
               "check them, or remove them and identify again"])
-    save_calibration(result, args.output, lines)
     print(f"\nwrote {args.output}")
     return 0
 
