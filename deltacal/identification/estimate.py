@@ -400,7 +400,7 @@ def fit(
     variance_factor = float(rw @ rw) / dof
     # outliers are tested row group by row group, on the rows before whitening
     rs, Ws = rows.scaled
-    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind)
+    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind, rows.mixing)
     # the fit's quality without the outliers (they are named on their own; distances mix rows)
     inlier_factor = variance_factor
     if flagged.size and rows.mixing is None:
