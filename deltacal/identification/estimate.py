@@ -311,6 +311,11 @@ def fit(
 
     rows = rows_at(start, frames)
     m = rows.residual.size
+    if distances and m == 0:
+        raise IdentificationError(
+            "no distance to fit: every measurement of a point is at the same readings as the others "
+            "(distances need positions of a point at different poses)"
+        )
     rw, Ww = rows.weighted
     # with a free frame its parameters are kept first: the base drops what they absorb
     prefer = error_model.preferred
