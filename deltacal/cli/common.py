@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -69,6 +70,25 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
+
+
+def seed(text: str) -> int:
+    """Argparse type: a seed of numpy's generator, an integer >= 0 written in decimal digits."""
+    if re.fullmatch(r"[0-9]+", text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0 (a seed), got {text!r}")
+    return int(text)
+
+
+def int_at_most(maximum: int, why: str):
+    """Argparse type: an integer in [1, maximum] (``why`` says where the bound comes from)."""
+
+    def parse(text: str) -> int:
+        value = positive_int(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"must be at most {maximum} ({why}), got {value}")
+        return value
+
+    return parse
 
 
 def check_input(path: str | Path) -> None:
