@@ -218,7 +218,7 @@ def test_unused_column_warns(data, capsys, tmp_path):
     code, _, err = run(capsys, "identify", NOMINAL, extra, "--model", "classical",
         "--accept-poor-fit", "-o", tmp_path / "c.toml")
     assert code == 0
-    assert "column 'operator' is not used by deltacal and is ignored" in err
+    assert "1 column(s) not used by deltacal and ignored: 'operator'" in err
 
 
 def test_readings_the_robot_cannot_assemble_name_the_line(capsys, tmp_path, bai):

@@ -72,6 +72,19 @@ def positive_int(text: str) -> int:
     return value
 
 
+#: σ accepted on the command line [mm or deg]: below, the weights overflow; above, nothing is measured.
+SIGMA_RANGE = (1e-9, 1e3)
+
+
+def sigma(text: str) -> float:
+    """Argparse type: a standard deviation in :data:`SIGMA_RANGE`."""
+    value = positive_float(text)
+    low, high = SIGMA_RANGE
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be between {low:g} and {high:g}, got {text!r}")
+    return value
+
+
 def seed(text: str) -> int:
     """Argparse type: a seed of numpy's generator, an integer >= 0 written in decimal digits."""
     if re.fullmatch(r"[0-9]+", text.strip()) is None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import stat
 import tempfile
@@ -40,7 +41,9 @@ def output_problem(path: str | Path) -> str | None:
     except NotADirectoryError:
         return "a part of the path is a file, not a folder"
     except OSError as exc:
-        return exc.strerror or str(exc)
+        if exc.errno != errno.ENAMETOOLONG:  # a name too long is said below, with the limit
+            return exc.strerror or str(exc)
+        info = None
     if info is not None:
         if stat.S_ISDIR(info.st_mode):
             return "is a folder; give the output file's name"

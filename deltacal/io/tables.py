@@ -153,8 +153,9 @@ def read_csv_table(
             f"missing required column(s) {', '.join(missing)} (header: {','.join(header)}){hint}",
             source, f"line {header_line}",
         )
-    warnings = [f"{source}: column {h!r} is not used by deltacal and is ignored" for h in header
-                if h not in known]
+    unused = [h for h in header if h not in known]
+    shown = ", ".join(repr(h) for h in unused[:5]) + (f" and {len(unused) - 5} more" * (len(unused) > 5))
+    warnings = [f"{source}: {len(unused)} column(s) not used by deltacal and ignored: {shown}"] * bool(unused)
     if len(rows) == 1:
         raise InputError("no data rows after the header", source)
     index = {h: k for k, h in enumerate(header)}
