@@ -44,7 +44,8 @@ def clean_positions(nominal, n: int, sigma: float, rng: np.random.Generator) -> 
     """TCP positions of a perturbed robot at n random workspace poses, noise exactly σ per axis."""
     truth = nominal.geometry().perturbed(Tolerances.bai2015(), rng)
     q = VirtualDelta.from_nominal(nominal).inverse(workspace_points(nominal, n, rng) - nominal.tool)
-    return Measurements(q=q, position=exact.forward(truth, q).point(truth.tool) + rng.normal(0, sigma, (n, 3)))
+    noise = rng.normal(0, sigma, (n, 3))
+    return Measurements(q=q, position=exact.forward(truth, q).point(truth.tool) + noise)
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +71,8 @@ def test_a_tool_edited_in_geometry_only_is_refused_naming_both_keys(files, capsy
     text = files["cal"].read_text()
     k = text.index("[geometry]")
     edited = tmp_path / "cal.toml"
-    edited.write_text(text[:k] + text[k:].replace("tool_mm = [0.0, 0.0, 0.0]", "tool_mm = [0.0, 0.0, -2.0]", 1))
+    tool = text[k:].replace("tool_mm = [0.0, 0.0, 0.0]", "tool_mm = [0.0, 0.0, -2.0]", 1)
+    edited.write_text(text[:k] + tool)
     code, _, err = run(capsys, "compensate", edited, files["targets"], "--method", method,
                        "-o", tmp_path / "j.csv")
     assert code == 1
@@ -221,7 +223,8 @@ def test_a_failing_stdout_loses_no_output(files, capsys, tmp_path, monkeypatch, 
         "simulate": ["simulate", NOMINAL, tmp_path / "p.csv", "--truth", files["cal"], "-o", out],
     }[command]
     if command == "simulate":
-        assert main(["plan", str(NOMINAL), "--model", "complete", "--n", "3", "-o", str(tmp_path / "p.csv")]) == 0
+        poses = str(tmp_path / "p.csv")
+        assert main(["plan", str(NOMINAL), "--model", "complete", "--n", "3", "-o", poses]) == 0
     capsys.readouterr()
     monkeypatch.setattr(sys, "stdout", _FailingStdout(failure))
     code = main([str(a) for a in argv])
@@ -293,7 +296,8 @@ def test_distances_of_identical_poses_are_a_data_error(files, capsys, tmp_path):
 def test_toml_nested_3000_deep_is_a_data_error(files, capsys, tmp_path):
     deep = tmp_path / "deep.toml"
     deep.write_text("a = " + "[" * 3000 + "]" * 3000 + "\n")
-    code, _, err = run(capsys, "identify", deep, files["meas"], "--model", "complete", "-o", tmp_path / "c.toml")
+    code, _, err = run(capsys, "identify", deep, files["meas"], "--model", "complete",
+                       "-o", tmp_path / "c.toml")
     assert code == 1 and "nested too deeply" in err and str(deep) in err
 
 
@@ -302,7 +306,8 @@ def test_toml_nested_3000_deep_is_a_data_error(files, capsys, tmp_path):
     (["simulate", NOMINAL, "p.csv", "--perturb", "3", "--seed", "-1", "-o", "m.csv"], "argument --seed"),
     (["simulate", NOMINAL, "p.csv", "--perturb", "-5", "-o", "m.csv"], "argument --perturb"),
     (["view", NOMINAL, "--exaggerate", "-1", "--html", "v.html"], "argument --exaggerate"),
-    (["identify", NOMINAL, "m.csv", "--sigma-position", "1e-300", "-o", "c.toml"], "argument --sigma-position"),
+    (["identify", NOMINAL, "m.csv", "--sigma-position", "1e-300", "-o", "c.toml"],
+     "argument --sigma-position"),
     (["plan", NOMINAL, "--model", "complete", "--n-max", "100000", "-o", "p.csv"], "argument --n-max"),
     (["identify", NOMINAL, "m.csv", "--pairs", "all", "-o", "c.toml"], "--pairs applies to --distances"),
 ])
@@ -338,7 +343,8 @@ def test_column_hints_match_case_insensitively(files, capsys, tmp_path):
 def test_a_toml_file_with_a_byte_order_mark_is_read(files, capsys, tmp_path):
     robot = tmp_path / "robot.toml"
     robot.write_bytes(b"\xef\xbb\xbf" + NOMINAL.read_bytes())
-    assert run(capsys, "identify", robot, files["meas"], "--model", "complete", "-o", tmp_path / "c.toml")[0] == 0
+    out = tmp_path / "c.toml"
+    assert run(capsys, "identify", robot, files["meas"], "--model", "complete", "-o", out)[0] == 0
 
 
 def test_many_unused_columns_warn_on_one_line(files, capsys, tmp_path):
