@@ -72,7 +72,9 @@ def _parse_number(value: str, source: str, where: str) -> float:
         hint = " (a decimal comma?)" if re.fullmatch(r"[+-]?[0-9]+,[0-9]+", value) else ""
         raise InputError(f"value {value!r} is not a number{hint}: only {ACCEPTED}", source, where)
     number = float(value)
-    if not math.isfinite(number) or abs(number) > MAX_MAGNITUDE:
+    if not math.isfinite(number):  # 1e999
+        raise InputError(f"value {value!r} is not a finite number", source, where)
+    if abs(number) > MAX_MAGNITUDE:
         raise InputError(f"value {value!r} is out of range: numbers are read up to ±{MAX_MAGNITUDE:g}",
                          source, where)
     return number
