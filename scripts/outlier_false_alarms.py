@@ -72,6 +72,7 @@ def main() -> None:
                 print(f"{config} seed {seed}: {type(exc).__name__}: {exc}")
                 continue
             flags.append(len(result.outliers))
+            print(f"{config} seed {seed}: {flags[-1]} flagged, s0² {result.variance_factor:.3f}", flush=True)
             factors.append(result.variance_factor)
         flags_a = np.array(flags)
         n_tests = flags_a.size * args.poses

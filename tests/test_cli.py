@@ -450,7 +450,8 @@ def test_bad_target_value(data, capsys, tmp_path):
     code, _, err = run(capsys, "compensate", data["cal"], targets, "-o", tmp_path / "j.csv")
     assert code == 1
     assert error_line(err) == (f"deltacal compensate: error: {targets}: line 4 (data row 3), column y_mm: "
-                               "value '12.5.3' is not a number")
+                               "value '12.5.3' is not a number: only plain decimal numbers with ASCII "
+                               "digits, '.' as decimal point and an optional exponent: -12.5, 1e-3")
 
 
 # --------------------------------------------------------------------------- usage errors
