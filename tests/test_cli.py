@@ -218,7 +218,7 @@ def test_unused_column_warns(data, capsys, tmp_path):
     code, _, err = run(capsys, "identify", NOMINAL, extra, "--model", "classical",
         "--accept-poor-fit", "-o", tmp_path / "c.toml")
     assert code == 0
-    assert "column 'operator' is not used by deltacal and is ignored" in err
+    assert "1 column(s) not used by deltacal and ignored: 'operator'" in err
 
 
 def test_readings_the_robot_cannot_assemble_name_the_line(capsys, tmp_path, bai):
@@ -450,7 +450,8 @@ def test_bad_target_value(data, capsys, tmp_path):
     code, _, err = run(capsys, "compensate", data["cal"], targets, "-o", tmp_path / "j.csv")
     assert code == 1
     assert error_line(err) == (f"deltacal compensate: error: {targets}: line 4 (data row 3), column y_mm: "
-                               "value '12.5.3' is not a number")
+                               "value '12.5.3' is not a number: only plain decimal numbers with ASCII "
+                               "digits, '.' as decimal point and an optional exponent: -12.5, 1e-3")
 
 
 # --------------------------------------------------------------------------- usage errors

@@ -304,3 +304,94 @@ def test_malformed_targets_never_crash_nor_write(data):
     files = dict(valid_files())
     files["targets.csv"] = data.draw(csv_mutation(files["targets.csv"]))
     run_cli(files, ["compensate", "cal.toml", "targets.csv", "-o", "joints.csv"], "joints.csv")
+
+
+# --------------------------------------------------------------------------- special outputs, stdout, signals
+class _Stdout:
+    """A stdout that works, or fails as a closed pipe or a full disk does."""
+
+    def __init__(self, failure: int | None) -> None:
+        self.failure = failure
+
+    def write(self, text: str) -> int:
+        if self.failure is not None:
+            raise OSError(self.failure, os.strerror(self.failure))
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+OUTPUT_KINDS = ["new", "fifo", "device", "read_only", "dash", "slash", "long"]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_outputs_stdout_and_signals_keep_the_contract(data):
+    """Any input (valid or malformed) with any -o, a failing stdout or a SIGTERM while writing."""
+    import errno
+    import signal
+    import stat
+    import sys
+
+    import deltacal.io.atomic as atomic
+
+    files = dict(valid_files())
+    if data.draw(st.booleans()):
+        files["targets.csv"] = data.draw(csv_mutation(files["targets.csv"]))
+    kind = data.draw(st.sampled_from(OUTPUT_KINDS))
+    failure = data.draw(st.sampled_from([None, errno.EPIPE, errno.ENOSPC]))
+    term = data.draw(st.booleans())
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        for name, content in files.items():
+            (root / name).write_bytes(content)
+        name = {"new": "j.csv", "fifo": "pipe", "device": "null", "read_only": "ro.csv", "dash": "-",
+                "slash": "new/", "long": "x" * 256}[kind]
+        if kind == "fifo":
+            os.mkfifo(root / name)
+        elif kind == "device":
+            (root / name).symlink_to(os.devnull)
+        elif kind == "read_only":
+            (root / name).write_text("keep\n")
+            (root / name).chmod(0o444)
+        def state() -> dict[str, tuple[int, bytes | None]]:
+            return {p.name: (stat.S_IFMT(os.lstat(p).st_mode), None if p.is_symlink() or not p.is_file()
+                             else p.read_bytes()) for p in root.iterdir()}
+
+        before = state()
+        err = io.StringIO()
+        cwd, real_stdout, real_chmod = os.getcwd(), sys.stdout, atomic.os.chmod
+
+        def chmod_then_term(path, mode, *args, **kwargs):
+            real_chmod(path, mode, *args, **kwargs)
+            os.kill(os.getpid(), signal.SIGTERM)
+
+        os.chdir(folder)
+        sys.stdout = _Stdout(failure)  # type: ignore[assignment]
+        if term:
+            atomic.os.chmod = chmod_then_term
+        try:
+            with contextlib.redirect_stderr(err):
+                code = main(["compensate", "cal.toml", "targets.csv", "-o", name])
+        finally:
+            atomic.os.chmod = real_chmod
+            sys.stdout = real_stdout
+            os.chdir(cwd)
+        stderr = err.getvalue()
+        event(f"{kind}, stdout {failure}, term {term}: exit {code}")
+        assert "Traceback" not in stderr
+        after = state()
+        written = {k: v for k, v in after.items() if k not in before}
+        assert all(after[k] == v for k, v in before.items())  # inputs and special nodes untouched
+        if kind != "new":
+            assert code == 2 and not written, stderr
+            return
+        if term and code not in (1, 2):  # the data were good: the write began and was cut short
+            assert code == 128 + signal.SIGTERM and not written
+            return
+        assert code in (0, 1, 2), stderr
+        if code == 0 or (failure == errno.ENOSPC and "standard output" in stderr):
+            assert set(written) == {"j.csv"}  # saved before the report, whatever stdout does
+        else:
+            assert not written

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -11,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import InputError, UsageError
+from ..io.atomic import check_output_path
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
@@ -70,6 +72,38 @@ def positive_int(text: str) -> int:
     return value
 
 
+#: σ accepted on the command line [mm or deg]: below, the weights overflow; above, nothing is measured.
+SIGMA_RANGE = (1e-9, 1e3)
+
+
+def sigma(text: str) -> float:
+    """Argparse type: a standard deviation in :data:`SIGMA_RANGE`."""
+    value = positive_float(text)
+    low, high = SIGMA_RANGE
+    if not low <= value <= high:
+        raise argparse.ArgumentTypeError(f"must be between {low:g} and {high:g}, got {text!r}")
+    return value
+
+
+def seed(text: str) -> int:
+    """Argparse type: a seed of numpy's generator, an integer >= 0 written in decimal digits."""
+    if re.fullmatch(r"[0-9]+", text.strip()) is None:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0 (a seed), got {text!r}")
+    return int(text)
+
+
+def int_at_most(maximum: int, why: str):
+    """Argparse type: an integer in [1, maximum] (``why`` says where the bound comes from)."""
+
+    def parse(text: str) -> int:
+        value = positive_int(text)
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"must be at most {maximum} ({why}), got {value}")
+        return value
+
+    return parse
+
+
 def check_input(path: str | Path) -> None:
     """A usage error (exit 2) unless ``path`` is an existing file."""
     p = Path(path)
@@ -80,12 +114,13 @@ def check_input(path: str | Path) -> None:
 
 
 def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
-    """A usage error (exit 2) if the output's folder is missing, it is a folder, or an input."""
+    """A usage error (exit 2) if ``path`` cannot be an output file, or is one of the inputs.
+
+    Called before any work is done, so that a bad ``-o`` costs nothing (see
+    :func:`deltacal.io.atomic.output_problem` for what is refused).
+    """
+    check_output_path(path)
     out = Path(path)
-    if not out.resolve().parent.is_dir():
-        raise UsageError(f"{path}: the output folder does not exist")
-    if out.is_dir():
-        raise UsageError(f"{path}: is a folder; give the output file's name")
     for source in inputs:
         if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
             raise UsageError(f"{path}: the output would overwrite an input file")

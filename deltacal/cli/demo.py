@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from ..demo import run_demo, text_table
+from .common import seed
 
 
 def run(args: argparse.Namespace) -> int:
@@ -26,6 +27,6 @@ def add_parser(sub) -> None:
     """Register ``demo``."""
     p = sub.add_parser("demo", help="the whole job on a simulated robot (bai2015)")
     p.add_argument("--out", default="results", help="folder for demo.json and plots (default results)")
-    p.add_argument("--seed", type=int, default=2015, help="seed of the simulated robot (default 2015)")
+    p.add_argument("--seed", type=seed, default=2015, help="seed of the simulated robot (default 2015)")
     p.add_argument("--quick", action="store_true", help="fewer poses, for a fast check")
     p.set_defaults(func=run)

@@ -12,7 +12,7 @@ from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, I
 from ..identification import PoorFitError, identify
 from ..io import data_row, load_nominal, read_measurement_file, save_calibration
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from .common import check_input, check_output, lines_text, positive_float, warn
+from .common import check_input, check_output, lines_text, sigma, warn
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,12 +75,12 @@ def run(args: argparse.Namespace) -> int:
     except ConvergenceError as exc:
         raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
     warn(result.warnings)
+    save_calibration(result, args.output, lines)  # saved first: a failing stdout loses no result
     print(result.report(lines))
     if result.outliers:
         flagged = lines_text(lines[result.outliers].tolist())
         warn([f"{args.measurements}: line(s) {flagged} look like outliers (see the report): "
               "check them, or remove them and identify again"])
-    save_calibration(result, args.output, lines)
     print(f"\nwrote {args.output}")
     return 0
 
@@ -92,9 +92,9 @@ def add_parser(sub) -> None:
     p.add_argument("measurements", help="measurements (CSV)")
     p.add_argument("--model", choices=MODEL_NAMES, default="complete", help="error model (default complete)")
     p.add_argument("-o", "--output", required=True, help="calibration file to write (TOML)")
-    p.add_argument("--sigma-position", type=positive_float, default=SIGMA_POSITION, metavar="MM",
+    p.add_argument("--sigma-position", type=sigma, default=SIGMA_POSITION, metavar="MM",
                    help=f"σ of each measured coordinate [mm] (default {SIGMA_POSITION:g})")
-    p.add_argument("--sigma-angle", type=positive_float, default=SIGMA_ANGLE_DEG, metavar="DEG",
+    p.add_argument("--sigma-angle", type=sigma, default=SIGMA_ANGLE_DEG, metavar="DEG",
                    help=f"σ of each measured orientation component [deg] (default {SIGMA_ANGLE_DEG:g})")
     p.add_argument("--linear", action="store_true",
                    help="one-shot linear identification around the nominal geometry (the papers)")

@@ -18,14 +18,24 @@ arguments, missing input file, missing output folder, output overwriting an
 input); ``--debug`` shows the traceback. An unexpected failure (a bug) exits
 with status 3. Outputs are written atomically: a failing command leaves any
 earlier output file as it was.
+
+Outputs are saved before anything is reported on stdout: a closed pipe
+(``deltacal identify ... | head -1``) ends the command quietly with status 0,
+other failures of stdout (a full disk) with status 1, the outputs written either
+way. SIGTERM, like Ctrl-C, removes the temporary file of a write under way.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import os
+import signal
 import sys
+import threading
 import warnings
 from collections.abc import Sequence
+from typing import Any, TextIO
 
 from .._version import __version__
 from ..exceptions import DeltacalError, UsageError
@@ -52,13 +62,71 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(one_line(f"warning: {message}"), file=sys.stderr)
 
 
+#: Exit status after SIGTERM or SIGINT (128 + the signal's number, as a shell reports it).
+EXIT_SIGNAL = {signal.SIGTERM: 128 + signal.SIGTERM, signal.SIGINT: 128 + signal.SIGINT}
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived: unwinds like Ctrl-C, so that an atomic write removes its temporary file."""
+
+
+class StdoutError(OSError):
+    """Writing the report on standard output failed (a closed pipe, a full disk)."""
+
+
+class _GuardedStdout:
+    """Standard output whose failures are told apart from those of the files deltacal writes."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        try:
+            return self.stream.write(text)
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from exc
+
+    def flush(self) -> None:
+        try:
+            self.stream.flush()
+        except OSError as exc:
+            raise StdoutError(exc.errno, exc.strerror) from exc
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated(signum)
+
+
+def _silence(stream: TextIO) -> None:
+    """Point a closed stdout at /dev/null, so that the interpreter's last flush does not fail too."""
+    try:
+        fd = stream.fileno()
+    except (OSError, ValueError, AttributeError):
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, fd)
+    os.close(null)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0, 1 bad data, 2 bad usage, 3 a bug)."""
     from threadpoolctl import threadpool_limits
 
-    # small matrices: BLAS threads only contend (see the package docstring)
-    with threadpool_limits(limits=1):
-        return _main(argv)
+    handled = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if handled else None
+    stdout = sys.stdout
+    sys.stdout = _GuardedStdout(stdout)  # type: ignore[assignment]
+    try:
+        # small matrices: BLAS threads only contend (see the package docstring)
+        with threadpool_limits(limits=1):
+            return _main(argv)
+    finally:
+        sys.stdout = stdout
+        if handled:
+            signal.signal(signal.SIGTERM, previous)
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -73,10 +141,24 @@ def _main(argv: Sequence[str] | None) -> int:
         if not args.debug:
             warnings.showwarning = _show_warning
         try:
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+            sys.stdout.flush()
+            return code
+        except StdoutError as exc:
+            if args.debug:
+                raise
+            if exc.errno == errno.EPIPE:  # the reader has what it wanted: not an error of the work
+                _silence(sys.stdout)
+                return 0
+            print(one_line(f"deltacal {args.command}: error: standard output: {exc.strerror} "
+                           "(the output files were written)"), file=sys.stderr)
+            return EXIT_DATA
         except KeyboardInterrupt:
             print("deltacal: interrupted", file=sys.stderr)
-            return 130
+            return EXIT_SIGNAL[signal.SIGINT]
+        except Terminated:
+            print("deltacal: terminated", file=sys.stderr)
+            return EXIT_SIGNAL[signal.SIGTERM]
         except (DeltacalError, ValueError, OSError) as exc:
             if args.debug:
                 raise

@@ -26,7 +26,10 @@ from ..planning import (
     rough_poses,
 )
 from ..planning.regressor import _RTOL
-from .common import check_input, check_output, point_list, positive_int
+from .common import check_input, check_output, int_at_most, point_list, positive_int, seed
+
+#: Largest --n-max: the κ(n) curve conditions one pose set per n (n = 200 takes minutes already).
+N_MAX_LIMIT = 200
 
 
 def parse_epsilon(text: str) -> float:
@@ -70,8 +73,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--count", type=positive_int, help="poses to select (strategy doptimal; "
                    "default: twice the number of base parameters, divided by the rows per pose)")
     p.add_argument("--pool", type=positive_int, default=1000, help="candidate pool size (doptimal)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the candidate pool (doptimal)")
-    p.add_argument("--n-max", type=positive_int, default=20, help="largest n of the κ(n) curve")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the candidate pool (doptimal)")
+    p.add_argument("--n-max", type=int_at_most(N_MAX_LIMIT, "each n is a pose set to condition"),
+                   default=20, help="largest n of the κ(n) curve")
     p.add_argument("-o", "--output", required=True, metavar="POSES.csv", help="output file")
     p.set_defaults(func=run)
     return p

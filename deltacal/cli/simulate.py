@@ -20,6 +20,7 @@ from .common import (
     non_negative_float,
     point_list,
     positive_int,
+    seed,
     station_frame,
     warn,
 )
@@ -40,7 +41,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML)")
     p.add_argument("poses", metavar="POSES", help="POSES CSV written by 'deltacal plan'")
     truth = p.add_mutually_exclusive_group(required=True)
-    truth.add_argument("--perturb", type=int, metavar="SEED",
+    truth.add_argument("--perturb", type=seed, metavar="SEED",
                        help="true robot: the nominal perturbed with Bai's tolerances, seeded")
     truth.add_argument("--truth", metavar="TRUE.toml", help="true robot: a geometry file")
     p.add_argument("--points", default="tcp",
@@ -52,7 +53,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--no-orientation", action="store_true", help="no orientation probe")
     p.add_argument("--repeats", type=positive_int, default=1,
                    help="readings averaged per measurement (default 1)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the measurement noise (default 0)")
+    p.add_argument("--seed", type=seed, default=0, help="seed of the measurement noise (default 0)")
     p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
     p.add_argument("--station", action="append", type=station_frame, metavar="NAME:RX,RY,RZ:X,Y,Z",
                    help="write the measurements in an instrument frame: rotation vector of {O} in it [deg] "

@@ -16,7 +16,7 @@ from ..exceptions import UsageError
 from ..geometry import Tolerances
 from ..io import load_geometry, load_nominal
 from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server
-from .common import check_input, check_output
+from .common import check_input, check_output, positive_float, seed
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -37,12 +37,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--calibration", metavar="CAL", type=Path, help="calibration file: show its identified geometry"
     )
     source.add_argument(
-        "--perturb", metavar="SEED", type=int, help="a random robot around the nominal (Bai 2015 tolerances)"
+        "--perturb", metavar="SEED", type=seed, help="a random robot around the nominal (Bai 2015 tolerances)"
     )
     p.add_argument(
         "--exaggerate",
         metavar="K",
-        type=float,
+        type=positive_float,
         default=DEFAULT_EXAGGERATION,
         help=f"factor on the drawn plate tilt (default {DEFAULT_EXAGGERATION:g})",
     )

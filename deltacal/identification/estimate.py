@@ -311,6 +311,11 @@ def fit(
 
     rows = rows_at(start, frames)
     m = rows.residual.size
+    if distances and m == 0:
+        raise IdentificationError(
+            "no distance to fit: every measurement of a point is at the same readings as the others "
+            "(distances need positions of a point at different poses)"
+        )
     rw, Ww = rows.weighted
     # with a free frame its parameters are kept first: the base drops what they absorb
     prefer = error_model.preferred
@@ -400,7 +405,7 @@ def fit(
     variance_factor = float(rw @ rw) / dof
     # outliers are tested row group by row group, on the rows before whitening
     rs, Ws = rows.scaled
-    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind)
+    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind, rows.mixing)
     # the fit's quality without the outliers (they are named on their own; distances mix rows)
     inlier_factor = variance_factor
     if flagged.size and rows.mixing is None:

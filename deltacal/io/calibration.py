@@ -113,12 +113,16 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     except ValueError as exc:
         raise cal.error("model", str(exc)) from None
     deviation = np.zeros(model.size)
+    tool_move = np.zeros(3)
     params = cal.raw("base_parameter") if cal.has("base_parameter") else []
     if not isinstance(params, list) or not all(isinstance(x, Mapping) for x in params):
         raise cal.error("base_parameter", "must be an array of tables [[calibration.base_parameter]]")
     for k, item in enumerate(params):
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
+        if name.startswith("P[tcp]."):  # the tool identified as a free point
+            tool_move["xyz".index(name[-1])] = t.number("value_mm")
+            continue
         if name.startswith(("T[", "P[")):  # an instrument frame's or a free point's, not the model's
             continue
         if name not in model.names:
@@ -128,4 +132,55 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
         else:
             value = t.number("value_mm")
         deviation[model.names.index(name)] = value
+    if not isinstance(data.get("geometry"), Mapping):
+        raise InputError("missing required table", source, "key geometry")
+    nominal = nominal.with_tool(nominal.tool + tool_move)
+    check_sections_agree(geometry_from_dict(data["geometry"], source, "geometry."),
+                         model.apply(nominal, deviation), source)
     return LinearCalibration(nominal=nominal, model=model, deviation=deviation)
+
+
+#: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],
+#: angles and unit vectors [rad]. Identification composes its steps, the file sums them: the two
+#: differ by second-order terms, measured up to 2e-5 mm and 6e-7 rad with Bai's tolerances; an
+#: edit that changes a compensation by 1 µm is above these.
+SECTIONS_TOLERANCE = {"mm": 1e-3, "rad": 1e-5}
+
+_SECTION_KEYS = (
+    # (DeltaGeometry field, TOML key in a limb or at the top, unit)
+    ("tool", "tool_mm", "mm"),
+    ("axis_point", "axis_point_mm", "mm"),
+    ("axis_direction", "axis_direction", "rad"),
+    ("encoder_offset", "encoder_offset_deg", "rad"),
+    ("arm_ball", "arm_ball_mm", "mm"),
+    ("plate_ball", "plate_ball_mm", "mm"),
+    ("rod_length", "rod_length_mm", "mm"),
+)
+
+
+def check_sections_agree(geometry, predicted, source: str) -> None:
+    """Refuse a calibration file whose ``[geometry]`` is not ``[nominal]`` moved by its base parameters.
+
+    ``compensate --method exact`` reads ``[geometry]``; the linear methods read
+    ``[nominal]`` and the base parameters. A file edited in one place only (the
+    tool in ``[geometry]``, say) would make them command different robots: it is
+    refused, naming both keys (see docs/errors.md).
+    """
+    for field, key, unit in _SECTION_KEYS:
+        got = np.asarray(getattr(geometry, field), dtype=float)
+        want = np.asarray(getattr(predicted, field), dtype=float)
+        if field == "tool":
+            got, want = got[None], want[None]
+        off = np.abs(got - want).reshape(len(got), -1).max(axis=1)
+        bad = np.flatnonzero(off > SECTIONS_TOLERANCE[unit])
+        if bad.size:
+            i = int(bad[0])
+            where = key if field == "tool" else f"limb[{i + 1}].{key}"
+            shown = np.degrees if key.endswith("_deg") else (lambda v: v)
+            raise InputError(
+                f"[geometry] and [nominal] disagree: key geometry.{where} = "
+                f"{np.round(shown(got[i]), 6).tolist()}, but key nominal.{where} moved by the base "
+                f"parameters gives {np.round(shown(want[i]), 6).tolist()} (a file edited in one place only? "
+                "edit both, or identify again)",
+                source,
+            )

@@ -46,7 +46,15 @@ class CsvTable:
 
 
 #: A plain decimal number: what a CSV numeric field may hold (no "1_000", "0x10", "١٢").
-_NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_NUMBER_RE = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+
+#: Largest magnitude of a number read from a CSV file: mm, deg and their σ of any robot are far
+#: below; above, squares and products overflow and the message would show 'inf'.
+MAX_MAGNITUDE = 1e12
+
+#: What a numeric field may hold, as said in the messages.
+ACCEPTED = ("plain decimal numbers with ASCII digits, '.' as decimal point and an optional exponent: "
+            "-12.5, 1e-3")
 
 
 def _csv_fields(line: str, source: str, line_no: int) -> list[str]:
@@ -59,15 +67,16 @@ def _csv_fields(line: str, source: str, line_no: int) -> list[str]:
 def _parse_number(value: str, source: str, where: str) -> float:
     """A numeric CSV field: a finite decimal number, or an error naming the field and value."""
     if _NUMBER_RE.fullmatch(value) is None:
-        try:
-            float(value)
-        except ValueError:
-            hint = " (a decimal comma?)" if re.fullmatch(r"[+-]?\d+,\d+", value) else ""
-            raise InputError(f"value {value!r} is not a number{hint}", source, where) from None
-        raise InputError(f"value {value!r} is not a finite number", source, where)
+        if value.strip().lower().lstrip("+-") in ("nan", "inf", "infinity"):
+            raise InputError(f"value {value!r} is not a finite number", source, where)
+        hint = " (a decimal comma?)" if re.fullmatch(r"[+-]?[0-9]+,[0-9]+", value) else ""
+        raise InputError(f"value {value!r} is not a number{hint}: only {ACCEPTED}", source, where)
     number = float(value)
-    if not math.isfinite(number):
+    if not math.isfinite(number):  # 1e999
         raise InputError(f"value {value!r} is not a finite number", source, where)
+    if abs(number) > MAX_MAGNITUDE:
+        raise InputError(f"value {value!r} is out of range: numbers are read up to ±{MAX_MAGNITUDE:g}",
+                         source, where)
     return number
 
 
@@ -136,8 +145,9 @@ def read_csv_table(
         unknown = [h for h in header if h not in known]
         hints = []
         for c in missing:
-            close = difflib.get_close_matches(c, unknown, n=1, cutoff=0.6)
-            close = close or [h for h in unknown if h.lower() == c.lower()]
+            # the same name in another case first: difflib compares case-sensitively
+            close = [h for h in unknown if h.lower() == c.lower()]
+            close = close or difflib.get_close_matches(c, unknown, n=1, cutoff=0.6)
             if close:
                 hints.append(f"{close[0]!r} for {c}?")
         hint = f"; did you mean {', '.join(hints)}" if hints else ""
@@ -145,8 +155,9 @@ def read_csv_table(
             f"missing required column(s) {', '.join(missing)} (header: {','.join(header)}){hint}",
             source, f"line {header_line}",
         )
-    warnings = [f"{source}: column {h!r} is not used by deltacal and is ignored" for h in header
-                if h not in known]
+    unused = [h for h in header if h not in known]
+    shown = ", ".join(repr(h) for h in unused[:5]) + (f" and {len(unused) - 5} more" * (len(unused) > 5))
+    warnings = [f"{source}: {len(unused)} column(s) not used by deltacal and ignored: {shown}"] * bool(unused)
     if len(rows) == 1:
         raise InputError("no data rows after the header", source)
     index = {h: k for k, h in enumerate(header)}

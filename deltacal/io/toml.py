@@ -129,6 +129,10 @@ def _is_table_array(v: Any) -> bool:
 
 
 # --------------------------------------------------------------------------- reading
+#: The deepest nesting of arrays and tables in deltacal's files (plate_ball_mm: limb, array, array).
+MAX_NESTING = 4
+
+
 def read_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file; a missing, unreadable or malformed file raises InputError."""
     path = Path(path)
@@ -140,12 +144,17 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         raise InputError(f"cannot read file ({exc.strerror})", str(path)) from None
     if not raw.strip():
         raise InputError("file is empty", str(path))
+    if raw.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte order mark (Windows editors): read, as in CSV files
+        raw = raw[3:]
     try:
         return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
     except UnicodeDecodeError as exc:
         raise _not_utf8(raw, exc, str(path)) from None
     except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer too long to read
         raise InputError(f"not valid TOML ({exc})", str(path)) from None
+    except RecursionError:
+        raise InputError("not valid TOML for deltacal: arrays or tables nested too deeply "
+                         f"(deltacal's files nest {MAX_NESTING} levels at most)", str(path)) from None
 
 
 def _not_utf8(raw: bytes, exc: UnicodeDecodeError, source: str) -> InputError:
