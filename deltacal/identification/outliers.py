@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.stats
 
 #: Standardised residual [σ] above which a measurement is flagged as an outlier.
 OUTLIER_THRESHOLD = 4.0
@@ -21,6 +20,8 @@ def data_snooping(W: np.ndarray, rw: np.ndarray, measurement: np.ndarray, kind: 
     worst measurement is set aside and the fit redone, at most for a quarter of the
     measurements: one gross error no longer flags the rows it drags.
     """
+    import scipy.stats  # here, not at the top: it takes 0.15-0.3 s to import, needed only by this test
+
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
     quantile: dict[int, float] = {}
     ids = np.unique(measurement)

@@ -84,10 +84,10 @@ class TargetFile:
     are then known), and again to use it.
     """
 
-    def __init__(self, path: str | Path, chunk_bytes: int = CHUNK_BYTES) -> None:
+    def __init__(self, path: str | Path, chunk_bytes: int | None = None) -> None:
         self.path = Path(path)
         self.source = str(path)
-        self.chunk_bytes = int(chunk_bytes)
+        self.chunk_bytes = CHUNK_BYTES if chunk_bytes is None else int(chunk_bytes)
         try:
             self.size = self.path.stat().st_size
             with open(self.path, "rb") as f:
@@ -107,8 +107,9 @@ class TargetFile:
             raise InputError(f"cannot read file ({exc.strerror})", self.source) from None
         text = self._decode(header, line_no)
         self._data_line = line_no + 1
-        self.header, self.warnings = parse_header(text.rstrip("\r\n"), self.source, line_no, TARGET_COLUMNS, [])
-        self._plain = [h for h in self.header] == TARGET_COLUMNS
+        self.header, self.warnings = parse_header(text.rstrip("\r\n"), self.source, line_no,
+                                                  TARGET_COLUMNS, [])
+        self._plain = self.header == TARGET_COLUMNS
         self.rows = 0
         self._low, self._high = np.inf, -np.inf  # the least and greatest position value
 
@@ -182,7 +183,7 @@ class TargetFile:
         return targets, np.array(lines, dtype=np.int64), None
 
     def _fast(self, block: bytes, first_line: int):
-        """numpy's parser on a chunk that can only hold plain numbers; None where unsure."""
+        """The chunk parsed by numpy where it can only hold plain numbers; None where unsure."""
         if block.translate(None, _PLAIN) or block.count(b"\r") != block.count(b"\r\n"):
             return None
         block = block.replace(b"\r\n", b"\n")
