@@ -169,7 +169,10 @@ def _calibration_measurements(
 def bench_identification(setup: Setup, n: int = 100) -> list[Row]:
     """Complete model (51 parameters) from 100 pose measurements, linear and iterated."""
     start, meas = _calibration_measurements(setup, n, setup.rng())
-    t_linear = median_time(lambda: identify(start, meas, "complete", "linear"), setup.repeat)
+    # one linearised step from the nominal leaves the perturbation's second-order terms, which the
+    # quality check rightly calls a poor fit (s0² 12): the figure is the step's cost
+    t_linear = median_time(lambda: identify(start, meas, "complete", "linear", accept_poor_fit=True),
+                           setup.repeat)
     t_iterated = median_time(lambda: identify(start, meas, "complete", "iterated"), setup.repeat)
     iterations = identify(start, meas, "complete", "iterated").iterations
     return [
