@@ -6,7 +6,10 @@ that the command line can print it on one line without a traceback.
 
 from __future__ import annotations
 
-import numpy as np
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # numpy is not imported here, so that `deltacal --version` starts fast
+    import numpy as np
 
 
 class DeltacalError(Exception):
@@ -83,11 +86,11 @@ class UnreachableError(DeltacalError):
     @classmethod
     def from_mask(cls, bad: np.ndarray, targets: np.ndarray, reason: str = OUT_OF_REACH):
         """The error for the targets where ``bad`` is true, naming the first one and its index."""
-        idx = np.flatnonzero(bad)
+        idx = bad.ravel().nonzero()[0]
         i = int(idx[0])
         what = cls.WORDS[reason]
         return cls(
-            f"{idx.size} target(s) {what}, first: {np.round(targets[i], 6).tolist()} mm (index {i})",
+            f"{idx.size} target(s) {what}, first: {targets[i].round(6).tolist()} mm (index {i})",
             idx,
             targets[idx],
             reason,

@@ -19,6 +19,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -33,11 +34,12 @@ import numpy as np
 from deltacal.compensation import compensate, linear_calibration_from_result
 from deltacal.geometry import DeltaGeometry, NominalDelta, Tolerances, vector_from_rotation
 from deltacal.identification import identify
-from deltacal.io import load_nominal, save_calibration
+from deltacal.io import load_nominal, save_calibration, write_measurements
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import Measurements
+from deltacal.rotations import vector_from_rotation as rotvec
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_OUT = REPO_ROOT / "results"
@@ -46,12 +48,13 @@ SEED = 2024
 
 @dataclass(frozen=True)
 class Row:
-    """One benchmark figure."""
+    """One benchmark figure (and, where it was repeated, the least and greatest of the runs)."""
 
     name: str
     value: float
     unit: str
     target: str | None = None  # "<= 200", ">= 100000"
+    spread: tuple[float, float] | None = None
 
     def met(self) -> str:
         """``yes``/``no`` against the target, ``-`` without one."""
@@ -70,6 +73,8 @@ class Setup:
     geometry: DeltaGeometry
     repeat: int
     rng_seed: int
+    robot: Path
+    quick: bool = False
 
     def rng(self) -> np.random.Generator:
         """A fresh generator, so every benchmark sees the same numbers."""
@@ -138,7 +143,7 @@ def bench_exact_batch(setup: Setup, n: int = 10_000) -> list[Row]:
     t_fk = median_time(lambda: exact.forward(setup.geometry, q), setup.repeat)
     t_ik = median_time(lambda: exact.inverse(setup.geometry, targets), setup.repeat)
     return [
-        Row("exact_fk_batch", n / t_fk, "poses/s", ">= 100000"),
+        Row("exact_fk_batch", n / t_fk, "poses/s", ">= 300000"),
         Row("exact_ik_batch", n / t_ik, "targets/s", ">= 20000"),
     ]
 
@@ -164,7 +169,10 @@ def _calibration_measurements(
 def bench_identification(setup: Setup, n: int = 100) -> list[Row]:
     """Complete model (51 parameters) from 100 pose measurements, linear and iterated."""
     start, meas = _calibration_measurements(setup, n, setup.rng())
-    t_linear = median_time(lambda: identify(start, meas, "complete", "linear"), setup.repeat)
+    # one linearised step from the nominal leaves the perturbation's second-order terms, which the
+    # quality check rightly calls a poor fit (s0² 12): the figure is the step's cost
+    t_linear = median_time(lambda: identify(start, meas, "complete", "linear", accept_poor_fit=True),
+                           setup.repeat)
     t_iterated = median_time(lambda: identify(start, meas, "complete", "iterated"), setup.repeat)
     iterations = identify(start, meas, "complete", "iterated").iterations
     return [
@@ -215,12 +223,173 @@ def bench_cli_compensate(setup: Setup, n: int = 100_000) -> list[Row]:
     return [Row("cli_compensate_100k", t_cli, "s", "<= 10")]
 
 
+def _command() -> list[str]:
+    exe = shutil.which("deltacal")
+    return [exe] if exe else [sys.executable, "-m", "deltacal.cli"]
+
+
+def timed_run(args: list[str], expect: int = 0) -> tuple[float, float]:
+    """Wall time [s] and peak RSS [MB] of a command, from ``/usr/bin/time -v``."""
+    out = subprocess.run(["/usr/bin/time", "-v", *args], capture_output=True, text=True)
+    if out.returncode != expect:
+        raise RuntimeError(f"{' '.join(args)}: exit {out.returncode}, expected {expect}: {out.stderr[-500:]}")
+    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)",
+                     out.stderr)
+    rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", out.stderr)
+    assert wall and rss, out.stderr
+    seconds = 3600 * int(wall.group(1) or 0) + 60 * int(wall.group(2)) + float(wall.group(3))
+    return seconds, int(rss.group(1)) / 1024
+
+
+def spread_rows(name: str, runs: list[tuple[float, float]], time_target: str | None,
+                rss_target: str | None = None) -> list[Row]:
+    """Median wall time and peak RSS of runs, with their least and greatest values."""
+    t = [r[0] for r in runs]
+    m = [r[1] for r in runs]
+    return [Row(f"{name}_s", float(np.median(t)), "s", time_target, (min(t), max(t))),
+            Row(f"{name}_rss", float(np.median(m)), "MB", rss_target, (min(m), max(m)))]
+
+
+def bench_startup(setup: Setup) -> list[Row]:
+    """``deltacal --version``: Python, the package and the command line, nothing else."""
+    args = _command() + ["--version"]
+    runs = []
+    for _ in range(max(5, setup.repeat)):
+        t0 = time.perf_counter()
+        subprocess.run(args, check=True, capture_output=True)
+        runs.append(time.perf_counter() - t0)
+    return [Row("startup_version", float(np.median(runs)), "s", "<= 0.25", (min(runs), max(runs)))]
+
+
+def bench_fk_versus_least_squares(setup: Setup, n: int = 200) -> list[Row]:
+    """The batch FK against scipy ``least_squares`` on the six rod equations one pose at a time.
+
+    The same robot and readings; each least-squares solve starts from the virtual model's
+    pose (as the batch does). Figures: the ratio of the times per pose and the largest
+    distance between the two solutions' plate positions [mm].
+    """
+    from scipy.optimize import least_squares
+
+    g = setup.geometry
+    rng = setup.rng()
+    q = VirtualDelta.from_nominal(setup.nominal).inverse(setup.workspace_points(n, rng) - setup.nominal.tool)
+    start = exact.initial_pose(g, q)
+    plate = g.plate_ball.reshape(6, 3)
+    arm = g.arm_balls_in_base(q).reshape(n, 6, 3)
+
+    def rods(x: np.ndarray, k: int) -> np.ndarray:
+        from deltacal.rotations import rotation_from_vector
+
+        d = x[:3] + plate @ rotation_from_vector(x[3:]).T - arm[k]
+        return np.linalg.norm(d, axis=1) - g.rod_length.reshape(6)
+
+    def per_pose() -> np.ndarray:
+        out = np.empty((n, 6))
+        for k in range(n):
+            x0 = np.concatenate([start.position[k], np.zeros(3)])
+            out[k] = least_squares(rods, x0, args=(k,), xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        return out
+
+    t_ls = median_time(per_pose, max(1, min(setup.repeat, 3)))
+    t_batch = median_time(lambda: exact.forward(g, q), setup.repeat)
+    ls = per_pose()
+    batch = exact.forward(g, q)
+    gap = float(np.max(np.linalg.norm(ls[:, :3] - batch.position, axis=1)))
+    tilt = float(np.max(np.abs(ls[:, 3:] - rotvec(batch.rotation))))
+    return [
+        Row("fk_least_squares_per_pose", 1e6 * t_ls / n, "us/pose"),
+        Row("fk_batch_vs_least_squares", t_ls / t_batch, "times faster", ">= 200"),
+        Row("fk_least_squares_agreement", gap, "mm", "<= 1e-6"),
+        Row("fk_least_squares_agreement_rotation", tilt, "rad"),
+    ]
+
+
+def bench_identify_free_frame(setup: Setup, n: int = 200) -> list[Row]:
+    """Issue 11: the complete model and a free instrument frame from 200 poses, iterated (library)."""
+    start, meas = _calibration_measurements(setup, n, setup.rng())
+    t = median_time(lambda: identify(start, meas, "complete", "iterated", frame="free"), setup.repeat)
+    return [Row("identify_free_frame_200", 1e3 * t, "ms", "<= 50")]
+
+
+def _write_targets(path: Path, targets: np.ndarray) -> None:
+    with open(path, "w") as f:
+        f.write("x_mm,y_mm,z_mm\n")
+        for block in np.array_split(targets, max(1, targets.shape[0] // 100_000)):
+            f.write("".join(f"{x:.6f},{y:.6f},{z:.6f}\n" for x, y, z in block.tolist()))
+
+
+def bench_cli_streaming(setup: Setup) -> list[Row]:
+    """``deltacal compensate`` on 10^5 and 10^6 targets, exact and savoure: wall time and peak RSS.
+
+    Also the time to fail on a bad value, and on an unreachable target, in the last row of 10^6.
+    """
+    rng = setup.rng()
+    start, meas = _calibration_measurements(setup, 60, rng)
+    command = _command() + ["compensate"]
+    repeat = max(1, min(setup.repeat, 3)) if not setup.quick else 1
+    rows: list[Row] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        cal = folder / "cal.toml"
+        save_calibration(identify(start, meas, "complete"), cal)
+        sizes = (100_000,) if setup.quick else (100_000, 1_000_000)
+        for n in sizes:
+            targets = setup.workspace_points(n, rng) + (start.tool - setup.nominal.tool)
+            path = folder / f"t{n}.csv"
+            _write_targets(path, targets)
+            label = "1e5" if n == 100_000 else "1e6"
+            for method in ("exact", "savoure"):
+                args = command + [str(cal), str(path), "--method", method, "-o", str(folder / "j.csv")]
+                target = "<= 15" if n == 1_000_000 else None
+                rows += spread_rows(f"compensate_{method}_{label}", [timed_run(args) for _ in range(repeat)],
+                                    target, "<= 1024")
+            if n == 1_000_000:
+                text = path.read_text()
+                bad = folder / "bad.csv"
+                bad.write_text(text[: text.rstrip("\n").rfind("\n") + 1] + "0,0,-9x0\n")
+                args = command + [str(cal), str(bad), "-o", str(folder / "j.csv")]
+                rows += spread_rows("compensate_bad_last_row", [timed_run(args, 1) for _ in range(repeat)],
+                                    None)
+                bad.write_text(text[: text.rstrip("\n").rfind("\n") + 1] + "0,0,-200\n")
+                rows += spread_rows("compensate_unreachable_last_row",
+                                    [timed_run(args, 1) for _ in range(repeat)], None)
+    return rows
+
+
+def bench_cli_distances(setup: Setup) -> list[Row]:
+    """``deltacal identify --distances`` (all pairs, model bai18) at 60 to 1,000 tracker positions."""
+    g = setup.geometry
+    command = _command() + ["identify"]
+    rows: list[Row] = []
+    sizes = (60, 200) if setup.quick else (60, 200, 300, 1000)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for n in sizes:
+            rng = np.random.default_rng(n)
+            points = setup.workspace_points(n, rng)
+            q = VirtualDelta.from_nominal(setup.nominal).inverse(points - setup.nominal.tool)
+            position = exact.forward(g, q).point(g.tool) + rng.normal(0.0, 0.005, (n, 3))
+            meas = folder / f"m{n}.csv"
+            write_measurements(meas, Measurements(q, position))
+            args = command + [str(setup.robot), str(meas), "--model", "bai18", "--distances",
+                              "-o", str(folder / "cal.toml")]
+            runs = [timed_run(args) for _ in range(max(1, min(setup.repeat, 3)))]
+            target = ("<= 20", "<= 1024") if n == 1000 else (None, None)
+            rows += spread_rows(f"identify_distances_{n}", runs, *target)
+    return rows
+
+
 BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_pinocchio_forward,
     bench_exact_batch,
     bench_identification,
     bench_compensation,
     bench_cli_compensate,
+    bench_startup,
+    bench_fk_versus_least_squares,
+    bench_identify_free_frame,
+    bench_cli_distances,
+    bench_cli_streaming,
 ]
 
 
@@ -229,21 +398,30 @@ def main() -> None:
     parser.add_argument("--robot", type=Path, default=REPO_ROOT / "deltacal" / "models" / "bai2015.toml")
     parser.add_argument("--repeat", type=int, default=5, help="repetitions of each measurement")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    parser.add_argument("--quick", action="store_true", help="small sizes only (no 10^6 targets)")
+    parser.add_argument("--only", nargs="+", metavar="NAME", help="run only these bench_* functions")
     args = parser.parse_args()
     nominal = load_nominal(args.robot)
     geometry = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(SEED))
-    setup = Setup(nominal, geometry, args.repeat, SEED)
+    setup = Setup(nominal, geometry, args.repeat, SEED, args.robot, args.quick)
     rows: list[Row] = []
     for bench in BENCHMARKS:
+        if args.only and bench.__name__.removeprefix("bench_") not in args.only \
+                and bench.__name__ not in args.only:
+            continue
         rows += bench(setup)
+        print(f"done {bench.__name__}", file=sys.stderr, flush=True)
     width = max(len(r.name) for r in rows)
-    print(f"{'benchmark':<{width}}  {'value':>12}  {'unit':<18} {'target':<10} met")
+    print(f"{'benchmark':<{width}}  {'value':>12}  {'runs':<21} {'unit':<18} {'target':<10} met")
     for r in rows:
         target = r.target or "-"
-        print(f"{r.name:<{width}}  {r.value:>12.4g}  {r.unit:<18} {target:<10} {r.met()}")
+        runs = f"{r.spread[0]:.4g}-{r.spread[1]:.4g}" if r.spread else "-"
+        print(f"{r.name:<{width}}  {r.value:>12.4g}  {runs:<21} {r.unit:<18} {target:<10} {r.met()}")
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "bench.json"
-    results = {r.name: {"value": r.value, "unit": r.unit, "target": r.target} for r in rows}
+    results = json.loads(path.read_text()) if args.only and path.exists() else {}
+    results.update({r.name: {"value": r.value, "unit": r.unit, "target": r.target,
+                             "runs": list(r.spread) if r.spread else None} for r in rows})
     tmp = path.with_suffix(".json.tmp")
     tmp.write_text(json.dumps(results, indent=2) + "\n")
     tmp.replace(path)

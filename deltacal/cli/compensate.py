@@ -1,4 +1,10 @@
-"""``deltacal compensate``: joint readings that put the TCP at target positions."""
+"""``deltacal compensate``: joint readings that put the TCP at target positions.
+
+The targets file is streamed: read and checked whole first (a bad row fails at reading
+speed, before anything is computed), then read again chunk by chunk, compensated, checked
+and written, so memory stays flat in the file's length. The joints file replaces an earlier
+one only once complete.
+"""
 
 from __future__ import annotations
 
@@ -9,14 +15,15 @@ import numpy as np
 from ..compensation import METHODS, compensate
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..io import (
-    data_row,
+    JointsWriter,
+    TargetChunk,
+    TargetFile,
     load_geometry,
     load_instrument,
     load_linear_calibration,
-    read_target_table,
-    write_joints,
 )
 from .common import check_input, check_output, lines_text, warn
+from .progress import Progress
 
 
 def run(args: argparse.Namespace) -> int:
@@ -25,15 +32,14 @@ def run(args: argparse.Namespace) -> int:
         check_input(path)
     check_output(args.output, (args.calibration, args.targets))
     geometry = load_geometry(args.calibration)
-    table = read_target_table(args.targets)
-    warn(table.warnings)
-    targets = np.column_stack([table.numbers[c] for c in ("x_mm", "y_mm", "z_mm")])
+    targets_file = TargetFile(args.targets)
     frames = load_instrument(args.calibration)
     if frames and args.method != "exact":
         raise UsageError(
             f"{args.calibration}: identified with a free instrument frame: its base parameters are in the "
             "fit's own gauge, which savoure and bai cannot follow; use --method exact"
         )
+    to_base = None
     if args.frame == "instrument":
         if not frames:
             raise UsageError(f"{args.calibration}: no [instrument] table: --frame instrument needs a "
@@ -45,27 +51,41 @@ def run(args: argparse.Namespace) -> int:
             station = next(iter(frames))
         if station not in frames:
             raise UsageError(f"--station {station!r}: the calibration's stations are {', '.join(frames)}")
-        targets_in_base = frames[station].to_base(targets)
+        to_base = frames[station].to_base
     elif args.station is not None:
         raise UsageError("--station applies to --frame instrument only")
-    else:
-        targets_in_base = targets
     linear = load_linear_calibration(args.calibration) if args.method != "exact" else None
-    try:
-        q = compensate(geometry, targets_in_base, args.method, linear)
-    except UnreachableError as exc:
-        if not exc.indices:
-            raise
-        lines = table.lines[exc.indices].tolist()
-        k = exc.indices[0]
-        more = f"; {len(lines)} targets in all, lines {lines_text(lines)}" if len(lines) > 1 else ""
-        raise InputError(
-            f"target {np.round(targets[k], 6).tolist()} mm is {UnreachableError.WORDS[exc.reason]}{more}",
-            args.targets, f"{data_row(lines[0], k + 1)}, columns x_mm..z_mm",
-        ) from exc
-    write_joints(args.output, targets, q)
-    print(f"wrote {len(targets)} joint readings to {args.output}")
+    size = max(targets_file.size, 1)
+    with Progress("compensate") as progress:
+        for chunk in targets_file.chunks():  # the whole file checked before anything is computed
+            progress.update(0.1 * chunk.read / size, "reading")
+        warn(targets_file.warnings)
+        with JointsWriter(args.output) as out:
+            for chunk in targets_file.chunks():
+                in_base = chunk.targets if to_base is None else to_base(chunk.targets)
+                try:
+                    q = compensate(geometry, in_base, args.method, linear)
+                except UnreachableError as exc:
+                    if not exc.indices:
+                        raise
+                    raise _unreachable(exc, chunk, targets_file) from exc
+                out.write(chunk, q)
+                progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
+    print(f"wrote {out.rows} joint readings to {args.output}")
     return 0
+
+
+def _unreachable(exc: UnreachableError, chunk: TargetChunk, targets_file: TargetFile) -> InputError:
+    """The error naming the first unreachable target's line (and the others of its chunk)."""
+    k = exc.indices[0]
+    lines = chunk.lines[exc.indices].tolist()
+    whole = len(chunk) == targets_file.rows
+    scope = "in all" if whole else f"in lines {int(chunk.lines[0])}-{int(chunk.lines[-1])}"
+    more = f"; {len(lines)} targets {scope}, lines {lines_text(lines)}" if len(lines) > 1 else ""
+    return InputError(
+        f"target {np.round(chunk.targets[k], 6).tolist()} mm is {UnreachableError.WORDS[exc.reason]}{more}",
+        targets_file.source, f"{chunk.where(k)}, columns x_mm..z_mm",
+    )
 
 
 def add_parser(sub) -> None:

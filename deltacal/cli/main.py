@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import importlib
 import os
 import signal
 import sys
@@ -39,26 +40,40 @@ from typing import Any, TextIO
 
 from .._version import __version__
 from ..exceptions import DeltacalError, UsageError
-from . import compensate, demo, export, identify, plan, report, simulate, view
-from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, Parser, one_line
 
-#: The subcommands, in the order ``--help`` lists them.
-SUBCOMMANDS = (demo, identify, compensate, report, export, plan, simulate, view)
+#: The subcommands' modules, in the order ``--help`` lists them. They (and numpy, and the
+#: library under them) are imported when the parser is built, not with this module, so that
+#: ``deltacal --version`` answers at once; :mod:`.common` likewise, where it is used.
+SUBCOMMANDS = ("demo", "identify", "compensate", "report", "export", "plan", "simulate", "view")
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``deltacal`` command."""
+    from .common import Parser
+
     parser = Parser(prog="deltacal", description="Geometric calibration of Delta parallel robots.")
     parser.add_argument("--version", action="version", version=f"deltacal {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    for command in SUBCOMMANDS:
-        command.add_parser(sub)
+    for name in SUBCOMMANDS:
+        importlib.import_module(f".{name}", __package__).add_parser(sub)
     return parser
+
+
+def _asks_version(argv: Sequence[str]) -> bool:
+    """Whether ``--version`` comes among the options before the subcommand (argparse's reading)."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return False
+        if arg == "--version":
+            return True
+    return False
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings from the library on one line each, without the source location."""
+    from .common import one_line
+
     print(one_line(f"warning: {message}"), file=sys.stderr)
 
 
@@ -113,6 +128,9 @@ def _silence(stream: TextIO) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0, 1 bad data, 2 bad usage, 3 a bug)."""
+    if _asks_version(sys.argv[1:] if argv is None else argv):
+        print(f"deltacal {__version__}")
+        return 0
     from threadpoolctl import threadpool_limits
 
     handled = threading.current_thread() is threading.main_thread()
@@ -130,6 +148,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
+    from .common import EXIT_BUG, EXIT_DATA, EXIT_USAGE, one_line
+
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

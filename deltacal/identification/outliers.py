@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.stats
 
 #: Standardised residual [σ] above which a measurement is flagged as an outlier.
 OUTLIER_THRESHOLD = 4.0
@@ -30,6 +29,8 @@ def data_snooping(
     worst measurement is set aside and the fit redone, at most for a quarter of the
     measurements: one gross error no longer flags the rows it drags.
     """
+    import scipy.stats  # here, not at the top: it takes 0.15-0.3 s to import, needed only by this test
+
     if mixing is not None:
         return correlated_snooping(W, rw, mixing)
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
@@ -100,6 +101,8 @@ def correlated_snooping(W: np.ndarray, r: np.ndarray, mixing: np.ndarray) -> np.
     rw, Ww = T @ r, T @ W
     C = Vt[keep].reshape(int(np.count_nonzero(keep)), -1, 3)  # (rows, M, 3): whitened bias columns
     M = C.shape[1]
+    import scipy.stats  # here, not at the top: see data_snooping
+
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
     design = Ww
     flagged: list[int] = []

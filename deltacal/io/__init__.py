@@ -29,7 +29,7 @@ from .tables import (
     data_row,
     read_csv_table,
 )
-from .targets import read_target_table, write_joints
+from .targets import JointsWriter, TargetChunk, TargetFile, joint_rows, read_target_table, write_joints
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [
@@ -61,6 +61,10 @@ __all__ = [
     "MeasurementFile",
     "read_poses",
     "read_target_table",
+    "JointsWriter",
+    "TargetChunk",
+    "TargetFile",
+    "joint_rows",
     "read_toml",
     "save_calibration",
     "save_geometry",

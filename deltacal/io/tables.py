@@ -126,70 +126,12 @@ def read_csv_table(
     if not rows:
         raise InputError("file is empty", source)
     header_line, header_text = rows[0]
-    header = [h.strip() for h in _csv_fields(header_text, source, header_line)]
-    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
-        sep = "';'" if ";" in header[0] else "a tab"
-        raise InputError(f"fields are separated by {sep}; deltacal reads comma-separated files",
-                         source, f"line {header_line}")
-    seen: set[str] = set()
-    for h in header:
-        if not h:
-            raise InputError("empty column name in the header (a trailing comma?)", source,
-                             f"line {header_line}")
-        if h in seen:
-            raise InputError(f"column {h!r} appears twice", source, f"line {header_line}")
-        seen.add(h)
-    known = list(required) + list(optional)
-    missing = [c for c in required if c not in header]
-    if missing:
-        unknown = [h for h in header if h not in known]
-        hints = []
-        for c in missing:
-            # the same name in another case first: difflib compares case-sensitively
-            close = [h for h in unknown if h.lower() == c.lower()]
-            close = close or difflib.get_close_matches(c, unknown, n=1, cutoff=0.6)
-            if close:
-                hints.append(f"{close[0]!r} for {c}?")
-        hint = f"; did you mean {', '.join(hints)}" if hints else ""
-        raise InputError(
-            f"missing required column(s) {', '.join(missing)} (header: {','.join(header)}){hint}",
-            source, f"line {header_line}",
-        )
-    unused = [h for h in header if h not in known]
-    shown = ", ".join(repr(h) for h in unused[:5]) + (f" and {len(unused) - 5} more" * (len(unused) > 5))
-    warnings = [f"{source}: {len(unused)} column(s) not used by deltacal and ignored: {shown}"] * bool(unused)
+    header, warnings = parse_header(header_text, source, header_line, required, optional)
     if len(rows) == 1:
         raise InputError("no data rows after the header", source)
-    index = {h: k for k, h in enumerate(header)}
-    wanted = [c for c in known if c in index]
-    numbers: dict[str, list[float]] = {c: [] for c in wanted if c not in text_columns}
-    texts: dict[str, list[str]] = {c: [] for c in wanted if c in text_columns}
-    lines = []
-    for row_no, (line_no, line) in enumerate(rows[1:], start=1):
-        where = data_row(line_no, row_no)
-        fields = _csv_fields(line, source, line_no)
-        if len(fields) != len(header):
-            if len(fields) < len(header) and (";" in line or "\t" in line):
-                hint = " (fields separated by ';' or tabs? deltacal reads commas)"
-            elif len(fields) > len(header) and fields[-1].strip() == "":
-                hint = " (a trailing comma?)"
-            elif len(fields) > len(header):
-                hint = " (a decimal comma?)"
-            else:
-                hint = ""
-            raise InputError(
-                f"{len(fields)} fields where the header has {len(header)}{hint}", source, where
-            )
-        for c in wanted:
-            value = fields[index[c]].strip()
-            if c in text_columns:
-                texts[c].append(value)
-                continue
-            if value == "":
-                numbers[c].append(math.nan)
-                continue
-            numbers[c].append(_parse_number(value, source, f"{where}, column {c}"))
-        lines.append(line_no)
+    known = list(required) + list(optional)
+    wanted = [c for c in known if c in header]
+    numbers, texts, lines = parse_rows(rows[1:], header, wanted, text_columns, source, 1)
     arrays = {c: np.array(v, dtype=float) for c, v in numbers.items()}
     line_arr = np.array(lines)
     for c in required:
@@ -226,6 +168,99 @@ def read_csv_table(
         more = f" and {len(repeats) - 5} more" if len(repeats) > 5 else ""
         warnings.append(f"{source}: {len(repeats)} duplicate row(s): {'; '.join(repeats[:5])}{more}")
     return CsvTable(arrays, texts, line_arr, warnings)
+
+
+def parse_header(
+    header_text: str, source: str, header_line: int, required: list[str], optional: list[str]
+) -> tuple[list[str], list[str]]:
+    """The column names of a header line, checked; and the warnings about unused columns.
+
+    Raises:
+        InputError: another separator than commas, an empty or repeated name, a missing
+            required column (with the closest name as a hint).
+    """
+    header = [h.strip() for h in _csv_fields(header_text, source, header_line)]
+    if len(header) == 1 and (";" in header[0] or "\t" in header[0]):
+        sep = "';'" if ";" in header[0] else "a tab"
+        raise InputError(f"fields are separated by {sep}; deltacal reads comma-separated files",
+                         source, f"line {header_line}")
+    seen: set[str] = set()
+    for h in header:
+        if not h:
+            raise InputError("empty column name in the header (a trailing comma?)", source,
+                             f"line {header_line}")
+        if h in seen:
+            raise InputError(f"column {h!r} appears twice", source, f"line {header_line}")
+        seen.add(h)
+    known = list(required) + list(optional)
+    missing = [c for c in required if c not in header]
+    if missing:
+        unknown = [h for h in header if h not in known]
+        hints = []
+        for c in missing:
+            # the same name in another case first: difflib compares case-sensitively
+            close = [h for h in unknown if h.lower() == c.lower()]
+            close = close or difflib.get_close_matches(c, unknown, n=1, cutoff=0.6)
+            if close:
+                hints.append(f"{close[0]!r} for {c}?")
+        hint = f"; did you mean {', '.join(hints)}" if hints else ""
+        raise InputError(
+            f"missing required column(s) {', '.join(missing)} (header: {','.join(header)}){hint}",
+            source, f"line {header_line}",
+        )
+    unused = [h for h in header if h not in known]
+    shown = ", ".join(repr(h) for h in unused[:5]) + (f" and {len(unused) - 5} more" * (len(unused) > 5))
+    warnings = [f"{source}: {len(unused)} column(s) not used by deltacal and ignored: {shown}"] * bool(unused)
+    return header, warnings
+
+
+def parse_rows(
+    rows: list[tuple[int, str]],
+    header: list[str],
+    wanted: list[str],
+    text_columns: tuple[str, ...],
+    source: str,
+    first_row: int,
+) -> tuple[dict[str, list[float]], dict[str, list[str]], list[int]]:
+    """Fields of data rows ``(line number, text)``, checked: numbers by column, texts, lines.
+
+    Empty numeric fields are NaN (the caller decides whether a column may be empty);
+    ``first_row`` is the data-row number of ``rows[0]``.
+
+    Raises:
+        InputError: a row with another number of fields than the header, or a value that
+            is not a finite decimal number, naming the line, the row and the column.
+    """
+    index = {h: k for k, h in enumerate(header)}
+    numbers: dict[str, list[float]] = {c: [] for c in wanted if c not in text_columns}
+    texts: dict[str, list[str]] = {c: [] for c in wanted if c in text_columns}
+    lines = []
+    for row_no, (line_no, line) in enumerate(rows, start=first_row):
+        where = data_row(line_no, row_no)
+        fields = _csv_fields(line, source, line_no)
+        if len(fields) != len(header):
+            if len(fields) < len(header) and (";" in line or "\t" in line):
+                hint = " (fields separated by ';' or tabs? deltacal reads commas)"
+            elif len(fields) > len(header) and fields[-1].strip() == "":
+                hint = " (a trailing comma?)"
+            elif len(fields) > len(header):
+                hint = " (a decimal comma?)"
+            else:
+                hint = ""
+            raise InputError(
+                f"{len(fields)} fields where the header has {len(header)}{hint}", source, where
+            )
+        for c in wanted:
+            value = fields[index[c]].strip()
+            if c in text_columns:
+                texts[c].append(value)
+                continue
+            if value == "":
+                numbers[c].append(math.nan)
+                continue
+            numbers[c].append(_parse_number(value, source, f"{where}, column {c}"))
+        lines.append(line_no)
+    return numbers, texts, lines
 
 
 def _unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:

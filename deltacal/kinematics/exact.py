@@ -64,12 +64,17 @@ class PlatePose:
         return PlatePose(self.position[index], self.rotation[index])
 
 
-def _rod_terms(geometry: DeltaGeometry, q: np.ndarray, p: np.ndarray, R: np.ndarray):
-    """Rod vectors d = B - A, their lengths, and R B (plate balls relative to p)."""
-    A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
-    RB = np.einsum("nkl,jl->njk", R, geometry.plate_ball.reshape(6, 3))
+def _rod_terms(geometry: DeltaGeometry, q: np.ndarray, p: np.ndarray, R: np.ndarray,
+               A: np.ndarray | None = None):
+    """Rod vectors d = B - A, their lengths, and R B (plate balls relative to p).
+
+    ``A`` (arm balls in {O}, (N, 6, 3)) may be given when q has not changed.
+    """
+    if A is None:
+        A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
+    RB = geometry.plate_ball.reshape(6, 3) @ np.swapaxes(R, 1, 2)  # (N, 6, 3), rows R B_j
     d = p[:, None, :] + RB - A
-    return A, d, np.linalg.norm(d, axis=2), RB
+    return A, d, np.sqrt(np.sum(d * d, axis=2)), RB
 
 
 def rod_pose_jacobian(n: np.ndarray, RB: np.ndarray) -> np.ndarray:
@@ -149,11 +154,12 @@ def forward(
     N = q.shape[0]
     done = np.zeros(N, dtype=bool)
     active = np.all(np.isfinite(p), axis=1)
+    A_all = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)  # q is fixed: the arm balls too
     for _ in range(max_iter):
         idx = np.flatnonzero(active & ~done)
         if idx.size == 0:
             break
-        A, d, dist, RB = _rod_terms(geometry, q[idx], p[idx], R[idx])
+        A, d, dist, RB = _rod_terms(geometry, q[idx], p[idx], R[idx], A_all[idx])
         r = dist - geometry.rod_length.reshape(1, 6)
         res = np.max(np.abs(r), axis=1)
         conv = res <= tol
@@ -173,7 +179,7 @@ def forward(
         tiny = np.max(np.abs(step), axis=1) < _STEP_FLOOR
         done[idx[tiny & (res[todo] < 1e3 * tol)]] = True
     # final residual of the poses that stopped on the step floor
-    A, d, dist, RB = _rod_terms(geometry, q, p, R)
+    A, d, dist, RB = _rod_terms(geometry, q, p, R, A_all)
     with np.errstate(invalid="ignore"):
         residual = np.max(np.abs(dist - geometry.rod_length.reshape(1, 6)), axis=1)
     z_axis = geometry.axis_point[:, 2].min()
