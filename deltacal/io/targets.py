@@ -22,6 +22,7 @@ from ..exceptions import InputError
 from .atomic import atomic_output, atomic_write_text
 from .tables import (
     JOINT_COLUMNS,
+    MAX_MAGNITUDE,
     TARGET_COLUMNS,
     CsvTable,
     _format_rows,
@@ -197,8 +198,8 @@ class TargetFile:
             targets = np.loadtxt(io.BytesIO(block), delimiter=",", comments=None, ndmin=2, dtype=float)
         except ValueError:
             return None
-        if targets.shape != (len(kept), 3) or not np.all(np.isfinite(targets)):
-            return None
+        if targets.shape != (len(kept), 3) or not np.all(np.abs(targets) <= MAX_MAGNITUDE):
+            return None  # the row-by-row reading names the row (NaN, infinities, out of range)
         if len(kept) < len(pieces):
             pieces = [pieces[k] for k in kept]
         return targets, first_line + np.array(kept, dtype=np.int64), np.array(pieces)
