@@ -157,18 +157,10 @@ KINDS = [
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
 def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(robot, kind, request):
-    """Nearly the accuracy of the same measurements in {O}, on the mean over three calibrations.
+    """Same accuracy (within 10 %) as the same measurements in {O}, on the mean over three robots.
 
     The max TCP error of one calibration varies by ±15 % with the noise drawn (its own spread,
-    free frame or not), so the comparison is on the mean of three seeded calibrations. Measured
-    (mm, {O} / {T}): poses 0.0101/0.0115, 0.0085/0.0083, 0.0089/0.0089; positions of three points
-    0.0222/0.0234, 0.0158/0.0185, 0.0215/0.0212 (bai2015, flexpicker, unknown). The issue asked
-    for 10 %; two cases are 14 % and 17 % off because the robot's rotations are absorbed by the
-    frame (held): the data tell them from it only through a few 0.1 % of their effect, and kept
-    free they made the fit creep without converging, the frame's yaw σ 2° and the TCP σ 20 mm
-    (see test_a_free_frame_fit_converges_from_measurements_in_any_frame). The bound below is 20 %
-    and the gap is said in the README; narrowing it needs a parametrisation in which the robot's
-    rotation is exact (an open item).
+    free frame or not), so the comparison is on the mean of three seeded calibrations.
     """
     nominal = unknown_robot() if robot == "unknown" else request.getfixturevalue(robot)
     _, points, orientation = kind
@@ -192,7 +184,7 @@ def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(ro
         assert abs(free.variance_factor - in_base.variance_factor) < 0.1 * in_base.variance_factor
     base_error, free_error = np.mean(errors, axis=0)
     print(f"{robot}, {kind[0]}: mean max TCP error {base_error:.4f} mm in {{O}}, {free_error:.4f} in {{T}}")
-    assert free_error <= 1.20 * base_error
+    assert free_error <= 1.10 * base_error
 
 
 def test_two_stations_share_one_robot_and_each_frame_is_found(bai):
@@ -204,14 +196,28 @@ def test_two_stations_share_one_robot_and_each_frame_is_found(bai):
     # the gauge: the identified actuator axes have no net rigid motion from the nominal ones
     G, g = axes_motion(bai.geometry(), result.geometry)
     assert np.max(np.abs(G - np.eye(3))) < 1e-9 and np.max(np.abs(g)) < 1e-9
-    # so each frame is the true one seen from the true robot's own axes gauge, within its σ
+    # so each frame's rotation is the true one seen from the true robot's own axes gauge, within
+    # its σ; its translation is not: the complete model has no parameter for the axes' positions
+    # (Eq. 13 carries them by the plate balls), so the gauge cannot follow the true axes' net
+    # shift (0.1-0.3 mm here), and that shift is all the difference
     Gt, gt = axes_motion(bai.geometry(), truth)
     for name, true in frames.items():
         expected = true.after_moving_base(Gt.T, -Gt.T @ gt)
         found = result.frames[name]
         rot = vector_from_rotation(found.rotation @ expected.rotation.T)
         assert np.all(np.abs(rot) < 4 * found.rotation_sigma + 1e-4)
-        assert np.all(np.abs(found.translation - expected.translation) < 4 * found.translation_sigma + 0.01)
+        assert np.linalg.norm(found.translation - expected.translation) < 2.0 * np.linalg.norm(gt)
+    # what does not depend on the gauge, the pose of one station in the other, is the true one
+    east, west = result.frames["east"], result.frames["west"]
+    turn = east.rotation @ west.rotation.T
+    shift = east.translation - turn @ west.translation
+    true_turn = FAR.rotation @ OTHER.rotation.T
+    true_shift = FAR.translation - true_turn @ OTHER.translation
+    sigma_turn = np.hypot(east.rotation_sigma, west.rotation_sigma)
+    assert np.all(np.abs(vector_from_rotation(turn @ true_turn.T)) < 4 * sigma_turn)
+    lever = np.linalg.norm(west.translation) * np.linalg.norm(west.rotation_sigma)
+    sigma_shift = np.sqrt(east.translation_sigma**2 + west.translation_sigma**2 + lever**2)
+    assert np.all(np.abs(shift - true_shift) < 4 * sigma_shift)
     # and targets in either station's frame give the same joints (to the frames' agreement)
     check = validation_poses(bai, tool=TOOL)
     robot = result.geometry.with_tool(TOOL)
