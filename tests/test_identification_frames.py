@@ -176,9 +176,10 @@ def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(ro
                 max_tcp_error(nominal, truth, free, FAR.from_base(check.targets), "default"),
             )
         )
-        # six more parameters: the model absorbs some of them, and the report names them
+        # six more parameters; the robot's six rigid motions are the frame's, so the geometry
+        # combinations that mimic them are absorbed, the rank stays, and the report names them
         assert len(free.base.names) == len(in_base.base.names) + 6
-        assert free.rank > in_base.rank and free.absorbed
+        assert_absorbed(free, in_base)
         assert "absorbed by the instrument frame" in free.report()
         assert abs(free.variance_factor - in_base.variance_factor) < 0.1 * in_base.variance_factor
     base_error, free_error = np.mean(errors, axis=0)
@@ -195,14 +196,28 @@ def test_two_stations_share_one_robot_and_each_frame_is_found(bai):
     # the gauge: the identified actuator axes have no net rigid motion from the nominal ones
     G, g = axes_motion(bai.geometry(), result.geometry)
     assert np.max(np.abs(G - np.eye(3))) < 1e-9 and np.max(np.abs(g)) < 1e-9
-    # so each frame is the true one seen from the true robot's own axes gauge, within its σ
+    # so each frame's rotation is the true one seen from the true robot's own axes gauge, within
+    # its σ; its translation is not: the complete model has no parameter for the axes' positions
+    # (Eq. 13 carries them by the plate balls), so the gauge cannot follow the true axes' net
+    # shift (0.1-0.3 mm here), and that shift is all the difference
     Gt, gt = axes_motion(bai.geometry(), truth)
     for name, true in frames.items():
         expected = true.after_moving_base(Gt.T, -Gt.T @ gt)
         found = result.frames[name]
         rot = vector_from_rotation(found.rotation @ expected.rotation.T)
         assert np.all(np.abs(rot) < 4 * found.rotation_sigma + 1e-4)
-        assert np.all(np.abs(found.translation - expected.translation) < 4 * found.translation_sigma + 0.01)
+        assert np.linalg.norm(found.translation - expected.translation) < 2.0 * np.linalg.norm(gt)
+    # what does not depend on the gauge, the pose of one station in the other, is the true one
+    east, west = result.frames["east"], result.frames["west"]
+    turn = east.rotation @ west.rotation.T
+    shift = east.translation - turn @ west.translation
+    true_turn = FAR.rotation @ OTHER.rotation.T
+    true_shift = FAR.translation - true_turn @ OTHER.translation
+    sigma_turn = np.hypot(east.rotation_sigma, west.rotation_sigma)
+    assert np.all(np.abs(vector_from_rotation(turn @ true_turn.T)) < 4 * sigma_turn)
+    lever = np.linalg.norm(west.translation) * np.linalg.norm(west.rotation_sigma)
+    sigma_shift = np.sqrt(east.translation_sigma**2 + west.translation_sigma**2 + lever**2)
+    assert np.all(np.abs(shift - true_shift) < 4 * sigma_shift)
     # and targets in either station's frame give the same joints (to the frames' agreement)
     check = validation_poses(bai, tool=TOOL)
     robot = result.geometry.with_tool(TOOL)
@@ -210,3 +225,33 @@ def test_two_stations_share_one_robot_and_each_frame_is_found(bai):
     q_west = compensate(robot, result.frames["west"].to_base(OTHER.from_base(check.targets)))
     for q in (q_east, q_west):
         assert validate(truth.with_tool(TOOL), q, check.targets).max_mm < 0.03
+
+
+def assert_absorbed(free, in_base):
+    """The robot's six rigid motions are the frame's: absorbed, and the fit as well posed as in {O}."""
+    assert len(free.absorbed) == 6 and free.rank == in_base.rank
+    assert free.base.condition_number < 3.0 * in_base.base.condition_number
+    assert free.iterations <= in_base.iterations + 2
+
+
+@pytest.mark.parametrize("robot", ["bai", "flexpicker"])
+@pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
+def test_a_free_frame_fit_converges_from_measurements_in_any_frame(robot, kind, request):
+    """The robot's rotations, which the complete model mimics only to a few 0.1 % of their effect.
+
+    Before, tested column by column, the combination that turns the robot about z (every ball
+    centre and axis a little) was missed, its twins outside the base brought the absorbed
+    translations back, and Gauss-Newton crept along a curved valley without converging
+    (flexpicker, measurements in {O}, seeds 3 and 11). Now the principal angles find all six.
+    """
+    nominal = request.getfixturevalue(robot)
+    _, points, orientation = kind
+    for seed in (3, 11):
+        rng = np.random.default_rng(seed)
+        truth = nominal.geometry().perturbed(Tolerances.bai2015(), rng)
+        poses = d_optimal(nominal, "complete", 60, rng=rng).poses
+        meas = simulate_measurements(truth, poses.q, rng, Metrology(points=points, orientation=orientation))
+        in_base = identify(nominal.geometry(), meas, "complete")
+        for frames in ({"default": InstrumentFrame.from_vectors(np.zeros(3), np.zeros(3))}, {"default": FAR}):
+            free = identify(nominal.geometry(), in_frames(meas, frames), "complete", frame="free")
+            assert_absorbed(free, in_base)

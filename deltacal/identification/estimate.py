@@ -320,12 +320,16 @@ def fit(
     # with a free frame its parameters are kept first: the base drops what they absorb
     prefer = error_model.preferred
     absorbed: list[str] = []
+    held: list[str] = []
     if stations:
         # the geometry's own base first, as with measurements in {O}; then what the frames absorb
         own = base_parameters(Ww[:, :n_model], names[:n_model], rtol=rtol, prefer=prefer)
         absorbed = absorbed_by_frames(Ww[:, :n_fixed], names[:n_fixed], n_model, own.base)
         prefer = names[n_model:n_fixed] + [names[k] for k in own.base]
-    base = base_parameters(Ww[:, :n_fixed], names[:n_fixed], rtol=rtol, prefer=prefer, exclude=absorbed)
+        # a parameter outside the geometry's own base only repeats base columns, except along
+        # what the frames absorb: it would bring that back (b21x for an absorbed b22x, say)
+        held = absorbed + [names[k] for k in range(n_model) if k not in own.base]
+    base = base_parameters(Ww[:, :n_fixed], names[:n_fixed], rtol=rtol, prefer=prefer, exclude=held)
     if base.rank == 0:
         raise IdentificationError("the measurements identify no parameter of the model")
     check_plausible(start, measurements, rows, frame_free=bool(stations))
@@ -335,7 +339,7 @@ def fit(
     if free_points:
         # the points only where the geometry (and the frames) leave them something to say
         prefer = [names[k] for k in base.base] + names[n_fixed:]
-        base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=absorbed)
+        base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=held)
         confounded = [names[k] for k in range(n_fixed, len(names)) if k not in base.base]
     kept = base.base
     before = ResidualStats.from_rows(rows)

@@ -175,7 +175,7 @@ class IdentificationResult:
             lines.append("  " + ", ".join(self.confounded))
         if self.absorbed:
             lines.append("")
-            lines.append("absorbed by the instrument frame(s) (within 1 % of a rigid motion; held):")
+            lines.append("absorbed by the instrument frame(s) (rigid motions of the robot; held):")
             lines.append("  " + ", ".join(self.absorbed))
         if folded:
             lines.append("")
