@@ -34,6 +34,7 @@ from ..kinematics import exact
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows, build_rows, distance_residuals
 from .diagnostics import check_plausible, check_rank
 from .frames import (
+    FRAME_RTOL,
     FRAME_UNITS,
     InstrumentFrame,
     absorbed_by_frames,
@@ -324,7 +325,10 @@ def fit(
     if stations:
         # the geometry's own base first, as with measurements in {O}; then what the frames absorb
         own = base_parameters(Ww[:, :n_model], names[:n_model], rtol=rtol, prefer=prefer)
-        absorbed = absorbed_by_frames(Ww[:, :n_fixed], names[:n_fixed], n_model, own.base)
+        # a model without rigid motions of its own (Bai's distance models, fitted as positions
+        # with a frame per point) mimics none: only what is exactly the frames' is theirs
+        absorbed = absorbed_by_frames(Ww[:, :n_fixed], names[:n_fixed], n_model, own.base,
+                                      rtol if error_model.rigid_motion_free else FRAME_RTOL)
         prefer = names[n_model:n_fixed] + [names[k] for k in own.base]
         # a parameter outside the geometry's own base only repeats base columns, except along
         # what the frames absorb: it would bring that back (b21x for an absorbed b22x, say)
