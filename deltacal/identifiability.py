@@ -132,7 +132,7 @@ def pivoted_qr(A: np.ndarray, tie_rtol: float = TIE_RTOL) -> tuple[np.ndarray, n
     if R.shape[0] > R.shape[1]:
         # a tall matrix: its triangular factor has the same column norms and the same pivoting
         # (Qᵀ keeps every norm), at n x n instead of m x n for each of the n steps below
-        R = np.linalg.qr(R, mode="r")
+        R = np.asarray(np.linalg.qr(R, mode="r"))
     m, n = R.shape
     perm = np.arange(n)
     steps = min(m, n)

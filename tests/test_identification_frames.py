@@ -14,6 +14,7 @@ import pytest
 
 from deltacal import NominalDelta, Tolerances, Workspace
 from deltacal.compensation import compensate
+from deltacal.errormodels import get_model
 from deltacal.identification import identify
 from deltacal.identification.frames import (
     InstrumentFrame,
@@ -255,3 +256,20 @@ def test_a_free_frame_fit_converges_from_measurements_in_any_frame(robot, kind, 
         for frames in ({"default": InstrumentFrame.from_vectors(np.zeros(3), np.zeros(3))}, {"default": FAR}):
             free = identify(nominal.geometry(), in_frames(meas, frames), "complete", frame="free")
             assert_absorbed(free, in_base)
+
+
+@pytest.mark.parametrize("model", ["complete", "bai42"])
+def test_what_the_frame_takes_is_held_among_positions_not_tilts_nor_offsets(bai, model):
+    """Holding an axis tilt or an encoder offset would deny its real deviation (bai2015, seed 3)."""
+    rng = np.random.default_rng(3)
+    truth = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    poses = d_optimal(bai, model, 60, rng=rng).poses
+    meas = simulate_measurements(truth, poses.q, rng, Metrology(points=("smr_centre",), orientation=True))
+    in_base = identify(bai.geometry(), meas, model)
+    free = identify(bai.geometry(), in_frames(meas, {"default": FAR}), model, frame="free")
+    assert len(free.absorbed) == 6 and set(free.absorbed) <= set(get_model(model).frame_held_first)
+    assert free.rank == in_base.rank and free.iterations <= in_base.iterations + 2
+    check = validation_poses(bai, tool=TOOL)
+    base_error = max_tcp_error(bai, truth, in_base)
+    free_error = max_tcp_error(bai, truth, free, FAR.from_base(check.targets), "default")
+    assert free_error <= 1.10 * base_error

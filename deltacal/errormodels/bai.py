@@ -61,6 +61,7 @@ class BaiModel(ErrorModel):
         self.orientation = orientation
         self.tilts_plate = orientation
         self.name = "bai42" if orientation else "bai24"
+        self.frame_held_first = tuple(f"e{i}{a}" for i in range(1, 4) for a in "xyz")
 
     @property
     def names(self) -> list[str]:

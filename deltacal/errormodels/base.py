@@ -201,6 +201,10 @@ class ErrorModel(ABC):
     #: The model holds no rigid motion of the robot (a gauge such as Bai's Eq. 11 removed it):
     #: distances of all pairs are then fitted as positions with a free frame per point.
     rigid_motion_free: bool = False
+    #: Where an instrument frame absorbs a rigid motion of the robot, the parameters held for it
+    #: are taken among these first: positions of elements, not an axis tilt nor an encoder
+    #: offset, whose real deviation a held value would deny.
+    frame_held_first: tuple[str, ...] = ()
 
     @property
     @abstractmethod
@@ -276,6 +280,7 @@ class SubModel(ErrorModel):
         self.name = name
         self.tilts_plate = parent.tilts_plate
         self.preferred = parent.preferred
+        self.frame_held_first = tuple(n for n in parent.frame_held_first if n in keep)
 
     @property
     def names(self) -> list[str]:

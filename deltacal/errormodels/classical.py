@@ -70,6 +70,7 @@ class ClassicalModel(ErrorModel):
 
     name = "classical"
     tilts_plate = False
+    frame_held_first = tuple(f"p{i}{a}" for i in range(1, 4) for a in "xyz")
 
     _LIMB = ("p{i}x", "p{i}y", "p{i}z", "tilt{i}r", "tilt{i}z", "offset{i}", "L{i}", "l{i}")
     _UNITS = ("mm", "mm", "mm", "rad", "rad", "rad", "mm", "mm")

@@ -76,6 +76,8 @@ class CompleteModel(ErrorModel):
             + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
             + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
         )
+        # the plate balls also carry the actuators' positions (Eq. 13)
+        self.frame_held_first = tuple(f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz")
 
     @property
     def names(self) -> list[str]:

@@ -328,7 +328,8 @@ def fit(
         # a model without rigid motions of its own (Bai's distance models, fitted as positions
         # with a frame per point) mimics none: only what is exactly the frames' is theirs
         absorbed = absorbed_by_frames(Ww[:, :n_fixed], names[:n_fixed], n_model, own.base,
-                                      rtol if error_model.rigid_motion_free else FRAME_RTOL)
+                                      rtol if error_model.rigid_motion_free else FRAME_RTOL,
+                                      error_model.frame_held_first)
         prefer = names[n_model:n_fixed] + [names[k] for k in own.base]
         # a parameter outside the geometry's own base only repeats base columns, except along
         # what the frames absorb: it would bring that back (b21x for an absorbed b22x, say)

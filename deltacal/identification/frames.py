@@ -23,7 +23,7 @@ Its pose is ``y_T = R y_O + t`` (``R``: rotation of {O} in {T}; ``t``: origin of
 
 from __future__ import annotations
 
-import re
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -138,7 +138,8 @@ def frame_parameter_names(stations: list[str]) -> list[str]:
 
 
 def absorbed_by_frames(
-    W: np.ndarray, names: list[str], n_model: int, kept: list[int], frame_rtol: float = FRAME_RTOL
+    W: np.ndarray, names: list[str], n_model: int, kept: list[int], frame_rtol: float = FRAME_RTOL,
+    held_first: Collection[str] = (),
 ) -> list[str]:
     """Parameters of the geometry that the frames (nearly) absorb.
 
@@ -148,8 +149,9 @@ def absorbed_by_frames(
     has a sine below ``frame_rtol`` (a rigid motion of the whole robot: its translations
     exactly, its rotations to a few 0.1 % with the complete model). One parameter per such
     combination is held: a column-pivoted QR of the combinations picks the parameters that
-    take the largest part in them (so what is left is well conditioned), plate-ball
-    coordinates (``b11x``...) first, ties to the later parameter in the order ``kept``.
+    take the largest part in them (so what is left is well conditioned), those of
+    ``held_first`` first (the model's :attr:`~deltacal.errormodels.ErrorModel.frame_held_first`:
+    the complete model's plate balls), ties to the later parameter in the order ``kept``.
     Holding an axis tilt instead fixes the tilt at its nominal value and costs accuracy
     (14-17 % more TCP error in two of the six cases of the far-tracker test).
 
@@ -163,6 +165,7 @@ def absorbed_by_frames(
         n_model: Number of geometry columns.
         kept: Indices of the geometry's base parameters (without the frames), in order.
         frame_rtol: See :data:`FRAME_RTOL`.
+        held_first: Parameters held in preference.
 
     Returns:
         Names of the absorbed parameters, in the order ``kept``.
@@ -183,9 +186,8 @@ def absorbed_by_frames(
     # the combinations in parameter space (scaled columns), one row each
     combinations = scipy.linalg.solve_triangular(Rg, shared.T, check_finite=False).T
     order = np.arange(len(kept))[::-1]  # ties to the later parameter
-    # plate balls first: holding an actuator axis or an arm ball would fix where the axes gauge
-    # puts {O} (the complete model carries the axes' positions by the plate balls, Eq. 13)
-    weight = np.array([1.0 if re.match(r"b\d", names[kept[j]]) else 1e-3 for j in order])
+    # the preferred ones win unless the others take a thousand times their part
+    weight = np.array([1.0 if names[kept[j]] in held_first else 1e-3 for j in order])
     _, perm = pivoted_qr(combinations[:, order] * weight)
     held = {kept[int(order[j])] for j in perm[: len(shared)]}
     return [names[k] for k in kept if k in held]
