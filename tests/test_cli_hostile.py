@@ -354,3 +354,49 @@ def test_many_unused_columns_warn_on_one_line(files, capsys, tmp_path):
     assert code == 0
     warnings = [ln for ln in err.splitlines() if ln.startswith("warning:")]
     assert len(warnings) == 1 and "2000 column(s) not used" in warnings[0] and "and 1995 more" in warnings[0]
+
+
+# ----------------------------------------------------------------- 11, 10: implausible robot sizes
+#: bai2015.toml's lengths in metres, as a careless user would copy them from a drawing in SI units.
+IN_METRES = {
+    "base_radius_mm = 200.0": "base_radius_mm = 0.2", "plate_radius_mm = 51.0": "plate_radius_mm = 0.051",
+    "arm_length_mm = 375.0": "arm_length_mm = 0.375", "rod_length_mm = 950.0": "rod_length_mm = 0.95",
+    "rod_spacing_mm = 100.0": "rod_spacing_mm = 0.1", "radius_mm = 500.0": "radius_mm = 0.5",
+    "height_mm = 250.0": "height_mm = 0.25", "top_z_mm = -728.0": "top_z_mm = -0.728",
+}
+
+
+def _robot(tmp_path: Path, edits: dict[str, str]) -> Path:
+    text = NOMINAL.read_text()
+    for old, new in edits.items():
+        assert old in text
+        text = text.replace(old, new)
+    robot = tmp_path / "robot.toml"
+    robot.write_text(text)
+    return robot
+
+
+def test_a_robot_file_in_metres_is_refused_naming_the_key_and_the_unit(capsys, tmp_path):
+    robot = _robot(tmp_path, IN_METRES)
+    code, _, err = run(capsys, "plan", robot, "--model", "complete", "--n", "3", "-o", tmp_path / "p.csv")
+    assert code == 1 and not (tmp_path / "p.csv").exists()
+    assert "key geometry.base_radius_mm: 0.2 mm is implausible for a Delta robot (metres?" in err
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(("key", "value", "says"), [
+    ("arm_length_mm = 375.0", "0.375", "0.375 mm is implausible for a Delta robot (metres?"),
+    ("rod_spacing_mm = 100.0", "0.1", "0.1 mm is implausible"),
+    ("rod_length_mm = 950.0", "950000.0", "950000.0 mm is implausible for a Delta robot (micrometres?"),
+    ("arm_length_mm = 375.0", "1e23", "1e+23 mm is implausible for a Delta robot (a typing error?"),
+])
+def test_one_implausible_length_is_blamed_on_its_own_key(capsys, tmp_path, key, value, says):
+    robot = _robot(tmp_path, {key: key.split("=")[0] + "= " + value})
+    code, _, err = run(capsys, "plan", robot, "--model", "complete", "--n", "3", "-o", tmp_path / "p.csv")
+    assert code == 1 and f"key geometry.{key.split()[0]}: {says}" in err, err
+
+
+@pytest.mark.parametrize("name", ["bai2015", "flexpicker"])
+def test_the_shipped_robots_are_plausible(capsys, tmp_path, name):
+    assert run(capsys, "plan", MODELS / f"{name}.toml", "--model", "complete", "--n", "3",
+               "-o", tmp_path / "p.csv")[0] == 0
