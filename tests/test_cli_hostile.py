@@ -400,3 +400,42 @@ def test_one_implausible_length_is_blamed_on_its_own_key(capsys, tmp_path, key, 
 def test_the_shipped_robots_are_plausible(capsys, tmp_path, name):
     assert run(capsys, "plan", MODELS / f"{name}.toml", "--model", "complete", "--n", "3",
                "-o", tmp_path / "p.csv")[0] == 0
+
+
+# ----------------------------------------------------------------- 10: readings a robot cannot take, by line
+def test_poses_the_true_robot_cannot_take_are_named_by_line(files, capsys, tmp_path):
+    poses = tmp_path / "p.csv"
+    assert main(["plan", str(NOMINAL), "--model", "complete", "--n", "20", "-o", str(poses)]) == 0
+    lines = files["cal"].read_text().splitlines()
+    k = lines.index("[geometry]")
+    n = next(i for i in range(k, len(lines)) if lines[i].startswith("rod_length_mm"))
+    lines[n] = "rod_length_mm = [700.0, 950.0]"  # one rod 250 mm short: no pose of the plan closes
+    truth = tmp_path / "short.toml"
+    truth.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    code, _, err = run(capsys, "simulate", NOMINAL, poses, "--truth", truth, "-o", tmp_path / "m.csv")
+    assert code == 1 and not (tmp_path / "m.csv").exists()
+    assert f"{poses}: line 2 (data row 1), columns q1_deg..q3_deg: the true robot ({truth}) cannot be " in err
+    assert "rows in all, lines 2, 3, 4" in err and "index" not in err and err.count("\n") == 1
+
+
+# ----------------------------------------------------------------- 10: the format key of a calibration
+@pytest.mark.parametrize(("edit", "says"), [
+    ("", "key format: missing required key (the known formats are 'deltacal-geometry-1'"),
+    ('format = "deltacal-calibration-9"',
+     "key format: unknown format 'deltacal-calibration-9': the known formats are 'deltacal-geometry-1'"),
+])
+@pytest.mark.parametrize("command", ["compensate exact", "compensate savoure", "report", "export"])
+def test_a_missing_or_unknown_format_is_said(files, capsys, tmp_path, edit, says, command):
+    text = files["cal"].read_text()
+    cal = tmp_path / "cal.toml"
+    cal.write_text(text.replace('format = "deltacal-calibration-1"', edit, 1))
+    joints = tmp_path / "j.csv"
+    argv = {
+        "compensate exact": ["compensate", cal, files["targets"], "--method", "exact", "-o", joints],
+        "compensate savoure": ["compensate", cal, files["targets"], "--method", "savoure", "-o", joints],
+        "report": ["report", cal, "-o", tmp_path / "r.html"],
+        "export": ["export", cal, "--mjcf", tmp_path / "r.xml"],
+    }[command]
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and f"{cal}: {says}" in err and "unknown key calibration" not in err

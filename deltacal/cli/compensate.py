@@ -18,11 +18,12 @@ from ..io import (
     JointsWriter,
     TargetChunk,
     TargetFile,
+    lines_text,
     load_geometry,
     load_instrument,
     load_linear_calibration,
 )
-from .common import check_input, check_output, lines_text, warn
+from .common import check_input, check_output, warn
 from .progress import Progress
 
 

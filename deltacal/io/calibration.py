@@ -17,7 +17,7 @@ from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
-    _check_not_nominal,
+    check_format,
     geometry_from_dict,
     geometry_to_dict,
 )
@@ -70,12 +70,8 @@ def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
     """
     source = str(path)
     data = read_toml(path)
-    _check_not_nominal(data, source)
-    if data.get("format") == GEOMETRY_FORMAT:
+    if check_format(data, source) == GEOMETRY_FORMAT:
         return {}  # a geometry file: the robot alone, measured in its own base frame
-    if data.get("format") != CALIBRATION_FORMAT:
-        raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
-                         "key format")
     raw = data.get("instrument", {})
     if not isinstance(raw, Mapping):
         raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
@@ -98,8 +94,7 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     """
     source = str(path)
     data = read_toml(path)
-    _check_not_nominal(data, source)
-    if data.get("format") != CALIBRATION_FORMAT:
+    if check_format(data, source) != CALIBRATION_FORMAT:
         raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
                          "key format")
     if not isinstance(data.get("nominal"), Mapping):
