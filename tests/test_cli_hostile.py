@@ -439,3 +439,51 @@ def test_a_missing_or_unknown_format_is_said(files, capsys, tmp_path, edit, says
     }[command]
     code, _, err = run(capsys, *argv)
     assert code == 1 and f"{cal}: {says}" in err and "unknown key calibration" not in err
+
+
+# ----------------------------------------------------------------- 2: sections checked for --method exact too
+def test_exact_refuses_a_tool_edited_in_geometry_only(files, capsys, tmp_path):
+    text = files["cal"].read_text()
+    k = text.index("[geometry]")
+    edited = tmp_path / "cal.toml"
+    tool = text[k:].replace("tool_mm = [0.0, 0.0, 0.0]", "tool_mm = [0.0, 0.0, -2.0]", 1)  # [nominal] kept
+    edited.write_text(text[:k] + tool)
+    joints = tmp_path / "j.csv"
+    code, _, err = run(capsys, "compensate", edited, files["targets"], "--method", "exact", "-o", joints)
+    assert code == 1 and "key geometry.tool_mm" in err and "key nominal.tool_mm" in err
+    assert not (tmp_path / "j.csv").exists()
+
+
+@pytest.fixture(scope="module")
+def free_frame_calibration(tmp_path_factory):
+    """A calibration identified with --frame free: its [geometry] is in the axes gauge."""
+    folder = tmp_path_factory.mktemp("free")
+    poses, meas, cal = folder / "poses.csv", folder / "meas.csv", folder / "cal.toml"
+    assert main(["plan", str(NOMINAL), "--strategy", "doptimal", "--count", "60", "-o", str(poses)]) == 0
+    east = "east:1.1,-1.0,35.0:2680.0,830.0,250.0"
+    assert main(["simulate", str(NOMINAL), str(poses), "--perturb", "7", "--points", "smr_centre",
+                 "--station", east, "-o", str(meas)]) == 0
+    assert main(["identify", str(NOMINAL), str(meas), "--frame", "free", "-o", str(cal)]) == 0
+    return cal
+
+
+def test_exact_reads_a_free_frame_calibration_modulo_its_gauge(free_frame_calibration, files, capsys,
+                                                               tmp_path):
+    cal = free_frame_calibration
+    text = cal.read_text()
+    k = text.index("[geometry]")
+    assert "[instrument.east]" in text
+    # honest: [geometry] is [nominal] moved by the base parameters, then rigidly to the axes gauge
+    joints = tmp_path / "j.csv"
+    assert run(capsys, "compensate", cal, files["targets"], "--method", "exact", "-o", joints)[0] == 0
+    # one axis point moved 0.05 mm in [geometry] only: no rigid motion explains it
+    lines = text[k:].splitlines()
+    n = next(i for i, ln in enumerate(lines) if ln.startswith("axis_point_mm"))
+    x = lines[n].split("[")[1].split(",")[0]
+    lines[n] = lines[n].replace(x, repr(float(x) + 0.05), 1)
+    edited = tmp_path / "cal.toml"
+    edited.write_text(text[:k] + "\n".join(lines) + "\n")
+    code, _, err = run(capsys, "compensate", edited, files["targets"], "--method", "exact",
+                       "-o", tmp_path / "j2.csv")
+    assert code == 1 and "key geometry.limb[" in err and "axis_point_mm" in err and "key nominal.limb[" in err
+    assert not (tmp_path / "j2.csv").exists()

@@ -8,7 +8,7 @@ renames it, so a failure never leaves a half-written output.
 """
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
-from .calibration import load_instrument, load_linear_calibration, save_calibration
+from .calibration import check_calibration, load_instrument, load_linear_calibration, save_calibration
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -49,6 +49,7 @@ __all__ = [
     "atomic_output",
     "atomic_write_bytes",
     "atomic_write_text",
+    "check_calibration",
     "check_format",
     "data_row",
     "lines_text",

@@ -12,7 +12,7 @@ from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
 from ..identification import IdentificationResult
-from ..identification.frames import InstrumentFrame
+from ..identification.frames import InstrumentFrame, axes_motion
 from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
@@ -130,9 +130,26 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     if not isinstance(data.get("geometry"), Mapping):
         raise InputError("missing required table", source, "key geometry")
     nominal = nominal.with_tool(nominal.tool + tool_move)
-    check_sections_agree(geometry_from_dict(data["geometry"], source, "geometry."),
-                         model.apply(nominal, deviation), source)
+    geometry = geometry_from_dict(data["geometry"], source, "geometry.")
+    predicted = model.apply(nominal, deviation)
+    if data.get("instrument"):
+        # identified with free instrument frames: [geometry] was moved to the axes gauge after the
+        # fit, a rigid motion the base parameters do not hold; the sections agree modulo it
+        predicted = predicted.moved_rigidly(*axes_motion(predicted, geometry))
+    check_sections_agree(geometry, predicted, source)
     return LinearCalibration(nominal=nominal, model=model, deviation=deviation)
+
+
+def check_calibration(path: str | Path) -> None:
+    """Refuse a calibration file whose sections contradict each other (see :func:`check_sections_agree`).
+
+    A geometry file (``format = 'deltacal-geometry-1'``) has one section only: nothing to check.
+
+    Raises:
+        InputError: naming both keys, or the first key of the file that is wrong.
+    """
+    if check_format(read_toml(path), str(path)) == CALIBRATION_FORMAT:
+        load_linear_calibration(path)
 
 
 #: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],
