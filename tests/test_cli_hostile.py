@@ -354,3 +354,136 @@ def test_many_unused_columns_warn_on_one_line(files, capsys, tmp_path):
     assert code == 0
     warnings = [ln for ln in err.splitlines() if ln.startswith("warning:")]
     assert len(warnings) == 1 and "2000 column(s) not used" in warnings[0] and "and 1995 more" in warnings[0]
+
+
+# ----------------------------------------------------------------- 11, 10: implausible robot sizes
+#: bai2015.toml's lengths in metres, as a careless user would copy them from a drawing in SI units.
+IN_METRES = {
+    "base_radius_mm = 200.0": "base_radius_mm = 0.2", "plate_radius_mm = 51.0": "plate_radius_mm = 0.051",
+    "arm_length_mm = 375.0": "arm_length_mm = 0.375", "rod_length_mm = 950.0": "rod_length_mm = 0.95",
+    "rod_spacing_mm = 100.0": "rod_spacing_mm = 0.1", "radius_mm = 500.0": "radius_mm = 0.5",
+    "height_mm = 250.0": "height_mm = 0.25", "top_z_mm = -728.0": "top_z_mm = -0.728",
+}
+
+
+def _robot(tmp_path: Path, edits: dict[str, str]) -> Path:
+    text = NOMINAL.read_text()
+    for old, new in edits.items():
+        assert old in text
+        text = text.replace(old, new)
+    robot = tmp_path / "robot.toml"
+    robot.write_text(text)
+    return robot
+
+
+def test_a_robot_file_in_metres_is_refused_naming_the_key_and_the_unit(capsys, tmp_path):
+    robot = _robot(tmp_path, IN_METRES)
+    code, _, err = run(capsys, "plan", robot, "--model", "complete", "--n", "3", "-o", tmp_path / "p.csv")
+    assert code == 1 and not (tmp_path / "p.csv").exists()
+    assert "key geometry.base_radius_mm: 0.2 mm is implausible for a Delta robot (metres?" in err
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(("key", "value", "says"), [
+    ("arm_length_mm = 375.0", "0.375", "0.375 mm is implausible for a Delta robot (metres?"),
+    ("rod_spacing_mm = 100.0", "0.1", "0.1 mm is implausible"),
+    ("rod_length_mm = 950.0", "950000.0", "950000.0 mm is implausible for a Delta robot (micrometres?"),
+    ("arm_length_mm = 375.0", "1e23", "1e+23 mm is implausible for a Delta robot (a typing error?"),
+])
+def test_one_implausible_length_is_blamed_on_its_own_key(capsys, tmp_path, key, value, says):
+    robot = _robot(tmp_path, {key: key.split("=")[0] + "= " + value})
+    code, _, err = run(capsys, "plan", robot, "--model", "complete", "--n", "3", "-o", tmp_path / "p.csv")
+    assert code == 1 and f"key geometry.{key.split()[0]}: {says}" in err, err
+
+
+@pytest.mark.parametrize("name", ["bai2015", "flexpicker"])
+def test_the_shipped_robots_are_plausible(capsys, tmp_path, name):
+    assert run(capsys, "plan", MODELS / f"{name}.toml", "--model", "complete", "--n", "3",
+               "-o", tmp_path / "p.csv")[0] == 0
+
+
+# ----------------------------------------------------------------- 10: readings a robot cannot take, by line
+def test_poses_the_true_robot_cannot_take_are_named_by_line(files, capsys, tmp_path):
+    poses = tmp_path / "p.csv"
+    assert main(["plan", str(NOMINAL), "--model", "complete", "--n", "20", "-o", str(poses)]) == 0
+    lines = files["cal"].read_text().splitlines()
+    k = lines.index("[geometry]")
+    n = next(i for i in range(k, len(lines)) if lines[i].startswith("rod_length_mm"))
+    lines[n] = "rod_length_mm = [700.0, 950.0]"  # one rod 250 mm short: no pose of the plan closes
+    truth = tmp_path / "short.toml"
+    truth.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    code, _, err = run(capsys, "simulate", NOMINAL, poses, "--truth", truth, "-o", tmp_path / "m.csv")
+    assert code == 1 and not (tmp_path / "m.csv").exists()
+    assert f"{poses}: line 2 (data row 1), columns q1_deg..q3_deg: the true robot ({truth}) cannot be " in err
+    assert "rows in all, lines 2, 3, 4" in err and "index" not in err and err.count("\n") == 1
+
+
+# ----------------------------------------------------------------- 10: the format key of a calibration
+@pytest.mark.parametrize(("edit", "says"), [
+    ("", "key format: missing required key (the known formats are 'deltacal-geometry-1'"),
+    ('format = "deltacal-calibration-9"',
+     "key format: unknown format 'deltacal-calibration-9': the known formats are 'deltacal-geometry-1'"),
+])
+@pytest.mark.parametrize("command", ["compensate exact", "compensate savoure", "report", "export"])
+def test_a_missing_or_unknown_format_is_said(files, capsys, tmp_path, edit, says, command):
+    text = files["cal"].read_text()
+    cal = tmp_path / "cal.toml"
+    cal.write_text(text.replace('format = "deltacal-calibration-1"', edit, 1))
+    joints = tmp_path / "j.csv"
+    argv = {
+        "compensate exact": ["compensate", cal, files["targets"], "--method", "exact", "-o", joints],
+        "compensate savoure": ["compensate", cal, files["targets"], "--method", "savoure", "-o", joints],
+        "report": ["report", cal, "-o", tmp_path / "r.html"],
+        "export": ["export", cal, "--mjcf", tmp_path / "r.xml"],
+    }[command]
+    code, _, err = run(capsys, *argv)
+    assert code == 1 and f"{cal}: {says}" in err and "unknown key calibration" not in err
+
+
+# ----------------------------------------------------------------- 2: sections checked for --method exact too
+def test_exact_refuses_a_tool_edited_in_geometry_only(files, capsys, tmp_path):
+    text = files["cal"].read_text()
+    k = text.index("[geometry]")
+    edited = tmp_path / "cal.toml"
+    tool = text[k:].replace("tool_mm = [0.0, 0.0, 0.0]", "tool_mm = [0.0, 0.0, -2.0]", 1)  # [nominal] kept
+    edited.write_text(text[:k] + tool)
+    joints = tmp_path / "j.csv"
+    code, _, err = run(capsys, "compensate", edited, files["targets"], "--method", "exact", "-o", joints)
+    assert code == 1 and "key geometry.tool_mm" in err and "key nominal.tool_mm" in err
+    assert not (tmp_path / "j.csv").exists()
+
+
+@pytest.fixture(scope="module")
+def free_frame_calibration(tmp_path_factory):
+    """A calibration identified with --frame free: its [geometry] is in the axes gauge."""
+    folder = tmp_path_factory.mktemp("free")
+    poses, meas, cal = folder / "poses.csv", folder / "meas.csv", folder / "cal.toml"
+    assert main(["plan", str(NOMINAL), "--strategy", "doptimal", "--count", "60", "-o", str(poses)]) == 0
+    east = "east:1.1,-1.0,35.0:2680.0,830.0,250.0"
+    assert main(["simulate", str(NOMINAL), str(poses), "--perturb", "7", "--points", "smr_centre",
+                 "--station", east, "-o", str(meas)]) == 0
+    assert main(["identify", str(NOMINAL), str(meas), "--frame", "free", "-o", str(cal)]) == 0
+    return cal
+
+
+def test_exact_reads_a_free_frame_calibration_modulo_its_gauge(free_frame_calibration, files, capsys,
+                                                               tmp_path):
+    cal = free_frame_calibration
+    text = cal.read_text()
+    k = text.index("[geometry]")
+    assert "[instrument.east]" in text
+    # honest: [geometry] is [nominal] moved by the base parameters, then rigidly to the axes gauge
+    joints = tmp_path / "j.csv"
+    assert run(capsys, "compensate", cal, files["targets"], "--method", "exact", "-o", joints)[0] == 0
+    # one axis point moved 0.05 mm in [geometry] only: no rigid motion explains it
+    lines = text[k:].splitlines()
+    n = next(i for i, ln in enumerate(lines) if ln.startswith("axis_point_mm"))
+    x = lines[n].split("[")[1].split(",")[0]
+    lines[n] = lines[n].replace(x, repr(float(x) + 0.05), 1)
+    edited = tmp_path / "cal.toml"
+    edited.write_text(text[:k] + "\n".join(lines) + "\n")
+    code, _, err = run(capsys, "compensate", edited, files["targets"], "--method", "exact",
+                       "-o", tmp_path / "j2.csv")
+    assert code == 1 and "key geometry.limb[" in err and "axis_point_mm" in err and "key nominal.limb[" in err
+    assert not (tmp_path / "j2.csv").exists()

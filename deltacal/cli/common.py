@@ -126,12 +126,6 @@ def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> 
             raise UsageError(f"{path}: the output would overwrite an input file")
 
 
-def lines_text(lines: Sequence[int], limit: int = 10) -> str:
-    """``"3, 5, 9"`` (and ``"and N more"`` past ``limit``)."""
-    shown = ", ".join(str(int(n)) for n in lines[:limit])
-    return shown + (f" and {len(lines) - limit} more" if len(lines) > limit else "")
-
-
 def point_list(text: str, known: Sequence[str], option: str = "--points") -> list[str]:
     """Comma-separated point names, each checked against the robot's points."""
     points = [p.strip() for p in text.split(",") if p.strip()]

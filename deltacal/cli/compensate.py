@@ -18,11 +18,13 @@ from ..io import (
     JointsWriter,
     TargetChunk,
     TargetFile,
+    check_calibration,
+    lines_text,
     load_geometry,
     load_instrument,
     load_linear_calibration,
 )
-from .common import check_input, check_output, lines_text, warn
+from .common import check_input, check_output, warn
 from .progress import Progress
 
 
@@ -54,7 +56,11 @@ def run(args: argparse.Namespace) -> int:
         to_base = frames[station].to_base
     elif args.station is not None:
         raise UsageError("--station applies to --frame instrument only")
-    linear = load_linear_calibration(args.calibration) if args.method != "exact" else None
+    if args.method == "exact":
+        check_calibration(args.calibration)  # [geometry] and [nominal] agree, as for the linear methods
+        linear = None
+    else:
+        linear = load_linear_calibration(args.calibration)
     size = max(targets_file.size, 1)
     with Progress("compensate") as progress:
         for chunk in targets_file.chunks():  # the whole file checked before anything is computed

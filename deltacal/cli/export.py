@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Mapping
 
 import numpy as np
 
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry
-from ..io import CALIBRATION_FORMAT, GEOMETRY_FORMAT, load_geometry, load_instrument, load_nominal, read_toml
+from ..io import check_format, load_geometry, load_instrument, load_nominal, read_toml
 from .common import check_input, check_output
 
 
@@ -19,10 +20,12 @@ def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
     Raises:
         InputError: naming the file, key and value of the first problem found.
     """
-    fmt = read_toml(path).get("format")
-    if fmt in (CALIBRATION_FORMAT, GEOMETRY_FORMAT):
-        return load_geometry(path), list(load_instrument(path))
-    return load_nominal(path).geometry(), []
+    data = read_toml(path)
+    geometry = data.get("geometry")
+    if "format" not in data and isinstance(geometry, Mapping) and "base_radius_mm" in geometry:
+        return load_nominal(path).geometry(), []  # a nominal robot file (it has no format key)
+    check_format(data, path)
+    return load_geometry(path), list(load_instrument(path))
 
 
 def _readings_deg(text: str) -> np.ndarray:

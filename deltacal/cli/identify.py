@@ -10,9 +10,9 @@ import numpy as np
 from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
 from ..identification import PoorFitError, identify
-from ..io import data_row, load_nominal, read_measurement_file, save_calibration
+from ..io import lines_text, load_nominal, read_measurement_file, save_calibration, unassembled_rows
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from .common import check_input, check_output, lines_text, sigma, warn
+from .common import check_input, check_output, sigma, warn
 
 
 def run(args: argparse.Namespace) -> int:
@@ -54,16 +54,10 @@ def run(args: argparse.Namespace) -> int:
         )
     except AssemblyError as exc:
         # at the nominal geometry: the readings themselves are impossible
-        at = lines[exc.indices].tolist() if exc.indices else []
-        if not at:
+        if not exc.indices:
             raise
-        k = exc.indices[0]
-        q = np.round(np.degrees(measurements.q[k]), 6).tolist()
-        more = f"; {len(at)} rows in all, lines {lines_text(at)}" if len(at) > 1 else ""
-        raise InputError(
-            f"the robot {nominal.name!r} cannot be assembled at the readings q = {q} deg{more}",
-            args.measurements, f"{data_row(at[0], k + 1)}, columns q1_deg..q3_deg",
-        ) from exc
+        raise unassembled_rows(exc, args.measurements, lines, measurements.q,
+                               f"the robot {nominal.name!r}") from exc
     except PoorFitError as exc:
         raise IdentificationError(
             f"{args.measurements}: {exc}; nothing written (--accept-poor-fit keeps such a fit)"

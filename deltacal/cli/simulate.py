@@ -8,10 +8,17 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..exceptions import UsageError
+from ..exceptions import AssemblyError, UsageError
 from ..geometry import Tolerances
 from ..identification.frames import in_instrument_frames
-from ..io import load_geometry, load_nominal, read_poses, save_geometry, write_measurements
+from ..io import (
+    load_geometry,
+    load_nominal,
+    read_poses_file,
+    save_geometry,
+    unassembled_rows,
+    write_measurements,
+)
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from ..simulation import Metrology, simulate_measurements, truth_path
 from .common import (
@@ -73,8 +80,9 @@ def run(args: argparse.Namespace) -> int:
     if args.truth is None:
         check_output(truth_path(args.output), inputs)
     nominal = load_nominal(args.nominal)
-    poses, warnings = read_poses(args.poses, nominal)
-    warn(warnings)
+    read = read_poses_file(args.poses, nominal)
+    poses = read.poses
+    warn(read.warnings)
     if args.truth is not None:
         truth = load_geometry(args.truth)
     else:
@@ -87,7 +95,13 @@ def run(args: argparse.Namespace) -> int:
         orientation=not args.no_orientation,
         repeats=args.repeats,
     )
-    measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
+    try:
+        measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
+    except AssemblyError as exc:  # poses of the nominal robot the true one cannot take
+        if not exc.indices:
+            raise
+        robot = f"the true robot ({args.truth})" if args.truth is not None else "the perturbed robot"
+        raise unassembled_rows(exc, args.poses, read.lines, poses.q, robot) from exc
     names = [name for name, _ in args.station or []]
     if len(set(names)) != len(names):
         raise UsageError(f"--station: each station once, got {', '.join(names)}")

@@ -8,17 +8,18 @@ renames it, so a failure never leaves a half-written output.
 """
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
-from .calibration import load_instrument, load_linear_calibration, save_calibration
+from .calibration import check_calibration, load_instrument, load_linear_calibration, save_calibration
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
+    check_format,
     geometry_from_dict,
     geometry_to_dict,
     load_geometry,
     save_geometry,
 )
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
-from .poses import POSES_COLUMNS, POSES_TOLERANCE, read_poses, write_poses
+from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .robot import load_nominal
 from .tables import (
     JOINT_COLUMNS,
@@ -27,7 +28,9 @@ from .tables import (
     TARGET_COLUMNS,
     CsvTable,
     data_row,
+    lines_text,
     read_csv_table,
+    unassembled_rows,
 )
 from .targets import JointsWriter, TargetChunk, TargetFile, joint_rows, read_target_table, write_joints
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
@@ -46,7 +49,11 @@ __all__ = [
     "atomic_output",
     "atomic_write_bytes",
     "atomic_write_text",
+    "check_calibration",
+    "check_format",
     "data_row",
+    "lines_text",
+    "unassembled_rows",
     "exact_degrees",
     "geometry_from_dict",
     "geometry_to_dict",
@@ -60,6 +67,8 @@ __all__ = [
     "read_measurement_file",
     "MeasurementFile",
     "read_poses",
+    "read_poses_file",
+    "PosesFile",
     "read_target_table",
     "JointsWriter",
     "TargetChunk",

@@ -12,12 +12,12 @@ from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
 from ..identification import IdentificationResult
-from ..identification.frames import InstrumentFrame
+from ..identification.frames import InstrumentFrame, axes_motion
 from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
-    _check_not_nominal,
+    check_format,
     geometry_from_dict,
     geometry_to_dict,
 )
@@ -70,12 +70,8 @@ def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
     """
     source = str(path)
     data = read_toml(path)
-    _check_not_nominal(data, source)
-    if data.get("format") == GEOMETRY_FORMAT:
+    if check_format(data, source) == GEOMETRY_FORMAT:
         return {}  # a geometry file: the robot alone, measured in its own base frame
-    if data.get("format") != CALIBRATION_FORMAT:
-        raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
-                         "key format")
     raw = data.get("instrument", {})
     if not isinstance(raw, Mapping):
         raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
@@ -98,8 +94,7 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     """
     source = str(path)
     data = read_toml(path)
-    _check_not_nominal(data, source)
-    if data.get("format") != CALIBRATION_FORMAT:
+    if check_format(data, source) != CALIBRATION_FORMAT:
         raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
                          "key format")
     if not isinstance(data.get("nominal"), Mapping):
@@ -135,9 +130,26 @@ def load_linear_calibration(path: str | Path) -> LinearCalibration:
     if not isinstance(data.get("geometry"), Mapping):
         raise InputError("missing required table", source, "key geometry")
     nominal = nominal.with_tool(nominal.tool + tool_move)
-    check_sections_agree(geometry_from_dict(data["geometry"], source, "geometry."),
-                         model.apply(nominal, deviation), source)
+    geometry = geometry_from_dict(data["geometry"], source, "geometry.")
+    predicted = model.apply(nominal, deviation)
+    if data.get("instrument"):
+        # identified with free instrument frames: [geometry] was moved to the axes gauge after the
+        # fit, a rigid motion the base parameters do not hold; the sections agree modulo it
+        predicted = predicted.moved_rigidly(*axes_motion(predicted, geometry))
+    check_sections_agree(geometry, predicted, source)
     return LinearCalibration(nominal=nominal, model=model, deviation=deviation)
+
+
+def check_calibration(path: str | Path) -> None:
+    """Refuse a calibration file whose sections contradict each other (see :func:`check_sections_agree`).
+
+    A geometry file (``format = 'deltacal-geometry-1'``) has one section only: nothing to check.
+
+    Raises:
+        InputError: naming both keys, or the first key of the file that is wrong.
+    """
+    if check_format(read_toml(path), str(path)) == CALIBRATION_FORMAT:
+        load_linear_calibration(path)
 
 
 #: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],

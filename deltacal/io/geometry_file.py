@@ -11,7 +11,7 @@ import numpy as np
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry
 from .atomic import atomic_write_text
-from .toml import _Table, exact_degrees, read_toml, toml_dumps
+from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
 
@@ -97,10 +97,27 @@ def save_geometry(geometry: DeltaGeometry, path: str | Path) -> None:
     atomic_write_text(path, header + toml_dumps(geometry_to_dict(geometry)))
 
 
+def check_format(data: Mapping[str, Any], source: str) -> str:
+    """The ``format`` of a geometry or calibration file; a missing or unknown one is refused.
+
+    Raises:
+        InputError: naming the key, what is wrong and the formats deltacal reads.
+    """
+    _check_not_nominal(data, source)
+    known = (f"the known formats are {GEOMETRY_FORMAT!r} (a geometry) and {CALIBRATION_FORMAT!r} "
+             "(a calibration)")
+    if "format" not in data:
+        raise InputError(f"missing required key ({known})", source, "key format")
+    fmt = data["format"]
+    if fmt not in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
+        raise InputError(f"unknown format {_shown(fmt)}: {known}", source, "key format")
+    return str(fmt)
+
+
 def load_geometry(path: str | Path) -> DeltaGeometry:
     """Read a geometry TOML file, or the ``[geometry]`` part of a calibration file."""
     data = read_toml(path)
-    _check_not_nominal(data, str(path))
+    check_format(data, str(path))
     if data.get("format") == CALIBRATION_FORMAT:
         if not isinstance(data.get("geometry"), Mapping):
             raise InputError("missing required table", str(path), "key geometry")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -43,12 +44,41 @@ def write_poses(path: str | Path, poses: PoseSet) -> None:
     atomic_write_text(path, _format_poses(poses))
 
 
+@dataclass(frozen=True)
+class PosesFile:
+    """A POSES file as read: the poses, the line of each, the warnings to show.
+
+    Attributes:
+        poses: The poses.
+        lines: The line of each pose in the file (as an editor counts), shape (N,).
+        warnings: Ignored columns, duplicate rows...
+    """
+
+    poses: PoseSet
+    lines: np.ndarray
+    warnings: list[str]
+
+
 def read_poses(
     path: str | Path,
     nominal: NominalDelta | None = None,
     tolerance: float = POSES_TOLERANCE,
 ) -> tuple[PoseSet, list[str]]:
-    """Read and validate a POSES file.
+    """Read and validate a POSES file (see :func:`read_poses_file`).
+
+    Returns:
+        The poses and the warnings to show (ignored columns, duplicate rows...).
+    """
+    read = read_poses_file(path, nominal, tolerance)
+    return read.poses, read.warnings
+
+
+def read_poses_file(
+    path: str | Path,
+    nominal: NominalDelta | None = None,
+    tolerance: float = POSES_TOLERANCE,
+) -> PosesFile:
+    """Read and validate a POSES file, keeping the line of each pose.
 
     Checks the CSV (:func:`deltacal.io.read_csv_table`: every column present,
     finite numbers, one clear error naming the file, line and column) and, with a
@@ -58,9 +88,6 @@ def read_poses(
         path: The file.
         nominal: The robot the file was planned for (optional check).
         tolerance: Largest target mismatch of that check [mm].
-
-    Returns:
-        The poses and the warnings to show (ignored columns, duplicate rows...).
 
     Raises:
         InputError: naming the file, the line and the column of the first problem.
@@ -84,4 +111,4 @@ def read_poses(
                 str(path),
                 f"{data_row(table.lines[k], k + 1)}, columns q1_deg..z_mm",
             )
-    return PoseSet(q, targets), table.warnings
+    return PosesFile(PoseSet(q, targets), np.asarray(table.lines), list(table.warnings))

@@ -14,6 +14,11 @@ from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
 from .toml import _Table, read_toml
 
+#: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
+#: most likely written in metres (every Delta has a plate radius under 1 m); above, in
+#: micrometres or mistyped (the largest Delta printers stand about 12 m tall).
+PLAUSIBLE_LENGTH_MM = (1.0, 20_000.0)
+
 
 def load_nominal(path: str | Path) -> NominalDelta:
     """Read and validate a nominal robot file (format of the project's conventions).
@@ -49,6 +54,9 @@ def load_nominal(path: str | Path) -> NominalDelta:
         "rod_length": geo.number("rod_length_mm", positive=True),
         "rod_spacing": geo.number("rod_spacing_mm", positive=True),
     }
+    for key, value in zip(("base_radius_mm", "plate_radius_mm", "arm_length_mm", "rod_length_mm",
+                           "rod_spacing_mm"), values.values(), strict=True):
+        _check_plausible(geo, key, value)
     azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
     if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
         raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
@@ -98,6 +106,16 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if workspace is not None:
         _check_workspace_reachable(nominal, source)
     return nominal
+
+
+def _check_plausible(geo: _Table, key: str, value: float) -> None:
+    """Refuse a length no Delta robot has (a file in metres, a typing error), naming the unit."""
+    low, high = PLAUSIBLE_LENGTH_MM
+    if low <= value <= high:
+        return
+    guess = "metres?" if value < low else "micrometres?" if value < 1000.0 * high else "a typing error?"
+    raise geo.error(key, f"{value!r} mm is implausible for a Delta robot ({guess} deltacal reads "
+                         f"millimetres and accepts lengths from {low:g} mm to {high:,.0f} mm)")
 
 
 def _check_workspace_reachable(nominal, source: str) -> None:

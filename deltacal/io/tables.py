@@ -6,13 +6,13 @@ import csv
 import difflib
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import AssemblyError, InputError
 from .toml import _not_utf8
 
 # --------------------------------------------------------------------------- CSV
@@ -83,6 +83,31 @@ def _parse_number(value: str, source: str, where: str) -> float:
 def data_row(line: int, row: int) -> str:
     """Where a CSV data row is: its line in the file (as an editor counts) and its row number."""
     return f"line {int(line)} (data row {int(row)})"
+
+
+def lines_text(lines: Sequence[int], limit: int = 10) -> str:
+    """``"3, 5, 9"`` (and ``"and N more"`` past ``limit``)."""
+    shown = ", ".join(str(int(n)) for n in lines[:limit])
+    return shown + (f" and {len(lines) - limit} more" if len(lines) > limit else "")
+
+
+def unassembled_rows(exc: AssemblyError, source: str | Path, lines: np.ndarray, q: np.ndarray,
+                     robot: str) -> InputError:
+    """The error naming the file's lines whose readings ``robot`` cannot assemble.
+
+    Args:
+        exc: The kinematics' error; its ``indices`` index the rows of ``q`` and ``lines``.
+        source: The file the readings came from.
+        lines: The line of each row in the file.
+        q: The readings of each row [rad], shape (N, 3).
+        robot: Which robot, as the message says it (``"the true robot"``, ``"the robot 'x'"``).
+    """
+    at = np.asarray(lines)[np.asarray(exc.indices, dtype=int)].tolist()
+    k = int(exc.indices[0])
+    shown = np.round(np.degrees(q[k]), 6).tolist()
+    more = f"; {len(at)} rows in all, lines {lines_text(at)}" if len(at) > 1 else ""
+    return InputError(f"{robot} cannot be assembled at the readings q = {shown} deg{more}",
+                      str(source), f"{data_row(at[0], k + 1)}, columns q1_deg..q3_deg")
 
 
 def read_csv_table(

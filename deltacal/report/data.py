@@ -14,7 +14,7 @@ from ..errormodels import ErrorModel, get_model
 from ..exceptions import InputError
 from ..geometry import DeltaGeometry
 from ..identification.frames import InstrumentFrame
-from ..io import CALIBRATION_FORMAT, geometry_from_dict, read_toml
+from ..io import CALIBRATION_FORMAT, check_format, geometry_from_dict, read_toml
 from ..io.toml import _shown, _Table
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
@@ -208,7 +208,7 @@ def load_calibration_report(path: str | Path) -> CalibrationReport:
     """
     source = str(path)
     data = read_toml(path)
-    if data.get("format") != CALIBRATION_FORMAT:
+    if check_format(data, source) != CALIBRATION_FORMAT:
         raise InputError(f"not a calibration file (format {_shown(data.get('format'))}, expected "
                          f"{CALIBRATION_FORMAT!r})", source, "key format")
     top = _Table(data, source)
