@@ -196,6 +196,11 @@ def base_parameters(
     scale = np.linalg.norm(W, axis=0)
     scale = np.where(scale > 0.0, scale, 1.0)
     Ws = W / scale
+    if m > n:
+        # everything below depends on the columns' inner products only, which the triangular
+        # factor keeps (W = Q R, Q with orthonormal columns): n x n instead of m x n
+        Ws = np.asarray(np.linalg.qr(Ws, mode="r"))
+        m = n
     excluded = [k for k, name in enumerate(names) if name in set(exclude)]
     allowed = np.setdiff1d(np.arange(n), excluded)
     diag, perm = pivoted_qr(Ws[:, allowed], tie_rtol)
