@@ -38,6 +38,7 @@ LAYERS = {
     "pose": 10,
     "exceptions": 0,
     "_version": 0,
+    "_lazy": 0,
 }
 MAX_LINES = 700
 

@@ -10,9 +10,7 @@ by what needs it, not by ``compensate`` or ``identify``.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
+from .._lazy import lazy_getattr
 from .closed_form import VirtualDelta
 from .exact import PlatePose
 
@@ -21,10 +19,4 @@ _LAZY = {"ClosureSolution": "multibody", "DeltaMultibody": "multibody"}
 __all__ = ["ClosureSolution", "DeltaMultibody", "PlatePose", "VirtualDelta"]
 
 
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_getattr(__name__, _LAZY)

@@ -1,0 +1,31 @@
+"""Names of a package loaded on first use (PEP 562), so that importing it stays cheap."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+from collections.abc import Callable
+from typing import Any
+
+
+def lazy_getattr(package: str, table: dict[str, str]) -> Callable[[str], Any]:
+    """A module ``__getattr__`` that imports ``table[name]`` (a submodule of ``package``) on first use.
+
+    Args:
+        package: The package's ``__name__``.
+        table: Attribute name -> name of the submodule that defines it.
+
+    Returns:
+        The function to assign to the package's ``__getattr__``; it caches what it loads in
+        the package's namespace, so each name is imported once.
+    """
+
+    def __getattr__(name: str) -> Any:
+        module = table.get(name)
+        if module is None:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(f".{module}", package), name)
+        setattr(sys.modules[package], name, value)
+        return value
+
+    return __getattr__
