@@ -234,8 +234,12 @@ def test_plan_command(tmp_path, capsys):
     assert out.read_text() == first  # seeded
 
     out = tmp_path / "none.csv"
-    assert main(["plan", robot, "--strategy", "doptimal", "--n", "3", "-o", str(out)]) == 1
+    # options of the other strategy are a usage error (2), like any wrong combination of options
+    assert main(["plan", robot, "--strategy", "doptimal", "--n", "3", "-o", str(out)]) == 2
     assert "apply to --strategy bai" in capsys.readouterr().err
+    assert main(["plan", robot, "--strategy", "doptimal", "--measure", "distance", "-o", str(out)]) == 2
+    assert "pose or position measurements" in capsys.readouterr().err
+    assert not out.exists()
     assert main(["plan", robot, "--points", "nope", "-o", str(out)]) == 1
     assert "unknown point 'nope'" in capsys.readouterr().err
     assert not out.exists()

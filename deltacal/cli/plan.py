@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ..exceptions import PlanningError
+from ..exceptions import UsageError
 from ..identifiability import base_parameters
 from ..io import load_nominal, write_poses
 from ..planning import (
@@ -136,9 +136,9 @@ def _plan_bai(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
 
 def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
     if args.n is not None or args.epsilon is not None:
-        raise PlanningError("--n and --epsilon apply to --strategy bai, not doptimal")
+        raise UsageError("--n and --epsilon apply to --strategy bai, not doptimal")
     if measurement == "distance":
-        raise PlanningError("D-optimal selection is for pose or position measurements (--measure)")
+        raise UsageError("D-optimal selection is for pose or position measurements (--measure)")
     rng = np.random.default_rng(args.seed)
     pool = candidate_pool(nominal, args.pool, rng)
     count = args.count
