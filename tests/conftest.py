@@ -1,3 +1,4 @@
+import csv
 import os
 
 # small matrices: BLAS threads only contend (see deltacal/__init__.py); set before numpy loads
@@ -33,3 +34,15 @@ def workspace_points(nominal: NominalDelta, n: int, rng: np.random.Generator) ->
     a = rng.uniform(0.0, 2.0 * np.pi, n)
     z = rng.uniform(ws.bottom_z, ws.top_z, n)
     return np.stack([r * np.cos(a), r * np.sin(a), z], axis=1)
+
+
+def write_targets(path, targets) -> None:
+    """A targets CSV with every digit of the targets (mm)."""
+    path.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in targets.tolist()))
+
+
+def read_joints(path) -> np.ndarray:
+    """The readings of a joints CSV [rad]."""
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    return np.radians([[float(r[f"q{i}_deg"]) for i in (1, 2, 3)] for r in rows])

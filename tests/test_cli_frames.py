@@ -3,11 +3,9 @@ frames, identify with --frame free, compensate targets given in a station's fram
 
 from __future__ import annotations
 
-import csv
-
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, read_joints, write_targets
 
 from deltacal.cli import main
 from deltacal.io import load_geometry, load_instrument, read_measurements
@@ -21,16 +19,6 @@ WEST = ("west", [-0.6, 1.2, -140.0], [-1900.0, 2100.0, -120.0])
 
 def station_option(name, rotation_deg, translation_mm) -> str:
     return f"{name}:{','.join(map(str, rotation_deg))}:{','.join(map(str, translation_mm))}"
-
-
-def write_targets(path, targets) -> None:
-    path.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in targets.tolist()))
-
-
-def read_joints(path) -> np.ndarray:
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return np.radians([[float(r[f"q{i}_deg"]) for i in (1, 2, 3)] for r in rows])
 
 
 @pytest.fixture(scope="module")

@@ -8,14 +8,13 @@ with the targets (MuJoCo) and with deltacal's exact forward kinematics (Pinocchi
 
 from __future__ import annotations
 
-import csv
 import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
 import pytest
-from conftest import MODELS
+from conftest import MODELS, read_joints, write_targets
 
 from deltacal.cli import main
 from deltacal.compensation import compensate
@@ -38,16 +37,6 @@ PINOCCHIO_TOL_MM = 1e-9
 
 
 # --------------------------------------------------------------------- helpers
-def write_targets(path, targets) -> None:
-    path.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x!r},{y!r},{z!r}\n" for x, y, z in targets.tolist()))
-
-
-def read_joints(path) -> np.ndarray:
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    return np.radians([[float(r[f"q{i}_deg"]) for i in (1, 2, 3)] for r in rows])
-
-
 def targets_of(centre_z: float, seed: int) -> np.ndarray:
     rng = np.random.default_rng(seed)
     r = 150.0 * np.sqrt(rng.uniform(0.0, 1.0, 8))

@@ -135,6 +135,24 @@ def point_list(text: str, known: Sequence[str], option: str = "--points") -> lis
     return points
 
 
+def three_numbers(text: str, what: str, context: str = "") -> list[float]:
+    """Three finite comma-separated numbers, or an argparse error naming ``what`` they should be.
+
+    Args:
+        text: The option's value, or a part of it.
+        what: What the three numbers are, for the message (``"X,Y,Z in mm"``).
+        context: The whole option value when ``text`` is a part of it, for the message.
+    """
+    where = f" in {context!r}" if context else ""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected three numbers {what}, got {text!r}{where}") from None
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected three finite numbers {what}, got {text!r}{where}")
+    return values
+
+
 def station_frame(text: str):
     """Argparse type: ``NAME:RX,RY,RZ:X,Y,Z`` -> (name, InstrumentFrame) (degrees, mm)."""
     from ..identification.frames import InstrumentFrame
@@ -142,13 +160,6 @@ def station_frame(text: str):
     parts = text.split(":")
     if len(parts) != 3 or not parts[0].strip():
         raise argparse.ArgumentTypeError(f"expected NAME:RX,RY,RZ:X,Y,Z (deg, mm), got {text!r}")
-    values = []
-    for part in parts[1:]:
-        try:
-            vector = [float(v) for v in part.split(",")]
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not numbers: {part!r} in {text!r}") from None
-        if len(vector) != 3 or not all(math.isfinite(v) for v in vector):
-            raise argparse.ArgumentTypeError(f"expected three finite numbers, got {part!r} in {text!r}")
-        values.append(vector)
-    return parts[0].strip(), InstrumentFrame.from_vectors(np.radians(values[0]), np.array(values[1]))
+    rotation = three_numbers(parts[1], "RX,RY,RZ (deg)", text)
+    translation = three_numbers(parts[2], "X,Y,Z (mm)", text)
+    return parts[0].strip(), InstrumentFrame.from_vectors(np.radians(rotation), np.array(translation))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -11,7 +10,7 @@ import numpy as np
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry
 from ..io import check_format, load_geometry, load_instrument, load_nominal, read_toml
-from .common import check_input, check_output
+from .common import check_input, check_output, three_numbers
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
@@ -30,13 +29,7 @@ def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
 
 def _readings_deg(text: str) -> np.ndarray:
     """Argparse type: ``Q1,Q2,Q3`` in degrees -> readings [rad]."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected three numbers Q1,Q2,Q3 (deg), got {text!r}") from None
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"expected three finite numbers Q1,Q2,Q3 (deg), got {text!r}")
-    return np.radians(values)
+    return np.radians(three_numbers(text, "Q1,Q2,Q3 (deg)"))
 
 
 def run(args: argparse.Namespace) -> int:

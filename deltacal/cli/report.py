@@ -3,24 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import math
 
 import numpy as np
 
 from ..io import load_geometry, load_nominal
 from ..report import write_report
-from .common import check_input, check_output, warn
+from .common import check_input, check_output, three_numbers, warn
 
 
 def tool_vector(text: str) -> np.ndarray:
     """Argparse type: ``X,Y,Z`` [mm], three finite numbers."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected X,Y,Z in mm, got {text!r}") from None
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(f"expected three finite numbers X,Y,Z in mm, got {text!r}")
-    return np.array(values)
+    return np.array(three_numbers(text, "X,Y,Z in mm"))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -8,7 +8,13 @@ renames it, so a failure never leaves a half-written output.
 """
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
-from .calibration import check_calibration, load_instrument, load_linear_calibration, save_calibration
+from .calibration import (
+    check_calibration,
+    instrument_tables,
+    load_instrument,
+    load_linear_calibration,
+    save_calibration,
+)
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -58,6 +64,7 @@ __all__ = [
     "geometry_from_dict",
     "geometry_to_dict",
     "load_geometry",
+    "instrument_tables",
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",

@@ -72,18 +72,36 @@ def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
     data = read_toml(path)
     if check_format(data, source) == GEOMETRY_FORMAT:
         return {}  # a geometry file: the robot alone, measured in its own base frame
+    return {
+        name: InstrumentFrame.from_vectors(np.radians(item["rotation_deg"]), item["translation_mm"])
+        for name, item in instrument_tables(data, source).items()
+    }
+
+
+def instrument_tables(data: Mapping, source: str) -> dict[str, dict[str, np.ndarray]]:
+    """The stations of a calibration file's ``[instrument]`` table, checked, as written.
+
+    Args:
+        data: The file's parsed TOML.
+        source: The file, for messages.
+
+    Returns:
+        Station name -> ``rotation_deg``, ``translation_mm`` and their σ
+        (``rotation_sigma_deg``, ``translation_sigma_mm``; zeros where the file has none).
+    """
     raw = data.get("instrument", {})
     if not isinstance(raw, Mapping):
         raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
-    frames = {}
+    out = {}
     for name, item in raw.items():
         if not isinstance(item, Mapping):
-            raise InputError("must be a table", source, f"key instrument.{name}")
+            raise InputError(f"must be a table, got {_shown(item)}", source, f"key instrument.{name}")
         t = _Table(item, source, f"instrument.{name}.")
-        rotation = np.radians(t.vector("rotation_deg", (3,)))
-        translation = t.vector("translation_mm", (3,))
-        frames[str(name)] = InstrumentFrame.from_vectors(rotation, translation)
-    return frames
+        record = {key: t.vector(key, (3,)) for key in ("rotation_deg", "translation_mm")}
+        for key in ("rotation_sigma_deg", "translation_sigma_mm"):
+            record[key] = t.vector(key, (3,)) if t.has(key) else np.zeros(3)
+        out[str(name)] = record
+    return out
 
 
 def load_linear_calibration(path: str | Path) -> LinearCalibration:

@@ -14,7 +14,7 @@ from ..errormodels import ErrorModel, get_model
 from ..exceptions import InputError
 from ..geometry import DeltaGeometry
 from ..identification.frames import InstrumentFrame
-from ..io import CALIBRATION_FORMAT, check_format, geometry_from_dict, read_toml
+from ..io import CALIBRATION_FORMAT, check_format, geometry_from_dict, instrument_tables, read_toml
 from ..io.toml import _shown, _Table
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
@@ -173,24 +173,7 @@ def _parameter(item: Mapping, source: str, k: int) -> BaseParameter:
 
 
 def _frames(data: Mapping, source: str) -> dict[str, FrameRecord]:
-    raw = data.get("instrument", {})
-    if not isinstance(raw, Mapping):
-        raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
-    out = {}
-    for name, item in raw.items():
-        if not isinstance(item, Mapping):
-            raise InputError(f"must be a table, got {_shown(item)}", source, f"key instrument.{name}")
-        t = _Table(item, source, f"instrument.{name}.")
-        zeros = np.zeros(3)
-        out[str(name)] = FrameRecord(
-            name=str(name),
-            rotation_deg=t.vector("rotation_deg", (3,)),
-            translation_mm=t.vector("translation_mm", (3,)),
-            rotation_sigma_deg=t.vector("rotation_sigma_deg", (3,)) if t.has("rotation_sigma_deg") else zeros,
-            translation_sigma_mm=(t.vector("translation_sigma_mm", (3,)) if t.has("translation_sigma_mm")
-                                  else zeros),
-        )
-    return out
+    return {name: FrameRecord(name=name, **item) for name, item in instrument_tables(data, source).items()}
 
 
 def _summary(cal: _Table, name: str) -> dict[str, float]:
