@@ -419,6 +419,20 @@ def test_poses_the_true_robot_cannot_take_are_named_by_line(files, capsys, tmp_p
     assert "rows in all, lines 2, 3, 4" in err and "index" not in err and err.count("\n") == 1
 
 
+def test_report_names_the_line_of_readings_no_robot_assembles(files, capsys, tmp_path):
+    rows = files["meas"].read_text().splitlines()
+    cells = rows[3].split(",")
+    cells[0] = "170"  # arm 1 folded far past the plate: neither robot assembles there
+    rows[3] = ",".join(cells)
+    meas = tmp_path / "meas.csv"
+    meas.write_text("\n".join(rows) + "\n")
+    code, _, err = run(capsys, "report", files["cal"], "--measurements", meas, "--no-view",
+                       "-o", tmp_path / "r.html")
+    assert code == 1 and not (tmp_path / "r.html").exists()
+    assert f"{meas}: line 4 (data row 3), columns q1_deg..q3_deg: the nominal robot of " in err
+    assert "cannot be assembled" in err and "index" not in err and err.count("\n") == 1
+
+
 # ----------------------------------------------------------------- 10: the format key of a calibration
 @pytest.mark.parametrize(("edit", "says"), [
     ("", "key format: missing required key (the known formats are 'deltacal-geometry-1'"),

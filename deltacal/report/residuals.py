@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 
 from ..identification.frames import in_base_frame, initial_frames
-from ..io import read_measurement_file
+from ..exceptions import AssemblyError
+from ..io import read_measurement_file, unassembled_rows
 from ..kinematics import exact
 from ..observations import Measurements, distance_pairs, predicted_points
 from ..rotations import rotation_from_vector, vector_from_rotation
@@ -94,16 +95,24 @@ def measurement_residuals(calibration: CalibrationReport, path: str | Path) -> M
     summaries are distances) gets distance residuals.
 
     Raises:
-        InputError: a bad measurement file (naming the file, line and column).
-        AssemblyError: readings the nominal or identified robot cannot assemble.
+        InputError: a bad measurement file, or readings the nominal or identified robot
+            cannot assemble (naming the file, line and column).
     """
     read = read_measurement_file(path, calibration.geometry.point_names)
     measurements, file_lines = read.measurements, np.asarray(read.lines)
     warnings = list(read.warnings)
     distances = any(k.startswith("distance") for k in calibration.residuals_after)
     nominal, identified = calibration.nominal, calibration.geometry
-    pose0 = exact.forward(nominal, measurements.q)
-    pose1 = exact.forward(identified, measurements.q)
+    poses = []
+    for geometry, robot in ((nominal, "the nominal robot"), (identified, "the identified robot")):
+        try:
+            poses.append(exact.forward(geometry, measurements.q))
+        except AssemblyError as exc:  # named by the file's lines, as identify names them
+            if not exc.indices:
+                raise
+            raise unassembled_rows(exc, path, file_lines, measurements.q,
+                                   f"{robot} of {calibration.source}") from exc
+    pose0, pose1 = poses
     if distances:
         before = _per_measurement_distance(nominal, measurements, pose0)
         after = _per_measurement_distance(identified, measurements, pose1)
