@@ -8,8 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..identification.frames import in_base_frame, initial_frames
 from ..exceptions import AssemblyError
+from ..identification.frames import in_base_frame, initial_frames
 from ..io import read_measurement_file, unassembled_rows
 from ..kinematics import exact
 from ..observations import Measurements, distance_pairs, predicted_points
