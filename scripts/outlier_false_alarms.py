@@ -90,7 +90,8 @@ def main() -> None:
         summary[config] = row
         print(config, json.dumps(row))
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(summary, indent=2) + "\n")
+    earlier = json.loads(args.out.read_text()) if args.out.exists() else {}
+    args.out.write_text(json.dumps({**earlier, **summary}, indent=2) + "\n")  # other configs kept
 
 
 if __name__ == "__main__":
