@@ -14,12 +14,13 @@ Units: mm and rad. Batches: positions (N, 3), readings (N, 3).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, NominalDelta
-from ..rotations import rotation_about_y
+from . import batch3 as b3
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,11 +64,20 @@ class VirtualDelta:
         )
 
     # ------------------------------------------------------------- helpers
+    @cached_property
+    def _elbow_terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """E_i = base_i + cos(θ_i) cos_i + sin(θ_i) sin_i: ``R0_i R_y(θ_i) e_i`` written out, each (3, 3)."""
+        x0, w, z0 = (self.actuator_rotation[:, :, k] for k in range(3))
+        e = self.elbow
+        return (self.axis_point + e[:, 1:2] * w, e[:, 0:1] * x0 + e[:, 2:3] * z0,
+                e[:, 2:3] * x0 - e[:, 0:1] * z0)
+
     def elbows(self, q: np.ndarray) -> np.ndarray:
         """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad]."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        R = self.actuator_rotation[None] @ rotation_about_y(q + self.encoder_offset)
-        return self.axis_point[None] + np.einsum("nikl,il->nik", R, self.elbow)
+        theta = (q + self.encoder_offset)[..., None]
+        base, cos_term, sin_term = self._elbow_terms
+        return base + np.cos(theta) * cos_term + np.sin(theta) * sin_term
 
     def _elbow_derivative(self, q: np.ndarray) -> np.ndarray:
         """dE_i/dq_i [mm/rad], shape (N, 3, 3): rotation about the axis w_i."""
@@ -90,32 +100,29 @@ class VirtualDelta:
             Plate positions [mm], shape (N, 3).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        c = self.elbows(q) - self.plate_attachment[None]
+        # sphere centres, component first: c[k, i] is coordinate k of limb i's centre, (3, 3, N)
+        c = (self.elbows(q) - self.plate_attachment[None]).transpose(2, 1, 0)
         r2 = self.rod_length**2
         d1 = c[:, 1] - c[:, 0]
         d2 = c[:, 2] - c[:, 0]
-        n = np.cross(d1, d2)
-        c0sq = np.sum(c[:, 0] ** 2, axis=1)
-        M = np.stack([2.0 * d1, 2.0 * d2, n], axis=1)
-        rhs = np.stack(
-            [
-                np.sum(c[:, 1] ** 2, axis=1) - c0sq - r2[1] + r2[0],
-                np.sum(c[:, 2] ** 2, axis=1) - c0sq - r2[2] + r2[0],
-                np.sum(n * c[:, 0], axis=1),
-            ],
-            axis=1,
-        )
-        x0 = np.linalg.solve(M, rhs[..., None])[..., 0]
+        n = b3.cross(d1, d2)
+        c0sq = b3.dot(c[:, 0], c[:, 0])
+        M = np.stack([2.0 * d1, 2.0 * d2, n])
+        rhs = np.stack([b3.dot(c[:, 1], c[:, 1]) - c0sq - r2[1] + r2[0],
+                        b3.dot(c[:, 2], c[:, 2]) - c0sq - r2[2] + r2[0],
+                        b3.dot(n, c[:, 0])])
+        x0, _ = b3.solve(M, rhs)  # the radical line's point in the plane of the centres
         v = x0 - c[:, 0]
-        nn = np.sum(n * n, axis=1)
-        b = np.sum(n * v, axis=1)
-        disc = b * b - nn * (np.sum(v * v, axis=1) - r2[0])
-        root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
-        s1 = (-b + root) / nn
-        s2 = (-b - root) / nn
-        x1 = x0 + s1[:, None] * n
-        x2 = x0 + s2[:, None] * n
-        x = np.where((x1[:, 2] < x2[:, 2])[:, None], x1, x2)
+        nn = b3.dot(n, n)
+        b = b3.dot(n, v)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            disc = b * b - nn * (b3.dot(v, v) - r2[0])
+            root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
+            s1 = (-b + root) / nn
+            s2 = (-b - root) / nn
+        x1 = x0 + s1 * n
+        x2 = x0 + s2 * n
+        x = np.where(x1[2] < x2[2], x1, x2).T
         if check:
             bad = ~np.all(np.isfinite(x), axis=1)
             if np.any(bad):

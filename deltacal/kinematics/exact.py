@@ -20,7 +20,8 @@ import numpy as np
 
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry
-from ..rotations import rotation_from_vector, skew, vector_from_rotation
+from ..rotations import vector_from_rotation
+from . import batch3 as b3
 from .closed_form import VirtualDelta
 
 #: Convergence threshold on the rod residuals [mm].
@@ -124,6 +125,175 @@ def initial_pose(geometry: DeltaGeometry, q: np.ndarray) -> PlatePose:
     return PlatePose(x, np.broadcast_to(np.eye(3), (x.shape[0], 3, 3)).copy())
 
 
+#: Poses solved together: the working arrays of a block (a few hundred kB) stay in cache.
+BLOCK = 2048
+
+
+@dataclass(frozen=True, eq=False)
+class _Rods:
+    """A geometry's rods in the solvers' component-first layout (rod k = 2 i + j, limb i).
+
+    The arm ball of rod k at reading q_i is ``base_k + cos(θ_i) cos_k + sin(θ_i) sin_k`` with
+    ``θ_i = q_i + encoder_offset_i``: ``R0_i R_y(θ) a`` written out (conventions).
+    """
+
+    base: np.ndarray  # (3, 6, 1)
+    cos_coef: np.ndarray  # (3, 6, 1)
+    sin_coef: np.ndarray  # (3, 6, 1)
+    offset: np.ndarray  # (3, 1)
+    plate: np.ndarray  # (6, 3): plate balls in the plate frame
+    length: np.ndarray  # (6, 1)
+    axis_point: np.ndarray  # (3, 6, 1): the rod's actuator axis point
+    axis: np.ndarray  # (3, 6, 1): the rod's unit actuator axis
+    axis_z: float  # the lowest axis point's z [mm]: assembled plates are below it
+
+    @classmethod
+    def of(cls, geometry: DeltaGeometry) -> _Rods:
+        limb = np.repeat(np.arange(3), 2)
+        R0 = geometry.actuator_rotation()  # columns x0, w, z0
+        a = geometry.arm_ball.reshape(6, 3)
+        x0, w, z0 = R0[limb, :, 0], R0[limb, :, 1], R0[limb, :, 2]
+        base = geometry.axis_point[limb] + a[:, 1:2] * w
+        col = lambda v: np.ascontiguousarray(v.T)[:, :, None]  # noqa: E731  (6, 3) -> (3, 6, 1)
+        return cls(
+            base=col(base),
+            cos_coef=col(a[:, 0:1] * x0 + a[:, 2:3] * z0),
+            sin_coef=col(a[:, 2:3] * x0 - a[:, 0:1] * z0),
+            offset=np.asarray(geometry.encoder_offset, dtype=float)[:, None],
+            plate=np.array(geometry.plate_ball.reshape(6, 3)),
+            length=geometry.rod_length.reshape(6, 1),
+            axis_point=col(geometry.axis_point[limb]),
+            axis=col(w),
+            axis_z=float(geometry.axis_point[:, 2].min()),
+        )
+
+    def arm_balls(self, q: np.ndarray) -> np.ndarray:
+        """Arm balls A_k in {O} at readings q (3, N), shape (3, 6, N)."""
+        theta = q + self.offset
+        c = np.repeat(np.cos(theta), 2, axis=0)
+        s = np.repeat(np.sin(theta), 2, axis=0)
+        return self.base + c * self.cos_coef + s * self.sin_coef
+
+    def rods(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residuals ``|d_k| - l_k`` (6, N) and unit directions (3, 6, N) of rod vectors d (3, 6, N)."""
+        dist = np.sqrt(b3.dot(d, d))
+        return dist - self.length, d / dist
+
+
+def _pairs(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of each limb's two rods, (3, 6, N) -> two (3, 3, N) matrices indexed [limb, component]."""
+    return v[:, 0::2].transpose(1, 0, 2), v[:, 1::2].transpose(1, 0, 2)
+
+
+def _fallback(rows: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Minimum-norm solutions of (n, 6, 6) systems (near a singularity), shape (n, 6)."""
+    return (np.linalg.pinv(rows) @ rhs[..., None])[..., 0]
+
+
+def _forward_step(rods: _Rods, A: np.ndarray, p: np.ndarray, R: np.ndarray, tol: float):
+    """Rod residuals (6, N) and the Newton step (dp (3, N), dphi (3, N)) of the FK at poses (p, R).
+
+    The step is None when every residual is within tol already.
+
+    The six rod rows ``[n_kᵀ, (R B_k × n_k)ᵀ]`` (J_X, Savoure Eq. 18) are combined per limb into
+    their sum and difference: the sums carry the translation (U: about twice the virtual rods),
+    the differences the rotation; the 6x6 step is then two 3x3 solves through the Schur
+    complement ``S = W - V U⁻¹ M`` of ``[[U, M], [V, W]]``.
+    """
+    RB = np.matmul(rods.plate, R)  # (3, 6, N): R B_k
+    r, n = rods.rods(RB + p[:, None] - A)
+    if np.all(np.abs(r) <= tol):
+        return r, None
+    m = b3.cross(RB, n)
+    n1, n2 = _pairs(n)
+    m1, m2 = _pairs(m)
+    U, M, V, W = n1 + n2, m1 + m2, n1 - n2, m1 - m2
+    rs, rd = r[0::2] + r[1::2], r[0::2] - r[1::2]
+    adj, det_u = b3.adjugate(U)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Z = b3.matmul(adj, np.concatenate([M, rs[:, None]], axis=1)) / det_u  # U⁻¹ [M, rs]
+    X, y = Z[:, :3], Z[:, 3]
+    S = W - b3.matmul(V, X)
+    dphi, _ = b3.solve(S, b3.matmul(V, y) - rd)
+    dp = -y - b3.matmul(X, dphi)
+    singular = ~(np.isfinite(dp).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+    if np.any(singular):
+        rows = np.concatenate([n[:, :, singular], m[:, :, singular]]).transpose(2, 1, 0)
+        step = _fallback(rows, -r[:, singular].T)
+        dp[:, singular], dphi[:, singular] = step[:, :3].T, step[:, 3:].T
+    return r, (dp, dphi)
+
+
+def _newton(step, state: list[np.ndarray], fixed: list[np.ndarray], tol: float, max_iter: int,
+            live: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """Batched Newton of one block: iterate the poses still moving, retire the converged ones.
+
+    Args:
+        step: ``step(*fixed, *state) -> (residual (K, N), new state, largest step (N,))``; the
+            new state is used for the poses not converged only, and is None (as the step) when
+            every pose is within tol.
+        state: Unknowns, arrays with the pose last (updated in place and returned).
+        fixed: Data per pose, arrays with the pose last.
+        tol: Convergence threshold on the largest residual.
+        max_iter: Iterations at most.
+        live: Poses to solve (indices into the block).
+
+    Returns:
+        The state, the last largest residual of each pose (inf where never computed) and
+        which poses converged (residual below tol, or a step below the floating-point floor
+        with the residual below 1e3 tol).
+    """
+    N = state[0].shape[-1]
+    err_out = np.full(N, np.inf)
+    done = np.zeros(N, dtype=bool)
+    cur = [s[..., live] for s in state]
+    fix = [f[..., live] for f in fixed]
+    for _ in range(max_iter):
+        if live.size == 0:
+            break
+        r, new, moved = step(*fix, *cur)
+        err = np.max(np.abs(r), axis=0)
+        conv = err <= tol
+        if new is None:  # all converged
+            finished = conv
+        else:
+            tiny = ~conv & (moved < _STEP_FLOOR) & (err < 1e3 * tol)
+            finished = conv | tiny
+            cur = [np.where(conv, c, n_) for c, n_ in zip(cur, new, strict=True)] if np.any(conv) else new
+        if np.any(finished):
+            k = live[finished]
+            for s, c in zip(state, cur, strict=True):
+                s[..., k] = c[..., finished]
+            err_out[k] = err[finished]
+            done[k] = True
+            keep = ~finished
+            live = live[keep]
+            cur = [c[..., keep] for c in cur]
+            fix = [f[..., keep] for f in fix]
+        else:
+            err_out[live] = err
+    if live.size:
+        for s, c in zip(state, cur, strict=True):
+            s[..., live] = c
+    return state, err_out, done
+
+
+def _forward_block(rods: _Rods, q: np.ndarray, p: np.ndarray, R: np.ndarray, tol: float, max_iter: int):
+    """FK of one block in component-first layout: q (3, N), p (3, N), R (3, 3, N) -> p, R, residual, ok."""
+
+    def step(A, p, R):
+        r, solved = _forward_step(rods, A, p, R, tol)
+        if solved is None:
+            return r, None, None
+        dp, dphi = solved
+        moved = np.maximum(np.max(np.abs(dp), axis=0), np.max(np.abs(dphi), axis=0))
+        return r, [p + dp, b3.matmul(b3.rotation_from_vector(dphi), R)], moved
+
+    live = np.flatnonzero(np.isfinite(p).all(axis=0))
+    (p, R), err, done = _newton(step, [p, R], [rods.arm_balls(q)], tol, max_iter, live)
+    return p, R, err, done
+
+
 def forward(
     geometry: DeltaGeometry,
     q: np.ndarray,
@@ -132,6 +302,10 @@ def forward(
     max_iter: int = 30,
 ) -> PlatePose:
     """Plate poses of the real robot at readings q, by batched Newton on the six rods.
+
+    Each Newton step solves the six rod equations' linearisation (Savoure Eq. 17-18) in
+    closed form, in blocks of :data:`BLOCK` poses with the pose index last
+    (:mod:`~deltacal.kinematics.batch3`); poses leave the iteration as they converge.
 
     Args:
         geometry: The robot.
@@ -149,41 +323,20 @@ def forward(
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
     pose = initial_pose(geometry, q) if start is None else start
-    p = np.array(pose.position, dtype=float)
-    R = np.array(pose.rotation, dtype=float)
     N = q.shape[0]
-    done = np.zeros(N, dtype=bool)
-    active = np.all(np.isfinite(p), axis=1)
-    A_all = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)  # q is fixed: the arm balls too
-    for _ in range(max_iter):
-        idx = np.flatnonzero(active & ~done)
-        if idx.size == 0:
-            break
-        A, d, dist, RB = _rod_terms(geometry, q[idx], p[idx], R[idx], A_all[idx])
-        r = dist - geometry.rod_length.reshape(1, 6)
-        res = np.max(np.abs(r), axis=1)
-        conv = res <= tol
-        done[idx[conv]] = True
-        todo = ~conv
-        if not np.any(todo):
-            break
-        idx = idx[todo]
-        J = _pose_jacobian(d[todo], dist[todo], RB[todo])
-        try:
-            step = -np.linalg.solve(J, r[todo][..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            # a singular pose in the batch: minimum-norm steps for all of them
-            step = -(np.linalg.pinv(J) @ r[todo][..., None])[..., 0]
-        p[idx] += step[:, :3]
-        R[idx] = rotation_from_vector(step[:, 3:]) @ R[idx]
-        tiny = np.max(np.abs(step), axis=1) < _STEP_FLOOR
-        done[idx[tiny & (res[todo] < 1e3 * tol)]] = True
-    # final residual of the poses that stopped on the step floor
-    A, d, dist, RB = _rod_terms(geometry, q, p, R, A_all)
-    with np.errstate(invalid="ignore"):
-        residual = np.max(np.abs(dist - geometry.rod_length.reshape(1, 6)), axis=1)
-    z_axis = geometry.axis_point[:, 2].min()
-    bad = ~(done & np.isfinite(residual) & (residual < 1e3 * tol) & (p[:, 2] < z_axis))
+    rods = _Rods.of(geometry)
+    position = np.empty((N, 3))
+    rotation = np.empty((N, 3, 3))
+    residual = np.empty(N)
+    done = np.empty(N, dtype=bool)
+    for s in range(0, N, BLOCK):
+        b = slice(s, s + BLOCK)
+        p0 = np.array(pose.position[b], dtype=float).T
+        R0 = np.array(np.asarray(pose.rotation[b], dtype=float).transpose(1, 2, 0))
+        p, R, residual[b], done[b] = _forward_block(rods, q[b].T, p0, R0, tol, max_iter)
+        position[b] = p.T
+        rotation[b] = R.transpose(2, 0, 1)
+    bad = ~(done & (residual < 1e3 * tol) & (position[:, 2] < rods.axis_z))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise AssemblyError(
@@ -193,9 +346,9 @@ def forward(
                "the rods cannot reach the plate)"),
             np.flatnonzero(bad),
             q[bad],
-            float(np.max(np.where(bad, residual, 0.0))),
+            float(np.max(np.where(bad & np.isfinite(residual), residual, 0.0))),
         )
-    return PlatePose(p, R)
+    return PlatePose(position, rotation)
 
 
 def forward_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
@@ -213,6 +366,40 @@ def forward_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) ->
     return -np.linalg.solve(JX, Jq)
 
 
+def _inverse_step(rods: _Rods, target: np.ndarray, lever: np.ndarray, q: np.ndarray, R: np.ndarray,
+                  tol: float):
+    """Rod residuals (6, N) and the Newton step (dq (3, N), dphi (3, N)) of the IK (None: all within tol).
+
+    The plate origin is eliminated, ``p = target - R t`` (t: the point in the plate frame), so the
+    unknowns are the readings and the plate rotation, and the equations the six rods
+    ``|target + R (B_k - t) - A_k(q_i)| = l_k``. A reading moves only its limb's two rods
+    (rows ``g_k dq_i + m_kᵀ dphi = -r_k``): eliminating dq_i between them leaves a 3x3 system in
+    dphi; dq_i then follows from both rows by least squares (they agree once dphi solves).
+    """
+    A = rods.arm_balls(q)
+    RB = np.matmul(lever, R)  # (3, 6, N): R (B_k - t)
+    r, n = rods.rods(RB + target[:, None] - A)
+    if np.all(np.abs(r) <= tol):
+        return r, None
+    g = -b3.dot(n, b3.cross(rods.axis, A - rods.axis_point))  # d r_k / d q_i
+    m = b3.cross(RB, n)
+    g1, g2, r1, r2 = g[0::2], g[1::2], r[0::2], r[1::2]
+    m1, m2 = m[:, 0::2], m[:, 1::2]  # (component, limb, N)
+    C = (g2 * m1 - g1 * m2).transpose(1, 0, 2)
+    dphi, _ = b3.solve(C, g1 * r2 - g2 * r1)
+    gg = g1 * g1 + g2 * g2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dq = -(g1 * (r1 + b3.dot(m1, dphi[:, None])) + g2 * (r2 + b3.dot(m2, dphi[:, None]))) / gg
+    singular = ~(np.isfinite(dq).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+    if np.any(singular):
+        rows = np.zeros((int(singular.sum()), 6, 6))
+        rows[:, np.arange(6), np.repeat(np.arange(3), 2)] = g[:, singular].T
+        rows[:, :, 3:] = m[:, :, singular].transpose(2, 1, 0)
+        step = _fallback(rows, -r[:, singular].T)
+        dq[:, singular], dphi[:, singular] = step[:, :3].T, step[:, 3:].T
+    return r, (dq, dphi)
+
+
 def inverse(
     geometry: DeltaGeometry,
     target: np.ndarray,
@@ -223,15 +410,17 @@ def inverse(
 ) -> np.ndarray:
     """Readings that put a plate point (default: the TCP) of the real robot at targets.
 
-    Batched Newton on 9 unknowns (q, p, phi) and 9 equations (six rods and the
-    point's three coordinates).
+    Batched Newton on the six rod equations with the plate origin eliminated by the point's
+    position (6 unknowns: q and the plate rotation; see :func:`_inverse_step`), in blocks of
+    :data:`BLOCK` targets. Joint steps are limited to 0.2 rad, so a far start cannot jump to
+    another branch.
 
     Args:
         geometry: The robot.
         target: Desired positions in {O} [mm], shape (N, 3) or (3,).
         point_in_plate: The point in the plate frame [mm] (default: the tool).
         start: Warm-start readings [rad], shape (N, 3).
-        tol: Threshold on the rod and point residuals [mm].
+        tol: Threshold on the rod residuals [mm].
         max_iter: Newton iterations at most.
 
     Returns:
@@ -243,49 +432,37 @@ def inverse(
     target = np.atleast_2d(np.asarray(target, dtype=float))
     tool = geometry.tool if point_in_plate is None else np.asarray(point_in_plate, dtype=float)
     N = target.shape[0]
-    virtual = VirtualDelta.from_geometry(geometry)
-    p = target - tool[None]
-    q = virtual.inverse(p, check=False) if start is None else np.array(start, dtype=float)
-    R = np.broadcast_to(np.eye(3), (N, 3, 3)).copy()
-    done = np.zeros(N, dtype=bool)
-    active = np.all(np.isfinite(q), axis=1)
-    for _ in range(max_iter):
-        idx = np.flatnonzero(active & ~done)
-        if idx.size == 0:
-            break
-        A, d, dist, RB = _rod_terms(geometry, q[idx], p[idx], R[idx])
-        r_rod = dist - geometry.rod_length.reshape(1, 6)
-        r_pt = p[idx] + R[idx] @ tool - target[idx]
-        r = np.concatenate([r_rod, r_pt], axis=1)
-        res = np.max(np.abs(r), axis=1)
-        conv = res <= tol
-        done[idx[conv]] = True
-        todo = ~conv
-        if not np.any(todo):
-            break
-        idx = idx[todo]
-        n = idx.size
-        J = np.zeros((n, 9, 9))
-        J[:, :6, :3] = _joint_jacobian(geometry, A[todo], d[todo], dist[todo])
-        J[:, :6, 3:] = _pose_jacobian(d[todo], dist[todo], RB[todo])
-        J[:, 6:, 3:6] = np.eye(3)
-        Rt = R[idx] @ tool
-        J[:, 6:, 6:] = -skew(Rt)
-        step = -np.linalg.solve(J, r[todo][..., None])[..., 0]
-        # limit joint steps so a far start cannot jump to another branch
-        scale = np.minimum(1.0, 0.2 / np.maximum(np.max(np.abs(step[:, :3]), axis=1), 1e-300))
-        step *= scale[:, None]
-        q[idx] += step[:, :3]
-        p[idx] += step[:, 3:6]
-        R[idx] = rotation_from_vector(step[:, 6:]) @ R[idx]
-        tiny = np.max(np.abs(step), axis=1) < _STEP_FLOOR
-        done[idx[tiny & (res[todo] < 1e3 * tol)]] = True
-    A, d, dist, RB = _rod_terms(geometry, q, p, R)
-    r_rod = np.abs(dist - geometry.rod_length.reshape(1, 6))
-    r_pt = np.abs(p + R @ tool - target)
-    residual = np.max(np.concatenate([r_rod, r_pt], axis=1), axis=1)
-    bad = ~(done & np.isfinite(residual) & (residual < 1e3 * tol))
+    rods = _Rods.of(geometry)
+    lever = rods.plate - tool[None]
+    if start is None:
+        q_all = VirtualDelta.from_geometry(geometry).inverse(target - tool[None], check=False)
+    else:
+        q_all = np.array(start, dtype=float).reshape(N, 3)
+    residual = np.empty(N)
+    done = np.empty(N, dtype=bool)
+
+    def step(t, q, R):
+        r, solved = _inverse_step(rods, t, lever, q, R, tol)
+        if solved is None:
+            return r, None, None
+        dq, dphi = solved
+        limit = np.minimum(1.0, 0.2 / np.maximum(np.max(np.abs(dq), axis=0), 1e-300))
+        dq *= limit
+        dphi *= limit
+        moved = np.maximum(np.max(np.abs(dq), axis=0), np.max(np.abs(dphi), axis=0))
+        return r, [q + dq, b3.matmul(b3.rotation_from_vector(dphi), R)], moved
+
+    out = np.empty((N, 3))
+    for s in range(0, N, BLOCK):
+        b = slice(s, s + BLOCK)
+        q0 = q_all[b].T.copy()
+        n = q0.shape[1]
+        R0 = np.zeros((3, 3, n))
+        R0[0, 0] = R0[1, 1] = R0[2, 2] = 1.0
+        live = np.flatnonzero(np.isfinite(q0).all(axis=0))
+        (q, _), residual[b], done[b] = _newton(step, [q0, R0], [target[b].T], tol, max_iter, live)
+        out[b] = q.T
+    bad = ~(done & (residual < 1e3 * tol))
     if np.any(bad):
         raise UnreachableError.from_mask(bad, target)
-    return q
-
+    return out
