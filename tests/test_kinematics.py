@@ -86,3 +86,102 @@ def test_exact_reports_no_assembly(bai):
         exact.forward(bai.geometry(), np.radians([[0.0, 0.0, 175.0]]))
     with pytest.raises(UnreachableError, match="index 0"):
         exact.inverse(bai.geometry(), np.array([[0.0, 0.0, -3000.0]]))
+
+
+# ------------------------------------------------- the solvers' batched algebra and blocks (issue 13)
+def test_batch3_algebra_matches_numpy():
+    from scipy.spatial.transform import Rotation
+
+    from deltacal.kinematics import batch3
+
+    rng = np.random.default_rng(31)
+    a, b = rng.normal(size=(3, 50)), rng.normal(size=(3, 50))
+    m, k = rng.normal(size=(3, 3, 50)), rng.normal(size=(3, 4, 50))
+    stack = m.transpose(2, 0, 1)  # (N, 3, 3)
+    np.testing.assert_allclose(batch3.cross(a, b), np.cross(a.T, b.T).T, atol=1e-14)
+    np.testing.assert_allclose(batch3.dot(a, b), np.sum(a * b, axis=0), atol=1e-14)
+    np.testing.assert_allclose(batch3.matmul(m, a), np.einsum("nij,nj->in", stack, a.T), atol=1e-13)
+    np.testing.assert_allclose(batch3.matmul(m, k), np.einsum("nij,njk->ikn", stack, k.transpose(2, 0, 1)),
+                               atol=1e-13)
+    adj, det = batch3.adjugate(m)
+    np.testing.assert_allclose(det, np.linalg.det(stack), rtol=1e-12)
+    np.testing.assert_allclose(np.einsum("nij,jkn->nik", stack, adj),
+                               det[:, None, None] * np.eye(3), atol=1e-12)
+    x, _ = batch3.solve(m, a)
+    np.testing.assert_allclose(x, np.linalg.solve(stack, a.T[..., None])[..., 0].T, rtol=1e-9, atol=1e-10)
+    singular = m.copy()
+    singular[2] = singular[0] + singular[1]
+    x_singular, _ = batch3.solve(singular, a)  # no meaningful solution: not finite, or huge
+    assert np.all(~np.isfinite(x_singular) | (np.abs(x_singular) > 1e6))
+    # Rodrigues on both sides of the series' switch (1e-3 rad), at 0 and far from it
+    angle = np.array([0.0, 1e-12, 1e-6, 0.999e-3, 1.001e-3, 0.3, 2.0, 3.1])
+    axis = rng.normal(size=(angle.size, 3))
+    phi = axis / np.linalg.norm(axis, axis=1, keepdims=True) * angle[:, None]
+    R = batch3.rotation_from_vector(phi.T).transpose(2, 0, 1)
+    np.testing.assert_allclose(R, Rotation.from_rotvec(phi).as_matrix(), atol=2e-16 * 8)
+
+
+@pytest.mark.parametrize("robot", ["bai", "flexpicker"])
+def test_exact_solvers_are_the_same_in_blocks_and_alone(robot, request):
+    """Across block edges, with poses that converge at different iterations, each pose as if solved alone."""
+    nominal = request.getfixturevalue(robot)
+    rng = np.random.default_rng(32)
+    g = nominal.geometry().perturbed(Tolerances.bai2015(), rng).with_tool([5.0, 0.0, -120.0])
+    n = 2 * exact.BLOCK + 7
+    target = workspace_points(nominal, n, rng) + g.tool
+    q = exact.inverse(g, target)
+    pose = exact.forward(g, q)
+    # half of the poses start at their solution (converged at once), the rest cold
+    warm = exact.initial_pose(g, q)
+    half = rng.random(n) < 0.5
+    warm.position[half] = pose.position[half]
+    warm.rotation[half] = pose.rotation[half]
+    mixed = exact.forward(g, q, start=warm)
+    np.testing.assert_allclose(mixed.position, pose.position, atol=1e-10)
+    for k in (0, exact.BLOCK - 1, exact.BLOCK, n - 1):
+        alone = exact.forward(g, q[k])
+        np.testing.assert_allclose(alone.position[0], pose.position[k], atol=1e-10)
+        np.testing.assert_allclose(alone.rotation[0], pose.rotation[k], atol=1e-13)
+        np.testing.assert_allclose(exact.inverse(g, target[k])[0], q[k], atol=1e-12)
+    np.testing.assert_allclose(pose.point(g.tool), target, atol=1e-9)
+
+
+def test_exact_solvers_name_the_failing_index_in_a_later_block(bai):
+    g = bai.geometry()
+    n = exact.BLOCK + 10
+    rng = np.random.default_rng(33)
+    target = workspace_points(bai, n, rng)
+    target[exact.BLOCK + 3] = [0.0, 0.0, -3000.0]
+    with pytest.raises(UnreachableError, match=f"index {exact.BLOCK + 3}"):
+        exact.inverse(g, target)
+    q = VirtualDelta.from_nominal(bai).inverse(workspace_points(bai, n, rng))
+    q[exact.BLOCK + 5] = np.radians([0.0, 0.0, 175.0])
+    with pytest.raises(AssemblyError, match=f"index {exact.BLOCK + 5}"):
+        exact.forward(g, q)
+
+
+def test_exact_solvers_fall_back_where_the_closed_form_step_fails(bai, monkeypatch):
+    """Where a 3x3 solve gives no finite step (a singular matrix), the pivoted 6x6 step takes over."""
+    from deltacal.kinematics import batch3
+
+    rng = np.random.default_rng(34)
+    g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    target = workspace_points(bai, 40, rng)
+    q = exact.inverse(g, target)
+    pose = exact.forward(g, q)
+    start_pose = exact.initial_pose(g, q)  # the virtual model's solve is not the one under test
+    start_q = VirtualDelta.from_geometry(g).inverse(target - g.tool)
+    solve = batch3.solve
+    calls = []
+
+    def failing(m, b):
+        x, det = solve(m, b)
+        x[..., ::3] = np.nan  # every third pose of each call has no closed-form step
+        calls.append(1)
+        return x, det
+
+    monkeypatch.setattr(batch3, "solve", failing)
+    fallback = exact.forward(g, q, start=start_pose)
+    np.testing.assert_allclose(fallback.position, pose.position, atol=1e-10)
+    np.testing.assert_allclose(exact.inverse(g, target, start=start_q), q, atol=1e-12)
+    assert calls

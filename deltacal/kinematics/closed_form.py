@@ -111,18 +111,19 @@ class VirtualDelta:
         rhs = np.stack([b3.dot(c[:, 1], c[:, 1]) - c0sq - r2[1] + r2[0],
                         b3.dot(c[:, 2], c[:, 2]) - c0sq - r2[2] + r2[0],
                         b3.dot(n, c[:, 0])])
-        x0, _ = b3.solve(M, rhs)  # the radical line's point in the plane of the centres
-        v = x0 - c[:, 0]
-        nn = b3.dot(n, n)
-        b = b3.dot(n, v)
-        with np.errstate(invalid="ignore", divide="ignore"):
+        # no assembly (or no plane of centres) gives NaN rows, checked below or by the caller
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            x0, _ = b3.solve(M, rhs)  # the radical line's point in the plane of the centres
+            v = x0 - c[:, 0]
+            nn = b3.dot(n, n)
+            b = b3.dot(n, v)
             disc = b * b - nn * (b3.dot(v, v) - r2[0])
             root = np.sqrt(np.where(disc >= 0.0, disc, np.nan))
             s1 = (-b + root) / nn
             s2 = (-b - root) / nn
-        x1 = x0 + s1 * n
-        x2 = x0 + s2 * n
-        x = np.where(x1[2] < x2[2], x1, x2).T
+            x1 = x0 + s1 * n
+            x2 = x0 + s2 * n
+            x = np.where(x1[2] < x2[2], x1, x2).T
         if check:
             bad = ~np.all(np.isfinite(x), axis=1)
             if np.any(bad):

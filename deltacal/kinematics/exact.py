@@ -248,30 +248,33 @@ def _newton(step, state: list[np.ndarray], fixed: list[np.ndarray], tol: float, 
     done = np.zeros(N, dtype=bool)
     cur = [s[..., live] for s in state]
     fix = [f[..., live] for f in fixed]
-    for _ in range(max_iter):
-        if live.size == 0:
-            break
-        r, new, moved = step(*fix, *cur)
-        err = np.max(np.abs(r), axis=0)
-        conv = err <= tol
-        if new is None:  # all converged
-            finished = conv
-        else:
-            tiny = ~conv & (moved < _STEP_FLOOR) & (err < 1e3 * tol)
-            finished = conv | tiny
-            cur = [np.where(conv, c, n_) for c, n_ in zip(cur, new, strict=True)] if np.any(conv) else new
-        if np.any(finished):
-            k = live[finished]
-            for s, c in zip(state, cur, strict=True):
-                s[..., k] = c[..., finished]
-            err_out[k] = err[finished]
-            done[k] = True
-            keep = ~finished
-            live = live[keep]
-            cur = [c[..., keep] for c in cur]
-            fix = [f[..., keep] for f in fix]
-        else:
-            err_out[live] = err
+    # diverging poses (a far start, a trial geometry) overflow: non-finite values are checked, not warned
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        for _ in range(max_iter):
+            if live.size == 0:
+                break
+            r, new, moved = step(*fix, *cur)
+            err = np.max(np.abs(r), axis=0)
+            conv = err <= tol
+            lost = ~np.isfinite(err)  # diverged: no step can bring it back
+            if new is None:  # all converged
+                finished = conv
+            else:
+                tiny = ~conv & (moved < _STEP_FLOOR) & (err < 1e3 * tol)
+                finished = conv | tiny | lost
+                cur = [np.where(conv, c, n_) for c, n_ in zip(cur, new, strict=True)] if np.any(conv) else new
+            if np.any(finished):
+                k = live[finished]
+                for s, c in zip(state, cur, strict=True):
+                    s[..., k] = c[..., finished]
+                err_out[k] = err[finished]
+                done[k] = ~lost[finished]
+                keep = ~finished
+                live = live[keep]
+                cur = [c[..., keep] for c in cur]
+                fix = [f[..., keep] for f in fix]
+            else:
+                err_out[live] = err
     if live.size:
         for s, c in zip(state, cur, strict=True):
             s[..., live] = c
