@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -317,8 +318,13 @@ class DeltaGeometry:
     def actuator_rotation(self) -> np.ndarray:
         """Rotation of each actuator frame at zero true angle, ``R0_i = [x0 w z0]``, (3, 3, 3).
 
-        The y axis is the actuator axis; x is r_i made orthogonal to it.
+        The y axis is the actuator axis; x is r_i made orthogonal to it. A fresh copy of the
+        rotations computed once per geometry (the solvers and sensitivities ask for them often).
         """
+        return self._actuator_rotation.copy()
+
+    @cached_property
+    def _actuator_rotation(self) -> np.ndarray:
         w = self.axis_direction / np.linalg.norm(self.axis_direction, axis=1, keepdims=True)
         r = self.radial
         x0 = r - np.sum(r * w, axis=1, keepdims=True) * w
