@@ -4,10 +4,18 @@ The plate pose (p, R) solves the six rod equations (Savoure 2006, Eq. 2)
 
     |A_ij(q) - (p + R B_ij)| = l_ij,   i = 1..3, j = 1, 2
 
-for N readings at once, with batched 6x6 Newton steps. Orientation updates are
+for N readings at once, with batched Newton steps. Orientation updates are
 rotation vectors in the base frame: ``R <- exp(dphi) R``. This solver shares no
 code with the Pinocchio model (:mod:`deltacal.kinematics.multibody`); tests hold
 the two to each other.
+
+Speed (issue 13): the poses are solved in blocks of :data:`BLOCK` with the pose index
+last (:mod:`~deltacal.kinematics.batch3`), each 6x6 Newton step in closed form (the FK
+through the limbs' pair sums and differences and a 3x3 Schur complement, the IK with the
+plate origin eliminated), and a pose leaves the iteration once converged. On the bench's
+2-core machine this is 2-3x faster for the FK and about 4x for the IK than batched
+``np.linalg.solve`` on (N, 6, 6) and (N, 9, 9) stacks, whose per-matrix overhead
+dominated; the closed-form steps give the same poses to 1e-12 mm.
 
 Units: mm and rad.
 """
