@@ -160,13 +160,15 @@ MIN_TRANSMISSION_ANGLE = COMMAND_MARGIN.min_arm_rod_angle
 MIN_ROD_CONDITIONING = COMMAND_MARGIN.min_rod_conditioning
 
 
-def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
+def singularity_margin(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray | None = None) -> np.ndarray:
     """Distance to the nearest singularity, as a fraction of the refusal thresholds, (N,).
 
     :data:`~deltacal.kinematics.singularity.COMMAND_MARGIN`'s margin on the virtual model
-    of ``geometry``: below 1 the pose is refused.
+    of ``geometry``: below 1 the pose is refused. ``x``: that virtual model's plate position
+    at q where known exactly (q from its inverse kinematics at x); by default its forward
+    kinematics. NaN where the virtual model has no assembly at q.
     """
-    return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q)
+    return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q, x)
 
 
 def compensate(
@@ -204,7 +206,7 @@ def compensate(
     failed = check_readings(geometry, targets, q, method)
     if np.any(failed):
         raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)
-    margin = singularity_margin(geometry, q)
+    margin = np.nan_to_num(singularity_margin(geometry, q), nan=0.0)  # no virtual assembly: at the limit
     near = margin < min_margin
     if np.any(near):
         worst = float(np.min(margin[near]))

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 from conftest import workspace_points
+from numpy.testing import assert_allclose
 
 from deltacal import Tolerances, UnreachableError, VirtualDelta
 from deltacal.compensation import (
@@ -117,3 +118,72 @@ def test_the_output_check_catches_what_a_method_gets_wrong(bai):
     garbage[2, 0] = np.nan
     assert check_readings(g, targets, garbage, "savoure").tolist() == [True, True, True]
     assert CHECK_TOLERANCE["exact"] < CHECK_TOLERANCE["savoure"] < CHECK_TOLERANCE["bai"]
+
+
+def _singularity_measures_by_svd(virtual, q, x=None):
+    """The measures as first written (rotation matrices, numpy's SVD): the reference."""
+    x = virtual.forward(q) if x is None else x
+    E = virtual.elbows(q)
+    w = virtual.actuator_rotation[:, :, 1]
+    arm = E - virtual.axis_point[None]
+    u = arm / np.linalg.norm(arm, axis=2, keepdims=True)
+    rod = x[:, None, :] + virtual.plate_attachment[None] - E
+    rod /= np.linalg.norm(rod, axis=2, keepdims=True)
+    sin_t = np.abs(np.sum(rod * np.cross(w[None], u), axis=2))
+    angle = np.arcsin(np.clip(sin_t, 0.0, 1.0)).min(axis=1)
+    s = np.linalg.svd(rod, compute_uv=False)
+    return angle, s[:, -1] / s[:, 0]
+
+
+def test_closed_form_inverse_condition_matches_numpy_svd():
+    from deltacal.kinematics.singularity import inverse_condition_3x3
+
+    rng = np.random.default_rng(13)
+    M = rng.normal(size=(20_000, 3, 3)) * rng.uniform(1e-3, 1e3, (20_000, 1, 1))
+    s = np.linalg.svd(M, compute_uv=False)
+    assert np.all(np.abs(inverse_condition_3x3(M) - s[:, 2] / s[:, 0]) <= 1e-13)
+    # near-singular: known singular values (1..3, 0.1..1, eps) in random orthonormal frames
+    for eps in (1e-3, 1e-6, 1e-9, 1e-12, 0.0):
+        U = np.linalg.qr(rng.normal(size=(2000, 3, 3)))[0]
+        V = np.linalg.qr(rng.normal(size=(2000, 3, 3)))[0]
+        sv = np.stack([rng.uniform(1, 3, 2000), rng.uniform(0.1, 1, 2000), np.full(2000, eps)], axis=1)
+        M = U @ (sv[..., None] * V)
+        s = np.linalg.svd(M, compute_uv=False)
+        got = inverse_condition_3x3(M)
+        assert np.all(np.abs(got - s[:, 2] / s[:, 0]) <= 1e-15)
+        assert np.all(np.abs(got - eps / sv[:, 0]) <= 1e-15 + 1e-12 * eps)
+    # singular values that coincide (a Delta's symmetric poses): a double or triple eigenvalue keeps
+    # half the digits, 2e-8 at worst here (documented bound 1e-7); then rank 1, zero, NaN
+    for sv in ([2.0, 1e-3, 1e-3], [2.0, 0.5, 0.5], [1.0, 1.0, 0.5], [1.0, 1.0, 1.0], [1.0, 1e-6, 1e-6]):
+        M = U @ (np.array(sv)[:, None] * V)
+        s = np.linalg.svd(M, compute_uv=False)
+        assert_allclose(inverse_condition_3x3(M), s[:, 2] / s[:, 0], rtol=0, atol=1e-7)
+    assert_allclose(inverse_condition_3x3(np.stack([np.eye(3), 2 * np.eye(3), -np.eye(3)[::-1]])), 1.0,
+                    rtol=0, atol=1e-15)
+    assert inverse_condition_3x3(np.ones((1, 3, 3))).tolist() == [0.0]
+    assert inverse_condition_3x3(np.zeros((1, 3, 3))).tolist() == [0.0]
+    assert np.isnan(inverse_condition_3x3(np.full((1, 3, 3), np.nan))).all()
+
+
+@pytest.mark.parametrize("perturbed", [False, True])
+def test_singularity_measures_match_the_svd_reference(bai, perturbed):
+    from deltacal.kinematics.singularity import singularity_measures
+
+    rng = np.random.default_rng(7)
+    g = bai.geometry()
+    if perturbed:  # elbows off the arm's plane (e_y != 0), tilted axes, offsets
+        g = g.perturbed(Tolerances.bai2015(), rng)
+    v = VirtualDelta.from_geometry(g)
+    x = workspace_points(bai, 3000, rng) - g.tool
+    # and towards the singularities: full extension below the centre
+    z_limit = -np.sqrt((bai.arm_length + bai.rod_length) ** 2 - (bai.base_radius - bai.plate_radius) ** 2)
+    x = np.concatenate([x, [[0.0, 0.0, z_limit + d] for d in (1e-2, 1.0, 10.0)]])
+    q = v.inverse(x, check=False)
+    ok = np.all(np.isfinite(q), axis=1)
+    x, q = x[ok], q[ok]
+    for given in (None, x):  # from the forward kinematics, or given where exact
+        angle, conditioning = _singularity_measures_by_svd(v, q, given)
+        a, c = singularity_measures(v, q, given)
+        assert_allclose(a, angle, rtol=0, atol=1e-12)
+        # symmetric poses have two equal singular values: half the digits (see above)
+        assert_allclose(c, conditioning, rtol=0, atol=1e-7)
