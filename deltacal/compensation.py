@@ -222,6 +222,50 @@ def compensate(
     return q
 
 
+def screen(
+    geometry: DeltaGeometry,
+    targets: np.ndarray,
+    method: str = "exact",
+    linear: LinearCalibration | None = None,
+    min_margin: float = 1.0,
+) -> None:
+    """Refuse early what :func:`compensate` would refuse among the targets the virtual model doubts.
+
+    Cheap (the closed-form virtual kinematics, a few million targets per second) where
+    :func:`compensate` is not, so a long file can be screened while it is read. The
+    virtual model of ``geometry`` (its perfect-parallelogram view) is not the identified
+    robot: it errs by the parallelograms' imperfections and the plate's tilt, so its
+    verdict alone could refuse a target the exact solver reaches. It only picks the
+    suspects: targets it cannot reach (plate at ``target − tool``), or reaches with a
+    :func:`singularity_margin` below ``min_margin``; those alone go through
+    :func:`compensate` with the same arguments, whose verdict is the one given. So a
+    target is refused here only if :func:`compensate` refuses it; a target the virtual
+    model reaches but the robot does not is left to :func:`compensate` itself.
+
+    Raises:
+        UnreachableError: as :func:`compensate` would, its indices among ``targets``.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    virtual = VirtualDelta.from_geometry(geometry)
+    x = targets - geometry.tool[None]
+    q = virtual.inverse(x, check=False)
+    reached = np.all(np.isfinite(q), axis=1)
+    suspect = ~reached
+    margin = COMMAND_MARGIN.margin(virtual, q[reached], x[reached])  # x exact: q is its inverse
+    suspect[reached] = ~(margin >= min_margin)
+    if not np.any(suspect):
+        return
+    idx = np.flatnonzero(suspect)
+    try:
+        compensate(geometry, targets[idx], method, linear, min_margin)
+    except UnreachableError as exc:
+        if not exc.indices:
+            raise
+        bad = np.zeros(targets.shape[0], dtype=bool)
+        bad[idx[exc.indices]] = True
+        raise UnreachableError.from_mask(bad, targets, exc.reason) from exc
+
+
 def linear_calibration_from_result(result, tool: np.ndarray | None = None) -> LinearCalibration:
     """The linear compensators' inputs from an IdentificationResult (optionally with another tool [mm])."""
     nominal = result.start if tool is None else result.start.with_tool(tool)

@@ -187,3 +187,54 @@ def test_singularity_measures_match_the_svd_reference(bai, perturbed):
         assert_allclose(a, angle, rtol=0, atol=1e-12)
         # symmetric poses have two equal singular values: half the digits (see above)
         assert_allclose(c, conditioning, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("method", ["exact", "savoure"])
+@pytest.mark.parametrize("min_margin", [0.0, 1.0])  # the reach limit itself, then the singularity margin
+def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin):
+    """Issue 13: the reading pass's screen never refuses a target the exact computation accepts."""
+    from deltacal.compensation import screen
+
+    rng = np.random.default_rng(1313)
+    model = get_model("complete")
+    deviation = _scaled_errors(model, rng, mm=0.3, rad=2e-3)  # imperfect parallelograms, tenths of mm
+    nominal = bai.geometry()
+    g = model.apply(nominal, deviation)
+    linear = LinearCalibration(nominal, model, deviation)
+    virtual = VirtualDelta.from_geometry(g)
+    # along a ray out of the workspace, the virtual model's limit (reach, or margin 1) by bisection
+    centre, out = np.array([0.0, 0.0, -900.0]), np.array([0.6, 0.3, -0.75]) / np.linalg.norm([0.6, 0.3, -0.75])
+
+    def virtual_ok(s):
+        x = (centre + s * out - g.tool)[None]
+        q = virtual.inverse(x, check=False)
+        return np.all(np.isfinite(q)) and (min_margin == 0.0 or singularity_margin(g, q, x)[0] >= min_margin)
+
+    lo, hi = 0.0, 2000.0
+    for _ in range(60):
+        lo, hi = ((lo + hi) / 2, hi) if virtual_ok((lo + hi) / 2) else (lo, (lo + hi) / 2)
+    sweep = centre + (lo + np.linspace(-30.0, 3.0, 331))[:, None] * out
+    accepted, screened = [], []
+    for target in sweep:
+        try:
+            compensate(g, target[None], method, linear, min_margin)
+            accepted.append(True)
+        except UnreachableError as exc:
+            accepted.append(False)
+            reason = exc.reason
+        try:
+            screen(g, target[None], method, linear, min_margin)
+            screened.append(False)
+        except UnreachableError as exc:
+            screened.append(True)
+            assert exc.reason == reason and exc.indices == [0]
+    accepted, screened = np.array(accepted), np.array(screened)
+    assert not np.any(accepted & screened)  # never refuses what compensate accepts
+    assert accepted[:100].all() and screened[-20:].all()  # inside: accepted; 1 mm out and on: refused
+    last_inside = np.flatnonzero(accepted)[-1]  # within 0.1 mm of the limit, and not refused by the screen
+    assert not screened[last_inside] and not accepted[last_inside + 1]
+    # in a batch, the indices are the batch's: the unreachable last row, found among reachable ones
+    batch = np.concatenate([workspace_points(bai, 500, rng) + g.tool - nominal.tool, sweep[-1:]])
+    with pytest.raises(UnreachableError) as caught:
+        screen(g, batch, method, linear, min_margin)
+    assert caught.value.indices == [500]
