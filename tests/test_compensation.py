@@ -203,7 +203,8 @@ def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin
     linear = LinearCalibration(nominal, model, deviation)
     virtual = VirtualDelta.from_geometry(g)
     # along a ray out of the workspace, the virtual model's limit (reach, or margin 1) by bisection
-    centre, out = np.array([0.0, 0.0, -900.0]), np.array([0.6, 0.3, -0.75]) / np.linalg.norm([0.6, 0.3, -0.75])
+    centre = np.array([0.0, 0.0, -900.0])
+    out = np.array([0.6, 0.3, -0.75]) / np.linalg.norm([0.6, 0.3, -0.75])
 
     def virtual_ok(s):
         x = (centre + s * out - g.tool)[None]

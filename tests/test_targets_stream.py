@@ -143,8 +143,8 @@ def test_an_unreachable_last_row_is_refused_by_the_reading_pass(tmp_path, capsys
     targets.write_text("x_mm,y_mm,z_mm\n" + "\n".join(good + ["0,0,-200"]) + "\n")
     assert main(["compensate", str(geometry), str(targets), "-o", str(out)]) == 1
     err = capsys.readouterr().err
-    assert err.strip().endswith(f"{targets}: line 42 (data row 41), columns x_mm..z_mm: target [0.0, 0.0, -200.0] "
-                                "mm is out of reach of the robot")
+    assert err.strip().endswith(f"{targets}: line 42 (data row 41), columns x_mm..z_mm: "
+                                "target [0.0, 0.0, -200.0] mm is out of reach of the robot")
     assert out.read_text() == "earlier joints\n"
     # a bad value in a later chunk is still named first, though the unreachable row comes before it
     targets.write_text("x_mm,y_mm,z_mm\n" + "\n".join(["0,0,-200"] + good + ["0,0,-9x0"]) + "\n")
