@@ -18,6 +18,8 @@ The linear methods are first order in the identified deviations. Encoder offsets
 usually the largest, act in joint space, where the correction ``J_S^m J_S δθ = δθ``
 is exact; the neglected terms are products of the other deviations (0.003 mm in
 ``deltacal demo``). The exact method has no such limit and is the default.
+:func:`screen` refuses early, at the closed-form model's speed, what :func:`compensate`
+would refuse among the targets that model doubts (``deltacal compensate``'s reading pass).
 Units: mm and rad.
 """
 
