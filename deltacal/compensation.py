@@ -18,6 +18,8 @@ The linear methods are first order in the identified deviations. Encoder offsets
 usually the largest, act in joint space, where the correction ``J_S^m J_S δθ = δθ``
 is exact; the neglected terms are products of the other deviations (0.003 mm in
 ``deltacal demo``). The exact method has no such limit and is the default.
+:func:`screen` refuses early, at the closed-form model's speed, what :func:`compensate`
+would refuse among the targets that model doubts (``deltacal compensate``'s reading pass).
 Units: mm and rad.
 """
 
@@ -160,13 +162,15 @@ MIN_TRANSMISSION_ANGLE = COMMAND_MARGIN.min_arm_rod_angle
 MIN_ROD_CONDITIONING = COMMAND_MARGIN.min_rod_conditioning
 
 
-def singularity_margin(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
+def singularity_margin(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray | None = None) -> np.ndarray:
     """Distance to the nearest singularity, as a fraction of the refusal thresholds, (N,).
 
     :data:`~deltacal.kinematics.singularity.COMMAND_MARGIN`'s margin on the virtual model
-    of ``geometry``: below 1 the pose is refused.
+    of ``geometry``: below 1 the pose is refused. ``x``: that virtual model's plate position
+    at q where known exactly (q from its inverse kinematics at x); by default its forward
+    kinematics. NaN where the virtual model has no assembly at q.
     """
-    return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q)
+    return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q, x)
 
 
 def compensate(
@@ -204,7 +208,7 @@ def compensate(
     failed = check_readings(geometry, targets, q, method)
     if np.any(failed):
         raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)
-    margin = singularity_margin(geometry, q)
+    margin = np.nan_to_num(singularity_margin(geometry, q), nan=0.0)  # no virtual assembly: at the limit
     near = margin < min_margin
     if np.any(near):
         worst = float(np.min(margin[near]))
@@ -218,6 +222,50 @@ def compensate(
             UnreachableError.SINGULAR,
         )
     return q
+
+
+def screen(
+    geometry: DeltaGeometry,
+    targets: np.ndarray,
+    method: str = "exact",
+    linear: LinearCalibration | None = None,
+    min_margin: float = 1.0,
+) -> None:
+    """Refuse early what :func:`compensate` would refuse among the targets the virtual model doubts.
+
+    Cheap (the closed-form virtual kinematics, a few million targets per second) where
+    :func:`compensate` is not, so a long file can be screened while it is read. The
+    virtual model of ``geometry`` (its perfect-parallelogram view) is not the identified
+    robot: it errs by the parallelograms' imperfections and the plate's tilt, so its
+    verdict alone could refuse a target the exact solver reaches. It only picks the
+    suspects: targets it cannot reach (plate at ``target − tool``), or reaches with a
+    :func:`singularity_margin` below ``min_margin``; those alone go through
+    :func:`compensate` with the same arguments, whose verdict is the one given. So a
+    target is refused here only if :func:`compensate` refuses it; a target the virtual
+    model reaches but the robot does not is left to :func:`compensate` itself.
+
+    Raises:
+        UnreachableError: as :func:`compensate` would, its indices among ``targets``.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    virtual = VirtualDelta.from_geometry(geometry)
+    x = targets - geometry.tool[None]
+    q = virtual.inverse(x, check=False)
+    reached = np.all(np.isfinite(q), axis=1)
+    suspect = ~reached
+    margin = COMMAND_MARGIN.margin(virtual, q[reached], x[reached])  # x exact: q is its inverse
+    suspect[reached] = ~(margin >= min_margin)
+    if not np.any(suspect):
+        return
+    idx = np.flatnonzero(suspect)
+    try:
+        compensate(geometry, targets[idx], method, linear, min_margin)
+    except UnreachableError as exc:
+        if not exc.indices:
+            raise
+        bad = np.zeros(targets.shape[0], dtype=bool)
+        bad[idx[exc.indices]] = True
+        raise UnreachableError.from_mask(bad, targets, exc.reason) from exc
 
 
 def linear_calibration_from_result(result, tool: np.ndarray | None = None) -> LinearCalibration:

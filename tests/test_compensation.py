@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 from conftest import workspace_points
+from numpy.testing import assert_allclose
 
 from deltacal import Tolerances, UnreachableError, VirtualDelta
 from deltacal.compensation import (
@@ -117,3 +118,124 @@ def test_the_output_check_catches_what_a_method_gets_wrong(bai):
     garbage[2, 0] = np.nan
     assert check_readings(g, targets, garbage, "savoure").tolist() == [True, True, True]
     assert CHECK_TOLERANCE["exact"] < CHECK_TOLERANCE["savoure"] < CHECK_TOLERANCE["bai"]
+
+
+def _singularity_measures_by_svd(virtual, q, x=None):
+    """The measures as first written (rotation matrices, numpy's SVD): the reference."""
+    x = virtual.forward(q) if x is None else x
+    E = virtual.elbows(q)
+    w = virtual.actuator_rotation[:, :, 1]
+    arm = E - virtual.axis_point[None]
+    u = arm / np.linalg.norm(arm, axis=2, keepdims=True)
+    rod = x[:, None, :] + virtual.plate_attachment[None] - E
+    rod /= np.linalg.norm(rod, axis=2, keepdims=True)
+    sin_t = np.abs(np.sum(rod * np.cross(w[None], u), axis=2))
+    angle = np.arcsin(np.clip(sin_t, 0.0, 1.0)).min(axis=1)
+    s = np.linalg.svd(rod, compute_uv=False)
+    return angle, s[:, -1] / s[:, 0]
+
+
+def test_closed_form_inverse_condition_matches_numpy_svd():
+    from deltacal.kinematics.singularity import inverse_condition_3x3
+
+    rng = np.random.default_rng(13)
+    M = rng.normal(size=(20_000, 3, 3)) * rng.uniform(1e-3, 1e3, (20_000, 1, 1))
+    s = np.linalg.svd(M, compute_uv=False)
+    assert np.all(np.abs(inverse_condition_3x3(M) - s[:, 2] / s[:, 0]) <= 1e-13)
+    # near-singular: known singular values (1..3, 0.1..1, eps) in random orthonormal frames
+    for eps in (1e-3, 1e-6, 1e-9, 1e-12, 0.0):
+        U = np.linalg.qr(rng.normal(size=(2000, 3, 3)))[0]
+        V = np.linalg.qr(rng.normal(size=(2000, 3, 3)))[0]
+        sv = np.stack([rng.uniform(1, 3, 2000), rng.uniform(0.1, 1, 2000), np.full(2000, eps)], axis=1)
+        M = U @ (sv[..., None] * V)
+        s = np.linalg.svd(M, compute_uv=False)
+        got = inverse_condition_3x3(M)
+        assert np.all(np.abs(got - s[:, 2] / s[:, 0]) <= 1e-15)
+        assert np.all(np.abs(got - eps / sv[:, 0]) <= 1e-15 + 1e-12 * eps)
+    # singular values that coincide (a Delta's symmetric poses): a double or triple eigenvalue keeps
+    # half the digits, 2e-8 at worst here (documented bound 1e-7); then rank 1, zero, NaN
+    for sv in ([2.0, 1e-3, 1e-3], [2.0, 0.5, 0.5], [1.0, 1.0, 0.5], [1.0, 1.0, 1.0], [1.0, 1e-6, 1e-6]):
+        M = U @ (np.array(sv)[:, None] * V)
+        s = np.linalg.svd(M, compute_uv=False)
+        assert_allclose(inverse_condition_3x3(M), s[:, 2] / s[:, 0], rtol=0, atol=1e-7)
+    assert_allclose(inverse_condition_3x3(np.stack([np.eye(3), 2 * np.eye(3), -np.eye(3)[::-1]])), 1.0,
+                    rtol=0, atol=1e-15)
+    assert inverse_condition_3x3(np.ones((1, 3, 3))).tolist() == [0.0]
+    assert inverse_condition_3x3(np.zeros((1, 3, 3))).tolist() == [0.0]
+    assert np.isnan(inverse_condition_3x3(np.full((1, 3, 3), np.nan))).all()
+
+
+@pytest.mark.parametrize("perturbed", [False, True])
+def test_singularity_measures_match_the_svd_reference(bai, perturbed):
+    from deltacal.kinematics.singularity import singularity_measures
+
+    rng = np.random.default_rng(7)
+    g = bai.geometry()
+    if perturbed:  # elbows off the arm's plane (e_y != 0), tilted axes, offsets
+        g = g.perturbed(Tolerances.bai2015(), rng)
+    v = VirtualDelta.from_geometry(g)
+    x = workspace_points(bai, 3000, rng) - g.tool
+    # and towards the singularities: full extension below the centre
+    z_limit = -np.sqrt((bai.arm_length + bai.rod_length) ** 2 - (bai.base_radius - bai.plate_radius) ** 2)
+    x = np.concatenate([x, [[0.0, 0.0, z_limit + d] for d in (1e-2, 1.0, 10.0)]])
+    q = v.inverse(x, check=False)
+    ok = np.all(np.isfinite(q), axis=1)
+    x, q = x[ok], q[ok]
+    for given in (None, x):  # from the forward kinematics, or given where exact
+        angle, conditioning = _singularity_measures_by_svd(v, q, given)
+        a, c = singularity_measures(v, q, given)
+        assert_allclose(a, angle, rtol=0, atol=1e-12)
+        # symmetric poses have two equal singular values: half the digits (see above)
+        assert_allclose(c, conditioning, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("method", ["exact", "savoure"])
+@pytest.mark.parametrize("min_margin", [0.0, 1.0])  # the reach limit itself, then the singularity margin
+def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin):
+    """Issue 13: the reading pass's screen never refuses a target the exact computation accepts."""
+    from deltacal.compensation import screen
+
+    rng = np.random.default_rng(1313)
+    model = get_model("complete")
+    deviation = _scaled_errors(model, rng, mm=0.3, rad=2e-3)  # imperfect parallelograms, tenths of mm
+    nominal = bai.geometry()
+    g = model.apply(nominal, deviation)
+    linear = LinearCalibration(nominal, model, deviation)
+    virtual = VirtualDelta.from_geometry(g)
+    # along a ray out of the workspace, the virtual model's limit (reach, or margin 1) by bisection
+    centre = np.array([0.0, 0.0, -900.0])
+    out = np.array([0.6, 0.3, -0.75]) / np.linalg.norm([0.6, 0.3, -0.75])
+
+    def virtual_ok(s):
+        x = (centre + s * out - g.tool)[None]
+        q = virtual.inverse(x, check=False)
+        return np.all(np.isfinite(q)) and (min_margin == 0.0 or singularity_margin(g, q, x)[0] >= min_margin)
+
+    lo, hi = 0.0, 2000.0
+    for _ in range(60):
+        lo, hi = ((lo + hi) / 2, hi) if virtual_ok((lo + hi) / 2) else (lo, (lo + hi) / 2)
+    sweep = centre + (lo + np.linspace(-30.0, 3.0, 331))[:, None] * out
+    accepted, screened = [], []
+    for target in sweep:
+        try:
+            compensate(g, target[None], method, linear, min_margin)
+            accepted.append(True)
+        except UnreachableError as exc:
+            accepted.append(False)
+            reason = exc.reason
+        try:
+            screen(g, target[None], method, linear, min_margin)
+            screened.append(False)
+        except UnreachableError as exc:
+            screened.append(True)
+            assert exc.reason == reason and exc.indices == [0]
+    accepted, screened = np.array(accepted), np.array(screened)
+    assert not np.any(accepted & screened)  # never refuses what compensate accepts
+    assert accepted[:100].all() and screened[-20:].all()  # inside: accepted; 1 mm out and on: refused
+    last_inside = np.flatnonzero(accepted)[-1]  # within 0.1 mm of the limit, and not refused by the screen
+    assert not screened[last_inside] and not accepted[last_inside + 1]
+    # in a batch, the indices are the batch's: the unreachable last row, found among reachable ones
+    batch = np.concatenate([workspace_points(bai, 500, rng) + g.tool - nominal.tool, sweep[-1:]])
+    with pytest.raises(UnreachableError) as caught:
+        screen(g, batch, method, linear, min_margin)
+    assert caught.value.indices == [500]

@@ -121,3 +121,33 @@ def test_a_bad_or_unreachable_row_in_a_later_chunk_is_named_and_an_earlier_outpu
     written = out.read_text().splitlines()
     assert written[0] == "x_mm,y_mm,z_mm,q1_deg,q2_deg,q3_deg"
     assert [s.rsplit(",", 3)[0] for s in written[1:]] == good
+
+
+def test_an_unreachable_last_row_is_refused_by_the_reading_pass(tmp_path, capsys, monkeypatch):
+    """Issue 13: the reading pass's screen names the line before anything is compensated or written."""
+    from deltacal.cli import compensate as command
+
+    monkeypatch.setattr(targets_module, "CHUNK_BYTES", 64)
+
+    class NoWriting:
+        def __init__(self, path):
+            raise AssertionError("the joints file was opened: the refusal came after the reading pass")
+
+    monkeypatch.setattr(command, "JointsWriter", NoWriting)
+    geometry = tmp_path / "g.toml"
+    save_geometry(load_nominal(NOMINAL).geometry(), geometry)
+    rng = np.random.default_rng(13)
+    good = [f"{x:.3f},{y:.3f},-900" for x, y in rng.uniform(-100.0, 100.0, (40, 2))]
+    targets, out = tmp_path / "t.csv", tmp_path / "j.csv"
+    out.write_text("earlier joints\n")
+    targets.write_text("x_mm,y_mm,z_mm\n" + "\n".join(good + ["0,0,-200"]) + "\n")
+    assert main(["compensate", str(geometry), str(targets), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.strip().endswith(f"{targets}: line 42 (data row 41), columns x_mm..z_mm: "
+                                "target [0.0, 0.0, -200.0] mm is out of reach of the robot")
+    assert out.read_text() == "earlier joints\n"
+    # a bad value in a later chunk is still named first, though the unreachable row comes before it
+    targets.write_text("x_mm,y_mm,z_mm\n" + "\n".join(["0,0,-200"] + good + ["0,0,-9x0"]) + "\n")
+    assert main(["compensate", str(geometry), str(targets), "-o", str(out)]) == 1
+    assert "line 43 (data row 42), column z_mm: value '-9x0' is not a number" in capsys.readouterr().err
+    assert out.read_text() == "earlier joints\n"

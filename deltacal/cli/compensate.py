@@ -1,9 +1,12 @@
 """``deltacal compensate``: joint readings that put the TCP at target positions.
 
 The targets file is streamed: read and checked whole first (a bad row fails at reading
-speed, before anything is computed), then read again chunk by chunk, compensated, checked
-and written, so memory stays flat in the file's length. The joints file replaces an earlier
-one only once complete.
+speed, before anything is computed), each chunk screened on the way by the closed-form
+virtual model (:func:`~deltacal.compensation.screen`: a target it doubts is refused only
+if the exact computation refuses it), then read again chunk by chunk, compensated,
+checked and written, so memory stays flat in the file's length. A bad value anywhere is
+named first; an unreachable target the screen found, once the file is read. The joints
+file replaces an earlier one only once complete.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import argparse
 
 import numpy as np
 
-from ..compensation import METHODS, compensate
+from ..compensation import METHODS, compensate, screen
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..io import (
     JointsWriter,
@@ -63,9 +66,20 @@ def run(args: argparse.Namespace) -> int:
         linear = load_linear_calibration(args.calibration)
     size = max(targets_file.size, 1)
     with Progress("compensate") as progress:
+        refused: tuple[UnreachableError, TargetChunk] | None = None
         for chunk in targets_file.chunks():  # the whole file checked before anything is computed
+            if refused is None:
+                try:  # fail fast where the reading can tell: the virtual model's suspects, decided exactly
+                    screen(geometry, chunk.targets if to_base is None else to_base(chunk.targets),
+                           args.method, linear)
+                except UnreachableError as exc:
+                    if not exc.indices:
+                        raise
+                    refused = exc, chunk
             progress.update(0.1 * chunk.read / size, "reading")
         warn(targets_file.warnings)
+        if refused is not None:  # a bad value anywhere came first; the file's rows are now known
+            raise _unreachable(*refused, targets_file) from refused[0]
         with JointsWriter(args.output) as out:
             for chunk in targets_file.chunks():
                 in_base = chunk.targets if to_base is None else to_base(chunk.targets)

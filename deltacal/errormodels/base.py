@@ -99,23 +99,28 @@ def elementary_jacobian(
     """
     q = np.atleast_2d(q)
     N = q.shape[0]
-    R_arm = geometry.arm_rotation(q)  # (N, 3, 3, 3)
-    A = geometry.axis_point[None, :, None, :] + np.einsum("nikl,ijl->nijk", R_arm, geometry.arm_ball)
-    B = pose.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", pose.rotation, geometry.plate_ball)
+    A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)
+    Rt = np.swapaxes(pose.rotation, 1, 2)
+    B = pose.position[:, None, None, :] + (geometry.plate_ball.reshape(6, 3) @ Rt).reshape(N, 3, 2, 3)
     d = B - A
-    n = d / np.linalg.norm(d, axis=-1, keepdims=True)  # (N, 3, 2, 3)
-    if moves is not None:
-        e = np.asarray(moves, dtype=float)
-        omega = np.einsum("ikl,il->ik", geometry.actuator_rotation(), e[ACTUATOR_ROTATIONS].reshape(3, 3))
-        dA = (
-            np.einsum("nikl,ijl->nijk", R_arm, e[ARM_BALLS].reshape(3, 2, 3))
-            + e[AXIS_POINTS].reshape(1, 3, 1, 3)
-            + np.cross(omega[None, :, None, :], A - geometry.axis_point[None, :, None, :])
-        )
-        dB = np.einsum("nkl,ijl->nijk", pose.rotation, e[PLATE_BALLS].reshape(3, 2, 3))
-        return (np.einsum("nijk,nijk->nij", n, dB - dA) - e[RODS].reshape(1, 3, 2)).reshape(N, 6)
-    J = np.zeros((N, 3, 2, N_ELEMENTARY))
+    n = d / np.sqrt(np.sum(d * d, axis=-1, keepdims=True))  # (N, 3, 2, 3)
     R0 = geometry.actuator_rotation()
+    if moves is not None:
+        # written out elementwise (no einsum over (N, 3, 2, 3)): the linear compensators' hot path
+        e = np.asarray(moves, dtype=float)
+        omega = np.einsum("ikl,il->ik", R0, e[ACTUATOR_ROTATIONS].reshape(3, 3))
+        da = e[ARM_BALLS].reshape(3, 2, 3)  # in the arm frames: R0_i R_y(θ_i) da, as arm_balls_in_base
+        theta = (q + geometry.encoder_offset)[:, :, None]  # (N, 3, 1)
+        cos, sin = np.cos(theta), np.sin(theta)
+        along_x = (cos * da[None, :, :, 0] + sin * da[None, :, :, 2])[..., None]  # (N, 3, 2, 1)
+        along_z = (cos * da[None, :, :, 2] - sin * da[None, :, :, 0])[..., None]
+        fixed = e[AXIS_POINTS].reshape(3, 1, 3) + da[:, :, 1, None] * R0[:, None, :, 1]  # (3, 2, 3)
+        dA = (fixed[None] + along_x * R0[None, :, None, :, 0] + along_z * R0[None, :, None, :, 2]
+              + np.cross(omega[None, :, None, :], A - geometry.axis_point[None, :, None, :]))
+        dB = (e[PLATE_BALLS].reshape(6, 3) @ Rt).reshape(N, 3, 2, 3)
+        return (np.sum(n * (dB - dA), axis=-1) - e[RODS].reshape(1, 3, 2)).reshape(N, 6)
+    R_arm = geometry.arm_rotation(q)  # (N, 3, 3, 3)
+    J = np.zeros((N, 3, 2, N_ELEMENTARY))
     lever = A - geometry.axis_point[None, :, None, :]
     torque = np.cross(lever, n)  # d|d|/d(rotation) = -(lever x n) . omega
     for i in range(3):

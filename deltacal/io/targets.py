@@ -33,8 +33,10 @@ from .tables import (
     read_csv_table,
 )
 
-#: Bytes read at a time (about 100,000 targets): memory is a few times this, whatever the file's length.
-CHUNK_BYTES = 1 << 22
+#: Bytes read at a time (about 30,000 targets): memory is a few times this, whatever the file's length.
+#: 1 MB against 4 MB: no slower (12.4 s against 13.5 s for 10^6 targets, savoure, one noisy run
+#: each) and a third of the peak memory (150 MB against 380 MB).
+CHUNK_BYTES = 1 << 20
 #: Decimals of the readings written [deg]: 1e-12 deg, far below any encoder's resolution.
 JOINT_DECIMALS = 12
 #: The bytes a chunk of plain numbers may hold (no quotes, names, nan, inf, underscores).
