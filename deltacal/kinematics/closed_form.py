@@ -65,8 +65,12 @@ class VirtualDelta:
 
     # ------------------------------------------------------------- helpers
     @cached_property
-    def _elbow_terms(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """E_i = base_i + cos(θ_i) cos_i + sin(θ_i) sin_i: ``R0_i R_y(θ_i) e_i`` written out, each (3, 3)."""
+    def elbow_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Elbow circles about the axes, ``E_i = C_i + cos θ_i U_i + sin θ_i V_i``: C, U, V, each (3, 3).
+
+        θ is the true angle; ``C = P + e_y w``, ``U = e_x x0 + e_z z0``, ``V = e_z x0 − e_x z0``
+        in the actuator frame's axes: ``R0_i R_y(θ_i) e_i`` written out (rows are limbs).
+        """
         x0, w, z0 = (self.actuator_rotation[:, :, k] for k in range(3))
         e = self.elbow
         return (self.axis_point + e[:, 1:2] * w, e[:, 0:1] * x0 + e[:, 2:3] * z0,
@@ -76,7 +80,7 @@ class VirtualDelta:
         """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad]."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         theta = (q + self.encoder_offset)[..., None]
-        base, cos_term, sin_term = self._elbow_terms
+        base, cos_term, sin_term = self.elbow_circle
         return base + np.cos(theta) * cos_term + np.sin(theta) * sin_term
 
     def _elbow_derivative(self, q: np.ndarray) -> np.ndarray:

@@ -87,11 +87,9 @@ def singularity_measures(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Least transmission angle over the limbs [rad] and rod conditioning at readings q, each (N,).
 
-    Computed coordinate by coordinate on (N, 3) arrays (limbs along the last axis): each
-    elbow on its circle about the axis, ``E_i = C_i + cos θ_i U_i + sin θ_i V_i`` (θ the
-    true angle; ``C = P + e_y w``, ``U = e_x x0 + e_z z0``, ``V = e_z x0 − e_x z0`` in the
-    actuator frame's axes), which is :meth:`VirtualDelta.elbows` without its rotation
-    matrices, and the arm's direction of motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``.
+    Computed coordinate by coordinate on (N, 3) arrays (limbs along the last axis), with each
+    elbow on its circle (:attr:`VirtualDelta.elbow_circle`) and the arm's direction of
+    motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``.
 
     Args:
         virtual: The virtual model.
@@ -102,11 +100,9 @@ def singularity_measures(
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if x is None:
         x = virtual.forward(q, check=False)
-    R0, e = virtual.actuator_rotation, virtual.elbow
-    x0, w, z0 = R0[:, :, 0], R0[:, :, 1], R0[:, :, 2]  # (limb, coordinate)
-    centre = virtual.axis_point + e[:, 1:2] * w
-    u = e[:, 0:1] * x0 + e[:, 2:3] * z0
-    v = e[:, 2:3] * x0 - e[:, 0:1] * z0
+    w = virtual.actuator_rotation[:, :, 1]  # (limb, coordinate)
+    e = virtual.elbow
+    centre, u, v = virtual.elbow_circle
     reach = np.linalg.norm(e, axis=1)
     wu = np.cross(w, u) / reach[:, None]
     wv = np.cross(w, v) / reach[:, None]
