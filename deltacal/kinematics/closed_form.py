@@ -152,13 +152,16 @@ class VirtualDelta:
         """
         x = np.atleast_2d(np.asarray(x, dtype=float))
         # d in actuator frames: X - p_i, X = x + a_i
-        d = x[:, None, :] + self.plate_attachment[None] - self.axis_point[None]
-        dl = np.einsum("ilk,nil->nik", self.actuator_rotation, d)
+        # d = X - p_i in the actuator frames, coordinate by coordinate: (N, 3) arrays, limbs last
+        offset = self.plate_attachment - self.axis_point
+        d = [x[:, k : k + 1] + offset[:, k] for k in range(3)]
+        R0 = self.actuator_rotation
+        dx, dy, dz = (d[0] * R0[:, 0, k] + d[1] * R0[:, 1, k] + d[2] * R0[:, 2, k] for k in range(3))
         e = self.elbow
-        A = dl[..., 0] * e[:, 0] + dl[..., 2] * e[:, 2]
-        B = dl[..., 0] * e[:, 2] - dl[..., 2] * e[:, 0]
-        K = 0.5 * (np.sum(e * e, axis=1) + np.sum(dl * dl, axis=2) - self.rod_length**2)
-        K = K - dl[..., 1] * e[:, 1]
+        A = dx * e[:, 0] + dz * e[:, 2]
+        B = dx * e[:, 2] - dz * e[:, 0]
+        K = 0.5 * (np.sum(e * e, axis=1) + (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - self.rod_length**2)
+        K = K - dy * e[:, 1]
         rho = np.hypot(A, B)
         ratio = K / rho
         ok = np.abs(ratio) <= 1.0
