@@ -66,9 +66,7 @@ def predicted_plate_displacement(calibration: LinearCalibration, q: np.ndarray, 
     g = calibration.nominal
     e = calibration.model.moves(g) @ calibration.deviation
     pose = PlatePose(x, np.broadcast_to(np.eye(3), (x.shape[0], 3, 3)))
-    Jk_e = elementary_jacobian(g, q, pose, moves=e)
-    JX = exact.pose_jacobian(g, q, pose)
-    return -np.linalg.solve(JX, Jk_e[..., None])[..., 0]
+    return exact.plate_displacement(g, q, pose, elementary_jacobian(g, q, pose, moves=e))
 
 
 def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -78,11 +76,13 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
     recomputed by the forward kinematics: rows ``n_i / (n_i · dE_i/dq_i)`` with the
     virtual rods ``n_i = x + a_i − E_i``.
     """
-    elbow = geometry.arm_ball.mean(axis=1)
-    lever = np.einsum("nikl,il->nik", geometry.arm_rotation(q), elbow)  # E_i - P_i, (N, 3, 3)
-    n = x[:, None, :] + geometry.plate_ball.mean(axis=1) - geometry.axis_point - lever
-    dE = np.cross(geometry.actuator_rotation()[:, :, 1], lever)
-    return n / np.einsum("nik,nik->ni", n, dE)[..., None]
+    virtual = VirtualDelta.from_geometry(geometry)
+    lever = virtual.elbows(q) - virtual.axis_point  # E_i - P_i, (N, 3, 3)
+    n = x[:, None, :] + virtual.plate_attachment - virtual.axis_point - lever
+    w = virtual.actuator_rotation[:, :, 1]
+    dE = np.stack([w[:, 1] * lever[..., 2] - w[:, 2] * lever[..., 1], w[:, 2] * lever[..., 0]
+                   - w[:, 0] * lever[..., 2], w[:, 0] * lever[..., 1] - w[:, 1] * lever[..., 0]], axis=-1)
+    return n / np.sum(n * dE, axis=2)[..., None]
 
 
 def compensate_linear(

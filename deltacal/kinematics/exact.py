@@ -115,6 +115,38 @@ def pose_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np
     return _pose_jacobian(d, dist, RB)
 
 
+def plate_displacement(
+    geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose, rod_change: np.ndarray
+) -> np.ndarray:
+    """``δX = −J_X⁻¹ δr``: the plate displacement (δp, δφ) that absorbs rod-residual changes δr, (N, 6).
+
+    Savoure Eq. 17 with the joints fixed: the first-order plate motion that keeps the rods
+    closed when their residuals ``|d_k| − l_k`` change by δr at readings q and plate poses
+    ``pose``. The same closed-form solve as the FK's Newton steps, in blocks of :data:`BLOCK`:
+    what ``-np.linalg.solve(pose_jacobian(...), δr)`` gives, several times faster.
+
+    Args:
+        geometry: The robot.
+        q: Readings [rad], shape (N, 3).
+        pose: Plate poses at which to differentiate.
+        rod_change: δr [mm], shape (N, 6), rods (1,1), (1,2), (2,1), ..., (3,2).
+
+    Returns:
+        δX = (δp [mm], δφ [rad]), shape (N, 6).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    rods = _Rods.of(geometry)
+    out = np.empty((q.shape[0], 6))
+    for s in range(0, q.shape[0], BLOCK):
+        b = slice(s, s + BLOCK)
+        R = np.asarray(pose.rotation[b], dtype=float).transpose(1, 2, 0)
+        RB = np.matmul(rods.plate, R)
+        _, n = rods.rods(RB + np.asarray(pose.position[b], dtype=float).T[:, None] - rods.arm_balls(q[b].T))
+        dp, dphi = _pose_step(n, b3.cross(RB, n), np.asarray(rod_change[b], dtype=float).T)
+        out[b, :3], out[b, 3:] = dp.T, dphi.T
+    return out
+
+
 def _joint_jacobian(geometry: DeltaGeometry, A: np.ndarray, d: np.ndarray, dist: np.ndarray):
     """d(|d_ij|)/dq, shape (N, 6, 3): only the rod's own actuator moves its arm ball."""
     n = d / dist[..., None]
@@ -200,21 +232,15 @@ def _fallback(rows: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return (np.linalg.pinv(rows) @ rhs[..., None])[..., 0]
 
 
-def _forward_step(rods: _Rods, A: np.ndarray, p: np.ndarray, R: np.ndarray, tol: float):
-    """Rod residuals (6, N) and the Newton step (dp (3, N), dphi (3, N)) of the FK at poses (p, R).
+def _pose_step(n: np.ndarray, m: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The solution (dp (3, N), dphi (3, N)) of ``J_X (dp, dphi) = -r`` for rod rows ``[n_kᵀ, m_kᵀ]``.
 
-    The step is None when every residual is within tol already.
-
-    The six rod rows ``[n_kᵀ, (R B_k × n_k)ᵀ]`` (J_X, Savoure Eq. 18) are combined per limb into
-    their sum and difference: the sums carry the translation (U: about twice the virtual rods),
-    the differences the rotation; the 6x6 step is then two 3x3 solves through the Schur
-    complement ``S = W - V U⁻¹ M`` of ``[[U, M], [V, W]]``.
+    J_X's six rows ``[n_kᵀ, (R B_k × n_k)ᵀ]`` (Savoure Eq. 18; n, m (3, 6, N), r (6, N)) are
+    combined per limb into their sum and difference: the sums carry the translation (U: about
+    twice the virtual rods), the differences the rotation; the 6x6 solve is then two 3x3
+    solves through the Schur complement ``S = W - V U⁻¹ M`` of ``[[U, M], [V, W]]``. Where
+    it gives no finite solution (a singular J_X), the pivoted minimum-norm one.
     """
-    RB = np.matmul(rods.plate, R)  # (3, 6, N): R B_k
-    r, n = rods.rods(RB + p[:, None] - A)
-    if np.all(np.abs(r) <= tol):
-        return r, None
-    m = b3.cross(RB, n)
     n1, n2 = _pairs(n)
     m1, m2 = _pairs(m)
     U, M, V, W = n1 + n2, m1 + m2, n1 - n2, m1 - m2
@@ -231,7 +257,19 @@ def _forward_step(rods: _Rods, A: np.ndarray, p: np.ndarray, R: np.ndarray, tol:
         rows = np.concatenate([n[:, :, singular], m[:, :, singular]]).transpose(2, 1, 0)
         step = _fallback(rows, -r[:, singular].T)
         dp[:, singular], dphi[:, singular] = step[:, :3].T, step[:, 3:].T
-    return r, (dp, dphi)
+    return dp, dphi
+
+
+def _forward_step(rods: _Rods, A: np.ndarray, p: np.ndarray, R: np.ndarray, tol: float):
+    """Rod residuals (6, N) and the Newton step (dp (3, N), dphi (3, N)) of the FK at poses (p, R).
+
+    The step (:func:`_pose_step`) is None when every residual is within tol already.
+    """
+    RB = np.matmul(rods.plate, R)  # (3, 6, N): R B_k
+    r, n = rods.rods(RB + p[:, None] - A)
+    if np.all(np.abs(r) <= tol):
+        return r, None
+    return r, _pose_step(n, b3.cross(RB, n), r)
 
 
 def _newton(step, state: list[np.ndarray], fixed: list[np.ndarray], tol: float, max_iter: int,
