@@ -172,6 +172,28 @@ def tangent_vectors(azimuth: np.ndarray) -> np.ndarray:
     return np.stack([-np.sin(azimuth), np.cos(azimuth), np.zeros_like(azimuth)], axis=-1)
 
 
+def arm_frame_circle(
+    axis_point: np.ndarray, actuator_rotation: np.ndarray, local: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points fixed in the arm frames, on their circles about the actuator axes.
+
+    A point ``a`` of arm i is at ``P_i + R0_i R_y(θ_i) a = C + cos θ_i U + sin θ_i V`` in {O}
+    (θ the true angle; conventions), with ``C = P_i + a_y w_i``, ``U = a_x x0_i + a_z z0_i``
+    and ``V = a_z x0_i − a_x z0_i`` in the actuator frame's axes ``R0_i = [x0 w z0]``.
+
+    Args:
+        axis_point: P_i [mm], shape (3, 3).
+        actuator_rotation: R0_i, shape (3, 3, 3).
+        local: Points in the arm frames [mm], shape (3, K, 3) (K points of each arm).
+
+    Returns:
+        C, U, V, each of shape (3, K, 3).
+    """
+    x0, w, z0 = (actuator_rotation[:, None, :, k] for k in range(3))  # (3, 1, 3) each
+    ax, ay, az = local[..., 0:1], local[..., 1:2], local[..., 2:3]
+    return axis_point[:, None, :] + ay * w, ax * x0 + az * z0, az * x0 - ax * z0
+
+
 @dataclass(frozen=True)
 class Tolerances:
     """Standard deviations of the manufacturing errors of each class.
@@ -354,17 +376,16 @@ class DeltaGeometry:
             Ball centres A_ij [mm], shape (N, 3, 2, 3).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        # R0_i R_y(theta) a written out: elementwise products are several times faster than a
-        # batched (N, 3, 3, 3) matrix product and einsum (the exact solvers' hot path)
-        theta = (q + self.encoder_offset)[:, :, None]  # (N, 3, 1)
-        c, s = np.cos(theta), np.sin(theta)
-        a = self.arm_ball  # (3, 2, 3) in the arm frame
-        along_x = c * a[None, :, :, 0] + s * a[None, :, :, 2]  # (N, 3, 2)
-        along_z = c * a[None, :, :, 2] - s * a[None, :, :, 0]
-        R0 = self.actuator_rotation()  # (3, 3, 3): columns x0, w, z0
-        base = self.axis_point[:, None, :] + a[:, :, 1, None] * R0[:, None, :, 1]  # (3, 2, 3)
-        return (base[None] + along_x[..., None] * R0[None, :, None, :, 0]
-                + along_z[..., None] * R0[None, :, None, :, 2])
+        # each ball on its circle (arm_frame_circle): elementwise products are several times
+        # faster than a batched (N, 3, 3, 3) matrix product and einsum
+        theta = (q + self.encoder_offset)[:, :, None, None]  # (N, 3, 1, 1)
+        centre, along_cos, along_sin = self.arm_ball_circle
+        return centre + np.cos(theta) * along_cos + np.sin(theta) * along_sin
+
+    @cached_property
+    def arm_ball_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arm balls' circles, ``A_ij = C_ij + cos θ_i U_ij + sin θ_i V_ij``: C, U, V, each (3, 2, 3)."""
+        return arm_frame_circle(self.axis_point, self._actuator_rotation, self.arm_ball)
 
     def point(self, name: str) -> np.ndarray:
         """A named point of the plate in the plate frame [mm]; ``"tcp"`` is the tool."""

@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from conftest import workspace_points
@@ -185,3 +187,23 @@ def test_exact_solvers_fall_back_where_the_closed_form_step_fails(bai, monkeypat
     np.testing.assert_allclose(fallback.position, pose.position, atol=1e-10)
     np.testing.assert_allclose(exact.inverse(g, target, start=start_q), q, atol=1e-12)
     assert calls
+
+
+def test_plate_displacement_solves_the_pose_jacobian(bai):
+    """δX = −J_X⁻¹ δr in closed form equals the pivoted dense solve, tilted plates and blocks included."""
+    rng = np.random.default_rng(35)
+    g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    n = exact.BLOCK + 30
+    q = VirtualDelta.from_nominal(bai).inverse(workspace_points(bai, n, rng))
+    pose = exact.forward(g, q)
+    assert np.degrees(pose.tilt()).max() > 0.05
+    change = rng.normal(0.0, 0.01, (n, 6))
+    dense = -np.linalg.solve(exact.pose_jacobian(g, q, pose), change[..., None])[..., 0]
+    np.testing.assert_allclose(exact.plate_displacement(g, q, pose, change), dense, rtol=0,
+                               atol=1e-10 * np.max(np.abs(dense)))
+    # and it is what the FK does to first order: lengthen the rods by δl, the residuals change by −δl
+    dl = rng.normal(0.0, 1e-4, 6)
+    longer = replace(g, rod_length=g.rod_length + dl.reshape(3, 2))
+    moved = exact.forward(longer, q[:5], start=pose[:5])
+    step = exact.plate_displacement(g, q[:5], pose[:5], np.broadcast_to(-dl, (5, 6)))
+    np.testing.assert_allclose(moved.position - pose.position[:5], step[:, :3], atol=1e-8)

@@ -40,7 +40,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..geometry import DeltaGeometry
+from ..geometry import DeltaGeometry, arm_frame_circle
+from ..kinematics import batch3 as b3
 from ..kinematics import exact
 from ..kinematics.exact import PlatePose, pose_jacobian
 from ..rotations import rotation_from_vector
@@ -99,26 +100,14 @@ def elementary_jacobian(
     """
     q = np.atleast_2d(q)
     N = q.shape[0]
+    if moves is not None:
+        return _moved_rods(geometry, q, pose, np.asarray(moves, dtype=float))
     A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)
     Rt = np.swapaxes(pose.rotation, 1, 2)
     B = pose.position[:, None, None, :] + (geometry.plate_ball.reshape(6, 3) @ Rt).reshape(N, 3, 2, 3)
     d = B - A
     n = d / np.sqrt(np.sum(d * d, axis=-1, keepdims=True))  # (N, 3, 2, 3)
     R0 = geometry.actuator_rotation()
-    if moves is not None:
-        # written out elementwise (no einsum over (N, 3, 2, 3)): the linear compensators' hot path
-        e = np.asarray(moves, dtype=float)
-        omega = np.einsum("ikl,il->ik", R0, e[ACTUATOR_ROTATIONS].reshape(3, 3))
-        da = e[ARM_BALLS].reshape(3, 2, 3)  # in the arm frames: R0_i R_y(θ_i) da, as arm_balls_in_base
-        theta = (q + geometry.encoder_offset)[:, :, None]  # (N, 3, 1)
-        cos, sin = np.cos(theta), np.sin(theta)
-        along_x = (cos * da[None, :, :, 0] + sin * da[None, :, :, 2])[..., None]  # (N, 3, 2, 1)
-        along_z = (cos * da[None, :, :, 2] - sin * da[None, :, :, 0])[..., None]
-        fixed = e[AXIS_POINTS].reshape(3, 1, 3) + da[:, :, 1, None] * R0[:, None, :, 1]  # (3, 2, 3)
-        dA = (fixed[None] + along_x * R0[None, :, None, :, 0] + along_z * R0[None, :, None, :, 2]
-              + np.cross(omega[None, :, None, :], A - geometry.axis_point[None, :, None, :]))
-        dB = (e[PLATE_BALLS].reshape(6, 3) @ Rt).reshape(N, 3, 2, 3)
-        return (np.sum(n * (dB - dA), axis=-1) - e[RODS].reshape(1, 3, 2)).reshape(N, 6)
     R_arm = geometry.arm_rotation(q)  # (N, 3, 3, 3)
     J = np.zeros((N, 3, 2, N_ELEMENTARY))
     lever = A - geometry.axis_point[None, :, None, :]
@@ -135,6 +124,33 @@ def elementary_jacobian(
             s = actuator_rotation_index(i, 0)
             J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
     return J.reshape(N, 6, N_ELEMENTARY)
+
+
+def _moved_rods(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose, e: np.ndarray) -> np.ndarray:
+    """``J_k e`` (N, 6) without J_k, component first (the linear compensators' hot path).
+
+    The arm ball's move ``δA = δP_i + R0_i R_y(θ_i) δa + ω_i × (A − P_i)`` is, like the ball
+    itself, a point on a circle (:func:`~deltacal.geometry.arm_frame_circle`):
+    ``F + cos θ_i G + sin θ_i H``, with constant F, G, H for the moves e; so each rod's change
+    is ``n · (R δb − F − cos θ G − sin θ H) − δl`` with n its unit direction.
+    """
+    R0 = geometry.actuator_rotation()
+    omega = np.einsum("ikl,il->ik", R0, e[ACTUATOR_ROTATIONS].reshape(3, 3))[:, None]  # (3, 1, 3)
+    moved = arm_frame_circle(e[AXIS_POINTS].reshape(3, 3), R0, e[ARM_BALLS].reshape(3, 2, 3))
+    circle = geometry.arm_ball_circle
+    lever = (circle[0] - geometry.axis_point[:, None], circle[1], circle[2])  # A - P_i = C' + cos U + sin V
+    col = lambda v: np.ascontiguousarray(v.reshape(6, 3).T)[:, :, None]  # noqa: E731  (3, 2, 3) -> (3, 6, 1)
+    F, G, H = (col(m + np.cross(omega, v)) for m, v in zip(moved, lever, strict=True))
+    C, U, V = (col(v) for v in circle)
+    theta = (q + geometry.encoder_offset).T  # (3, N)
+    cos, sin = np.repeat(np.cos(theta), 2, axis=0), np.repeat(np.sin(theta), 2, axis=0)  # (6, N)
+    R = np.asarray(pose.rotation, dtype=float).transpose(1, 2, 0)  # (3, 3, N)
+    d = (np.asarray(pose.position, dtype=float).T[:, None] + np.matmul(geometry.plate_ball.reshape(6, 3), R)
+         - C - cos * U - sin * V)
+    n = d / np.sqrt(b3.dot(d, d))
+    dB = np.matmul(e[PLATE_BALLS].reshape(6, 3), R)
+    change = b3.dot(n, dB - F - cos * G - sin * H) - e[RODS][:, None]
+    return np.ascontiguousarray(change.T)
 
 
 def elementary_sensitivity(

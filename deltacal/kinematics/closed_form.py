@@ -19,7 +19,7 @@ from functools import cached_property
 import numpy as np
 
 from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry, NominalDelta
+from ..geometry import DeltaGeometry, NominalDelta, arm_frame_circle
 from . import batch3 as b3
 
 
@@ -68,13 +68,11 @@ class VirtualDelta:
     def elbow_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Elbow circles about the axes, ``E_i = C_i + cos θ_i U_i + sin θ_i V_i``: C, U, V, each (3, 3).
 
-        θ is the true angle; ``C = P + e_y w``, ``U = e_x x0 + e_z z0``, ``V = e_z x0 − e_x z0``
-        in the actuator frame's axes: ``R0_i R_y(θ_i) e_i`` written out (rows are limbs).
+        θ is the true angle; :func:`~deltacal.geometry.arm_frame_circle` (rows are limbs).
         """
-        x0, w, z0 = (self.actuator_rotation[:, :, k] for k in range(3))
-        e = self.elbow
-        return (self.axis_point + e[:, 1:2] * w, e[:, 0:1] * x0 + e[:, 2:3] * z0,
-                e[:, 2:3] * x0 - e[:, 0:1] * z0)
+        circle = arm_frame_circle(self.axis_point, self.actuator_rotation, self.elbow[:, None])
+        centre, along_cos, along_sin = (v[:, 0] for v in circle)
+        return centre, along_cos, along_sin
 
     def elbows(self, q: np.ndarray) -> np.ndarray:
         """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad]."""

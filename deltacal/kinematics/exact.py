@@ -176,7 +176,7 @@ class _Rods:
     """A geometry's rods in the solvers' component-first layout (rod k = 2 i + j, limb i).
 
     The arm ball of rod k at reading q_i is ``base_k + cos(θ_i) cos_k + sin(θ_i) sin_k`` with
-    ``θ_i = q_i + encoder_offset_i``: ``R0_i R_y(θ) a`` written out (conventions).
+    ``θ_i = q_i + encoder_offset_i`` (:attr:`DeltaGeometry.arm_ball_circle`).
     """
 
     base: np.ndarray  # (3, 6, 1)
@@ -192,20 +192,17 @@ class _Rods:
     @classmethod
     def of(cls, geometry: DeltaGeometry) -> _Rods:
         limb = np.repeat(np.arange(3), 2)
-        R0 = geometry.actuator_rotation()  # columns x0, w, z0
-        a = geometry.arm_ball.reshape(6, 3)
-        x0, w, z0 = R0[limb, :, 0], R0[limb, :, 1], R0[limb, :, 2]
-        base = geometry.axis_point[limb] + a[:, 1:2] * w
-        col = lambda v: np.ascontiguousarray(v.T)[:, :, None]  # noqa: E731  (6, 3) -> (3, 6, 1)
+        centre, along_cos, along_sin = geometry.arm_ball_circle
+        col = lambda v: np.ascontiguousarray(v.reshape(6, 3).T)[:, :, None]  # noqa: E731  -> (3, 6, 1)
         return cls(
-            base=col(base),
-            cos_coef=col(a[:, 0:1] * x0 + a[:, 2:3] * z0),
-            sin_coef=col(a[:, 2:3] * x0 - a[:, 0:1] * z0),
+            base=col(centre),
+            cos_coef=col(along_cos),
+            sin_coef=col(along_sin),
             offset=np.asarray(geometry.encoder_offset, dtype=float)[:, None],
             plate=np.array(geometry.plate_ball.reshape(6, 3)),
             length=geometry.rod_length.reshape(6, 1),
             axis_point=col(geometry.axis_point[limb]),
-            axis=col(w),
+            axis=col(geometry.actuator_rotation()[limb, :, 1]),
             axis_z=float(geometry.axis_point[:, 2].min()),
         )
 
