@@ -352,7 +352,9 @@ class DeltaGeometry:
         x0 = r - np.sum(r * w, axis=1, keepdims=True) * w
         x0 /= np.linalg.norm(x0, axis=1, keepdims=True)
         z0 = np.cross(x0, w)
-        return np.stack([x0, w, z0], axis=-1)
+        rotation = np.stack([x0, w, z0], axis=-1)
+        rotation.setflags(write=False)  # cached by a frozen geometry: not to be changed through it
+        return rotation
 
     def arm_rotation(self, q: np.ndarray) -> np.ndarray:
         """Rotation of each arm frame in {O} at readings q.
@@ -385,7 +387,10 @@ class DeltaGeometry:
     @cached_property
     def arm_ball_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The arm balls' circles, ``A_ij = C_ij + cos θ_i U_ij + sin θ_i V_ij``: C, U, V, each (3, 2, 3)."""
-        return arm_frame_circle(self.axis_point, self._actuator_rotation, self.arm_ball)
+        circle = arm_frame_circle(self.axis_point, self._actuator_rotation, self.arm_ball)
+        for v in circle:
+            v.setflags(write=False)  # cached by a frozen geometry: not to be changed through it
+        return circle
 
     def point(self, name: str) -> np.ndarray:
         """A named point of the plate in the plate frame [mm]; ``"tcp"`` is the tool."""

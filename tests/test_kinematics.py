@@ -207,3 +207,33 @@ def test_plate_displacement_solves_the_pose_jacobian(bai):
     moved = exact.forward(longer, q[:5], start=pose[:5])
     step = exact.plate_displacement(g, q[:5], pose[:5], np.broadcast_to(-dl, (5, 6)))
     np.testing.assert_allclose(moved.position - pose.position[:5], step[:, :3], atol=1e-8)
+
+
+def test_exact_solvers_report_what_is_known_of_a_failure(bai):
+    """Out of iterations: the residual at the state reached; a NaN pose is one row's NaN, not an error."""
+    rng = np.random.default_rng(36)
+    g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
+    q = VirtualDelta.from_nominal(bai).inverse(workspace_points(bai, 3, rng))
+    with pytest.raises(AssemblyError, match="rod residual") as failed:
+        exact.forward(g, q, max_iter=1)
+    pose = exact.forward(g, q)
+    A = g.arm_balls_in_base(q).reshape(-1, 6, 3)
+    start = exact.initial_pose(g, q)
+    B = start.position[:, None] + g.plate_ball.reshape(6, 3)
+    first = np.abs(np.linalg.norm(B - A, axis=2) - g.rod_length.reshape(6)).max()
+    assert 0.0 < failed.value.residual < first  # after one step, below the start's residual
+    poses = exact.PlatePose(np.vstack([pose.position, [np.nan] * 3]),
+                            np.concatenate([pose.rotation, np.eye(3)[None]]))
+    change = np.full((4, 6), 0.01)
+    moved = exact.plate_displacement(g, np.vstack([q, q[:1]]), poses, change)
+    assert np.all(np.isnan(moved[3])) and np.all(np.isfinite(moved[:3]))
+
+
+def test_cached_geometry_arrays_are_read_only(bai):
+    g = bai.geometry()
+    for v in (*g.arm_ball_circle, *VirtualDelta.from_geometry(g).elbow_circle):
+        with pytest.raises(ValueError, match="read-only"):
+            v[0] = 0.0
+    R0 = g.actuator_rotation()
+    R0[0] = 0.0  # a copy: the geometry is unchanged
+    np.testing.assert_array_equal(g.actuator_rotation(), bai.geometry().actuator_rotation())

@@ -71,7 +71,9 @@ class VirtualDelta:
         θ is the true angle; :func:`~deltacal.geometry.arm_frame_circle` (rows are limbs).
         """
         circle = arm_frame_circle(self.axis_point, self.actuator_rotation, self.elbow[:, None])
-        centre, along_cos, along_sin = (v[:, 0] for v in circle)
+        centre, along_cos, along_sin = (np.array(v[:, 0]) for v in circle)
+        for v in (centre, along_cos, along_sin):
+            v.setflags(write=False)
         return centre, along_cos, along_sin
 
     def elbows(self, q: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ through the limbs' pair sums and differences and a 3x3 Schur complement, the IK 
 plate origin eliminated), and a pose leaves the iteration once converged. On the bench's
 2-core machine this is 2-3x faster for the FK and about 4x for the IK than batched
 ``np.linalg.solve`` on (N, 6, 6) and (N, 9, 9) stacks, whose per-matrix overhead
-dominated; the closed-form steps give the same poses to 1e-12 mm.
+dominated; the closed-form steps give the same poses to 2e-11 mm (the tolerance is 1e-11 mm).
 
 Units: mm and rad.
 """
@@ -73,14 +73,9 @@ class PlatePose:
         return PlatePose(self.position[index], self.rotation[index])
 
 
-def _rod_terms(geometry: DeltaGeometry, q: np.ndarray, p: np.ndarray, R: np.ndarray,
-               A: np.ndarray | None = None):
-    """Rod vectors d = B - A, their lengths, and R B (plate balls relative to p).
-
-    ``A`` (arm balls in {O}, (N, 6, 3)) may be given when q has not changed.
-    """
-    if A is None:
-        A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
+def _rod_terms(geometry: DeltaGeometry, q: np.ndarray, p: np.ndarray, R: np.ndarray):
+    """Arm balls A (N, 6, 3), rod vectors d = B - A, their lengths, and R B (plate balls relative to p)."""
+    A = geometry.arm_balls_in_base(q).reshape(-1, 6, 3)
     RB = geometry.plate_ball.reshape(6, 3) @ np.swapaxes(R, 1, 2)  # (N, 6, 3), rows R B_j
     d = p[:, None, :] + RB - A
     return A, d, np.sqrt(np.sum(d * d, axis=2)), RB
@@ -249,7 +244,9 @@ def _pose_step(n: np.ndarray, m: np.ndarray, r: np.ndarray) -> tuple[np.ndarray,
     S = W - b3.matmul(V, X)
     dphi, _ = b3.solve(S, b3.matmul(V, y) - rd)
     dp = -y - b3.matmul(X, dphi)
-    singular = ~(np.isfinite(dp).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+    # no finite closed-form step where the rows and right-hand side are finite: J_X is singular
+    singular = (~(np.isfinite(dp).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+                & np.isfinite(n).all(axis=(0, 1)) & np.isfinite(m).all(axis=(0, 1)))
     if np.any(singular):
         rows = np.concatenate([n[:, :, singular], m[:, :, singular]]).transpose(2, 1, 0)
         step = _fallback(rows, -r[:, singular].T)
@@ -284,9 +281,9 @@ def _newton(step, state: list[np.ndarray], fixed: list[np.ndarray], tol: float, 
         live: Poses to solve (indices into the block).
 
     Returns:
-        The state, the last largest residual of each pose (inf where never computed) and
-        which poses converged (residual below tol, or a step below the floating-point floor
-        with the residual below 1e3 tol).
+        The state, the largest residual of each pose at that state (inf where never computed:
+        a pose not solved or a diverged start) and which poses converged (residual below tol,
+        or a step below the floating-point floor with the residual below 1e3 tol).
     """
     N = state[0].shape[-1]
     err_out = np.full(N, np.inf)
@@ -318,11 +315,10 @@ def _newton(step, state: list[np.ndarray], fixed: list[np.ndarray], tol: float, 
                 live = live[keep]
                 cur = [c[..., keep] for c in cur]
                 fix = [f[..., keep] for f in fix]
-            else:
-                err_out[live] = err
-    if live.size:
-        for s, c in zip(state, cur, strict=True):
-            s[..., live] = c
+        if live.size:  # out of iterations: their state as left, and its residual
+            for s, c in zip(state, cur, strict=True):
+                s[..., live] = c
+            err_out[live] = np.max(np.abs(step(*fix, *cur)[0]), axis=0)
     return state, err_out, done
 
 
@@ -387,6 +383,7 @@ def forward(
     bad = ~(done & (residual < 1e3 * tol) & (position[:, 2] < rods.axis_z))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
+        known = residual[bad & np.isfinite(residual)]
         raise AssemblyError(
             f"no assembly found at {int(bad.sum())} reading(s), first: q = "
             f"{np.round(np.degrees(q[i]), 6).tolist()} deg (index {i}, "
@@ -394,7 +391,7 @@ def forward(
                "the rods cannot reach the plate)"),
             np.flatnonzero(bad),
             q[bad],
-            float(np.max(np.where(bad & np.isfinite(residual), residual, 0.0))),
+            float(np.max(known)) if known.size else float("nan"),
         )
     return PlatePose(position, rotation)
 
@@ -438,7 +435,8 @@ def _inverse_step(rods: _Rods, target: np.ndarray, lever: np.ndarray, q: np.ndar
     gg = g1 * g1 + g2 * g2
     with np.errstate(divide="ignore", invalid="ignore"):
         dq = -(g1 * (r1 + b3.dot(m1, dphi[:, None])) + g2 * (r2 + b3.dot(m2, dphi[:, None]))) / gg
-    singular = ~(np.isfinite(dq).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+    singular = (~(np.isfinite(dq).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
+                & np.isfinite(g).all(axis=0) & np.isfinite(m).all(axis=(0, 1)))
     if np.any(singular):
         rows = np.zeros((int(singular.sum()), 6, 6))
         rows[:, np.arange(6), np.repeat(np.arange(3), 2)] = g[:, singular].T
