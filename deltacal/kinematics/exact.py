@@ -245,8 +245,10 @@ def _pose_step(n: np.ndarray, m: np.ndarray, r: np.ndarray) -> tuple[np.ndarray,
     dphi, _ = b3.solve(S, b3.matmul(V, y) - rd)
     dp = -y - b3.matmul(X, dphi)
     # no finite closed-form step where the rows and right-hand side are finite: J_X is singular
-    singular = (~(np.isfinite(dp).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
-                & np.isfinite(n).all(axis=(0, 1)) & np.isfinite(m).all(axis=(0, 1)))
+    singular = ~(np.isfinite(dp).all(axis=0) & np.isfinite(dphi).all(axis=0))
+    if np.any(singular):
+        singular &= (np.isfinite(r).all(axis=0) & np.isfinite(n).all(axis=(0, 1))
+                     & np.isfinite(m).all(axis=(0, 1)))
     if np.any(singular):
         rows = np.concatenate([n[:, :, singular], m[:, :, singular]]).transpose(2, 1, 0)
         step = _fallback(rows, -r[:, singular].T)
@@ -435,8 +437,9 @@ def _inverse_step(rods: _Rods, target: np.ndarray, lever: np.ndarray, q: np.ndar
     gg = g1 * g1 + g2 * g2
     with np.errstate(divide="ignore", invalid="ignore"):
         dq = -(g1 * (r1 + b3.dot(m1, dphi[:, None])) + g2 * (r2 + b3.dot(m2, dphi[:, None]))) / gg
-    singular = (~(np.isfinite(dq).all(axis=0) & np.isfinite(dphi).all(axis=0)) & np.isfinite(r).all(axis=0)
-                & np.isfinite(g).all(axis=0) & np.isfinite(m).all(axis=(0, 1)))
+    singular = ~(np.isfinite(dq).all(axis=0) & np.isfinite(dphi).all(axis=0))
+    if np.any(singular):
+        singular &= np.isfinite(r).all(axis=0) & np.isfinite(g).all(axis=0) & np.isfinite(m).all(axis=(0, 1))
     if np.any(singular):
         rows = np.zeros((int(singular.sum()), 6, 6))
         rows[:, np.arange(6), np.repeat(np.arange(3), 2)] = g[:, singular].T
