@@ -80,8 +80,7 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
     lever = virtual.elbows(q) - virtual.axis_point  # E_i - P_i, (N, 3, 3)
     n = x[:, None, :] + virtual.plate_attachment - virtual.axis_point - lever
     w = virtual.actuator_rotation[:, :, 1]
-    dE = np.stack([w[:, 1] * lever[..., 2] - w[:, 2] * lever[..., 1], w[:, 2] * lever[..., 0]
-                   - w[:, 0] * lever[..., 2], w[:, 0] * lever[..., 1] - w[:, 1] * lever[..., 0]], axis=-1)
+    dE = np.cross(w, lever)
     return n / np.sum(n * dE, axis=2)[..., None]
 
 
