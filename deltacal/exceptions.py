@@ -128,6 +128,20 @@ class IdentificationError(DeltacalError):
         super().__init__(detail)
 
 
+class ResourceError(DeltacalError):
+    """A problem too large for the memory this process may use, refused before it is built.
+
+    Attributes:
+        needed: Estimated memory the problem needs [bytes].
+        available: Memory available to the process [bytes].
+    """
+
+    def __init__(self, message: str, needed: float, available: float) -> None:
+        self.needed = float(needed)
+        self.available = float(available)
+        super().__init__(message)
+
+
 class PlanningError(DeltacalError):
     """No pose set satisfies what was asked (κ rule never met, too few candidates...)."""
 

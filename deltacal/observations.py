@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -113,6 +114,59 @@ class Measurements:
 
 
 @dataclass(frozen=True)
+class SharedReference:
+    """Whitening of distances that share their first position (reference pairs), group by group.
+
+    The rows of a group (distances from one position a to others b_k, unit vectors n_k,
+    each divided by its σ = √2 σ_position) have the covariance ``½ (I + G Gᵀ)``, G the rows
+    n_kᵀ: they share the noise of a. Its inverse square root is
+    ``√2 (I + G M Gᵀ)`` with ``M = V diag(((1 + λ)^(-1/2) − 1) / λ) Vᵀ`` from the 3x3
+    ``GᵀG = V diag(λ) Vᵀ`` (the rows of G span at most three directions): whitening at a
+    cost linear in the rows, where the SVD of the dense covariance costs the cube.
+
+    Attributes:
+        first: Measurement of each row's first position (shared in its group), shape (K,).
+        second: Measurement of each row's second position (its own), shape (K,).
+        group: Group of each row (rows sharing their first position), shape (K,).
+        direction: Unit vector n_k of each row, shape (K, 3).
+        core: M of each group, shape (G, 3, 3).
+    """
+
+    first: np.ndarray
+    second: np.ndarray
+    group: np.ndarray
+    direction: np.ndarray
+    core: np.ndarray
+
+    @classmethod
+    def of(cls, first: np.ndarray, second: np.ndarray, direction: np.ndarray) -> SharedReference:
+        """The whitening of rows from positions ``first`` to ``second`` (K,), unit vectors (K, 3)."""
+        _, group = np.unique(first, return_inverse=True)
+        group = group.reshape(-1)
+        gram = np.zeros((int(group.max(initial=-1)) + 1, 3, 3))
+        np.add.at(gram, group, direction[:, :, None] * direction[:, None, :])
+        lam, V = np.linalg.eigh(gram)
+        lam = np.clip(lam, 0.0, None)
+        small = lam < 1e-12
+        f = np.where(small, -0.5, (1.0 / np.sqrt(1.0 + lam) - 1.0) / np.where(small, 1.0, lam))
+        core = np.einsum("gij,gj,gkj->gik", V, f, V)
+        return cls(first=first, second=second, group=group, direction=direction, core=core)
+
+    def group_sums(self, x: np.ndarray) -> np.ndarray:
+        """``Gᵀ x`` of each group: shape (G, 3) for x (K,), (G, 3, n) for x (K, n)."""
+        out = np.zeros((self.core.shape[0], 3, *x.shape[1:]))
+        for g in range(self.core.shape[0]):  # a loop over the points measured, not the rows
+            rows = self.group == g
+            out[g] = self.direction[rows].T @ x[rows]
+        return out
+
+    def whiten(self, x: np.ndarray) -> np.ndarray:
+        """``√2 (I + G M Gᵀ) x`` group by group, for x of shape (K,) or (K, n)."""
+        mg = np.einsum("gij,gj...->gi...", self.core, self.group_sums(x))[self.group]  # (K, 3[, n])
+        return math.sqrt(2.0) * (x + np.einsum("ki,ki...->k...", self.direction, mg))
+
+
+@dataclass(frozen=True)
 class Rows:
     """Residuals and regressor rows of a set of observations.
 
@@ -121,10 +175,13 @@ class Rows:
         regressor: d(predicted)/d(parameters), shape (m, n).
         sigma: Standard deviation of each row [mm or rad], shape (m,).
         kind: POSITION, ORIENTATION or DISTANCE per row.
-        measurement: Index of the measurement (first of the pair for distances) per row.
-        mixing: For distances, d(rows / σ)/d(measured positions / σ_position), shape
-            (m, 3M): distances that share a measured position are correlated, and this
-            gives their covariance ``mixing mixingᵀ`` (in units of σ²). None: rows independent.
+        measurement: Index of the measurement (first of the pair for reference distances) per row.
+        shared: Reference distances: the rows share the noise of their first position
+            (see :class:`SharedReference`). None: rows independent.
+        nuisance: Distances of all pairs, stated as positions: each point's positions
+            aligned to the model's and their rigid motions projected out; the columns of
+            those rigid motions (orthonormal), shape (m, k). None otherwise.
+        distances: Number of distances the rows stand for (all pairs), or None.
     """
 
     residual: np.ndarray
@@ -132,30 +189,34 @@ class Rows:
     sigma: np.ndarray
     kind: np.ndarray
     measurement: np.ndarray
-    mixing: np.ndarray | None = None
+    shared: SharedReference | None = None
+    nuisance: np.ndarray | None = None
+    distances: int | None = None
 
     @property
     def scaled(self) -> tuple[np.ndarray, np.ndarray]:
         """Residual and regressor divided row by row by σ (correlations ignored)."""
         return self.residual / self.sigma, self.regressor / self.sigma[:, None]
 
-    @property
+    @cached_property
     def weighted(self) -> tuple[np.ndarray, np.ndarray]:
-        """Whitened residual and regressor: uncorrelated rows of unit variance.
+        """Whitened residual and regressor: uncorrelated rows of unit variance (computed once).
 
-        Rows divided by σ; for correlated rows (distances sharing positions) the
-        generalised least-squares whitening ``S⁻¹ Uᵀ`` of the mixing matrix's SVD
-        ``U S Vᵀ``, so that least squares on them is the best linear unbiased estimate
-        and its covariance is honest. Their number is the rank of the mixing (at most
-        3M − 6: distances cannot see a rigid motion of all positions).
+        Rows divided by σ; reference distances whitened by :meth:`SharedReference.whiten`,
+        so that least squares on them is the best linear unbiased estimate and its
+        covariance is honest. Distances of all pairs are already stated as projected
+        positions (see :func:`build_rows`): least squares on them is the generalised least
+        squares of the distances to first order.
         """
         rw, Ww = self.scaled
-        if self.mixing is None:
+        if self.shared is None:
             return rw, Ww
-        U, S, _ = np.linalg.svd(self.mixing, full_matrices=False)
-        keep = S > S[0] * 1e-10
-        T = U[:, keep].T / S[keep, None]
-        return T @ rw, T @ Ww
+        return self.shared.whiten(rw), self.shared.whiten(Ww)
+
+    @property
+    def independent(self) -> int:
+        """Number of independent rows (the rank of their covariance): the rows less the nuisance."""
+        return self.residual.size - (0 if self.nuisance is None else self.nuisance.shape[1])
 
 
 def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray:
@@ -186,16 +247,41 @@ def distance_pairs(measurements: Measurements, pairs: str = "all") -> np.ndarray
     return ab[~same].reshape(-1, 2)
 
 
-def distance_residuals(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
-    """Measured minus predicted distance of every pair of positions of a same point [mm], (K,).
+def distance_residual_stats(
+    geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose, pairs: str = "all"
+) -> tuple[float, float]:
+    """RMS and largest |measured − predicted distance| over the pairs of positions of a same point [mm].
 
-    Memory linear in the number of pairs (no regressor): for the report of large sets.
+    The C(n, 2) pairs are taken in blocks of about 250,000, never all at once: memory
+    stays flat however many positions there are. (nan, nan) without any pair.
     """
     predicted = predicted_points(geometry, measurements, pose)
-    ab = distance_pairs(measurements, "all")
-    a, b = ab[:, 0], ab[:, 1]
-    measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
-    return measured - np.linalg.norm(predicted[b] - predicted[a], axis=1)
+    if pairs == "reference":
+        ab = distance_pairs(measurements, "reference")
+        r = (np.linalg.norm(measurements.position[ab[:, 1]] - measurements.position[ab[:, 0]], axis=1)
+             - np.linalg.norm(predicted[ab[:, 1]] - predicted[ab[:, 0]], axis=1))
+        return (float(np.sqrt(np.mean(r**2))), float(np.max(np.abs(r)))) if r.size else (math.nan, math.nan)
+    names = np.array(measurements.point)
+    total, count, worst = 0.0, 0, 0.0
+    for name in dict.fromkeys(measurements.point):
+        idx = np.flatnonzero(names == name)
+        # centred, so that the squared distances from dot products lose no digits that matter
+        X = measurements.position[idx] - measurements.position[idx].mean(axis=0)
+        P = predicted[idx] - predicted[idx].mean(axis=0)
+        place = np.unique(measurements.q[idx].round(9), axis=0, return_inverse=True)[1].reshape(-1)
+        xx, pp = np.sum(X**2, axis=1), np.sum(P**2, axis=1)
+        step = max(1, 250_000 // max(idx.size, 1))
+        for start in range(0, idx.size, step):  # blocks of rows of the upper triangle of pairs
+            rows, cols = slice(start, min(start + step, idx.size)), slice(start, idx.size)
+            dx2 = np.maximum(xx[rows, None] + xx[None, cols] - 2.0 * (X[rows] @ X[cols].T), 0.0)
+            dp2 = np.maximum(pp[rows, None] + pp[None, cols] - 2.0 * (P[rows] @ P[cols].T), 0.0)
+            upper = np.arange(start, idx.size)[None, :] > np.arange(rows.start, rows.stop)[:, None]
+            upper &= place[rows, None] != place[None, cols]  # two positions at the same readings: no pair
+            dx, dp = np.sqrt(dx2[upper]), np.sqrt(dp2[upper])
+            r = (dx2[upper] - dp2[upper]) / np.maximum(dx + dp, 1e-300)
+            total, count = total + float(r @ r), count + r.size
+            worst = max(worst, float(np.max(np.abs(r), initial=0.0)))
+    return (math.sqrt(total / count), worst) if count else (math.nan, math.nan)
 
 
 def predicted_points(geometry: DeltaGeometry, measurements: Measurements, pose: PlatePose) -> np.ndarray:
@@ -203,6 +289,16 @@ def predicted_points(geometry: DeltaGeometry, measurements: Measurements, pose: 
     names, inverse = np.unique(np.array(measurements.point), return_inverse=True)
     local = np.stack([geometry.point(str(p)) for p in names])[inverse.reshape(-1)]
     return pose.point(local)
+
+
+def _point_rows(geometry: DeltaGeometry, measurements: Measurements, sensitivity, pose: PlatePose | None):
+    """Predicted positions of the measured points, their sensitivity JP (M, 3, n), S and the poses."""
+    if pose is None:
+        pose = exact.forward(geometry, measurements.q)
+    S = sensitivity(geometry, measurements.q, pose)  # (M, 6, n)
+    predicted = predicted_points(geometry, measurements, pose)
+    # dP = dx + dalpha x (R p) = dx - [R p]x dalpha
+    return predicted, S[:, :3] - skew(predicted - pose.position) @ S[:, 3:], S, pose
 
 
 def build_rows(
@@ -224,40 +320,20 @@ def build_rows(
         sigma_position: σ of each measured coordinate [mm].
         sigma_angle: σ of each measured orientation component [rad].
         distances: Use distances between positions of a same point instead of the
-            positions themselves (no frame needed; orientations are then ignored).
+            positions themselves (no frame needed; orientations are then ignored). All
+            pairs are stated as positions with each point's rigid motion projected out
+            (:func:`_all_pair_rows`), reference pairs as distances whitened group by group
+            (:class:`SharedReference`): both at a cost linear in the positions.
         pairs: Which pairs for distances (see :func:`distance_pairs`).
         pose: Exact poses of ``geometry`` at the readings, if already known.
     """
-    q = measurements.q
-    if pose is None:
-        pose = exact.forward(geometry, q)
-    S = sensitivity(geometry, q, pose)  # (M, 6, n)
-    predicted = predicted_points(geometry, measurements, pose)
-    lever = predicted - pose.position
-    # dP = dx + dalpha x (R p) = dx - [R p]x dalpha
-    JP = S[:, :3] - skew(lever) @ S[:, 3:]
+    if pairs not in ("all", "reference"):
+        raise ValueError(f"pairs must be 'all' or 'reference', got {pairs!r}")
+    if distances and pairs == "reference":
+        return pair_rows(geometry, measurements, sensitivity, sigma_position, "reference", pose)
+    predicted, JP, S, pose = _point_rows(geometry, measurements, sensitivity, pose)
     if distances:
-        ab = distance_pairs(measurements, pairs)
-        a, b = ab[:, 0], ab[:, 1]
-        vec = predicted[b] - predicted[a]
-        rho = np.linalg.norm(vec, axis=1)
-        n = vec / rho[:, None]
-        measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
-        regressor = np.einsum("kl,kln->kn", n, JP[b] - JP[a])
-        # each distance is n . (P_b - P_a): its noise comes from two positions, shared with
-        # the other pairs of those positions
-        K, M = len(ab), len(measurements)
-        mixing = np.zeros((K, M, 3))
-        mixing[np.arange(K), b] = n / np.sqrt(2.0)
-        mixing[np.arange(K), a] = -n / np.sqrt(2.0)
-        return Rows(
-            residual=measured - rho,
-            regressor=regressor,
-            sigma=np.full(K, np.sqrt(2.0) * sigma_position),
-            kind=np.full(K, DISTANCE),
-            measurement=a,
-            mixing=mixing.reshape(K, 3 * M),
-        )
+        return _all_pair_rows(measurements, predicted, JP, sigma_position)
     M = len(measurements)
     res = [measurements.position - predicted]
     reg = [JP]
@@ -281,4 +357,114 @@ def build_rows(
         sigma=np.concatenate([s.reshape(-1) for s in sig]),
         kind=np.concatenate([k.reshape(-1) for k in kind]),
         measurement=np.concatenate([m.reshape(-1) for m in meas]),
+    )
+
+
+def pair_rows(
+    geometry: DeltaGeometry,
+    measurements: Measurements,
+    sensitivity,
+    sigma_position: float,
+    pairs: str = "all",
+    pose: PlatePose | None = None,
+) -> Rows:
+    """One row per distance between two positions of a same point (Bai 2015, Eq. 12-16).
+
+    These are Bai's rows of H before any whitening: the distances that share a position
+    are correlated, which :func:`build_rows` accounts for and these rows do not. For
+    pose planning by Bai's condition number (Eq. 21); K = C(n, 2) rows for all pairs.
+
+    Args:
+        geometry: Geometry around which to linearise.
+        measurements: The measurements.
+        sensitivity: Callable ``(geometry, q, pose) -> S`` of shape (M, 6, n).
+        sigma_position: σ of each measured coordinate [mm].
+        pairs: Which pairs (see :func:`distance_pairs`).
+        pose: Exact poses of ``geometry`` at the readings, if already known.
+    """
+    predicted, JP = _point_rows(geometry, measurements, sensitivity, pose)[:2]
+    ab = distance_pairs(measurements, pairs)
+    a, b = ab[:, 0], ab[:, 1]
+    vec = predicted[b] - predicted[a]
+    rho = np.linalg.norm(vec, axis=1)
+    n = vec / rho[:, None]
+    measured = np.linalg.norm(measurements.position[b] - measurements.position[a], axis=1)
+    K = len(ab)
+    return Rows(
+        residual=measured - rho,
+        regressor=np.einsum("kl,kln->kn", n, JP[b] - JP[a]),
+        sigma=np.full(K, np.sqrt(2.0) * sigma_position),
+        kind=np.full(K, DISTANCE),
+        measurement=a,
+        shared=SharedReference.of(a, b, n) if pairs == "reference" else None,
+    )
+
+
+def rigid_alignment(measured: np.ndarray, model: np.ndarray) -> np.ndarray:
+    """The measured points moved by the rigid motion that best fits them to the model's (Kabsch).
+
+    Args:
+        measured: Measured positions [mm], shape (n, 3).
+        model: Predicted positions [mm], shape (n, 3).
+
+    Returns:
+        ``R measured + t`` with R, t minimising the sum of squared distances to ``model``.
+    """
+    cm, cp = measured.mean(axis=0), model.mean(axis=0)
+    U, _, Vt = np.linalg.svd((measured - cm).T @ (model - cp))
+    d = np.sign(np.linalg.det(Vt.T @ U.T)) or 1.0
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return (measured - cm) @ R.T + cp
+
+
+def _rigid_basis(points: np.ndarray) -> np.ndarray:
+    """Orthonormal columns of the small rigid motions of a set of points, shape (3n, r), r <= 6."""
+    lever = points - points.mean(axis=0)
+    T = np.zeros((points.shape[0], 3, 6))
+    T[:, :, :3] = np.eye(3)
+    T[:, :, 3:] = -skew(lever)  # d(ω x p) = -[p]x ω
+    U, sv, _ = np.linalg.svd(T.reshape(-1, 6), full_matrices=False)
+    return U[:, sv > sv[0] * 1e-9]
+
+
+def _all_pair_rows(measurements: Measurements, predicted: np.ndarray, JP: np.ndarray, sigma: float) -> Rows:
+    """Rows standing for the distances of all pairs of positions of each point.
+
+    The C(n, 2) distances between n positions of a point say what the positions say up to
+    a rigid motion: to first order, their generalised least squares (Bai Eq. 17, the
+    distances' covariance ``σ² D Dᵀ``, D their Jacobian in the positions) is least squares
+    on the positions with the rigid motions projected out, ``Dᵀ (D Dᵀ)⁺ D = I − Q Qᵀ``
+    (Q: orthonormal columns of the rigid motions of the point's positions). So each
+    point's measured positions are aligned to the predicted ones (:func:`rigid_alignment`,
+    any tracker frame), and their residuals and regressor rows projected: 3n rows, of
+    which 3n − 6 independent, instead of C(n, 2) correlated ones.
+    """
+    M = len(measurements)
+    names = np.array(measurements.point)
+    residual = np.zeros((M, 3))
+    regressor = JP.copy()
+    nuisance = []
+    distances = 0
+    for name in dict.fromkeys(measurements.point):  # a loop over the points, not the positions
+        idx = np.flatnonzero(names == name)
+        counts = np.unique(measurements.q[idx].round(9), axis=0, return_counts=True)[1]
+        distances += (idx.size * (idx.size - 1) - int(np.sum(counts * (counts - 1)))) // 2
+        residual[idx] = rigid_alignment(measurements.position[idx], predicted[idx]) - predicted[idx]
+        Q = _rigid_basis(predicted[idx])  # (3n, r)
+        rows = (3 * idx[:, None] + np.arange(3)).reshape(-1)
+        flat = residual[idx].reshape(-1)
+        residual[idx] = (flat - Q @ (Q.T @ flat)).reshape(-1, 3)
+        block = JP[idx].reshape(-1, JP.shape[2])
+        regressor[idx] = (block - Q @ (Q.T @ block)).reshape(idx.size, 3, -1)
+        column = np.zeros((3 * M, Q.shape[1]))
+        column[rows] = Q
+        nuisance.append(column)
+    return Rows(
+        residual=residual.reshape(-1),
+        regressor=regressor.reshape(3 * M, -1),
+        sigma=np.full(3 * M, sigma),
+        kind=np.full(3 * M, DISTANCE),
+        measurement=np.repeat(np.arange(M), 3),
+        nuisance=np.hstack(nuisance) if nuisance else np.zeros((3 * M, 0)),
+        distances=distances,
     )

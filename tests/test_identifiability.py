@@ -16,7 +16,7 @@ from deltacal.errormodels.bai import MODEL32_REMOVED
 from deltacal.geometry import vector_from_rotation
 from deltacal.identifiability import base_parameters, pivoted_qr
 from deltacal.kinematics import exact
-from deltacal.observations import Measurements, build_rows
+from deltacal.observations import Measurements, build_rows, pair_rows
 
 SIGMA_POSITION = 0.005  # [mm]
 SIGMA_ANGLE = math.radians(0.003)  # [rad]
@@ -110,7 +110,7 @@ def _distance_regressor(nominal: NominalDelta, model_name: str, n: int, points: 
         point=[p for p in points for _ in range(len(q))],
     )
     model = get_model(model_name)
-    rows = build_rows(g, meas, model.sensitivity, SIGMA_POSITION, SIGMA_ANGLE, distances=True)
+    rows = pair_rows(g, meas, model.sensitivity, SIGMA_POSITION)
     assert rows.residual.size == len(points) * len(q) * (len(q) - 1) // 2  # Bai's K = C(2n+1, 2)
     return rows.scaled[1], model  # Bai's H: rows divided by σ (not whitened)
 

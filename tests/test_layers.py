@@ -36,6 +36,7 @@ LAYERS = {
     "geometry": 10,
     "rotations": 10,
     "pose": 10,
+    "resources": 5,
     "exceptions": 0,
     "_version": 0,
     "_lazy": 0,

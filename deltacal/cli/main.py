@@ -187,6 +187,12 @@ def _main(argv: Sequence[str] | None) -> int:
                 message = f"{exc.filename or ''}: {exc.strerror or exc}".lstrip(": ")
             print(one_line(f"deltacal {args.command}: error: {message}"), file=sys.stderr)
             return EXIT_USAGE if isinstance(exc, UsageError) else EXIT_DATA
+        except MemoryError:
+            if args.debug:
+                raise
+            print(f"deltacal {args.command}: error: out of memory: the problem is too large for this machine "
+                  "(fewer rows; see docs/errors.md)", file=sys.stderr)
+            return EXIT_DATA
         except Exception as exc:
             if args.debug:
                 raise

@@ -95,8 +95,6 @@ def _reference_regressor(
     has = np.array([o for _ in q for _, o in kinds])
     # with free frames, the poses shared round-robin among the stations
     station = [stations[k % len(stations)] for k in range(len(q)) for _ in kinds] if stations else []
-    if stations and measurements.station == measurements.point:  # a frame per point (distances)
-        station = [name if name in stations else stations[0] for name in point]
     ref = Measurements(q=np.repeat(q, len(kinds), axis=0), position=np.zeros((has.size, 3)), point=point,
                        rotation_vector=np.where(has[:, None], 0.0, np.full((has.size, 3), np.nan)),
                        station=station)

@@ -31,7 +31,16 @@ from ..exceptions import AssemblyError, ConvergenceError, DeltacalError, Geometr
 from ..geometry import DeltaGeometry
 from ..identifiability import base_parameters
 from ..kinematics import exact
-from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows, build_rows, distance_residuals
+from ..observations import (
+    DISTANCE,
+    SIGMA_ANGLE,
+    SIGMA_POSITION,
+    Measurements,
+    Rows,
+    build_rows,
+    distance_residual_stats,
+)
+from ..resources import require_memory
 from .diagnostics import check_plausible, check_rank
 from .frames import (
     FRAME_RTOL,
@@ -65,50 +74,27 @@ def _solve_wls(Ww: np.ndarray, rw: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     return x, Q, Rinv
 
 
-def _as_distance_fit(result: IdentificationResult, start: DeltaGeometry, measurements: Measurements):
-    """A fit of positions with a free frame per point, reported as the distance fit it stands for."""
-    pose0, pose1 = exact.forward(start, measurements.q), exact.forward(result.geometry, measurements.q)
-    before = distance_residuals(start, measurements, pose0)
-    after = distance_residuals(result.geometry, measurements, pose1)
+#: Peak memory of a fit per element of the sensitivity S (M, 6, n): S, the rows, their
+#: scaled and whitened copies, QR factors and trial rows, as measured on 20,000 positions.
+_BYTES_PER_ELEMENT = 8 * 12
 
-    def stats(r: np.ndarray) -> ResidualStats:
-        if not r.size:
-            return ResidualStats()
-        rms, worst = float(np.sqrt(np.mean(r**2))), float(np.max(np.abs(r)))
-        return ResidualStats(distance_rms=rms, distance_max=worst)
 
-    # the frames are nuisance parameters here: the geometry's base parameters, their σ and
-    # correlations are the marginal ones (the frames' rows and columns dropped)
-    model_cols = [k for k, name in enumerate(result.base.names) if not name.startswith("T[")]
-    keep = [i for i, k in enumerate(result.base.base) if k in model_cols]
-    renumber = {k: j for j, k in enumerate(model_cols)}
-    # the condition number of the distances' own (whitened) regressor: to first order its
-    # Gram matrix is the information of the geometry's base parameters, the inverse of their
-    # marginal covariance; column-scaled, as base_parameters scales
-    sigma, corr = result.sigma[keep], result.correlation[np.ix_(keep, keep)]
-    info = np.linalg.inv(corr) / np.outer(sigma, sigma)
-    d = np.sqrt(np.diag(info))
-    eig = np.linalg.eigvalsh(info / np.outer(d, d))
-    condition = float(np.sqrt(eig[-1] / eig[0])) if eig[0] > 0 else float("inf")
-    counts = np.unique(measurements.point, return_counts=True)[1]
-    base = replace(
-        result.base,
-        names=[result.base.names[k] for k in model_cols],
-        rank=len(keep),
-        base=[renumber[result.base.base[i]] for i in keep],
-        regrouping=result.base.regrouping[np.ix_(keep, model_cols)],
-        unidentifiable=[renumber[k] for k in result.base.unidentifiable if k in renumber],
-        scale=result.base.scale[model_cols],
-        condition_number=condition,
-    )
-    note = ("distances of all pairs: identified from the positions with a free frame per point (the same "
-            "information, at a cost linear in the positions)")
-    return replace(
-        result, base=base, values=result.values[keep], sigma=result.sigma[keep],
-        correlation=result.correlation[np.ix_(keep, keep)], units=[result.units[i] for i in keep],
-        before=stats(before), after=stats(after), frames={}, hints=(*result.hints, note),
-        n_rows=int(np.sum(counts * (counts - 1) // 2)),
-    )
+def _require_memory(measurements: Measurements, columns: int, distances: bool, pairs: str) -> None:
+    """Refuse up front a fit whose rows would not fit the memory available (one line, no swap)."""
+    needed = _BYTES_PER_ELEMENT * 6.0 * len(measurements) * max(columns, 1)
+    advice = ("use fewer measurements" + (", --pairs reference or a Bai model (bai18: 18 columns)"
+                                          if distances and pairs == "all" else ""))
+    what = f"identification from {len(measurements):,} measurements with {columns} parameters"
+    require_memory(needed, what, advice)
+
+
+def _stats(geometry: DeltaGeometry, measurements: Measurements, rows: Rows, pairs: str) -> ResidualStats:
+    """Residual statistics of a fit's rows; distances measured pair by pair (in bounded memory)."""
+    if not np.any(rows.kind == DISTANCE):
+        return ResidualStats.from_rows(rows)
+    pose = exact.forward(geometry, measurements.q)
+    rms, worst = distance_residual_stats(geometry, measurements, pose, pairs)
+    return ResidualStats(distance_rms=rms, distance_max=worst)
 
 
 def identify(
@@ -155,34 +141,11 @@ def identify(
         PoorFitError: the fit is far from the σ given or implausible (unless ``accept_poor_fit``).
         IdentificationError, AssemblyError, ConvergenceError: see :func:`fit`.
     """
-    error_model = get_model(model) if isinstance(model, str) else model
-    routed = distances and pairs == "all" and error_model.rigid_motion_free
     if free_points and distances:
         raise IdentificationError("free points are identified from positions and poses, not from distances")
-    if routed:
-        if frame == "free":
-            raise IdentificationError(
-                "distances do not depend on the instrument frame: a free frame is for positions and poses"
-            )
-        # all the distances between positions of a point say what those positions say, up to a
-        # rigid motion: fit the positions with a free frame per point (cost linear in the
-        # positions, where the C(n, 2) correlated distances cost n^4). For models without
-        # rigid motions (Bai's distance models): with them, the frames leave near-null
-        # directions that Gauss-Newton creeps along, and the whitened pairs are kept.
-        measurements = replace(measurements, station=list(measurements.point),
-                               rotation_vector=np.full((len(measurements), 3), np.nan))
-        distances, frame = False, "free"
     options = dict(method=method, sigma_position=sigma_position, sigma_angle=sigma_angle, distances=distances,
                    pairs=pairs, rtol=rtol, max_iter=max_iter, free_points=tuple(free_points))
-    try:
-        result = fit(start, measurements, model, frame=frame, axes_gauge=not routed,
-                     **options)  # type: ignore[arg-type]
-    except IdentificationError as exc:
-        if routed:
-            raise IdentificationError(str(exc).replace("station", "point")) from exc
-        raise
-    if routed:
-        result = _as_distance_fit(result, start, measurements)
+    result = fit(start, measurements, model, frame=frame, **options)  # type: ignore[arg-type]
     if not needs_review(result, start):
         return result
     alternatives = []
@@ -276,6 +239,7 @@ def fit(
                 f"free point {name!r} is not measured; the measured points are {measured}"
             )
     n_model = len(error_model.names)
+    _require_memory(measurements, n_model + 6 * len(stations) + 3 * len(free_points), distances, pairs)
     names = list(error_model.names) + frame_parameter_names(stations)
     n_fixed = len(names)  # columns before the free points
     names += point_parameter_names(free_points)
@@ -311,7 +275,7 @@ def fit(
         )
 
     rows = rows_at(start, frames)
-    m = rows.residual.size
+    m = rows.residual.size if rows.distances is None else rows.distances
     if distances and m == 0:
         raise IdentificationError(
             "no distance to fit: every measurement of a point is at the same readings as the others "
@@ -347,7 +311,7 @@ def fit(
         base = base_parameters(Ww, names, rtol=rtol, prefer=prefer, exclude=held)
         confounded = [names[k] for k in range(n_fixed, len(names)) if k not in base.base]
     kept = base.base
-    before = ResidualStats.from_rows(rows)
+    before = _stats(start, measurements, rows, pairs)
     geometry = start
     total = np.zeros(base.rank)
     cost = float(rw @ rw)
@@ -395,7 +359,7 @@ def fit(
             break
     else:
         if method == "iterated":
-            stats = ResidualStats.from_rows(rows)
+            stats = _stats(geometry, measurements, rows, pairs)
             rms = stats.distance_rms if distances else stats.position_rms
             raise ConvergenceError(
                 f"identification did not converge in {max_iter} Gauss-Newton iterations "
@@ -410,14 +374,14 @@ def fit(
     cov = Rinv @ Rinv.T
     sigma = np.sqrt(np.diag(cov))
     correlation = cov / np.outer(sigma, sigma)
-    dof = max(rw.size - base.rank, 1)
+    dof = max(rows.independent - base.rank, 1)
     variance_factor = float(rw @ rw) / dof
     # outliers are tested row group by row group, on the rows before whitening
     rs, Ws = rows.scaled
-    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind, rows.mixing)
+    flagged = data_snooping(Ws[:, kept], rs, rows.measurement, rows.kind, rows.shared, rows.nuisance)
     # the fit's quality without the outliers (they are named on their own; distances mix rows)
     inlier_factor = variance_factor
-    if flagged.size and rows.mixing is None:
+    if flagged.size and rows.shared is None and rows.nuisance is None:
         inliers = ~np.isin(rows.measurement, flagged)
         inlier_factor = float(rs[inliers] @ rs[inliers]) / max(int(inliers.sum()) - base.rank, 1)
     gauge = (0.0, 0.0)
@@ -443,7 +407,7 @@ def fit(
         sigma=sigma,
         correlation=correlation,
         before=before,
-        after=ResidualStats.from_rows(rows),
+        after=_stats(geometry, measurements, rows, pairs),
         outliers=[int(k) for k in flagged],
         iterations=iterations,
         variance_factor=variance_factor,

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..observations import SharedReference
+
 #: Standardised residual [σ] above which a measurement is flagged as an outlier.
 OUTLIER_THRESHOLD = 4.0
 
@@ -13,12 +15,16 @@ def data_snooping(
     rw: np.ndarray,
     measurement: np.ndarray,
     kind: np.ndarray,
-    mixing: np.ndarray | None = None,
+    shared: SharedReference | None = None,
+    nuisance: np.ndarray | None = None,
 ) -> np.ndarray:
     """Measurements that do not fit the others, by iterated data snooping (Baarda) on groups.
 
-    Rows sharing noise (distances: ``mixing`` given, see
-    :attr:`deltacal.observations.Rows.mixing`) are tested by :func:`correlated_snooping`.
+    Reference distances, which share noise (``shared``, see
+    :class:`deltacal.observations.SharedReference`), are tested by :func:`reference_snooping`.
+    Rows with ``nuisance`` columns projected out (distances of all pairs stated as
+    positions, :attr:`deltacal.observations.Rows.nuisance`) are tested with those columns
+    in the design: the test of a position given the rigid motions the distances cannot see.
 
     Each measurement's rows g are tested by the drop of χ² its deletion would give,
     ``T_g = r_gᵀ (I − H_gg)⁻¹ r_g`` (H: hat matrix, so a high-leverage pose is tested
@@ -31,8 +37,10 @@ def data_snooping(
     """
     import scipy.stats  # here, not at the top: it takes 0.15-0.3 s to import, needed only by this test
 
-    if mixing is not None:
-        return correlated_snooping(W, rw, mixing)
+    if shared is not None:
+        return reference_snooping(W, rw, shared)
+    if nuisance is not None:
+        W = np.hstack([W, nuisance])
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
     quantile: dict[int, float] = {}
     ids = np.unique(measurement)
@@ -73,65 +81,88 @@ def data_snooping(
     return np.array(sorted(flagged), dtype=int)
 
 
-def correlated_snooping(W: np.ndarray, r: np.ndarray, mixing: np.ndarray) -> np.ndarray:
-    """Data snooping of rows that share the noise of the measurements (distances between positions).
+def _chi2_quantiles(dof: np.ndarray, p_value: float) -> np.ndarray:
+    """χ² quantile of each test's degrees of freedom (inf where none)."""
+    import scipy.stats
 
-    A gross error in measurement j moves its position by some δ_j (3 components):
-    the rows see it through the mixing's three columns of j. After whitening by the
-    mixing's SVD ``U S Vᵀ`` (``T = S⁻¹ Uᵀ``, as the fit is) those columns are
-    ``C_j = T mixing_j = Vᵀ_j``, and the test of Baarda's alternative ``y = W x + C_j δ_j``
-    is ``T_j = uᵀ N⁺ u``, ``u = C_jᵀ P r``, ``N = C_jᵀ P C_j`` (P: the residual projector
-    of the whitened design), χ² with rank(N) degrees of freedom under the null
-    hypothesis: the stated level holds for correlated rows too. Testing the unwhitened
-    rows as if independent flagged 2-10 % of clean measurements (issue 12). The worst
-    measurement is set aside by adding its columns to the design (which removes
-    exactly its information) and the test repeated, as :func:`data_snooping` does.
+    out = np.full(dof.shape, np.inf)
+    for d in np.unique(dof[dof > 0]):
+        out[dof == d] = float(scipy.stats.chi2.isf(p_value, int(d)))
+    return out
+
+
+def reference_snooping(W: np.ndarray, r: np.ndarray, shared: SharedReference) -> np.ndarray:
+    """Data snooping of reference distances, which share the noise of their first position.
+
+    A gross error δ in a measured position moves the rows that use it: the row of a
+    second position b_k through ``n_k · δ`` (one column, the row's whitened unit column
+    ``c_k = T e_k``), a group's first position through every row of the group (three
+    columns ``C = T G``). With T the whitening of :class:`SharedReference` both are a
+    low-rank update of the identity, so Baarda's test ``uᵀ N⁺ u`` (``u = Cᵀ P e``,
+    ``N = Cᵀ P C``, P the residual projector of the whitened design) costs a few
+    products per row: χ² with rank(N) degrees of freedom under the null hypothesis, so
+    the stated level holds for correlated rows. The worst measurement is set aside by
+    adding its columns to the design (which removes exactly its information) and the test
+    repeated, as :func:`data_snooping` does.
 
     Args:
         W: Rows of the regressor divided by their σ, shape (K, n).
         r: Residuals divided by their σ, shape (K,).
-        mixing: d(rows / σ) / d(positions / σ_position), shape (K, 3M).
+        shared: The rows' shared first positions and whitening.
 
     Returns:
         Indices of the flagged measurements, sorted.
     """
-    U, S, Vt = np.linalg.svd(mixing, full_matrices=False)
-    keep = S > S[0] * 1e-10
-    T = U[:, keep].T / S[keep, None]
-    rw, Ww = T @ r, T @ W
-    C = Vt[keep].reshape(int(np.count_nonzero(keep)), -1, 3)  # (rows, M, 3): whitened bias columns
-    M = C.shape[1]
-    import scipy.stats  # here, not at the top: see data_snooping
+    import scipy.stats
 
     p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
-    design = Ww
+    rw, design = shared.whiten(r), shared.whiten(W)
+    g, n, core = shared.group, shared.direction, shared.core
+    gram = shared.group_sums(n)  # GᵀG per group, (G, 3, 3)
+    Mn = np.einsum("kij,kj->ki", core[g], n)  # M n_k, (K, 3)
+    A = np.eye(3) + core @ gram  # T G = √2 G A per group
+    ids = np.concatenate([shared.second, np.unique(shared.first)])
     flagged: list[int] = []
-    for _ in range(max(1, M // 4)):
+    for _ in range(max(1, ids.size // 4)):
         if rw.size <= design.shape[1] + 1:
             break
         Q, R = np.linalg.qr(design)
         Q = Q[:, np.abs(np.diag(R)) > 1e-12 * max(float(np.abs(R).max()), 1e-300)]
         e = rw - Q @ (Q.T @ rw)
-        PC = C - np.einsum("ra,amk->rmk", Q, np.einsum("ra,rmk->amk", Q, C))
-        u = np.einsum("rmk,r->mk", PC, e)  # (M, 3)
-        N = np.einsum("rmi,rmj->mij", PC, PC)  # C_jᵀ P C_j, (M, 3, 3)
-        # robust scale of the whitened residuals: σ given too small does not flag everything
         H = np.sum(Q**2, axis=1)
         scale = max(1.0, 1.4826 * float(np.median(np.abs(e) / np.sqrt(np.clip(1.0 - H, 1e-12, None)))))
-        w, V = np.linalg.eigh(N)
-        top = np.maximum(w[:, -1:], 1e-300)
-        informative = w > 1e-9 * top
-        dof = informative.sum(axis=1)
-        z = np.einsum("mik,mi->mk", V, u)  # u in the eigenbasis of N
-        Tj = np.sum(np.where(informative, z**2 / np.where(informative, w, 1.0), 0.0), axis=1) / scale**2
-        quantile = np.full(M, np.inf)
-        for d in np.unique(dof[dof > 0]):
-            quantile[dof == d] = float(scipy.stats.chi2.isf(p_value, int(d)))
-        ratio = Tj / quantile
-        ratio[flagged] = 0.0
+        Ge, GQ = shared.group_sums(e), shared.group_sums(Q)  # (G, 3), (G, 3, p)
+        # second positions: one column each, c_k = √2 (e_k + G M n_k)
+        u = np.sqrt(2.0) * (e + np.einsum("ki,ki->k", Mn, Ge[g]))
+        Qc = np.sqrt(2.0) * (Q + np.einsum("ki,kip->kp", Mn, GQ[g]))
+        cc = 2.0 * (1.0 + 2.0 * np.einsum("ki,ki->k", n, Mn) + np.einsum("ki,kij,kj->k", Mn, gram[g], Mn))
+        N = cc - np.sum(Qc**2, axis=1)
+        t_second = np.where(N > 1e-9 * cc, u**2 / np.where(N > 1e-9 * cc, N, 1.0), 0.0)
+        # first positions: three columns per group, C = √2 G A
+        uf = np.sqrt(2.0) * np.einsum("gji,gj->gi", A, Ge)
+        QC = np.sqrt(2.0) * np.einsum("gjp,gji->gpi", GQ, A)
+        NF = 2.0 * np.einsum("gji,gjk,gkl->gil", A, gram, A) - np.einsum("gpi,gpj->gij", QC, QC)
+        w, V = np.linalg.eigh(NF)
+        informative = w > 1e-9 * np.maximum(w[:, -1:], 1e-300)
+        z = np.einsum("gik,gi->gk", V, uf)
+        t_first = np.sum(np.where(informative, z**2 / np.where(informative, w, 1.0), 0.0), axis=1)
+        T = np.concatenate([t_second, t_first]) / scale**2
+        dof = np.concatenate([(N > 1e-9 * cc).astype(int), informative.sum(axis=1)])
+        ratio = T / _chi2_quantiles(dof, p_value)
+        ratio[np.isin(ids, flagged)] = 0.0
         worst = int(np.argmax(ratio))
         if ratio[worst] <= 1.0:
             break
-        flagged.append(worst)
-        design = np.hstack([design, C[:, worst, :]])
+        flagged.append(int(ids[worst]))
+        if worst < n.shape[0]:
+            column = np.zeros((rw.size, 1))
+            rows = g == g[worst]
+            column[rows, 0] = np.sqrt(2.0) * (n[rows] @ Mn[worst])
+            column[worst, 0] += np.sqrt(2.0)
+        else:
+            k = worst - n.shape[0]
+            rows = g == k
+            column = np.zeros((rw.size, 3))
+            column[rows] = np.sqrt(2.0) * (n[rows] @ A[k])
+        design = np.hstack([design, column])
     return np.array(sorted(flagged), dtype=int)

@@ -9,7 +9,7 @@ import numpy as np
 from ..errormodels import MODEL_NAMES, ErrorModel, get_model
 from ..geometry import DeltaGeometry, skew
 from ..kinematics import exact
-from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, build_rows
+from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, build_rows, pair_rows
 
 #: Measurement kinds a regressor can be built for.
 MEASUREMENTS = ("pose", "position", "distance")
@@ -65,7 +65,8 @@ def identification_matrix(
 ) -> np.ndarray:
     """The identification matrix H (weighted regressor) of measurements at readings q.
 
-    Rows as in :func:`deltacal.observations.build_rows`, divided by their σ:
+    Rows as in :func:`deltacal.observations.build_rows` (distances: :func:`~deltacal.observations.pair_rows`),
+    divided by their σ:
     ``pose``: TCP position and plate orientation of each pose (6 rows), only the
     first point's position if several are named; ``position``: 3 rows per point and
     pose; ``distance``: one row per pair of positions of a same point, all pairs
@@ -97,15 +98,10 @@ def identification_matrix(
         point=[p for p in names for _ in range(q.shape[0])],
         rotation_vector=rotvec,
     )
-    rows = build_rows(
-        geometry,
-        meas,
-        model.sensitivity,
-        sigma_position,
-        sigma_angle,
-        distances=measurement == "distance",
-        pose=pose,
-    )
+    if measurement == "distance":
+        rows = pair_rows(geometry, meas, model.sensitivity, sigma_position, "all", pose)
+    else:
+        rows = build_rows(geometry, meas, model.sensitivity, sigma_position, sigma_angle, pose=pose)
     return rows.scaled[1]  # Bai's H: rows divided by σ, not whitened
 
 
