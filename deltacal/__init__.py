@@ -55,6 +55,7 @@ _LAZY = {
     "Measurements": "observations",
     "BaseParameters": "identifiability",
     "base_parameters": "identifiability",
+    "FitOptions": "identification",
     "IdentificationResult": "identification",
     "identify": "identification",
     # compensation, planning, simulation, validation

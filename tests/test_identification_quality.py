@@ -105,5 +105,6 @@ def test_a_model_too_simple_is_refused_without_a_false_cause(session):
         identify(bai.geometry(), reflector, "classical")
     assert caught.value.causes == []  # no reading of the data fits: the model does not
     # issue 20: the complete model fits the same data, and the message says so
-    assert "the complete model fits these data" in str(caught.value) and "use --model complete" in str(caught.value)
+    message = str(caught.value)
+    assert "the complete model fits these data" in message and "use --model complete" in message
     assert caught.value.codes == (PoorFitError.RICHER_MODEL,) and caught.value.model == "complete"
