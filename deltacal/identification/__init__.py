@@ -1,7 +1,7 @@
 """Identification of a robot's geometry from measurements (see :mod:`.estimate`)."""
 
-from .estimate import fit, identify
 from ..exceptions import PoorFitError
+from .estimate import fit, identify
 from .options import FitOptions
 from .outliers import OUTLIER_THRESHOLD, data_snooping
 from .result import IdentificationResult, ResidualStats
