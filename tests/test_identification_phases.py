@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -157,3 +159,14 @@ def test_poor_fit_error_is_exported_with_codes():
     assert error.codes == ("richer_model",) and error.model == "complete"
     with pytest.raises(ValueError, match="unknown poor-fit code 'typo'"):
         PoorFitError("m", None, [], ("typo",))
+
+
+def test_the_result_tells_kinds_by_its_columns_not_by_names(data):
+    start, _, _, noisy = data
+    result = identify(start, noisy, "complete", frame="free", free_points=["smr_offset"])
+    kinds = [c.kind for c in result.columns]
+    assert [c.name for c in result.columns] == result.base.names
+    assert FRAME in kinds and POINT in kinds
+    assert result.deviation.size == len(get_model("complete").names)
+    with pytest.raises(ValueError, match="one record per parameter"):
+        replace(result, columns=result.columns[:-1])

@@ -112,6 +112,13 @@ class IdentificationResult:
     confounded: tuple[str, ...] = ()
     columns: tuple[Column, ...] = ()
 
+    def __post_init__(self) -> None:
+        if len(self.columns) != len(self.base.names):
+            raise ValueError(
+                f"columns must hold one record per parameter of base.names ({len(self.base.names)}), "
+                f"got {len(self.columns)}"
+            )
+
     @property
     def deviation(self) -> np.ndarray:
         """Deviations of the error model's parameters from the start (frames and free points left out)."""
