@@ -28,6 +28,7 @@ from .exceptions import (
     InputError,
     InputWarning,
     PlanningError,
+    PoorFitError,
     UnreachableError,
     UsageError,
     ViewerError,
@@ -54,6 +55,7 @@ _LAZY = {
     "Measurements": "observations",
     "BaseParameters": "identifiability",
     "base_parameters": "identifiability",
+    "FitOptions": "identification",
     "IdentificationResult": "identification",
     "identify": "identification",
     # compensation, planning, simulation, validation
@@ -89,6 +91,7 @@ __all__ = [
     "InputError",
     "InputWarning",
     "PlanningError",
+    "PoorFitError",
     "UnreachableError",
     "UsageError",
     "ViewerError",

@@ -114,19 +114,7 @@ def run_demo(
         f"identified complete in one linear step: residual RMS {one_shot.after.position_rms * 1000:.1f} µm"
     )
 
-    rows = []
-    for tool_name, tool in TOOLS.items():
-        true_tool = truth.with_tool(tool)
-        poses = validation_poses(nominal, tool=tool)
-        targets = poses.targets
-        before = validate(true_tool, poses.q, targets)
-        rows.append(_row(tool_name, "uncalibrated", "-", before))
-        for name, result in [*results.items(), ("complete (linear id.)", one_shot)]:
-            linear = linear_calibration_from_result(result, tool)
-            for method in METHODS:
-                q = compensate(result.geometry.with_tool(tool), targets, method, linear)
-                rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
-        progress(f"validated every model and method on the true robot, {tool_name}")
+    rows = _validation_rows(truth, nominal, {**results, "complete (linear id.)": one_shot}, progress)
 
     tracker = _tracker_cell(start, truth, nominal, design.poses.q, metrology, seed)
     progress(
@@ -169,6 +157,24 @@ def run_demo(
         written += _views(start, truth, nominal, out_dir, progress)
     progress("wrote " + ", ".join(str(p) for p in written))
     return summary
+
+
+def _validation_rows(truth, nominal: NominalDelta, fits: dict, progress: Callable[[str], None]) -> list[dict]:
+    """The comparison table: each tool, uncalibrated then each fit with each compensation method."""
+    rows = []
+    for tool_name, tool in TOOLS.items():
+        true_tool = truth.with_tool(tool)
+        poses = validation_poses(nominal, tool=tool)
+        targets = poses.targets
+        before = validate(true_tool, poses.q, targets)
+        rows.append(_row(tool_name, "uncalibrated", "-", before))
+        for name, result in fits.items():
+            linear = linear_calibration_from_result(result, tool)
+            for method in METHODS:
+                q = compensate(result.geometry.with_tool(tool), targets, method, linear)
+                rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
+        progress(f"validated every model and method on the true robot, {tool_name}")
+    return rows
 
 
 def _handover(result, measurements, truth, nominal: NominalDelta, out_dir: Path, views: bool,

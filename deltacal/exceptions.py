@@ -142,6 +142,39 @@ class ResourceError(DeltacalError):
         super().__init__(message)
 
 
+class PoorFitError(IdentificationError):
+    """The fit is far from the σ given, or its geometry implausible; nothing should be written.
+
+    Attributes:
+        result: The fit that was refused (an :class:`~deltacal.identification.IdentificationResult`).
+        causes: The other readings of the data that the data support, most likely first (prose).
+        codes: Why, as codes of :data:`PoorFitError.CODES`, one per reason found, most telling
+            first: ``"readings"`` (another reading of the data fits: its words are in ``causes``),
+            ``"richer_model"`` (the complete model fits these data), ``"implausible"`` (the
+            identified geometry is implausible), ``"large_residuals"`` (s0² beyond the gate, no
+            single cause found). Callers branch on these, never on the message.
+        model: The richer model that fits the same data (``"complete"``) when ``"richer_model"``
+            is among the codes, else "".
+    """
+
+    READINGS = "readings"
+    RICHER_MODEL = "richer_model"
+    IMPLAUSIBLE = "implausible"
+    LARGE_RESIDUALS = "large_residuals"
+    CODES = (READINGS, RICHER_MODEL, IMPLAUSIBLE, LARGE_RESIDUALS)
+
+    def __init__(self, message: str, result, causes: list[str], codes: tuple[str, ...] = (),
+                 model: str = "") -> None:
+        unknown = [c for c in codes if c not in self.CODES]
+        if unknown:
+            raise ValueError(f"unknown poor-fit code {unknown[0]!r}; expected one of {self.CODES}")
+        self.result = result
+        self.causes = causes
+        self.codes = tuple(codes)
+        self.model = model
+        super().__init__(message)
+
+
 class PlanningError(DeltacalError):
     """No pose set satisfies what was asked (κ rule never met, too few candidates...)."""
 

@@ -104,4 +104,7 @@ def test_a_model_too_simple_is_refused_without_a_false_cause(session):
     with pytest.raises(PoorFitError) as caught:
         identify(bai.geometry(), reflector, "classical")
     assert caught.value.causes == []  # no reading of the data fits: the model does not
-    assert "no single cause stands out" in str(caught.value)
+    # issue 20: the complete model fits the same data, and the message says so
+    message = str(caught.value)
+    assert "the complete model fits these data" in message and "use --model complete" in message
+    assert caught.value.codes == (PoorFitError.RICHER_MODEL,) and caught.value.model == "complete"

@@ -2,7 +2,8 @@
 
 Every import of a ``deltacal`` module, at module level or inside a function, must point down the
 layers below (a module may import one of its own layer or a lower one), the graph has no cycle,
-nothing outside ``deltacal.cli`` imports the command line, and no module grows past 700 lines.
+nothing outside ``deltacal.cli`` imports the command line, no module grows past 700 lines and no
+function past 80 lines of code (issue 20: its docstring aside).
 """
 
 from __future__ import annotations
@@ -35,13 +36,14 @@ LAYERS = {
     "kinematics": 20,
     "geometry": 10,
     "rotations": 10,
-    "pose": 10,
     "resources": 5,
     "exceptions": 0,
     "_version": 0,
     "_lazy": 0,
 }
 MAX_LINES = 700
+#: Lines of code of a function at most, from its first statement after the docstring to its end.
+MAX_FUNCTION_LINES = 80
 
 
 def module_name(path: Path) -> str:
@@ -138,6 +140,36 @@ def test_no_import_cycle():
 def test_module_size(name):
     lines = modules()[name].read_text(encoding="utf-8").count("\n")
     assert lines <= MAX_LINES, f"{name}: {lines} lines; split it by concept"
+
+
+def function_lengths(path: Path) -> dict[str, int]:
+    """Lines of code of each function (methods and nested ones too), docstring aside."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found: dict[str, int] = {}
+    for node in ast.walk(tree):
+        if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        body = node.body
+        if (len(body) > 1 and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant)
+                and isinstance(body[0].value.value, str)):
+            body = body[1:]
+        end = body[-1].end_lineno or body[-1].lineno
+        found[f"{node.name} (line {node.lineno})"] = end - body[0].lineno + 1
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(modules()))
+def test_function_size(name):
+    long = {f: n for f, n in function_lengths(modules()[name]).items() if n > MAX_FUNCTION_LINES}
+    assert not long, f"{name}: functions over {MAX_FUNCTION_LINES} lines of code: {long}; split them"
+
+
+def test_the_function_cap_counts_code_not_the_docstring(tmp_path):
+    """A function of 81 statements fails, one of 80 with a long docstring passes."""
+    doc = '    """' + "\n" * 40 + '    """\n'
+    path = tmp_path / "m.py"
+    path.write_text("def long():\n" + "    x = 1\n" * 81 + "def short():\n" + doc + "    x = 1\n" * 80)
+    assert function_lengths(path) == {"long (line 1)": 81, "short (line 83)": 80}
 
 
 def test_the_checker_sees_a_cycle_and_an_upward_import(tmp_path, monkeypatch):

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
-from ..identification import PoorFitError, identify
+from ..identification import FitOptions, PoorFitError, identify
 from ..io import lines_text, load_nominal, read_measurement_file, save_calibration, unassembled_rows
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from .common import check_input, check_output, sigma, warn
@@ -19,11 +19,19 @@ def run(args: argparse.Namespace) -> int:
     """Run ``deltacal identify``; returns the exit status."""
     if args.pairs is not None and not args.distances:
         raise UsageError("--pairs applies to --distances only")
-    args.pairs = args.pairs or "all"
-    if args.free_points and args.distances:
-        raise UsageError("--free-points applies to positions and poses, not to --distances")
-    if args.frame == "free" and args.distances:
-        raise UsageError("--frame free applies to positions and poses: distances do not depend on the frame")
+    try:  # every option is checked once, by FitOptions
+        options = FitOptions(
+            method="linear" if args.linear else "iterated",
+            sigma_position=args.sigma_position,
+            sigma_angle=math.radians(args.sigma_angle),
+            distances=args.distances,
+            pairs=args.pairs or "all",
+            frame=args.frame,
+            accept_poor_fit=args.accept_poor_fit,
+            free_points=tuple(args.free_points),
+        )
+    except ValueError as exc:
+        raise UsageError(f"options that do not go together: {exc}") from exc
     for path in (args.nominal, args.measurements):
         check_input(path)
     check_output(args.output, (args.nominal, args.measurements))
@@ -39,19 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if args.distances and np.any(measurements.has_orientation):
         warn(["orientations are ignored when identifying from distances"])
     try:
-        result = identify(
-            start,
-            measurements,
-            args.model,
-            method="linear" if args.linear else "iterated",
-            sigma_position=args.sigma_position,
-            sigma_angle=math.radians(args.sigma_angle),
-            distances=args.distances,
-            pairs=args.pairs,
-            frame=args.frame,
-            accept_poor_fit=args.accept_poor_fit,
-            free_points=args.free_points,
-        )
+        result = identify(start, measurements, args.model, options=options)
     except AssemblyError as exc:
         # at the nominal geometry: the readings themselves are impossible
         if not exc.indices:

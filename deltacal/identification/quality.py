@@ -29,9 +29,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..exceptions import IdentificationError
+from ..exceptions import PoorFitError as PoorFitError  # where it lived before issue 20: still importable
 from ..geometry import DeltaGeometry
 from ..observations import Measurements
+from .options import FitOptions
 
 #: s0² above which a fit is refused whatever else is found: residuals ten times the σ given.
 POOR_FIT = 100.0
@@ -45,20 +46,6 @@ CLEARLY_BETTER = 0.5
 #: ... and its own s0² below this (residuals within about 3 σ: it fits the data, give or take
 #: unmodelled effects; a model too simple for the robot fits no reading that well).
 FITS_WELL = 10.0
-
-
-class PoorFitError(IdentificationError):
-    """The fit is far from the σ given, or its geometry implausible; nothing should be written.
-
-    Attributes:
-        result: The fit that was refused (an :class:`~deltacal.identification.IdentificationResult`).
-        causes: The readings of the data that the data support, most likely first.
-    """
-
-    def __init__(self, message: str, result, causes: list[str]) -> None:
-        self.result = result
-        self.causes = causes
-        super().__init__(message)
 
 
 def excess_bound(dof: int) -> float:
@@ -95,21 +82,28 @@ def implausible_deviations(start: DeltaGeometry, geometry: DeltaGeometry) -> lis
 
 
 def readings(
-    measurements: Measurements, point_names: list[str], frame: str, distances: bool,
-    free_points: Sequence[str] = (),
-) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+    measurements: Measurements, point_names: list[str], options: FitOptions
+) -> Iterator[tuple[str, Measurements, FitOptions]]:
     """Other readings of the same data, one per plausible mistake.
 
     Args:
         measurements: The measurements as read.
         point_names: The robot's plate points (``tcp`` and the named ones).
-        frame: The frame asked for (``"base"`` or ``"free"``).
-        distances: Whether the fit uses distances.
-        free_points: The points freed by the fit asked for.
+        options: The fit asked for (its frame, distances and free points).
 
     Yields:
-        ``(cause, measurements, frame, free_points)``: the cause in words and the fit to try.
+        ``(cause, measurements, options)``: the cause in words and the fit to try.
     """
+    for cause, other, frame, points in _readings(measurements, point_names, options.frame, options.distances,
+                                                 options.free_points):
+        yield cause, other, replace(options, frame=frame, free_points=points)  # type: ignore[arg-type]
+
+
+def _readings(
+    measurements: Measurements, point_names: list[str], frame: str, distances: bool,
+    free_points: Sequence[str] = (),
+) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+    """:func:`readings` as ``(cause, measurements, frame, free_points)``."""
     points = tuple(free_points)
     has = measurements.has_orientation
     if np.any(has) and not distances:
@@ -178,7 +172,7 @@ def verdict(
     Returns:
         ``(poor, causes)``.
     """
-    s0 = _quality_factor(result)
+    s0 = quality_factor(result)
     odd = implausible_deviations(start, result.geometry)
     causes = [
         cause
@@ -189,7 +183,7 @@ def verdict(
     return poor, causes
 
 
-def _quality_factor(result) -> float:
+def quality_factor(result) -> float:
     """s0² without the measurements flagged as outliers (they are reported on their own)."""
     inliers = result.inlier_variance_factor
     return float(inliers) if math.isfinite(inliers) else float(result.variance_factor)
@@ -198,13 +192,13 @@ def _quality_factor(result) -> float:
 def needs_review(result, start: DeltaGeometry) -> bool:
     """Whether a fit's residuals or deviations call for trying other readings of the data."""
     dof = max(result.n_rows - result.rank, 1)
-    return _quality_factor(result) > excess_bound(dof) or bool(implausible_deviations(start, result.geometry))
+    return quality_factor(result) > excess_bound(dof) or bool(implausible_deviations(start, result.geometry))
 
 
-def poor_fit_message(result, start: DeltaGeometry, causes: list[str]) -> str:
-    """One line: what is wrong with the fit, and the likely causes."""
+def poor_fit_message(result, start: DeltaGeometry, causes: list[str], model_note: str = "") -> str:
+    """One line: what is wrong with the fit, and the likely causes (``model_note``: a model that fits)."""
     dof = max(result.n_rows - result.rank, 1)
-    s0 = _quality_factor(result)
+    s0 = quality_factor(result)
     text = (
         f"the fit does not match the σ given: variance factor s0² = {s0:.3g} "
         f"(residuals {math.sqrt(s0):.3g} times σ; noise alone gives at most {excess_bound(dof):.3g}"
@@ -213,8 +207,8 @@ def poor_fit_message(result, start: DeltaGeometry, causes: list[str]) -> str:
     odd = implausible_deviations(start, result.geometry)
     if odd:
         text += " and the identified geometry is implausible (" + "; ".join(odd) + ")"
-    if causes:
-        return text + "; most likely: " + "; or ".join(causes)
+    if causes or model_note:
+        return text + "; most likely: " + "; or ".join([*causes, model_note] if model_note else causes)
     return text + (
         "; no single cause stands out: check the units, the frame, the point of each row, the σ given "
         "and the model"

@@ -11,6 +11,7 @@ import numpy as np
 from ..geometry import DeltaGeometry
 from ..identifiability import BaseParameters
 from ..observations import DISTANCE, ORIENTATION, POSITION, Rows
+from .columns import GEOMETRY, Column
 from .frames import InstrumentFrame
 from .outliers import OUTLIER_THRESHOLD
 
@@ -83,6 +84,7 @@ class IdentificationResult:
         inlier_variance_factor: s0² of the rows of the measurements not flagged as outliers.
         confounded: Coordinates of free points that the geometry's own parameters already
             account for (held at their given values).
+        columns: The record (name, kind, unit) of each parameter of ``base.names``, in order.
     """
 
     model: str
@@ -108,12 +110,20 @@ class IdentificationResult:
     warnings: tuple[str, ...] = ()
     inlier_variance_factor: float = float("nan")
     confounded: tuple[str, ...] = ()
+    columns: tuple[Column, ...] = ()
+
+    def __post_init__(self) -> None:
+        if len(self.columns) != len(self.base.names):
+            raise ValueError(
+                f"columns must hold one record per parameter of base.names ({len(self.base.names)}), "
+                f"got {len(self.columns)}"
+            )
 
     @property
     def deviation(self) -> np.ndarray:
-        """Deviations of the error model's parameters from the start (instrument frames left out)."""
+        """Deviations of the error model's parameters from the start (frames and free points left out)."""
         full = self.base.expand(self.values)
-        return full[[not name.startswith(("T[", "P[")) for name in self.base.names]]
+        return full[[c.kind == GEOMETRY for c in self.columns]]
 
     @property
     def rank(self) -> int:

@@ -66,6 +66,19 @@ class SceneSummary:
     paths: list[str] = field(default_factory=list)
 
 
+def _scene_readings(nominal_geometry: DeltaGeometry, ws: Workspace, q: np.ndarray | None) -> np.ndarray:
+    """The readings to draw [rad], (3,): those given, or the nominal ones at the workspace centre."""
+    if q is None:
+        q = _reachable_readings(nominal_geometry, ws.centre[None])[0]
+        if not np.all(np.isfinite(q)):
+            raise UnreachableError(
+                f"workspace centre {ws.centre.tolist()} mm is out of reach of the nominal robot",
+                [0],
+                ws.centre[None],
+            )
+    return np.asarray(q, dtype=float).reshape(3)
+
+
 def build_scene(
     vis: Any,
     nominal_geometry: DeltaGeometry,
@@ -111,15 +124,7 @@ def build_scene(
     if not (math.isfinite(exaggerate) and exaggerate > 0.0):
         raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
     ws = workspace if workspace is not None else default_workspace(nominal_geometry)
-    if q is None:
-        q = _reachable_readings(nominal_geometry, ws.centre[None])[0]
-        if not np.all(np.isfinite(q)):
-            raise UnreachableError(
-                f"workspace centre {ws.centre.tolist()} mm is out of reach of the nominal robot",
-                [0],
-                ws.centre[None],
-            )
-    q = np.asarray(q, dtype=float).reshape(3)
+    q = _scene_readings(nominal_geometry, ws, q)
     true_state = RobotState.compute(true_geometry, q, exaggerate)
     ghost_state = RobotState.compute(nominal_geometry, q, 1.0)
     commanded = ghost_state.tcp[0]
