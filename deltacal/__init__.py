@@ -29,6 +29,7 @@ from .exceptions import (
     InputWarning,
     PlanningError,
     PoorFitError,
+    ResourceError,
     UnreachableError,
     UsageError,
     ViewerError,
@@ -58,6 +59,7 @@ _LAZY = {
     "FitOptions": "identification",
     "IdentificationResult": "identification",
     "identify": "identification",
+    "Calibration": "calibration",
     # compensation, planning, simulation, validation
     "LinearCalibration": "compensation",
     "compensate": "compensation",
@@ -76,6 +78,8 @@ _LAZY = {
     "load_geometry": "io",
     "save_geometry": "io",
     "save_calibration": "io",
+    "load_calibration": "io",
+    "calibration_from_result": "io",
     "read_measurements": "io",
     "write_measurements": "io",
     # the whole job
@@ -92,6 +96,7 @@ __all__ = [
     "InputWarning",
     "PlanningError",
     "PoorFitError",
+    "ResourceError",
     "UnreachableError",
     "UsageError",
     "ViewerError",

@@ -28,6 +28,7 @@ LAYERS = {
     "planning": 40,
     "simulation": 40,
     "validation": 40,
+    "calibration": 36,
     "identification": 35,
     "compensation": 33,
     "observations": 30,

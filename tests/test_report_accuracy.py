@@ -11,7 +11,7 @@ from deltacal.geometry import Tolerances
 from deltacal.identification import identify
 from deltacal.io import save_calibration
 from deltacal.kinematics import exact
-from deltacal.report import load_calibration_report, predicted_tcp_sigma, sigma_3d, tcp_jacobian
+from deltacal.report import load_calibration, predicted_tcp_sigma, sigma_3d, tcp_jacobian
 from deltacal.report.accuracy import reachable_readings
 from deltacal.simulation import simulate_measurements
 
@@ -40,7 +40,7 @@ def setup(bai, tmp_path_factory):
         [-0.6 * ws.radius, 0.6 * ws.radius, ws.middle_z],
         [0.0, -0.95 * ws.radius, ws.top_z],
     ])
-    return nominal, truth, q, load_calibration_report(path), points
+    return nominal, truth, q, load_calibration(path), points
 
 
 def test_predicted_sigma_matches_the_spread_of_repeated_calibrations(setup, capsys):

@@ -21,11 +21,8 @@ from ..io import (
     JointsWriter,
     TargetChunk,
     TargetFile,
-    check_calibration,
     lines_text,
-    load_geometry,
-    load_instrument,
-    load_linear_calibration,
+    load_calibration,
 )
 from .common import check_input, check_output, warn
 from .progress import Progress
@@ -36,14 +33,10 @@ def run(args: argparse.Namespace) -> int:
     for path in (args.calibration, args.targets):
         check_input(path)
     check_output(args.output, (args.calibration, args.targets))
-    geometry = load_geometry(args.calibration)
+    calibration = load_calibration(args.calibration)  # read and checked once
+    geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(args.targets)
-    frames = load_instrument(args.calibration)
-    if frames and args.method != "exact":
-        raise UsageError(
-            f"{args.calibration}: identified with a free instrument frame: its base parameters are in the "
-            "fit's own gauge, which savoure and bai cannot follow; use --method exact"
-        )
+    linear = None if args.method == "exact" else _linear(calibration, args.calibration)
     to_base = None
     if args.frame == "instrument":
         if not frames:
@@ -59,11 +52,6 @@ def run(args: argparse.Namespace) -> int:
         to_base = frames[station].to_base
     elif args.station is not None:
         raise UsageError("--station applies to --frame instrument only")
-    if args.method == "exact":
-        check_calibration(args.calibration)  # [geometry] and [nominal] agree, as for the linear methods
-        linear = None
-    else:
-        linear = load_linear_calibration(args.calibration)
     size = max(targets_file.size, 1)
     with Progress("compensate") as progress:
         refused: tuple[UnreachableError, TargetChunk] | None = None
@@ -93,6 +81,18 @@ def run(args: argparse.Namespace) -> int:
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
     print(f"wrote {out.rows} joint readings to {args.output}")
     return 0
+
+
+def _linear(calibration, path: str):
+    """The linear compensators' view of a calibration (a geometry file has none)."""
+    if not calibration.base:
+        raise InputError("not a calibration file (format 'deltacal-geometry-1'): a geometry file has no "
+                         "base parameters for savoure or bai; use --method exact",
+                         path, "key format")
+    try:
+        return calibration.linear()
+    except InputError as exc:  # a free-frame calibration: the method asked for cannot serve it
+        raise UsageError(str(exc)) from None
 
 
 def _unreachable(exc: UnreachableError, chunk: TargetChunk, targets_file: TargetFile) -> InputError:

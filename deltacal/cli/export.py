@@ -9,7 +9,7 @@ import numpy as np
 
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry
-from ..io import check_format, load_geometry, load_instrument, load_nominal, read_toml
+from ..io import load_calibration, load_nominal, read_toml
 from .common import check_input, check_output, three_numbers
 
 
@@ -23,8 +23,8 @@ def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
     geometry = data.get("geometry")
     if "format" not in data and isinstance(geometry, Mapping) and "base_radius_mm" in geometry:
         return load_nominal(path).geometry(), []  # a nominal robot file (it has no format key)
-    check_format(data, path)
-    return load_geometry(path), list(load_instrument(path))
+    calibration = load_calibration(path)  # a calibration or geometry file, checked as every command does
+    return calibration.geometry, list(calibration.frames)
 
 
 def _readings_deg(text: str) -> np.ndarray:

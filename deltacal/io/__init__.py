@@ -9,8 +9,11 @@ renames it, so a failure never leaves a half-written output.
 
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
 from .calibration import (
+    calibration_from_result,
+    calibration_to_dict,
     check_calibration,
     instrument_tables,
+    load_calibration,
     load_instrument,
     load_linear_calibration,
     save_calibration,
@@ -55,6 +58,8 @@ __all__ = [
     "atomic_output",
     "atomic_write_bytes",
     "atomic_write_text",
+    "calibration_from_result",
+    "calibration_to_dict",
     "check_calibration",
     "check_format",
     "data_row",
@@ -65,6 +70,7 @@ __all__ = [
     "geometry_to_dict",
     "load_geometry",
     "instrument_tables",
+    "load_calibration",
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",

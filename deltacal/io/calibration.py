@@ -1,18 +1,20 @@
-"""Calibration files: the identified geometry, the report, the start geometry, instrument frames."""
+"""Calibration files: one reader and one writer of :class:`~deltacal.calibration.Calibration`."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from ..calibration import BaseParameter, Calibration, FrameRecord, kind_of
 from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
 from ..identification import IdentificationResult
-from ..identification.frames import InstrumentFrame, axes_motion
+from ..identification.frames import InstrumentFrame
 from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
@@ -23,43 +25,95 @@ from .geometry_file import (
 )
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
+#: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
+CORRELATION_ATOL = 1e-5
+
 
 def save_calibration(
-    result: IdentificationResult, path: str | Path, lines: Sequence[int] | np.ndarray | None = None
+    calibration: Calibration | IdentificationResult, path: str | Path,
+    lines: Sequence[int] | np.ndarray | None = None,
 ) -> None:
     """Write a calibration file: the identified geometry in full and the identification report.
 
     ``compensate`` needs only this file: its ``[geometry]`` table is a complete
-    DeltaGeometry (see :func:`load_geometry`).
+    DeltaGeometry. :func:`load_calibration` reads it back into the same value.
 
     Args:
-        result: The identification.
+        calibration: The calibration (or the identification it comes from).
         path: The file to write (atomically).
         lines: The line of each measurement in the measurements file it came from: the
             outliers are then also saved by line (``outlier_lines``).
     """
-    report = result.to_dict()
-    if lines is not None:
-        report["outlier_lines"] = [int(lines[k]) for k in result.outliers]
-    data = {
-        "format": CALIBRATION_FORMAT,
-        "calibration": report,
-        "geometry": geometry_to_dict(result.geometry),
-        "nominal": geometry_to_dict(result.start),
+    if isinstance(calibration, IdentificationResult):
+        result = calibration
+        calibration = calibration_from_result(result)
+        if lines is not None:
+            calibration = replace(calibration, outlier_lines=[int(lines[k]) for k in result.outliers])
+    header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
+    atomic_write_text(path, header + toml_dumps(calibration_to_dict(calibration)))
+
+
+def calibration_from_result(result: IdentificationResult) -> Calibration:
+    """The calibration an identification found."""
+    kinds = {c.name: c.kind for c in result.columns}
+    base = []
+    for label, name, v, s, u in zip(result.labels, result.base.base_names, result.values, result.sigma,
+                                    result.units, strict=True):
+        kind = kinds.get(name, kind_of(name))
+        if u == "rad":
+            base.append(BaseParameter(name, label, math.degrees(v), math.degrees(s), "deg", kind))
+        else:
+            base.append(BaseParameter(name, label, float(v), float(s), "mm", kind))
+    frames = {
+        name: FrameRecord(name, np.degrees(f.rotation_vector), np.asarray(f.translation, dtype=float),
+                          np.degrees(f.rotation_sigma), np.asarray(f.translation_sigma, dtype=float))
+        for name, f in result.frames.items()
     }
-    if result.frames:
+    return Calibration(
+        geometry=result.geometry, nominal=result.start, model=get_model(result.model), base=base,
+        correlation=np.asarray(result.correlation, dtype=float), method=result.method, rank=result.rank,
+        parameters=len(result.base.names), condition_number=float(result.condition_number),
+        iterations=result.iterations, variance_factor=float(result.variance_factor),
+        unidentifiable=list(result.base.unidentifiable_names), residuals_before=result.before.as_dict(),
+        residuals_after=result.after.as_dict(), outlier_rows=[int(k) + 1 for k in result.outliers],
+        frames=frames,
+    )
+
+
+def calibration_to_dict(calibration: Calibration) -> dict:
+    """A calibration as the file's plain data (angles in degrees)."""
+    cal = calibration
+    params = [
+        {"name": p.name, "kind": p.kind, "regrouping": p.regrouping, f"value_{p.unit}": float(p.value),
+         f"sigma_{p.unit}": float(p.sigma)}
+        for p in cal.base
+    ]
+    report: dict = {
+        "model": cal.model.name, "method": cal.method, "rank": cal.rank, "parameters": cal.parameters,
+        "condition_number": cal.condition_number, "iterations": cal.iterations,
+        "variance_factor": cal.variance_factor, "unidentifiable": list(cal.unidentifiable),
+        "residuals_before": dict(cal.residuals_before), "residuals_after": dict(cal.residuals_after),
+        "outlier_rows": list(cal.outlier_rows),
+    }
+    if cal.outlier_lines:
+        report["outlier_lines"] = list(cal.outlier_lines)
+    report["base_parameter"] = params
+    # correlation matrix of the base parameters, in the order of base_parameter
+    report["correlation"] = np.round(cal.correlation, 6).tolist()
+    data: dict = {"format": CALIBRATION_FORMAT, "calibration": report,
+                  "geometry": geometry_to_dict(cal.geometry), "nominal": geometry_to_dict(cal.nominal)}
+    if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
             name: {
-                "rotation_deg": [exact_degrees(v) for v in frame.rotation_vector],
-                "translation_mm": [float(v) for v in frame.translation],
-                "rotation_sigma_deg": [float(np.degrees(v)) for v in frame.rotation_sigma],
-                "translation_sigma_mm": [float(v) for v in frame.translation_sigma],
+                "rotation_deg": [exact_degrees(math.radians(v)) for v in f.rotation_deg],
+                "translation_mm": [float(v) for v in f.translation_mm],
+                "rotation_sigma_deg": [float(v) for v in f.rotation_sigma_deg],
+                "translation_sigma_mm": [float(v) for v in f.translation_sigma_mm],
             }
-            for name, frame in result.frames.items()
+            for name, f in cal.frames.items()
         }
-    header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
-    atomic_write_text(path, header + toml_dumps(data))
+    return data
 
 
 def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
@@ -68,14 +122,7 @@ def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
     Returns:
         Station name -> :class:`~deltacal.identification.frames.InstrumentFrame`.
     """
-    source = str(path)
-    data = read_toml(path)
-    if check_format(data, source) == GEOMETRY_FORMAT:
-        return {}  # a geometry file: the robot alone, measured in its own base frame
-    return {
-        name: InstrumentFrame.from_vectors(np.radians(item["rotation_deg"]), item["translation_mm"])
-        for name, item in instrument_tables(data, source).items()
-    }
+    return load_calibration(path).instrument
 
 
 def instrument_tables(data: Mapping, source: str) -> dict[str, dict[str, np.ndarray]]:
@@ -105,112 +152,130 @@ def instrument_tables(data: Mapping, source: str) -> dict[str, dict[str, np.ndar
 
 
 def load_linear_calibration(path: str | Path) -> LinearCalibration:
-    """What the linear compensators need from a calibration file.
+    """What the linear compensators need from a calibration file (:meth:`Calibration.linear`)."""
+    return load_calibration(path).linear()
 
-    The file's ``[nominal]`` table is the geometry identification started from, its
-    ``[calibration]`` table names the model and the identified base parameters.
+
+def check_calibration(path: str | Path) -> None:
+    """Refuse a calibration file that :func:`load_calibration` refuses (sections that disagree...)."""
+    load_calibration(path)
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    """Read a calibration file (or a geometry file: the robot alone), checked once for every command.
+
+    Every value is checked where it is read (one line naming the file, key and value), and the
+    sections against each other (:meth:`~deltacal.calibration.Calibration.check`). A geometry
+    file (``format = 'deltacal-geometry-1'``) gives a calibration without base parameters.
+
+    Raises:
+        InputError: naming the file, the key and the value that is wrong.
     """
     source = str(path)
     data = read_toml(path)
-    if check_format(data, source) != CALIBRATION_FORMAT:
-        raise InputError(f"not a calibration file (format {_shown(data.get('format'))})", source,
-                         "key format")
-    if not isinstance(data.get("nominal"), Mapping):
-        raise InputError("missing required table", source, "key nominal")
-    nominal = geometry_from_dict(data["nominal"], source, "nominal.")
-    top = _Table(data, source)
-    cal = top.table("calibration")
+    if check_format(data, source) == GEOMETRY_FORMAT:
+        geometry = geometry_from_dict(data, source)
+        return Calibration(geometry=geometry, nominal=geometry, model=get_model("complete"), base=[],
+                           correlation=np.zeros((0, 0)), source=source)
+    cal = _Table(data, source).table("calibration")
     assert cal is not None
+    for key in ("geometry", "nominal"):
+        if not isinstance(data.get(key), Mapping):
+            raise InputError("missing required table", source, f"key {key}")
     try:
         model = get_model(cal.string("model"))
     except ValueError as exc:
         raise cal.error("model", str(exc)) from None
-    deviation = np.zeros(model.size)
-    tool_move = np.zeros(3)
-    params = cal.raw("base_parameter") if cal.has("base_parameter") else []
-    if not isinstance(params, list) or not all(isinstance(x, Mapping) for x in params):
-        raise cal.error("base_parameter", "must be an array of tables [[calibration.base_parameter]]")
-    for k, item in enumerate(params):
+    base = _base_parameters(cal, model, source)
+    calibration = Calibration(
+        geometry=geometry_from_dict(data["geometry"], source, "geometry."),
+        nominal=geometry_from_dict(data["nominal"], source, "nominal."),
+        model=model, base=base, correlation=_correlation(cal, len(base)),
+        method=cal.string("method", default="?"),
+        rank=_count(cal, "rank", len(base), exactly=len(base)),
+        parameters=_count(cal, "parameters", model.size, at_least=len(base)),
+        condition_number=_positive(cal, "condition_number", minimum=1.0),
+        iterations=_count(cal, "iterations", 0),
+        variance_factor=_positive(cal, "variance_factor", minimum=0.0),
+        unidentifiable=_names(cal, "unidentifiable", str, "an array of names"),
+        residuals_before=_summary(cal, "residuals_before"),
+        residuals_after=_summary(cal, "residuals_after"),
+        outlier_lines=_names(cal, "outlier_lines", int, "an array of line numbers"),
+        outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
+        frames={name: FrameRecord(name=name, **item)
+                for name, item in instrument_tables(data, source).items()},
+        source=source,
+    )
+    calibration.check()
+    return calibration
+
+
+def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
+    """The ``[[calibration.base_parameter]]`` tables, checked."""
+    raw = cal.raw("base_parameter")
+    if not isinstance(raw, list) or not raw or not all(isinstance(x, Mapping) for x in raw):
+        raise cal.error("base_parameter",
+                        "must be a non-empty array of tables [[calibration.base_parameter]]")
+    base = []
+    for k, item in enumerate(raw):
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
-        if name.startswith("P[tcp]."):  # the tool identified as a free point
-            tool_move["xyz".index(name[-1])] = t.number("value_mm")
-            continue
-        if name.startswith(("T[", "P[")):  # an instrument frame's or a free point's, not the model's
-            continue
-        if name not in model.names:
+        kind = t.string("kind", default=kind_of(name))
+        if kind not in ("geometry", "frame", "point"):
+            raise t.error("kind", f"must be 'geometry', 'frame' or 'point', got {kind!r}")
+        unit = "deg" if t.has("value_deg") else "mm"
+        value, sigma = t.number(f"value_{unit}"), t.number(f"sigma_{unit}")
+        if not sigma >= 0.0:
+            raise t.error(f"sigma_{unit}", f"must not be negative, got {sigma!r}")
+        if kind == "geometry" and name not in model.names:
             raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
-        if t.has("value_deg"):
-            value = math.radians(t.number("value_deg"))
-        else:
-            value = t.number("value_mm")
-        deviation[model.names.index(name)] = value
-    if not isinstance(data.get("geometry"), Mapping):
-        raise InputError("missing required table", source, "key geometry")
-    nominal = nominal.with_tool(nominal.tool + tool_move)
-    geometry = geometry_from_dict(data["geometry"], source, "geometry.")
-    predicted = model.apply(nominal, deviation)
-    if data.get("instrument"):
-        # identified with free instrument frames: [geometry] was moved to the axes gauge after the
-        # fit, a rigid motion the base parameters do not hold; the sections agree modulo it
-        predicted = predicted.moved_rigidly(*axes_motion(predicted, geometry))
-    check_sections_agree(geometry, predicted, source)
-    return LinearCalibration(nominal=nominal, model=model, deviation=deviation)
+        base.append(BaseParameter(name, t.string("regrouping", default=f"δ{name}"), value, sigma, unit,
+                                  kind))  # type: ignore[arg-type]
+    return base
 
 
-def check_calibration(path: str | Path) -> None:
-    """Refuse a calibration file whose sections contradict each other (see :func:`check_sections_agree`).
-
-    A geometry file (``format = 'deltacal-geometry-1'``) has one section only: nothing to check.
-
-    Raises:
-        InputError: naming both keys, or the first key of the file that is wrong.
-    """
-    if check_format(read_toml(path), str(path)) == CALIBRATION_FORMAT:
-        load_linear_calibration(path)
+def _correlation(cal: _Table, r: int) -> np.ndarray:
+    """The correlation matrix of r base parameters, checked (symmetric, unit diagonal, within [-1, 1])."""
+    C = cal.vector("correlation", (r, r))
+    if np.max(np.abs(C - C.T)) > CORRELATION_ATOL or np.max(np.abs(np.diag(C) - 1.0)) > CORRELATION_ATOL:
+        raise cal.error("correlation", "must be symmetric with ones on the diagonal")
+    if np.max(np.abs(C)) > 1.0 + CORRELATION_ATOL:
+        raise cal.error("correlation", f"values must lie within [-1, 1], got {float(np.max(np.abs(C)))!r}")
+    return 0.5 * (C + C.T)
 
 
-#: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],
-#: angles and unit vectors [rad]. Identification composes its steps, the file sums them: the two
-#: differ by second-order terms, measured up to 2e-5 mm and 6e-7 rad with Bai's tolerances; an
-#: edit that changes a compensation by 1 µm is above these.
-SECTIONS_TOLERANCE = {"mm": 1e-3, "rad": 1e-5}
-
-_SECTION_KEYS = (
-    # (DeltaGeometry field, TOML key in a limb or at the top, unit)
-    ("tool", "tool_mm", "mm"),
-    ("axis_point", "axis_point_mm", "mm"),
-    ("axis_direction", "axis_direction", "rad"),
-    ("encoder_offset", "encoder_offset_deg", "rad"),
-    ("arm_ball", "arm_ball_mm", "mm"),
-    ("plate_ball", "plate_ball_mm", "mm"),
-    ("rod_length", "rod_length_mm", "mm"),
-)
+def _count(cal: _Table, key: str, default: int, exactly: int | None = None, at_least: int = 0) -> int:
+    """A whole number of the report (rank, parameters, iterations), checked against the file."""
+    if not cal.has(key):
+        return default
+    value = cal.number(key)
+    if value != int(value) or value < at_least or (exactly is not None and value != exactly):
+        want = (f"{exactly} (the number of base parameters)" if exactly is not None
+                else f"a whole number >= {at_least}")
+        raise cal.error(key, f"must be {want}, got {_shown(cal.raw(key))}")
+    return int(value)
 
 
-def check_sections_agree(geometry, predicted, source: str) -> None:
-    """Refuse a calibration file whose ``[geometry]`` is not ``[nominal]`` moved by its base parameters.
+def _positive(cal: _Table, key: str, minimum: float) -> float:
+    """A statistic of the report (s0², condition number), checked; nan when absent."""
+    if not cal.has(key):
+        return math.nan
+    value = cal.number(key)
+    if not value >= minimum:
+        raise cal.error(key, f"must be at least {minimum:g}, got {_shown(cal.raw(key))}")
+    return value
 
-    ``compensate --method exact`` reads ``[geometry]``; the linear methods read
-    ``[nominal]`` and the base parameters. A file edited in one place only (the
-    tool in ``[geometry]``, say) would make them command different robots: it is
-    refused, naming both keys (see docs/errors.md).
-    """
-    for field, key, unit in _SECTION_KEYS:
-        got = np.asarray(getattr(geometry, field), dtype=float)
-        want = np.asarray(getattr(predicted, field), dtype=float)
-        if field == "tool":
-            got, want = got[None], want[None]
-        off = np.abs(got - want).reshape(len(got), -1).max(axis=1)
-        bad = np.flatnonzero(off > SECTIONS_TOLERANCE[unit])
-        if bad.size:
-            i = int(bad[0])
-            where = key if field == "tool" else f"limb[{i + 1}].{key}"
-            shown = np.degrees if key.endswith("_deg") else (lambda v: v)
-            raise InputError(
-                f"[geometry] and [nominal] disagree: key geometry.{where} = "
-                f"{np.round(shown(got[i]), 6).tolist()}, but key nominal.{where} moved by the base "
-                f"parameters gives {np.round(shown(want[i]), 6).tolist()} (a file edited in one place only? "
-                "edit both, or identify again)",
-                source,
-            )
+
+def _names(cal: _Table, key: str, kind: type, what: str) -> list:
+    """An array of names or numbers of the report, checked; empty when absent."""
+    raw = cal.raw(key) if cal.has(key) else []
+    if not isinstance(raw, list) or not all(isinstance(x, kind) and not isinstance(x, bool) for x in raw):
+        raise cal.error(key, f"must be {what}, got {_shown(raw)}")
+    return list(raw)
+
+
+def _summary(cal: _Table, name: str) -> dict[str, float]:
+    t = cal.table(name, required=False)
+    if t is None:
+        return {}
+    return {str(k): t.number(str(k)) for k in t.data}

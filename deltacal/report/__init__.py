@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import DeltacalError
+from ..calibration import Calibration
+from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
-from ..io import atomic_write_text
+from ..io import atomic_write_text, load_calibration
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer
 from . import figures
 from .accuracy import (
@@ -28,7 +29,6 @@ from .accuracy import (
     sigma_3d,
     tcp_jacobian,
 )
-from .data import BaseParameter, CalibrationReport, load_calibration_report
 from .html import Page, render_page
 from .residuals import MeasurementResiduals, measurement_residuals
 
@@ -52,7 +52,7 @@ class ReportSummary:
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
 
-def _scene(calibration: CalibrationReport, workspace: Workspace) -> tuple[str | None, str]:
+def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, str]:
     """Meshcat's standalone page of the identified robot over its nominal ghost, or None and why."""
     try:
         vis = recording_visualizer(f"deltacal: {calibration.robot}")
@@ -94,7 +94,11 @@ def write_report(
     Returns:
         A summary of what was written.
     """
-    cal = load_calibration_report(calibration)
+    cal = load_calibration(calibration)
+    if not cal.base:
+        raise InputError("not a calibration file: a geometry file has no identification to report "
+                         "(give the calibration file written by 'deltacal identify')", str(calibration),
+                         "key format")
     ws = workspace if workspace is not None else default_workspace(cal.nominal)
     ws_text = (f"Workspace cylinder: radius {ws.radius:.0f} mm, z from {ws.bottom_z:.0f} to {ws.top_z:.0f} mm"
                + ("" if workspace is not None else " (sized from the robot; give a robot file for its own)"))
@@ -127,13 +131,10 @@ def write_report(
 
 __all__ = [
     "AccuracyMap",
-    "BaseParameter",
-    "CalibrationReport",
     "MeasurementResiduals",
     "ReportSummary",
     "accuracy_map",
     "actual_tcp_error",
-    "load_calibration_report",
     "measurement_residuals",
     "predicted_tcp_covariance",
     "predicted_tcp_sigma",

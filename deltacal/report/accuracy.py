@@ -30,11 +30,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, Workspace
 from ..kinematics import exact
 from ..rotations import skew
-from .data import CalibrationReport
 
 #: Grid points along a side of a horizontal slice (and along x and z of the vertical one).
 GRID = 41
@@ -57,7 +57,7 @@ def reachable_readings(geometry: DeltaGeometry, points: np.ndarray) -> np.ndarra
 
 
 def tcp_jacobian(
-    geometry: DeltaGeometry, calibration: CalibrationReport, q: np.ndarray, tool: np.ndarray | None = None
+    geometry: DeltaGeometry, calibration: Calibration, q: np.ndarray, tool: np.ndarray | None = None
 ) -> np.ndarray:
     """J: TCP displacement per unit base parameter (robot's, in the file's order), (N, 3, r).
 
@@ -78,7 +78,7 @@ def tcp_jacobian(
 
 
 def predicted_tcp_covariance(
-    calibration: CalibrationReport, points: np.ndarray, tool: np.ndarray | None = None
+    calibration: Calibration, points: np.ndarray, tool: np.ndarray | None = None
 ) -> np.ndarray:
     """Covariance of the compensated TCP position at each point [mm²], (N, 3, 3); NaN out of reach."""
     points = np.atleast_2d(np.asarray(points, dtype=float))
@@ -93,7 +93,7 @@ def predicted_tcp_covariance(
 
 
 def predicted_tcp_sigma(
-    calibration: CalibrationReport, points: np.ndarray, tool: np.ndarray | None = None
+    calibration: Calibration, points: np.ndarray, tool: np.ndarray | None = None
 ) -> np.ndarray:
     """σ of each coordinate of the compensated TCP position at each point [mm], (N, 3).
 
@@ -199,7 +199,7 @@ def actual_tcp_error(
 
 
 def accuracy_map(
-    calibration: CalibrationReport,
+    calibration: Calibration,
     workspace: Workspace,
     tool: np.ndarray | None = None,
     truth: DeltaGeometry | None = None,

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..calibration import Calibration
 from .accuracy import AccuracyMap
-from .data import CalibrationReport
 from .residuals import MeasurementResiduals
 
 CSS = """
@@ -98,7 +98,7 @@ def regrouping_words(regrouping: str, terms: list[str]) -> str:
 class Page:
     """What goes into the page (the figures already drawn as SVG)."""
 
-    calibration: CalibrationReport
+    calibration: Calibration
     accuracy: AccuracyMap
     figures: dict[str, str]
     residuals: MeasurementResiduals | None = None

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..exceptions import AssemblyError
 from ..identification.frames import in_base_frame, initial_frames
 from ..io import read_measurement_file, unassembled_rows
 from ..kinematics import exact
 from ..observations import Measurements, distance_pairs, predicted_points
 from ..rotations import rotation_from_vector, vector_from_rotation
-from .data import CalibrationReport
 
 #: Relative disagreement between the recomputed residual RMS and the file's beyond which the
 #: measurements are said not to be those the calibration was identified from.
@@ -86,7 +86,7 @@ def _orientation(measurements: Measurements, pose) -> np.ndarray:
     return out
 
 
-def measurement_residuals(calibration: CalibrationReport, path: str | Path) -> MeasurementResiduals:
+def measurement_residuals(calibration: Calibration, path: str | Path) -> MeasurementResiduals:
     """Residuals of each measurement of ``path`` at the nominal and the identified geometries.
 
     Measurements in instrument frames are carried into the base frame by the frames of the
