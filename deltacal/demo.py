@@ -306,7 +306,8 @@ def _plot(rows: list[dict], path: Path, progress: Callable[[str], None]) -> Path
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        progress(f"skipped: {path.name} (matplotlib is not installed: pip install 'deltacal[plot]')")
+        progress(f"skipped: {path.name} (matplotlib, a dependency of deltacal, is missing: "
+                 "pip install 'matplotlib>=3.7')")
         return None
     tools = list(dict.fromkeys(r["tool"] for r in rows))
     labels = list(dict.fromkeys(f"{r['model'].replace(' (', chr(10) + '(')}\n{r['method']}" for r in rows))

@@ -9,6 +9,7 @@ function past 80 lines of code (issue 20: its docstring aside).
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -189,3 +190,25 @@ def test_the_checker_sees_a_cycle_and_an_upward_import(tmp_path, monkeypatch):
         test_every_import_points_down_the_layers()
     with pytest.raises(AssertionError):
         test_nothing_but_the_command_line_imports_it()
+
+
+def test_third_party_imports_are_declared_dependencies():
+    """Every package the library imports is a core dependency in pyproject.toml, and every core
+    dependency is imported (a bare ``pip install .`` has what the code needs, nothing more)."""
+    import sys
+    import tomllib
+
+    project = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    declared = {re.split(r"[<>=!~ \[]", d)[0].lower() for d in project["dependencies"]}
+    import_name = {"pin": "pinocchio", "u-msgpack-python": "umsgpack"}
+    declared_imports = {import_name.get(d, d) for d in declared}
+    used: set[str] = set()
+    for path in PACKAGE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                used |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                used.add(node.module.split(".")[0])
+    third_party = {m for m in used if m not in sys.stdlib_module_names and m != "deltacal"}
+    assert third_party <= declared_imports, f"imported but not declared: {third_party - declared_imports}"
+    assert declared_imports <= third_party, f"declared but never imported: {declared_imports - third_party}"

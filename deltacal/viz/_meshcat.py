@@ -16,7 +16,8 @@ def _meshcat() -> Any:
         import meshcat.animation  # noqa: F401
         import meshcat.geometry  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ViewerError("deltacal.viz needs meshcat: pip install 'deltacal[viz]' (meshcat>=0.3.2)") from exc
+        raise ViewerError("deltacal.viz needs meshcat, a dependency of deltacal that is missing: "
+                          "pip install 'meshcat>=0.3.2'") from exc
     return meshcat
 
 
