@@ -19,8 +19,21 @@ EXIT_USAGE = 2
 EXIT_BUG = 3
 
 
+#: A number as users type it, and comma-separated lists of them (``-85,-85,-85``, ``-50,0,0``,
+#: ``-1e-3``): read as an option's value, never as an option (argparse knows ``-85`` only).
+_NUMBER = r"(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?"
+_NUMBERS = re.compile(rf"^-{_NUMBER}(?:,\s*[+-]?{_NUMBER})*$")
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line usage errors and exit status 2."""
+    """argparse with one-line usage errors and exit status 2.
+
+    Negative numbers and lists of numbers (``--home -85,-85,-85``) are values, as users type them.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = _NUMBERS
 
     def error(self, message: str) -> None:  # type: ignore[override]
         """Print the one-line usage error and exit with status 2."""
@@ -34,7 +47,11 @@ def one_line(text: str) -> str:
 
 
 def warn(lines: Sequence[str]) -> None:
-    """Print each line on stderr as ``warning: ...``, one line each."""
+    """Print each line on stderr as ``warning: ...``, one line each (a progress line cleared first)."""
+    from .progress import clear
+
+    if lines:
+        clear()
     for line in lines:
         print(one_line(f"warning: {line}"), file=sys.stderr)
 

@@ -28,8 +28,11 @@ def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
 
 
 def _readings_deg(text: str) -> np.ndarray:
-    """Argparse type: ``Q1,Q2,Q3`` in degrees -> readings [rad]."""
-    return np.radians(three_numbers(text, "Q1,Q2,Q3 (deg)"))
+    """Argparse type: ``Q1,Q2,Q3`` in degrees, each within ±180 (one turn of an arm) -> readings [rad]."""
+    values = three_numbers(text, "Q1,Q2,Q3 (deg)")
+    if np.any(np.abs(values) > 180.0):
+        raise argparse.ArgumentTypeError(f"readings must lie within ±180 deg, got {text!r}")
+    return np.radians(values)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -73,7 +73,9 @@ def _asks_version(argv: Sequence[str]) -> bool:
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings from the library on one line each, without the source location."""
     from .common import one_line
+    from .progress import clear
 
+    clear()  # never glued to a progress line
     print(one_line(f"warning: {message}"), file=sys.stderr)
 
 

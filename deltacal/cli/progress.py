@@ -9,6 +9,21 @@ from typing import TextIO
 #: Work shorter than this [s] shows no progress line.
 DELAY = 2.0
 
+#: The progress line on the terminal now, if any: a warning clears it first (see :func:`clear`).
+_shown: list[Progress] = []
+
+
+def clear() -> None:
+    """Clear the progress line, if one is shown, so that a message starts on a clean line.
+
+    The next update draws it again, below the message.
+    """
+    for progress in _shown:
+        progress.stream.write("\r\x1b[K")
+        progress.stream.flush()
+        progress.shown = False
+    _shown.clear()
+
 
 class Progress:
     """``label: 42%`` rewritten in place on stderr, from :data:`DELAY` seconds on, TTY only.
@@ -35,8 +50,12 @@ class Progress:
         self.stream.write(text + "\x1b[K")
         self.stream.flush()
         self.shown = True
+        if self not in _shown:
+            _shown.append(self)
 
     def __exit__(self, *exc: object) -> None:
         if self.shown:
             self.stream.write("\r\x1b[K")
             self.stream.flush()
+        if self in _shown:
+            _shown.remove(self)

@@ -58,6 +58,9 @@ ACCEPTED = ("plain decimal numbers with ASCII digits, '.' as decimal point and a
 
 
 def _csv_fields(line: str, source: str, line_no: int) -> list[str]:
+    if "\r" in line.rstrip("\r\n") and '"' not in line:
+        raise InputError("the lines end in CR alone (an old Mac format): save the file with LF or CRLF "
+                         "line endings", source, f"line {line_no}")
     try:
         return next(csv.reader([line]))
     except (csv.Error, StopIteration) as exc:

@@ -1,0 +1,60 @@
+"""Messages on a terminal (issue 21): a warning never glued to the progress line."""
+
+from __future__ import annotations
+
+import io
+import sys
+
+from deltacal.cli.common import warn
+from deltacal.cli.progress import Progress
+
+
+class Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_warning_clears_the_progress_line_first(monkeypatch):
+    terminal = Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    with Progress("compensate", delay=0.0) as progress:
+        progress.update(0.1, "reading")
+        warn(["the column extra_mm is ignored"])
+        progress.update(0.5, "computing")
+    text = terminal.getvalue()
+    before, _, after = text.partition("warning: ")
+    assert before.endswith("\r\x1b[K"), repr(text)  # the progress line cleared, then the warning
+    assert after.startswith("the column extra_mm is ignored\n")
+    assert "compensate:  50% computing" in after  # drawn again below the warning
+    assert text.endswith("\r\x1b[K")
+
+
+def test_cr_only_line_endings_are_named(tmp_path, capsys):
+    from conftest import MODELS
+
+    from deltacal.cli import main
+
+    targets = tmp_path / "t.csv"
+    targets.write_bytes(b"x_mm,y_mm,z_mm\r0,0,-850\r10,0,-850\r")
+    robot = tmp_path / "g.toml"
+    from deltacal.io import load_nominal, save_geometry
+
+    save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), robot)
+    assert main(["compensate", str(robot), str(targets), "-o", str(tmp_path / "j.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "t.csv: line 1: the lines end in CR alone" in err and "LF or CRLF" in err
+    assert "universal-newline" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_negative_values_are_read_as_users_type_them(tmp_path, capsys):
+    from conftest import MODELS
+
+    from deltacal.cli import main
+    from deltacal.io import load_nominal, save_geometry
+
+    robot = tmp_path / "g.toml"
+    save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), robot)
+    assert main(["export", str(robot), "--mjcf", str(tmp_path / "m.xml"), "--home", "-5,-5,-5"]) == 0
+    assert main(["export", str(robot), "--mjcf", str(tmp_path / "n.xml"), "--home", "1e300,0,0"]) == 2
+    err = capsys.readouterr().err
+    assert "within ±180 deg" in err and not (tmp_path / "n.xml").exists()
