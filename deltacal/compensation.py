@@ -133,14 +133,15 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     """Targets whose readings are not finite, out of the arm's range, or miss the target, (N,) bool.
 
     Missing is judged through the exact forward kinematics of ``geometry`` (the identified
-    robot), against :data:`CHECK_TOLERANCE` of the method. The exact method's Newton
-    already checked its closure and TCP residuals: only finiteness and range are checked.
+    robot) started from its working assembly (the virtual model's pose, plate parallel: where
+    the robot is when it comes from its home), against :data:`CHECK_TOLERANCE` of the method.
+    For the exact method too: its inverse closes the loops wherever Newton led it, which far
+    out can be another assembly than the working one (readings that would put the real robot
+    millimetres away); those targets are refused.
     """
     bad = ~np.all(np.isfinite(q), axis=1)
     with np.errstate(invalid="ignore"):
         bad |= np.any((q < ARM_RANGE[0]) | (q > ARM_RANGE[1]), axis=1)
-    if method == "exact":
-        return bad
     ok = np.flatnonzero(~bad)
     while ok.size:
         try:

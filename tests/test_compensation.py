@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-from conftest import workspace_points
+from conftest import MODELS, workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import Tolerances, UnreachableError, VirtualDelta
+from deltacal import DeltaMultibody, Tolerances, UnreachableError, VirtualDelta
 from deltacal.compensation import (
     LinearCalibration,
     compensate,
@@ -239,3 +239,29 @@ def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin
     with pytest.raises(UnreachableError) as caught:
         screen(g, batch, method, linear, min_margin)
     assert caught.value.indices == [500]
+
+
+def test_readings_of_another_assembly_are_refused(tmp_path):
+    """Issue 21, item 1: far targets that the inverse closes in another assembly than the working one.
+
+    On this calibration exact.inverse gives readings for (576.3, 576.3, -350) and (678.82, 678.82,
+    -325) at which the robot coming from its home (the FK from the working assembly, and the
+    Pinocchio model) puts the TCP millimetres away: compensate refuses them by index.
+    """
+    from deltacal.cli import main
+    from deltacal.io import load_calibration
+
+    robot = str(MODELS / "bai2015.toml")
+    p, m, cal = (str(tmp_path / n) for n in ("p.csv", "m.csv", "cal.toml"))
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "60", "--seed", "1", "-o", p]) == 0
+    assert main(["simulate", robot, p, "--perturb", "7", "--points", "smr_centre,smr_offset", "-o", m]) == 0
+    assert main(["identify", robot, m, "-o", cal]) == 0
+    g = load_calibration(cal).geometry
+    targets = np.array([[0.0, 0.0, -850.0], [576.3, 576.3, -350.0], [678.82, 678.82, -325.0]])
+    q = exact.inverse(g, targets)  # the inverse's own assembly reaches them ...
+    working = DeltaMultibody(g).forward(q).point(g.tool)  # ... the robot from its home does not
+    miss = np.linalg.norm(working - targets, axis=1)
+    assert miss[0] < 1e-6 and np.all(miss[1:] > 1.0), miss
+    with pytest.raises(UnreachableError) as info:
+        compensate(g, targets)
+    assert info.value.indices == [1, 2] and info.value.reason == UnreachableError.CHECK_FAILED
