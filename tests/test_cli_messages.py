@@ -58,3 +58,24 @@ def test_negative_values_are_read_as_users_type_them(tmp_path, capsys):
     assert main(["export", str(robot), "--mjcf", str(tmp_path / "n.xml"), "--home", "1e300,0,0"]) == 2
     err = capsys.readouterr().err
     assert "within ±180 deg" in err and not (tmp_path / "n.xml").exists()
+
+
+def test_a_plan_that_cannot_identify_its_model_is_refused(tmp_path, capsys):
+    from conftest import MODELS
+
+    from deltacal.cli import main
+
+    robot, out = str(MODELS / "bai2015.toml"), str(tmp_path / "p.csv")
+    for options, needed in ((["--count", "7"], "of the 42"), (["--count", "1"], "of the 42"),
+                            (["--model", "classical", "--count", "2"], "of the 24")):
+        assert main(["plan", robot, "--strategy", "doptimal", *options, "-o", out]) == 1
+        err = capsys.readouterr().err
+        assert needed in err and "use --count" in err and len(err.strip().splitlines()) == 1
+    assert main(["plan", robot, "--strategy", "doptimal", "--points", ",", "-o", out]) == 1
+    assert "no point named" in capsys.readouterr().err
+    assert main(["plan", robot, "--count", "7", "-o", out]) == 2
+    assert "--count applies to --strategy doptimal" in capsys.readouterr().err
+    from pathlib import Path
+
+    assert not Path(out).exists()
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "20", "-o", out]) == 0

@@ -146,6 +146,8 @@ def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> 
 def point_list(text: str, known: Sequence[str], option: str = "--points") -> list[str]:
     """Comma-separated point names, each checked against the robot's points."""
     points = [p.strip() for p in text.split(",") if p.strip()]
+    if not points:
+        raise InputError(f"no point named in {text!r}; the robot's points are {', '.join(known)}", option)
     for name in points:
         if name not in known:
             raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(known)}", option)

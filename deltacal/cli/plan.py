@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ..exceptions import UsageError
+from ..exceptions import PlanningError, UsageError
 from ..identifiability import base_parameters
 from ..io import load_nominal, write_poses
 from ..planning import (
@@ -98,6 +98,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         points = default_points(geometry, model, measurement)
     if args.strategy == "bai":
+        if args.count is not None:
+            raise UsageError("--count applies to --strategy doptimal; the bai strategy chooses n by Eq. 21 "
+                             "(or --n)")
         poses, report = _plan_bai(args, nominal, model, measurement, points)
     else:
         poses, report = _plan_doptimal(args, nominal, model, measurement, points)
@@ -141,14 +144,20 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
         raise UsageError("D-optimal selection is for pose or position measurements (--measure)")
     rng = np.random.default_rng(args.seed)
     pool = candidate_pool(nominal, args.pool, rng)
-    count = args.count
-    if count is None:
-        rows = 6 if measurement == "pose" else 3 * len(points)
-        geometry = nominal.geometry()
-        H = identification_matrix(geometry, model, pool.q[:200], measurement, points)
-        rank = base_parameters(H, model.names, rtol=_RTOL).rank
-        count = max(math.ceil(2 * rank / rows), 3)
+    rows = 6 if measurement == "pose" else 3 * len(points)
+    H = identification_matrix(nominal.geometry(), model, pool.q[:200], measurement, points)
+    rank = base_parameters(H, model.names, rtol=_RTOL).rank  # what such measurements can identify
+    count = max(math.ceil(2 * rank / rows), 3) if args.count is None else args.count
     design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points)
+    chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
+    got = base_parameters(chosen, model.names, rtol=_RTOL).rank
+    if got < rank or not math.isfinite(design.log_det):
+        need = math.ceil(rank / rows)
+        raise PlanningError(
+            f"{count} pose(s) of {measurement} measurements ({rows} equations each) identify {got} of the "
+            f"{rank} base parameters of model {model.name} that such measurements identify: use --count "
+            f"{need + 1} or more (about {max(2 * need, 3)} for a useful estimate)"
+        )
     text = (
         f"D-optimal selection for model {model.name}, {measurement} measurements of {','.join(points)}: "
         f"{count} of {len(pool)} candidates (seed {args.seed}), {len(design.base_names)} base "
