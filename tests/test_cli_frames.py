@@ -80,3 +80,18 @@ def test_instrument_frame_usage_errors(calibrated, capsys):
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_targets_in_the_wrong_frame_get_a_hint(calibrated, capsys):
+    """Issue 21, item 12: tracker-frame targets without --frame instrument (and the converse)."""
+    frames = load_instrument(calibrated / "cal.toml")
+    targets = np.array([[0.0, 0.0, -850.0], [120.0, -60.0, -900.0], [-200.0, 150.0, -780.0]])
+    write_targets(calibrated / "t_east2.csv", frames["east"].from_base(targets))
+    write_targets(calibrated / "t_base2.csv", targets)
+    cal, out = str(calibrated / "cal.toml"), str(calibrated / "never2.csv")
+    assert main(["compensate", cal, str(calibrated / "t_east2.csv"), "-o", out]) == 1
+    err = capsys.readouterr().err
+    assert "out of reach" in err and "use --frame instrument --station east|west" in err
+    assert main(["compensate", cal, str(calibrated / "t_base2.csv"), "--frame", "instrument", "--station",
+                 "east", "-o", out]) == 1
+    assert "leave out --frame instrument" in capsys.readouterr().err

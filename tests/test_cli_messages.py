@@ -79,3 +79,24 @@ def test_a_plan_that_cannot_identify_its_model_is_refused(tmp_path, capsys):
 
     assert not Path(out).exists()
     assert main(["plan", robot, "--strategy", "doptimal", "--count", "20", "-o", out]) == 0
+
+
+def test_station_names_that_look_like_slips_are_warned(tmp_path):
+    """Issue 21, item 15: "East" beside "east", empty station cells, stations of too few poses."""
+    from deltacal.io import read_measurement_file
+
+    rows = ["q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm,station"]
+    for k in range(9):
+        station = ("East", "east", "")[k % 3]
+        rows.append(f"{k},{2 * k},{3 * k},1,2,{-800 - k},{station}")
+    rows.append("40,10,10,1,2,-800,lonely")
+    path = tmp_path / "m.csv"
+    path.write_text("\n".join(rows) + "\n")
+    warnings = " | ".join(read_measurement_file(path).warnings)
+    assert "3 row(s) have an empty station" in warnings
+    assert "'East', 'east' differ only in case" in warnings
+    assert "'lonely' hold fewer than 3 poses" in warnings
+    clean = tmp_path / "c.csv"
+    clean.write_text("\n".join(r.rsplit(",", 1)[0] + (",a" if i else ",station")
+                               for i, r in enumerate(rows[:-1])) + "\n")
+    assert read_measurement_file(clean).warnings == []

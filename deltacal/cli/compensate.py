@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
             progress.update(0.1 * chunk.read / size, "reading")
         warn(targets_file.warnings)
         if refused is not None:  # a bad value anywhere came first; the file's rows are now known
-            raise _unreachable(*refused, targets_file) from refused[0]
+            raise _unreachable(*refused, targets_file, _frame_hint(args, frames)) from refused[0]
         with JointsWriter(args.output) as out:
             for chunk in targets_file.chunks():
                 in_base = chunk.targets if to_base is None else to_base(chunk.targets)
@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
                 except UnreachableError as exc:
                     if not exc.indices:
                         raise
-                    raise _unreachable(exc, chunk, targets_file) from exc
+                    raise _unreachable(exc, chunk, targets_file, _frame_hint(args, frames)) from exc
                 out.write(chunk, q)
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
     print(f"wrote {out.rows} joint readings to {args.output}")
@@ -95,15 +95,28 @@ def _linear(calibration, path: str):
         raise UsageError(str(exc)) from None
 
 
-def _unreachable(exc: UnreachableError, chunk: TargetChunk, targets_file: TargetFile) -> InputError:
-    """The error naming the first unreachable target's line (and the others of its chunk)."""
+def _frame_hint(args: argparse.Namespace, frames: dict) -> str:
+    """What to try when targets are out of reach and the calibration has instrument stations."""
+    if not frames:
+        return ""
+    if args.frame == "instrument":
+        return "; are the targets in the robot base frame {O}? then leave out --frame instrument"
+    station = " --station " + "|".join(frames) if len(frames) > 1 else ""
+    return (f"; are the targets in the tracker's frame? the calibration has stations ({', '.join(frames)}): "
+            f"use --frame instrument{station}")
+
+
+def _unreachable(exc: UnreachableError, chunk: TargetChunk, targets_file: TargetFile,
+                 hint: str = "") -> InputError:
+    """The error naming the first unreachable target's line (and the others of its chunk), and a hint."""
     k = exc.indices[0]
     lines = chunk.lines[exc.indices].tolist()
     whole = len(chunk) == targets_file.rows
     scope = "in all" if whole else f"in lines {int(chunk.lines[0])}-{int(chunk.lines[-1])}"
     more = f"; {len(lines)} targets {scope}, lines {lines_text(lines)}" if len(lines) > 1 else ""
     return InputError(
-        f"target {np.round(chunk.targets[k], 6).tolist()} mm is {UnreachableError.WORDS[exc.reason]}{more}",
+        f"target {np.round(chunk.targets[k], 6).tolist()} mm is {UnreachableError.WORDS[exc.reason]}{more}"
+        + (hint if exc.reason == UnreachableError.OUT_OF_REACH and len(lines) * 2 > len(chunk) else ""),
         targets_file.source, f"{chunk.where(k)}, columns x_mm..z_mm",
     )
 

@@ -77,7 +77,37 @@ def read_measurement_file(path: str | Path, point_names: list[str] | None = None
     if "rx_deg" in table.numbers:
         rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
     measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations)
-    return MeasurementFile(measurements, np.asarray(table.lines), table.warnings, str(path))
+    warnings = list(table.warnings) + _station_warnings(table.text.get("station"), measurements)
+    return MeasurementFile(measurements, np.asarray(table.lines), warnings, str(path))
+
+
+def _station_warnings(column: list[str] | None, measurements: Measurements) -> list[str]:
+    """Stations that look like typing slips, as warnings.
+
+    Names differing only in case or spaces, empty cells beside named stations, stations holding
+    fewer than 3 poses (a frame of their own needs them).
+    """
+    if column is None:
+        return []
+    out = []
+    if any(not s for s in column) and any(s for s in column):
+        out.append(f"{sum(1 for s in column if not s)} row(s) have an empty station: they form the station "
+                   f"{DEFAULT_STATION!r} beside the named ones; name their station")
+    names = measurements.stations
+    folded: dict[str, list[str]] = {}
+    for name in names:
+        folded.setdefault(name.strip().casefold(), []).append(name)
+    for same in folded.values():
+        if len(same) > 1:
+            out.append(f"stations {', '.join(repr(s) for s in same)} differ only in case or spaces: "
+                       "each is a station of its own (one frame each); one station?")
+    poses = {s: len(set(map(tuple, measurements.q[[k for k, t in enumerate(measurements.station) if t == s]]
+                            .round(9).tolist()))) for s in names}
+    few = [s for s, n in poses.items() if n < 3]
+    if len(names) > 1 and few:
+        out.append(f"station(s) {', '.join(repr(s) for s in few)} hold fewer than 3 poses: too few for a "
+                   "frame of their own (with --frame free); a typing slip in the station column?")
+    return out
 
 
 def write_measurements(path: str | Path, measurements: Measurements) -> None:
