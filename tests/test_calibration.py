@@ -106,3 +106,20 @@ def test_geometry_edited_in_one_place_is_refused_by_report_and_export(fitted, tm
                  ["export", tmp_path / "bad.toml", "--mjcf", tmp_path / "m.xml"]):
         assert main([str(a) for a in argv]) == 1
         assert "[geometry] and [nominal] disagree: key geometry.tool_mm" in capsys.readouterr().err
+
+
+def test_report_of_another_robot_is_refused(fitted, tmp_path, capsys):
+    """Issue 21, item 13: --robot or --truth of another robot gave "actual error 5.9e5 µm", exit 0."""
+    from deltacal.io import load_nominal, save_geometry
+
+    save_calibration(fitted, tmp_path / "cal.toml")
+    other = tmp_path / "flex.toml"
+    save_geometry(load_nominal(MODELS / "flexpicker.toml").geometry(), other)
+    same = tmp_path / "truth.toml"
+    save_geometry(fitted.geometry, same)
+    cal, out = str(tmp_path / "cal.toml"), str(tmp_path / "r.html")
+    for option, path in (("--truth", other), ("--robot", MODELS / "flexpicker.toml")):
+        assert main(["report", cal, option, str(path), "--no-view", "-o", out]) == 1
+        err = capsys.readouterr().err
+        assert "is not the calibration's robot" in err and len(err.strip().splitlines()) == 1
+    assert main(["report", cal, "--truth", str(same), "--robot", str(NOMINAL), "--no-view", "-o", out]) == 0

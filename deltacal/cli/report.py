@@ -6,7 +6,9 @@ import argparse
 
 import numpy as np
 
-from ..io import load_geometry, load_nominal
+from ..exceptions import InputError
+from ..identification.quality import implausible_deviations
+from ..io import load_calibration, load_geometry, load_nominal
 from ..report import write_report
 from .common import check_input, check_output, three_numbers, warn
 
@@ -23,8 +25,17 @@ def run(args: argparse.Namespace) -> int:
         if path is not None:
             check_input(path)
     check_output(args.output, inputs)
+    nominal = load_calibration(args.calibration).nominal
     truth = load_geometry(args.truth) if args.truth is not None else None
-    workspace = load_nominal(args.robot).workspace if args.robot is not None else None
+    robot = load_nominal(args.robot) if args.robot is not None else None
+    for path, geometry, what in ((args.truth, truth, "true robot"),
+                                 (args.robot, robot.geometry() if robot else None, "robot file")):
+        odd = implausible_deviations(nominal, geometry) if geometry is not None else []
+        if odd:
+            name = nominal.name or "robot"
+            raise InputError(f"this {what} is not the calibration's robot ({'; '.join(odd)} from the "
+                             f"calibration's nominal {name!r}): the file of another robot?", str(path))
+    workspace = robot.workspace if robot is not None else None
     summary = write_report(
         args.calibration,
         args.output,
