@@ -100,3 +100,19 @@ def test_station_names_that_look_like_slips_are_warned(tmp_path):
     clean.write_text("\n".join(r.rsplit(",", 1)[0] + (",a" if i else ",station")
                                for i, r in enumerate(rows[:-1])) + "\n")
     assert read_measurement_file(clean).warnings == []
+
+
+def test_a_station_name_with_a_comma_reads_back(tmp_path):
+    """Issue 21, item 6: simulate wrote `a,b` unquoted and identify failed on its own file."""
+    from conftest import MODELS
+
+    from deltacal.cli import main
+    from deltacal.io import read_measurements
+
+    robot = str(MODELS / "bai2015.toml")
+    poses, meas, cal = (str(tmp_path / n) for n in ("p.csv", "m.csv", "c.toml"))
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "30", "-o", poses]) == 0
+    assert main(["simulate", robot, poses, "--perturb", "2", "--no-orientation",
+                 "--station", 'a,b "north":0,0,20:1500,300,100', "-o", meas]) == 0
+    assert read_measurements(meas)[0].stations == ['a,b "north"']
+    assert main(["identify", robot, meas, "--frame", "free", "-o", cal]) == 0

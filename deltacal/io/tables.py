@@ -311,12 +311,19 @@ def _unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:
     return out
 
 
+def _quoted(text: str) -> str:
+    """A text field as CSV writes it: quoted (quotes doubled) when it holds a comma or a quote."""
+    if any(c in text for c in ',"'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
 def _format_rows(columns: list[np.ndarray], header: list[str], extra: list[list[str]] | None = None) -> str:
     data = np.column_stack(columns) if columns else np.zeros((0, 0))
     out = [",".join(header)]
     for k, row in enumerate(data):
         fields = [("" if math.isnan(v) else repr(float(v))) for v in row]
         if extra is not None:
-            fields += extra[k]
+            fields += [_quoted(text) for text in extra[k]]
         out.append(",".join(fields))
     return "\n".join(out) + "\n"
