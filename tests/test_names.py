@@ -165,7 +165,8 @@ def test_control_characters_in_files_are_refused_by_row_and_column_or_key(tmp_pa
     assert err.count("\n") == 1 and "point name 'smr\\x07'" in err and "Traceback" not in err
     option = "a\x01b:0,0,0:0,0,0"
     out = tmp_path / "x.csv"
-    assert main(["simulate", str(robot), str(meas), "--perturb", "1", "--station", option, "-o", str(out)]) == 2
+    args = ["simulate", str(robot), str(meas), "--perturb", "1", "--station", option, "-o", str(out)]
+    assert main(args) == 2
     err = capsys.readouterr().err
     assert "argument --station: station name 'a\\x01b' holds the control character U+0001" in err
     assert not out.exists()
