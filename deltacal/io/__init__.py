@@ -28,6 +28,7 @@ from .geometry_file import (
     save_geometry,
 )
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
+from .names import check_names, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .robot import load_nominal
 from .tables import (
@@ -59,6 +60,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "calibration_from_result",
+    "check_names",
     "calibration_to_dict",
     "check_calibration",
     "check_format",
@@ -74,6 +76,7 @@ __all__ = [
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",
+    "name_problem",
     "radians_from_text",
     "read_csv_table",
     "read_measurements",

@@ -12,6 +12,7 @@ from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
+from .names import check_names
 from .toml import _Table, read_toml
 
 #: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
@@ -70,6 +71,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
     points: dict[str, np.ndarray] = {}
     pts = top.table("points", required=False)
     if pts is not None:
+        check_names(pts.data, "point", source, "key points")
         for k in pts.data:
             if k == "tcp":
                 raise pts.error(k, "'tcp' is reserved for the tool centre point")
