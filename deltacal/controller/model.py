@@ -86,9 +86,10 @@ class Controller:
             GeometryError: the geometry is not of that form (an identified robot: fit a controller
                 to it with :func:`deltacal.controller.fit_controller` instead).
         """
-        if isinstance(geometry, NominalDelta):
-            name = name or geometry.name
-            geometry = geometry.geometry()
+        if isinstance(geometry, NominalDelta):  # its values as written (the geometry's round off 1e-14)
+            n = geometry
+            return cls(n.limb_azimuth, *(np.full(3, v) for v in (n.base_radius, n.plate_radius, n.arm_length,
+                                                                  n.rod_length)), np.zeros(3), n.tool, name or n.name)
         virtual = VirtualDelta.from_geometry(geometry)
         r = radial_vectors(geometry.limb_azimuth)
         b = np.sum(virtual.axis_point * r, axis=1)

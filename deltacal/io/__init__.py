@@ -18,6 +18,7 @@ from .calibration import (
     load_linear_calibration,
     save_calibration,
 )
+from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -46,6 +47,10 @@ from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dum
 
 __all__ = [
     "CALIBRATION_FORMAT",
+    "CONTROLLER_FORMAT",
+    "controller_to_dict",
+    "load_controller",
+    "save_controller",
     "CsvTable",
     "GEOMETRY_FORMAT",
     "JOINT_COLUMNS",
