@@ -31,6 +31,9 @@ from ..kinematics.closed_form import VirtualDelta
 #: How far a geometry may be from the controller's form to be read as one [mm, rad].
 FORM_TOLERANCE = 1e-9
 
+#: Decimals of the lengths read from a geometry [mm] (1e-12 mm: round-off of its projections removed).
+LENGTH_DECIMALS = 12
+
 #: The per-limb values, in the order of the controller file's keys (and of the fit's parameters).
 LIMB_VALUES = ("limb_azimuth", "base_radius", "plate_radius", "arm_length", "rod_length", "joint_offset")
 
@@ -92,18 +95,19 @@ class Controller:
                                                                   n.rod_length)), np.zeros(3), n.tool, name or n.name)
         virtual = VirtualDelta.from_geometry(geometry)
         r = radial_vectors(geometry.limb_azimuth)
-        b = np.sum(virtual.axis_point * r, axis=1)
-        a = np.sum(virtual.plate_attachment * r, axis=1)
-        built = cls(geometry.limb_azimuth, b, a, virtual.elbow[:, 0], virtual.rod_length,
-                    virtual.encoder_offset, geometry.tool, name or geometry.name).virtual
+        # lengths to LENGTH_DECIMALS: 51.0, not the projection's 51.00000000000001
+        b = np.round(np.sum(virtual.axis_point * r, axis=1), LENGTH_DECIMALS)
+        a = np.round(np.sum(virtual.plate_attachment * r, axis=1), LENGTH_DECIMALS)
+        L, l_rod = (np.round(v, LENGTH_DECIMALS) for v in (virtual.elbow[:, 0], virtual.rod_length))
+        built = cls(geometry.limb_azimuth, b, a, L, l_rod, virtual.encoder_offset, geometry.tool).virtual
         off = max(float(np.max(np.abs(getattr(built, k) - getattr(virtual, k))))
                   for k in ("axis_point", "actuator_rotation", "elbow", "plate_attachment"))
         if off > FORM_TOLERANCE or not geometry.is_perfect(FORM_TOLERANCE):
             raise GeometryError(
                 f"the geometry {geometry.name or ''!r} is not of a controller's classical form (elements "
                 f"off it by up to {off:.3g}, or imperfect parallelograms): fit a controller to it instead")
-        return cls(geometry.limb_azimuth, b, a, virtual.elbow[:, 0], virtual.rod_length,
-                   virtual.encoder_offset, geometry.tool, name or geometry.name)
+        return cls(geometry.limb_azimuth, b, a, L, l_rod, virtual.encoder_offset, geometry.tool,
+                   name or geometry.name)
 
     @cached_property
     def virtual(self) -> VirtualDelta:
