@@ -82,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
                     raise _unreachable(exc, chunk, targets_file, _frame_hint(args, frames)) from exc
                 out.write(chunk, values)
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
-    what = "joint readings" if controller is None else f"corrected targets for the controller {args.controller}"
+    what = ("joint readings" if controller is None
+            else f"corrected targets for the controller {args.controller}")
     print(f"wrote {out.rows} {what} to {args.output}")
     return 0
 
@@ -158,7 +159,7 @@ def add_parser(sub) -> None:
                         "calibration identified with --frame free")
     p.add_argument("--station", help="with --frame instrument: the station whose frame the targets are in")
     p.add_argument("--controller", metavar="CONTROLLER",
-                   help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to send a "
-                        "controller running this model (a controller file, or a robot file: its nominal "
-                        "controller) instead of joint readings")
+                   help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
+                        "send a controller running this model (a controller file, or a robot file: its "
+                        "nominal controller) instead of joint readings")
     p.set_defaults(func=run)

@@ -1,4 +1,4 @@
-"""``deltacal export``: the identified robot as an MJCF model (MuJoCo, Pinocchio), or as a controller's values.
+"""``deltacal export``: the identified robot as an MJCF model (MuJoCo, Pinocchio), or a controller's values.
 
 ``--controller offsets|limbs`` fits the controller's joint offsets, or its per-limb values, to the
 calibration over a grid of the workspace (the report's accuracy-map grid of the robot file's
@@ -82,7 +82,8 @@ def run_controller(args: argparse.Namespace) -> int:
         k = exc.indices[0] if exc.indices else 0
         raise InputError(f"the workspace point {np.round(points[k], 3).tolist()} mm is out of reach of the "
                          f"{'controller model' if isinstance(exc, UnreachableError) else 'identified robot'}"
-                         f" (workspace: {_text(workspace)}{sized}): give --robot with a [workspace] it reaches",
+                         f" (workspace: {_text(workspace)}{sized}): give --robot with a [workspace] it "
+                         "reaches",
                          str(args.robot or args.calibration), "key workspace") from None
     notes = {"calibration": str(args.calibration), "workspace": _text(workspace) + sized}
     name = args.name or start.name or calibration.robot
@@ -108,8 +109,8 @@ def _start(calibration, args: argparse.Namespace) -> tuple[Controller, Workspace
     try:
         start = Controller.from_geometry(calibration.nominal)
     except GeometryError:
-        raise InputError("the calibration's nominal geometry is not a classical Delta (a geometry file?): give "
-                         "the robot file with --robot", str(args.calibration), "key nominal") from None
+        raise InputError("the calibration's nominal geometry is not a classical Delta (a geometry file?): "
+                         "give the robot file with --robot", str(args.calibration), "key nominal") from None
     return start, default_workspace(calibration.nominal), " (the default; --robot gives the robot's own)"
 
 
@@ -127,9 +128,9 @@ def add_parser(sub) -> None:
             "robot file) as an MJCF model in SI units: hinge joints arm1..arm3 whose values are the "
             "encoder readings [rad], ball-jointed rods closed on the plate by <connect> constraints, "
             "sites tcp and the named points, and a keyframe 'home' holding an assembly. With --controller "
-            "offsets|limbs: the controller file (deltacal-controller-1) of the joint offsets alone, or of the "
-            "per-limb values, that leave the least TCP error over the workspace; its [fit] and the printed "
-            "line give the error they leave."
+            "offsets|limbs: the controller file (deltacal-controller-1) of the joint offsets alone, or of "
+            "the per-limb values, that leave the least TCP error over the workspace; its [fit] and the "
+            "printed line give the error they leave."
         ),
     )
     p.add_argument("calibration", metavar="CALIBRATION",
@@ -137,13 +138,13 @@ def add_parser(sub) -> None:
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
     what.add_argument("--controller", choices=FIT_KINDS,
-                      help="write a controller file (-o) with the joint offsets alone, or the per-limb values, "
-                           "that best fit the calibration over the workspace")
+                      help="write a controller file (-o) with the joint offsets alone, or the per-limb "
+                           "values, that best fit the calibration over the workspace")
     p.add_argument("-o", "--output", metavar="CONTROLLER.toml", help="with --controller: the controller file")
     p.add_argument("--robot", metavar="ROBOT.toml",
-                   help="with --controller: the robot file (its nominal values start the fit and hold what the "
-                        "fit cannot identify; its [workspace] is the fit's; default: the calibration's nominal "
-                        "and the report's default workspace)")
+                   help="with --controller: the robot file (its nominal values start the fit and hold "
+                        "what the fit cannot identify; its [workspace] is the fit's; default: the "
+                        "calibration's nominal and the report's default workspace)")
     p.add_argument("--name", help="model (or controller) name (default: the robot's name)")
     p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
                    help="readings of the 'home' keyframe [deg] (default 0,0,0)")

@@ -12,4 +12,5 @@ from .fit import FIT_KINDS, ControllerFit, fit_controller
 from .model import Controller
 from .targets import CorrectedTargets, corrected_targets
 
-__all__ = ["FIT_KINDS", "Controller", "ControllerFit", "CorrectedTargets", "corrected_targets", "fit_controller"]
+__all__ = ["FIT_KINDS", "Controller", "ControllerFit", "CorrectedTargets", "corrected_targets",
+           "fit_controller"]

@@ -163,16 +163,18 @@ def fit_controller(
     columns = sorted(base.base)
     W = W[:, columns]
     controller = start
-    for iteration in range(1, max_iter + 1):
+    iteration = 0
+    while True:
+        iteration += 1
         step = np.linalg.lstsq(W, -residual, rcond=None)[0]
         controller = with_values(controller, fitted, values_of(controller, fitted) + step)
         moved = float(np.max(np.abs(W @ step)))
         residual, W = _jacobian(geometry, controller, points, fitted)
         if moved < TOLERANCE:
             break
-    else:
-        raise ConvergenceError(f"the {kind} fit did not converge in {max_iter} iterations (last step moved "
-                               f"the TCP by {moved:.3g} mm)", moved)
+        if iteration == max_iter:
+            raise ConvergenceError(f"the {kind} fit did not converge in {max_iter} iterations (last step "
+                                   f"moved the TCP by {moved:.3g} mm)", moved)
     errors = residual.reshape(-1, 3)
     after = np.linalg.norm(errors, axis=1)
     return ControllerFit(

@@ -91,8 +91,8 @@ class Controller:
         """
         if isinstance(geometry, NominalDelta):  # its values as written (the geometry's round off 1e-14)
             n = geometry
-            return cls(n.limb_azimuth, *(np.full(3, v) for v in (n.base_radius, n.plate_radius, n.arm_length,
-                                                                  n.rod_length)), np.zeros(3), n.tool, name or n.name)
+            b, a, L, l_rod = (np.full(3, v) for v in (n.base_radius, n.plate_radius, n.arm_length, n.rod_length))
+            return cls(n.limb_azimuth, b, a, L, l_rod, np.zeros(3), n.tool, name or n.name)
         virtual = VirtualDelta.from_geometry(geometry)
         r = radial_vectors(geometry.limb_azimuth)
         # lengths to LENGTH_DECIMALS: 51.0, not the projection's 51.00000000000001

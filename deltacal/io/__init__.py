@@ -42,7 +42,16 @@ from .tables import (
     read_csv_table,
     unassembled_rows,
 )
-from .targets import COMMAND_COLUMNS, CommandsWriter, JointsWriter, TargetChunk, TargetFile, joint_rows, read_target_table, write_joints
+from .targets import (
+    COMMAND_COLUMNS,
+    CommandsWriter,
+    JointsWriter,
+    TargetChunk,
+    TargetFile,
+    joint_rows,
+    read_target_table,
+    write_joints,
+)
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [

@@ -48,12 +48,13 @@ def load_controller(path: str | Path) -> Controller:
         return Controller.from_geometry(load_nominal(path))  # a robot file: its nominal controller
     top = _Table(data, source)
     if fmt in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
-        raise top.error("format", f"this is a deltacal {fmt!r} file, not a controller file: give a controller "
-                                  "file (from 'deltacal export CAL --controller offsets|limbs') or a robot file")
+        raise top.error("format", f"this is a deltacal {fmt!r} file, not a controller file: give a "
+                                  "controller file (from 'deltacal export CAL --controller offsets|limbs') "
+                                  "or a robot file")
     if fmt != CONTROLLER_FORMAT:
         what = "missing required key" if fmt is None else f"unknown format {_shown(fmt)}"
-        raise InputError(f"{what}: a controller file has format = {CONTROLLER_FORMAT!r} (or give a robot file)",
-                         source, "key format")
+        raise InputError(f"{what}: a controller file has format = {CONTROLLER_FORMAT!r} (or give a robot "
+                         "file)", source, "key format")
     top.raw("format")
     top.check_unknown(["format", "name", "controller", "fit"])
     name = top.string("name", "")

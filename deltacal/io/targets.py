@@ -279,7 +279,8 @@ def joint_rows(text: np.ndarray, q_deg: np.ndarray, decimals: int = JOINT_DECIMA
     scaled = np.rint(np.abs(q_deg) * 10.0**decimals)
     if not np.all(scaled < 2.0**53):
         limit = 2.0**53 / 10.0**decimals
-        raise ValueError(f"values must be finite and below {limit:,.0f} to be written exactly to {decimals} decimals")
+        raise ValueError(f"values must be finite and below {limit:,.0f} to be written exactly to {decimals} "
+                         "decimals")
     m = scaled.astype(np.int64)
     width = max(decimals + 1, len(str(int(m.max()))))
     digits = (m[..., None] // 10 ** np.arange(width - 1, -1, -1, dtype=np.int64)) % 10
