@@ -91,7 +91,8 @@ class Controller:
         """
         if isinstance(geometry, NominalDelta):  # its values as written (the geometry's round off 1e-14)
             n = geometry
-            b, a, L, l_rod = (np.full(3, v) for v in (n.base_radius, n.plate_radius, n.arm_length, n.rod_length))
+            values = (n.base_radius, n.plate_radius, n.arm_length, n.rod_length)
+            b, a, L, l_rod = (np.full(3, v) for v in values)
             return cls(n.limb_azimuth, b, a, L, l_rod, np.zeros(3), n.tool, name or n.name)
         virtual = VirtualDelta.from_geometry(geometry)
         r = radial_vectors(geometry.limb_azimuth)
