@@ -85,7 +85,7 @@ def _values(table: _Table, key: str, unit: str) -> np.ndarray:
     bad = np.flatnonzero((array < low) | (array > high))
     if bad.size:
         i = int(bad[0])
-        raise table.error(key, f"value {i + 1}, {array[i]!r} mm, is not a length of a Delta robot's "
+        raise table.error(key, f"value {i + 1}, {float(array[i])!r} mm, is not a length of a Delta robot's "
                                f"(from {low:g} to {high:,.0f} mm; a file in metres?)")
     return array
 
