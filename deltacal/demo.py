@@ -278,6 +278,7 @@ def _controller_routes(result, truth, nominal: NominalDelta) -> dict:
     identified, true_tool = result.geometry.with_tool(tool), truth.with_tool(tool)
     controller = Controller.from_geometry(nominal).replace(tool=tool)
     targets = validation_poses(nominal, tool=tool).targets
+    assert nominal.workspace is not None  # the demo robot's file has one
     grid = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(nominal.workspace)]) + tool
     grid = grid[np.all(np.isfinite(grid), axis=1)]
 
@@ -303,7 +304,8 @@ def controller_table(summary: dict) -> str:
         return ""
     names = {"nominal": "nominal model, targets as they are", "offsets": "joint offsets fitted",
              "limbs": "per-limb values fitted", "corrected": "nominal model, corrected targets"}
-    lines = ["", "", "a Cartesian controller (classical model), complete model's calibration, tool 200 mm, mm:",
+    lines = ["", "", "a Cartesian controller (classical model), complete model's calibration, tool 200 mm, "
+             "mm:",
              f"{'route':<36} | {'validation max':>14} {'RMS':>7} | {'grid: [fit] max':>15} {'RMS':>7} | "
              f"{'true max':>8} {'RMS':>7}"]
     for key, name in names.items():

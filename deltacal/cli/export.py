@@ -73,8 +73,8 @@ def run_controller(args: argparse.Namespace) -> int:
         check_input(path)
     check_output(args.output, inputs)
     calibration = load_calibration(args.calibration)
-    start, workspace, sized = _start(calibration, args)
-    points = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(workspace, GRID)])
+    start, workspace, shift, sized = _start(calibration, args)
+    points = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(workspace, GRID)]) + shift
     points = points[np.all(np.isfinite(points), axis=1)]
     try:
         fit = fit_controller(calibration, start, points, args.controller)
@@ -99,19 +99,26 @@ def run_controller(args: argparse.Namespace) -> int:
     return 0
 
 
-def _start(calibration, args: argparse.Namespace) -> tuple[Controller, Workspace, str]:
-    """The nominal controller, the workspace and a note on where the workspace came from."""
+def _start(calibration, args: argparse.Namespace) -> tuple[Controller, Workspace, np.ndarray, str]:
+    """The nominal controller, the workspace, its shift [mm] and a note on where it came from.
+
+    The controller's tool is the calibration's (the TCP identified); a robot file's workspace is
+    for its own tool, so it is shifted by the difference (the convention of the robot file).
+    """
+    tool = calibration.nominal.tool
     if args.robot is not None:
         nominal = load_nominal(args.robot)
+        start = Controller.from_geometry(nominal).replace(tool=tool)
         if nominal.workspace is not None:
-            return Controller.from_geometry(nominal), nominal.workspace, ""
-        return Controller.from_geometry(nominal), default_workspace(nominal.geometry()), " (the default)"
+            return start, nominal.workspace, tool - nominal.tool, ""
+        return start, default_workspace(nominal.geometry().with_tool(tool)), np.zeros(3), " (the default)"
     try:
         start = Controller.from_geometry(calibration.nominal)
     except GeometryError:
         raise InputError("the calibration's nominal geometry is not a classical Delta (a geometry file?): "
                          "give the robot file with --robot", str(args.calibration), "key nominal") from None
-    return start, default_workspace(calibration.nominal), " (the default; --robot gives the robot's own)"
+    return (start, default_workspace(calibration.nominal), np.zeros(3),
+            " (the default; --robot gives the robot's own)")
 
 
 def _text(workspace: Workspace) -> str:
