@@ -29,6 +29,7 @@ LAYERS = {
     "planning": 40,
     "simulation": 40,
     "validation": 40,
+    "controller": 38,
     "calibration": 36,
     "identification": 35,
     "compensation": 33,

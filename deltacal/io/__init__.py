@@ -18,6 +18,7 @@ from .calibration import (
     load_linear_calibration,
     save_calibration,
 )
+from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -42,11 +43,24 @@ from .tables import (
     read_csv_table,
     unassembled_rows,
 )
-from .targets import JointsWriter, TargetChunk, TargetFile, joint_rows, read_target_table, write_joints
+from .targets import (
+    COMMAND_COLUMNS,
+    CommandsWriter,
+    JointsWriter,
+    TargetChunk,
+    TargetFile,
+    joint_rows,
+    read_target_table,
+    write_joints,
+)
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [
     "CALIBRATION_FORMAT",
+    "CONTROLLER_FORMAT",
+    "controller_to_dict",
+    "load_controller",
+    "save_controller",
     "CsvTable",
     "GEOMETRY_FORMAT",
     "JOINT_COLUMNS",
@@ -87,6 +101,8 @@ __all__ = [
     "PosesFile",
     "read_target_table",
     "JointsWriter",
+    "CommandsWriter",
+    "COMMAND_COLUMNS",
     "TargetChunk",
     "TargetFile",
     "joint_rows",

@@ -44,6 +44,24 @@ def exact_degrees(angle: float) -> RawToml:
     return RawToml(text.replace("E", "e"))
 
 
+def short_degrees(angle: float) -> RawToml:
+    """An angle [rad] in degrees with the fewest digits that read back to it within two ulps.
+
+    ``30.0`` rather than ``29.999999999999996`` for ``math.radians(30.0)`` (which
+    :func:`radians_from_text` reads back one ulp, 6e-17 rad, away): for files a person reads and
+    types into a controller. :func:`exact_degrees` is the bit-for-bit form.
+    """
+    if math.isfinite(angle):
+        with localcontext() as ctx:
+            ctx.prec = 50
+            deg = Decimal(angle) * 180 / _PI
+        for digits in range(1, 18):
+            text = repr(float(format(deg, f".{digits}g")))
+            if abs(radians_from_text(Decimal(text)) - angle) <= 2.0 * math.ulp(angle):
+                return RawToml(text)
+    return exact_degrees(angle)
+
+
 def radians_from_text(value: Decimal | float) -> float:
     """Degrees read from a file (Decimal keeps every digit) to radians, rounded once."""
     if isinstance(value, float):
