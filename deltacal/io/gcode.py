@@ -209,9 +209,11 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             batch.single(plan[0], number, plan[1])
         else:
             path, text = plan
-            for k0 in range(0, path.n, CHUNK_POINTS):
-                k1 = min(path.n, k0 + CHUNK_POINTS)
+            k0 = 0
+            while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
+                k1 = min(path.n, k0 + batch.room())
                 batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
+                k0 = k1
                 if batch.full():
                     yield batch.flush()
         if batch.full():
@@ -281,6 +283,7 @@ class _Reader:
         self.source = source
         self.segment_mm = segment_mm
         self.state = _State(start)
+        self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
     def fail(self, number: int, detail: str) -> InputError:
         """The error for line ``number``."""
@@ -297,6 +300,7 @@ class _Reader:
                 self.state.m83, self.state.m83_ended = m.group(1) == "83", False
             return None
         code, comment, ending = _split(line)
+        self.newline = ending or self.newline
         parens = ""
         if "(" in code:
             parens = " ".join(_PARENS.findall(code))
@@ -423,7 +427,7 @@ class _Reader:
                 raise self.fail(number, f"checksum {value!r} on a move line: checksums and line numbers "
                                         "belong to the serial link; remove them from the file")
             if letter not in allowed:
-                raise self.fail(number, f"word {letter}{value} on a {'n arc' if arc else ' move'} line "
+                raise self.fail(number, f"word {letter}{value} on {'an arc' if arc else 'a move'} line "
                                         "is not supported by the filter")
             if letter in given and letter != "G":
                 raise self.fail(number, f"word {letter} given twice")
@@ -439,8 +443,8 @@ class _Reader:
         head = " ".join(x for x in ((f"N{given['N']}" if "N" in given else ""),
                                     *(f"G{g:g}" for g in gs if g in _MODES)) if x)
         tail = "".join(f" {k}{given[k]}" for k in "FS" if k in given)
-        text = MoveText(st.relative, "G0" if st.motion == 0.0 else "G1", head, tail, comment, ending,
-                        e_text, e_mode, e_start)
+        text = MoveText(st.relative, "G0" if st.motion == 0.0 else "G1", head, tail, comment,
+                        (ending, self.newline), e_text, e_mode, e_start)
         if None in start:
             if arc:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "

@@ -50,21 +50,22 @@ class MoveText:
         head: ``N`` label and mode words (G90, G91, G17, G21) of the line, or "".
         tail: `` F...`` and `` S...`` as given, or "".
         comment: The line's comments, or "".
-        ending: The line's ending (LF, CR LF, CR, or "" on a last line without one).
+        ending: The line's ending (LF, CR LF, CR, or "" on a last line without one) and the ending
+            that separates its segments (the same, or the file's on a last line without one).
         e_text: The E word's number as given, or None.
         e_mode: ``absolute``, ``relative`` or ``ambiguous`` (never split).
         e_start: Extruder position before the move (absolute mode), or None.
     """
 
-    __slots__ = ("relative", "code", "first", "after", "ending", "e_text", "e_mode", "e_start")
+    __slots__ = ("relative", "code", "first", "after", "ending", "sep", "e_text", "e_mode", "e_start")
 
-    def __init__(self, relative: bool, code: str, head: str, tail: str, comment: str, ending: str,
+    def __init__(self, relative: bool, code: str, head: str, tail: str, comment: str, ending: tuple[str, str],
                  e_text: str | None, e_mode: str, e_start: float | None) -> None:
         self.relative = relative
         self.code = code + " "
         self.first = f"{head} {code} " if head else self.code
         self.after = tail + (" " + comment if comment else "")
-        self.ending = ending
+        self.ending, self.sep = ending
         self.e_text = e_text
         self.e_mode = e_mode
         self.e_start = e_start
@@ -77,7 +78,7 @@ class MoveText:
     def segments(self, xyz: list[str], k0: int, n: int) -> list[str]:
         """Lines of segments k0+1 .. k0+len(xyz) of n: the first carries the line's words."""
         e = self.e_words(k0, k0 + len(xyz), n)
-        sep = self.ending or "\n"
+        sep = self.sep
         out = []
         for j, text in enumerate(xyz):
             k = k0 + j + 1
@@ -121,6 +122,10 @@ class Batch:
     def full(self) -> bool:
         """Whether the batch should be flushed now."""
         return len(self.points) >= CHUNK_POINTS or len(self.items) >= CHUNK_LINES
+
+    def room(self) -> int:
+        """Points the batch takes before it is full (at least 1 until it is flushed)."""
+        return max(CHUNK_POINTS - len(self.points), 1)
 
     def keep(self, line: str) -> None:
         """A line written as it is."""
