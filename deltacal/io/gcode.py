@@ -110,6 +110,10 @@ _LINE = re.compile(r"(?:\s*[A-Za-z]\s*[-+]?[0-9.]*)*\s*")
 _WORD = re.compile(r"([A-Za-z])\s*([-+]?[0-9.]*)")
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
 _PARENS = re.compile(r"\([^)]*\)")
+#: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
+_FAST = re.compile(r"[ \t]*(G0?[01](?=[ \t]))?((?:[ \t]*[XYZEF][-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))+)[ \t]*"
+                   r"(;[^\r\n]*)?(\r\n|\n|\r)?")
+_FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
 _M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
 #: First letters of a line the filter reads (others are kept without reading them).
 _READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
@@ -197,16 +201,17 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start = tuple(float(v) for v in start)
         if len(start) != 3 or not all(math.isfinite(v) for v in start):
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
-    reader = _Reader(source, float(segment_mm), start)
+    read = _Reader(source, float(segment_mm), start).line
     batch = Batch(correct, source)
     if start is not None:
         batch.anchor(start)
+    points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
-        plan = reader.line(number, line)
+        plan = read(number, line)
         if plan is None:
-            batch.keep(line)
-        elif isinstance(plan[0], tuple):
-            batch.single(plan[0], number, plan[1])
+            items.append(line)
+        elif len(plan) == 4:
+            batch.single(number, plan)
         else:
             path, text = plan
             k0 = 0
@@ -216,7 +221,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
                 k0 = k1
                 if batch.full():
                     yield batch.flush()
-        if batch.full():
+        if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
             yield batch.flush()
     yield batch.flush()
 
@@ -290,7 +295,18 @@ class _Reader:
         return InputError(detail, self.source, f"line {number}")
 
     def line(self, number: int, line: str):
-        """None (keep the line), ``(point, MoveText)`` (one point) or ``(path, MoveText)`` (split)."""
+        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``."""
+        fast = _FAST.fullmatch(line)
+        if fast is not None:  # the plain move of most programs, read at once
+            g, body, comment, ending = fast.groups()
+            st = self.state
+            if g is not None:
+                st.motion = 1.0 if g[-1] == "1" else 0.0
+            if st.motion == 0.0 or st.motion == 1.0:
+                words = _FAST_WORD.findall(body)
+                given = dict(words)
+                if len(given) == len(words):  # else a word given twice: refused below
+                    return self.plan(number, given, "", comment or "", ending or "")
         s = line.lstrip()
         if not s or s[0] not in _READ:
             return None
@@ -300,17 +316,16 @@ class _Reader:
                 self.state.m83, self.state.m83_ended = m.group(1) == "83", False
             return None
         code, comment, ending = _split(line)
-        self.newline = ending or self.newline
         parens = ""
         if "(" in code:
             parens = " ".join(_PARENS.findall(code))
             code = _PARENS.sub(" ", code)
             if "(" in code:
                 raise self.fail(number, "a '(' comment is not closed on its line")
-        words = self.words(number, code)
-        if words is None:
+        read = self.words(number, code)
+        if read is None:
             return None
-        return self.dispatch(number, words, code, " ".join(p for p in (parens, comment) if p), ending)
+        return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
 
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
@@ -373,7 +388,9 @@ class _Reader:
         if not motion and (other or not (axes or arc_words)):
             if axes and other:
                 raise self.fail(number, f"G{other[0]:g} with X, Y or Z is not supported by the filter")
-            self.track_e(number, words)
+            e_text = next((v for letter, v in words if letter == "E"), None)
+            if e_text is not None:
+                self.track_e(self.number(number, "E", e_text), st.e_mode())
             return None
         if st.motion is None:
             raise self.fail(number, "X, Y or Z without G0/G1/G2/G3, and no motion mode set before")
@@ -400,26 +417,19 @@ class _Reader:
         self.state.e_pos = self.number(number, "E", given["E"])
         return None
 
-    def track_e(self, number: int, words) -> str | None:
-        """The E word's text of a line, after the extruder position is updated from it."""
+    def track_e(self, value: float, mode: str) -> None:
+        """The extruder position after an E word of ``value`` read in ``mode``."""
         st = self.state
-        text = next((v for letter, v in words if letter == "E"), None)
-        if text is None:
-            return None
-        value = self.number(number, "E", text)
-        mode = st.e_mode()
         if mode == "absolute":
             st.e_pos = value
         elif mode == "relative":
             st.e_pos = None if st.e_pos is None else st.e_pos + value
         else:
             st.e_pos = None
-        return text
 
     def move(self, number: int, words, gs: list[float], comment: str, ending: str):
-        """The plan of a G0/G1/G2/G3 line."""
-        st = self.state
-        arc = st.motion in (2.0, 3.0)
+        """The plan of a G0/G1/G2/G3 line, its words checked."""
+        arc = self.state.motion in (2.0, 3.0)
         allowed = _ARC_WORDS if arc else _MOVE_WORDS
         given: dict[str, str] = {}
         for letter, value in words:
@@ -431,47 +441,64 @@ class _Reader:
                                         "is not supported by the filter")
             if letter in given and letter != "G":
                 raise self.fail(number, f"word {letter} given twice")
+            self.number(number, letter, value)
             given[letter] = value
-        values = {k: self.number(number, k, v) for k, v in given.items() if k in "XYZIJR"}
-        if not arc and not set(values) & set("XYZ"):
-            self.track_e(number, words)
-            return None  # no XYZ: the TCP does not move, the line is kept
-        start = list(st.pos)
-        end = self.target(number, values)
-        e_mode, e_start = st.e_mode(), st.e_pos
-        e_text = self.track_e(number, words)
         head = " ".join(x for x in ((f"N{given['N']}" if "N" in given else ""),
                                     *(f"G{g:g}" for g in gs if g in _MODES)) if x)
-        tail = "".join(f" {k}{given[k]}" for k in "FS" if k in given)
-        text = MoveText(st.relative, "G0" if st.motion == 0.0 else "G1", head, tail, comment,
-                        (ending, self.newline), e_text, e_mode, e_start)
-        if None in start:
-            if arc:
+        return self.plan(number, given, head, comment, ending)
+
+    def plan(self, number: int, given: dict[str, str], head: str, comment: str, ending: str):
+        """The plan of a move whose numbers are checked: None (no XYZ: kept), sent whole, or split."""
+        st = self.state
+        if ending:
+            self.newline = ending
+        arc = st.motion == 2.0 or st.motion == 3.0
+        e_text = given.get("E")
+        e_mode = st.e_mode()
+        if not arc and "X" not in given and "Y" not in given and "Z" not in given:
+            if e_text is not None:
+                self.track_e(float(e_text), e_mode)
+            return None  # no XYZ: the TCP does not move, the line is kept
+        start, e_start = st.pos, st.e_pos
+        end = self.target(number, given)
+        if e_text is not None:
+            self.track_e(float(e_text), e_mode)
+        tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
+        code = "G0" if st.motion == 0.0 else "G1"
+        path: ArcPath | StraightPath | None = None
+        if arc:
+            if None in start:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
                                         "move before it")
-            return tuple(end), text  # the position was unknown: straight to the end (all XYZ given)
-        path = self.arc(number, start, end, values) if arc else StraightPath(start, end, self.segment_mm)
-        if path.n == 1:
-            return tuple(end), text
+            path = self.arc(number, start, end, given)
+        elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
+            path = StraightPath(start, end, self.segment_mm)
+        if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
+            e = f" E{e_text}" if e_text is not None else ""
+            return (tuple(end), st.relative, f"{head} {code} " if head else code + " ",
+                    e + tail + (" " + comment if comment else "") + ending)
         if e_text is not None and e_mode == "ambiguous":
             raise self.fail(number, "E is split here, but its mode is ambiguous (M83 then G90, or G91 "
                                     "without M83: firmwares differ): add M82 or M83 before this line")
         if e_text is not None and e_mode == "absolute" and e_start is None:
             raise self.fail(number, "E is split here, but the extruder's position is not known yet "
                                     "(absolute E, M82): add G92 E0 before the first extruding move")
-        return path, text
+        return path, MoveText(st.relative, code, head, tail, comment, (ending, self.newline), e_text,
+                              e_mode, e_start)
 
-    def target(self, number: int, values: dict[str, float]) -> list[float]:
+    def target(self, number: int, given: dict[str, str]) -> list[float]:
         """The move's end [mm]; the position becomes it."""
         st = self.state
-        end = list(st.pos)
-        for i, axis in enumerate("XYZ"):
-            if axis in values:
-                end[i] = values[axis] if not st.relative else \
-                    (None if st.pos[i] is None else st.pos[i] + values[axis])  # type: ignore[operator]
-        missing = [axis for i, axis in enumerate("XYZ") if end[i] is None or
-                   (st.relative and st.pos[i] is None)]
-        if missing:
+        pos = st.pos
+        if st.relative:
+            end = [None if p is None else p + float(given.get(a, 0.0))
+                   for p, a in zip(pos, "XYZ", strict=True)]
+        else:
+            x, y, z = given.get("X"), given.get("Y"), given.get("Z")
+            end = [pos[0] if x is None else float(x), pos[1] if y is None else float(y),
+                   pos[2] if z is None else float(z)]
+        if None in end:
+            missing = [axis for axis, v in zip("XYZ", end, strict=True) if v is None]
             since = "at the start" if st.unknown_since == 0 else \
                 f"since the homing on line {st.unknown_since}"
             hint = "give them on the first move, or the start position (--start X,Y,Z)" \
@@ -481,9 +508,10 @@ class _Reader:
         st.pos = end
         return end  # type: ignore[return-value]
 
-    def arc(self, number: int, start, end, values: dict[str, float]) -> ArcPath:
+    def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
         """The chords of a G2/G3 arc from start to end."""
         st = self.state
+        values = {k: float(v) for k, v in given.items() if k in "IJR"}
         clockwise = st.motion == 2.0
         if st.plane != 17.0:
             raise self.fail(number, f"arc in the plane of G{st.plane:g}: only XY arcs (G17) are supported")

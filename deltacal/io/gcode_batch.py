@@ -70,11 +70,6 @@ class MoveText:
         self.e_mode = e_mode
         self.e_start = e_start
 
-    def single(self, xyz: str) -> str:
-        """The line of a move sent whole."""
-        e = f" E{self.e_text}" if self.e_text is not None else ""
-        return f"{self.first}{xyz}{e}{self.after}{self.ending}"
-
     def segments(self, xyz: list[str], k0: int, n: int) -> list[str]:
         """Lines of segments k0+1 .. k0+len(xyz) of n: the first carries the line's words."""
         e = self.e_words(k0, k0 + len(xyz), n)
@@ -104,20 +99,21 @@ class MoveText:
 
 
 class Batch:
-    """Lines and move points waiting to be corrected and written (see the module's documentation)."""
+    """Lines and move points waiting to be corrected and written (see the module's documentation).
+
+    Items, in the output's order: a kept line (str), or a tuple ``(count, relative, prefix, rest,
+    line)``: a move sent whole (``prefix`` and ``rest`` the text around its XYZ), ``count`` points
+    of a split move (``prefix`` None, ``rest`` its ``(MoveText, k0, n)``), or the start position
+    (``relative`` None: corrected, not written).
+    """
 
     def __init__(self, correct: Correct, source: str) -> None:
         self.correct = correct
         self.source = source
         self.previous: np.ndarray | None = None  # the controller's last position, in 1e-4 mm
-        self._reset()
-
-    def _reset(self) -> None:
-        self.items: list = []  # a kept line (str), or (points, MoveText or None, k0, n)
+        self.items: list = []
         self.points: list = []
-        self.lines: list[int] = []  # the line of each point (0: the start position)
         self.relative = False
-        self.absolute = False
 
     def full(self) -> bool:
         """Whether the batch should be flushed now."""
@@ -127,31 +123,24 @@ class Batch:
         """Points the batch takes before it is full (at least 1 until it is flushed)."""
         return max(CHUNK_POINTS - len(self.points), 1)
 
-    def keep(self, line: str) -> None:
-        """A line written as it is."""
-        self.items.append(line)
-
     def anchor(self, point) -> None:
         """The position where the program starts: corrected, not written (G91 increments start there)."""
         self.points.append(tuple(point))
-        self.lines.append(0)
-        self.items.append((1, None, 0, 1))
+        self.items.append((1, None, None, None, 0))
 
-    def single(self, point, number: int, text: MoveText) -> None:
-        """A move sent whole to ``point`` [mm]."""
-        self.points.append(point)
-        self.lines.append(number)
-        self.items.append((1, text, 0, 1))
-        self.relative |= text.relative
-        self.absolute |= not text.relative
+    def single(self, number: int, plan: tuple) -> None:
+        """A move sent whole: ``plan`` is (end [mm], relative, text before XYZ, text after)."""
+        self.points.append(plan[0])
+        self.items.append((1, plan[1], plan[2], plan[3], number))
+        if plan[1]:
+            self.relative = True
 
     def split(self, points: np.ndarray, number: int, text: MoveText, k0: int, k1: int, n: int) -> None:
         """Points k0+1 .. k1 [mm] of a move cut into n segments."""
         self.points.extend(points.tolist())
-        self.lines.extend([number] * (k1 - k0))
-        self.items.append((k1 - k0, text, k0, n))
-        self.relative |= text.relative
-        self.absolute |= not text.relative
+        self.items.append((k1 - k0, text.relative, None, (text, k0, n), number))
+        if text.relative:
+            self.relative = True
 
     def flush(self) -> str:
         """The output text of the batch, its points corrected; the batch is emptied."""
@@ -160,8 +149,7 @@ class Batch:
         if self.points:
             points = np.array(self.points, dtype=float).reshape(-1, 3)
             units = np.rint(self._corrected(points) * _SCALE).astype(np.int64)
-            if self.absolute:
-                xyz = _xyz(units)
+            xyz = _xyz(units)
             if self.relative:
                 before = units[:1] if self.previous is None else self.previous[None, :]
                 increments = _xyz(np.diff(units, axis=0, prepend=before))
@@ -172,15 +160,18 @@ class Batch:
             if item.__class__ is str:
                 out.append(item)
                 continue
-            count, text, k0, n = item
-            if text is not None:
-                texts = increments if text.relative else xyz
-                if n == 1:
-                    out.append(text.single(texts[row]))
+            count, relative, prefix, rest, _ = item
+            if relative is not None:
+                texts = increments if relative else xyz
+                if prefix is not None:
+                    out.append(prefix + texts[row] + rest)
                 else:
+                    text, k0, n = rest
                     out.extend(text.segments(texts[row:row + count], k0, n))
             row += count
-        self._reset()
+        self.items.clear()
+        self.points.clear()
+        self.relative = False
         return "".join(out)
 
     def _corrected(self, points: np.ndarray) -> np.ndarray:
@@ -196,16 +187,25 @@ class Batch:
             raise self._refusal(points, list(np.flatnonzero(bad)), "not corrected (a non-finite target)")
         return sent
 
+    def _lines(self) -> list[int]:
+        """The line of each point of the batch (0: the start position)."""
+        lines: list[int] = []
+        for item in self.items:
+            if item.__class__ is not str:
+                lines.extend([item[4]] * item[0])
+        return lines
+
     def _refusal(self, points: np.ndarray, indices: list[int], what: str) -> InputError:
         """The error naming the line of the first refused point, and how many there are."""
         indices = indices or [0]
         first = indices[0]
-        number = self.lines[first]
+        of_point = self._lines()
+        number = of_point[first]
         where = f"line {number}" if number else "start position"
         of = "of this move " if number else ""
         detail = f"point {np.round(points[first], 4).tolist()} mm {of}is {what}"
         if len(indices) > 1:
-            lines = sorted({self.lines[i] for i in indices})
+            lines = sorted({of_point[i] for i in indices})
             shown = ", ".join(str(k) for k in lines[:10]) + (", ..." if len(lines) > 10 else "")
             detail += f"; {len(indices)} points in all, on line{'s' if len(lines) > 1 else ''} {shown}"
         return InputError(detail, self.source, where)
@@ -219,5 +219,6 @@ def _words(exc: UnreachableError | AssemblyError) -> str:
 
 
 def _xyz(units: np.ndarray) -> list[str]:
-    """``X.. Y.. Z..`` of integer positions in 1e-4 mm."""
-    return [f"X{x:.4f} Y{y:.4f} Z{z:.4f}" for x, y, z in (units / _SCALE).tolist()]
+    """``X.. Y.. Z..`` of integer positions in 1e-4 mm (one formatting in C for the whole batch)."""
+    n = units.shape[0]
+    return ("X%.4f Y%.4f Z%.4f\n" * n % tuple((units / _SCALE).ravel().tolist())).split("\n")[:n]
