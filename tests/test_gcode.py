@@ -322,11 +322,11 @@ def test_reading_is_streamed_and_correct_called_once_per_chunk():
     assert calls == [CHUNK_POINTS, CHUNK_POINTS, 5001] and out.count("\n") == 25_000
 
 
-def test_progress_and_line_count(tmp_path):
+def test_progress(tmp_path):
     src, dst = tmp_path / "p.nc", tmp_path / "o.nc"
     src.write_text("G1 X0 Y0 Z-800\n" + "G1 X1 Y2\nG1 X0 Y0\n" * 30_000)
     seen: list[float] = []
-    assert filter_gcode(src, dst, identity, progress=lambda f, detail: seen.append(f)) == 60_001
+    filter_gcode(src, dst, identity, progress=lambda f, detail: seen.append(f))
     assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == 1.0
     assert dst.read_text().count("\n") == 60_001
 

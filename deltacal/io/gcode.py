@@ -159,7 +159,7 @@ class _State:
     __slots__ = ("pos", "relative", "m83", "m83_ended", "e_pos", "motion", "plane", "unknown_since")
 
     def __init__(self, start) -> None:
-        self.pos: list[float | None] = [None, None, None] if start is None else [float(v) for v in start]
+        self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
         self.relative = False
         self.m83 = False
         self.m83_ended = False  # G90 read after M83 (firmwares differ on its effect)
@@ -210,8 +210,11 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         plan = read(number, line)
         if plan is None:
             items.append(line)
-        elif len(plan) == 4:
-            batch.single(number, plan)
+        elif len(plan) == 4:  # batch.single(number, plan), inline
+            points.append(plan[0])
+            items.append((1, plan[1], plan[2], plan[3], number))
+            if plan[1]:
+                batch.relative = True
         else:
             path, text = plan
             k0 = 0
@@ -227,7 +230,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
 
 
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
-                 segment_mm: float = DEFAULT_SEGMENT_MM, start=None, progress: Progress | None = None) -> int:
+                 segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
+                 progress: Progress | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -236,40 +240,22 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         correct: ``correct(points)`` -> targets to send, both (N, 3) [mm] (see :func:`filter_lines`).
         segment_mm: Longest segment sent [mm] (default :data:`DEFAULT_SEGMENT_MM`).
         start: TCP position [mm] at the program's start (X, Y, Z), or None.
-        progress: Called as ``progress(fraction, detail)`` after each chunk (fraction of the file read).
-
-    Returns:
-        Number of lines read.
+        progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
 
     Raises:
         InputError: a refused line, naming the file and the line.
     """
-    name = str(source)
     opened: list = []
-    size = max(Path(source).stat().st_size, 1) if Path(source).is_file() else 1
-    counted = _Counter(read_lines(source, opened))
-    blocks = filter_lines(counted, correct, segment_mm, start, name)
+    path = Path(source)
+    size = max(path.stat().st_size, 1) if path.is_file() else 1
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source))
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
             out.write(block)
             if progress is not None and opened:
                 done = opened[0].buffer.tell() if not opened[0].closed else size
-                progress(min(done / size, 1.0), f"{counted.count:,} lines")
-    return counted.count
-
-
-class _Counter:
-    """An iterator over lines that counts them."""
-
-    def __init__(self, lines: Iterator[str]) -> None:
-        self._lines = lines
-        self.count = 0
-
-    def __iter__(self) -> Iterator[str]:
-        for line in self._lines:
-            self.count += 1
-            yield line
+                progress(min(done / size, 1.0), "")
 
 
 def _split(line: str) -> tuple[str, str, str]:
@@ -351,7 +337,7 @@ class _Reader:
         gs: list[float] = []
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
         if any(g in _HOMING for g in gs):
-            st.pos, st.unknown_since = [None, None, None], number
+            st.pos, st.unknown_since = (None, None, None), number
             return None
         if not gs and not any(w[0] in "XYZIJRE" for w in words):
             return None  # a numbered line without motion, F alone ...
@@ -454,13 +440,18 @@ class _Reader:
             self.newline = ending
         arc = st.motion == 2.0 or st.motion == 3.0
         e_text = given.get("E")
-        e_mode = st.e_mode()
+        e_mode = "absolute" if e_text is None else st.e_mode()
         if not arc and "X" not in given and "Y" not in given and "Z" not in given:
             if e_text is not None:
                 self.track_e(float(e_text), e_mode)
             return None  # no XYZ: the TCP does not move, the line is kept
         start, e_start = st.pos, st.e_pos
-        end = self.target(number, given)
+        if st.relative or None in start:
+            end = self.target(number, given)
+        else:  # the usual case, inline: absolute, position known
+            x, y, z = given.get("X"), given.get("Y"), given.get("Z")
+            end = st.pos = (start[0] if x is None else float(x), start[1] if y is None else float(y),
+                            start[2] if z is None else float(z))
         if e_text is not None:
             self.track_e(float(e_text), e_mode)
         tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
@@ -475,7 +466,7 @@ class _Reader:
             path = StraightPath(start, end, self.segment_mm)
         if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
             e = f" E{e_text}" if e_text is not None else ""
-            return (tuple(end), st.relative, f"{head} {code} " if head else code + " ",
+            return (end, st.relative, f"{head} {code} " if head else code + " ",
                     e + tail + (" " + comment if comment else "") + ending)
         if e_text is not None and e_mode == "ambiguous":
             raise self.fail(number, "E is split here, but its mode is ambiguous (M83 then G90, or G91 "
@@ -486,7 +477,7 @@ class _Reader:
         return path, MoveText(st.relative, code, head, tail, comment, (ending, self.newline), e_text,
                               e_mode, e_start)
 
-    def target(self, number: int, given: dict[str, str]) -> list[float]:
+    def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
         """The move's end [mm]; the position becomes it."""
         st = self.state
         pos = st.pos
@@ -505,8 +496,8 @@ class _Reader:
                 if st.unknown_since == 0 else "give X, Y and Z on the first move after it (absolute, G90)"
             raise self.fail(number, f"move before X, Y and Z are all known ({', '.join(missing)} unknown "
                                     f"{since}): {hint}")
-        st.pos = end
-        return end  # type: ignore[return-value]
+        st.pos = tuple(end)
+        return st.pos  # type: ignore[return-value]
 
     def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
         """The chords of a G2/G3 arc from start to end."""
