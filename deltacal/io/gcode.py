@@ -1,0 +1,528 @@
+"""G-code program filtering: every move's XYZ corrected for a controller, streamed line by line.
+
+A controller that runs its own (nominal) model is sent, instead of each target ``x`` of a
+program, ``correct(x)``: the target that makes the real robot's TCP land on ``x``. Between two
+targets the controller interpolates a straight line in its own model's space, which the real robot
+bends; so moves longer than ``segment_mm`` are cut into shorter ones, each corrected, and the real
+path follows the intended straight line (the bend of a segment shrinks as its length squared).
+
+The filter reads one line at a time and keeps at most :data:`CHUNK_POINTS` points and
+:data:`CHUNK_LINES` lines before it calls ``correct`` once on the chunk's points (an (N, 3) array
+[mm]) and writes them out: memory is flat in the program's length, and ``correct`` is vectorised.
+
+What is rewritten, and how:
+
+- **Moves**: G0/G00/G1/G01 (and a line of axis words alone, in the current G0/G1 mode), with X,
+  Y or Z. Written ``G0``/``G1`` then ``X Y Z`` (always all three), ``E``, ``F``, ``S``, in that
+  order, upper case, XYZ with :data:`XYZ_DECIMALS` decimals (0.1 µm). A move without X, Y or Z
+  (``G1 E-2 F2400``, ``G1 F1500``) does not move the TCP and is kept byte for byte.
+- **Split moves**: a move longer than ``segment_mm`` (default :data:`DEFAULT_SEGMENT_MM` mm) is
+  cut into equal segments. The first segment's line carries what the move line held besides its
+  motion: its ``N`` label, its G90/G91/G17/G21 words, ``F`` and ``S`` (modal: they hold for the
+  rest), and its comments (``(...)`` then ``;...``, at the end). ``E`` is split in proportion to
+  length: in absolute mode (M82) each segment writes its interpolated E, the last the move's own
+  value; in relative mode (M83, or G91 with M83) each writes its share, and the shares sum exactly
+  to the move's E at the decimals written (at least :data:`E_DECIMALS`, more if the input had more).
+- **G91** (relative): the output stays relative: each segment writes its corrected increment,
+  the difference of the corrected absolute positions rounded to the output's decimals, so that the
+  increments add up, without drift, to the rounded corrected positions of a G90 program.
+- **Arcs**: G2 (clockwise)/G3 (counter-clockwise) in the XY plane (G17), centre by ``I J``
+  (offsets from the start; ends that coincide make a full circle) or radius ``R`` (R > 0: at most a
+  half turn, R < 0: more), Z interpolated linearly (a helix), E split as for lines. Written as G1
+  chords (the controller's model is not the robot's, so the arc cannot be sent whole), each no
+  longer than ``segment_mm`` and within :data:`ARC_TOLERANCE_RATIO` × ``segment_mm`` of the arc
+  (5 µm at the default). The end radius may differ from the start radius by
+  :data:`ARC_RADIUS_TOLERANCE_MM` or 0.1 % (the radius is then interpolated and the last point is
+  the end as given); more is refused.
+- **Kept byte for byte and in order**: every other line: comments, blank lines, M codes (M82 and
+  M83 are read), dwell G4, G90/G91/G17/G21 alone, G92 E, T words, firmware commands that are not
+  G-code words (``EXCLUDE_OBJECT_START NAME=a``), line endings (LF, CRLF) and bytes that are not
+  UTF-8.
+
+Position: X, Y and Z are unknown at the start unless ``start`` gives them, and again after a
+homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the real robot then
+stands. A move before all three are known is refused by its line, except an absolute (G90) move
+that gives all three: it goes straight to its corrected end, unsplit (its start is unknown).
+
+Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the file and line): G20
+(inches: convert the program to millimetres); G92 with X, Y or Z, or with no axis (they move the
+origin the controller's targets are given in); work offsets and coordinate transforms (G10 L, G52,
+G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19) or with K or P; a word the filter
+would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
+line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); a
+number that is not one (``X1.2.3``, ``X``); a split extruding move where the extruder mode is
+ambiguous (M83 then G90 with no M82/M83 since: firmwares differ on whether G90 ends M83; or G91
+without M83: RepRapFirmware leaves E to M82/M83, Marlin and Klipper make it relative) or where the
+extruder position is not known yet in absolute mode (add ``G92 E0``); a target that ``correct``
+refuses (its :class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+
+Units: mm (G21); the file's numbers are written as they are read where they are kept.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+
+from ..exceptions import InputError
+from .atomic import atomic_output
+from .gcode_batch import (
+    CHUNK_LINES,
+    CHUNK_POINTS,
+    E_DECIMALS,
+    XYZ_DECIMALS,
+    Batch,
+    Correct,
+    MoveText,
+    Progress,
+)
+from .gcode_path import ArcPath, StraightPath, arc_sweep, centre_from_radius
+
+__all__ = [
+    "ARC_RADIUS_TOLERANCE_MM",
+    "ARC_TOLERANCE_RATIO",
+    "CHUNK_LINES",
+    "CHUNK_POINTS",
+    "DEFAULT_SEGMENT_MM",
+    "E_DECIMALS",
+    "SUFFIXES",
+    "XYZ_DECIMALS",
+    "filter_gcode",
+    "filter_lines",
+    "is_gcode_path",
+    "read_lines",
+]
+
+#: File name endings read as G-code (in any case).
+SUFFIXES = (".gcode", ".gco", ".g", ".nc")
+#: Longest segment sent to the controller [mm]. The bend of a segment grows as its length squared:
+#: on the two demo robots with Bai's errors, the real path strays from the intended line by at most
+#: 0.09-0.15 µm at 5 mm (of which 0.07 µm is the output's rounding), 0.3-0.4 µm at 10 mm, 1.2-1.5 µm
+#: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most.
+DEFAULT_SEGMENT_MM = 5.0
+#: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
+ARC_TOLERANCE_RATIO = 1e-3
+#: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
+ARC_RADIUS_TOLERANCE_MM = 0.0127
+_LINE = re.compile(r"(?:\s*[A-Za-z]\s*[-+]?[0-9.]*)*\s*")
+_WORD = re.compile(r"([A-Za-z])\s*([-+]?[0-9.]*)")
+_NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
+_PARENS = re.compile(r"\([^)]*\)")
+#: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
+_FAST = re.compile(r"[ \t]*(G0?[01](?=[ \t]))?((?:[ \t]*[XYZEF][-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))+)[ \t]*"
+                   r"(;[^\r\n]*)?(\r\n|\n|\r)?")
+_FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
+_M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
+#: First letters of a line the filter reads (others are kept without reading them).
+_READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
+_HOMING = (28.0, 29.0, 30.0, 38.2, 38.3, 38.4, 38.5)
+_FRAMES = (52.0, 53.0, 54.0, 55.0, 56.0, 57.0, 58.0, 59.0, 59.1, 59.2, 59.3, 92.1, 92.2, 92.3, 68.0, 51.0)
+_MODES = (90.0, 91.0, 17.0, 21.0)  # kept on a move's first segment
+_MOVE_WORDS = frozenset("GXYZEFSN")
+_ARC_WORDS = frozenset("GXYZEFSNIJR")
+
+
+def is_gcode_path(path: str | Path) -> bool:
+    """Whether a targets file is read as G-code: its name ends in one of :data:`SUFFIXES`."""
+    return Path(path).suffix.lower() in SUFFIXES
+
+
+def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
+    """The file's lines, one at a time, each with its line ending; bytes kept (surrogateescape).
+
+    Args:
+        path: The G-code file.
+        opened: If given, the open file is appended to it (to ask how far the reading is).
+
+    Raises:
+        InputError: the file cannot be read.
+    """
+    try:
+        f = open(path, encoding="utf-8", errors="surrogateescape", newline="")
+    except FileNotFoundError:
+        raise InputError("file not found", str(path)) from None
+    except IsADirectoryError:
+        raise InputError("is a folder, not a file", str(path)) from None
+    except OSError as exc:
+        raise InputError(f"cannot read file ({exc.strerror})", str(path)) from None
+    with f:
+        if opened is not None:
+            opened.append(f)
+        yield from f
+
+
+class _State:
+    """The modal state of the program as read so far (positions in mm)."""
+
+    __slots__ = ("pos", "relative", "m83", "m83_ended", "e_pos", "motion", "plane", "unknown_since")
+
+    def __init__(self, start) -> None:
+        self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
+        self.relative = False
+        self.m83 = False
+        self.m83_ended = False  # G90 read after M83 (firmwares differ on its effect)
+        self.e_pos: float | None = None
+        self.motion: float | None = None
+        self.plane = 17.0
+        self.unknown_since = 0  # line of the homing that made the position unknown (0: the start)
+
+    def e_mode(self) -> str:
+        """``absolute``, ``relative`` or ``ambiguous``: how E words are read here."""
+        if self.relative:
+            return "relative" if self.m83 else "ambiguous"
+        if self.m83:
+            return "ambiguous" if self.m83_ended else "relative"
+        return "absolute"
+
+
+def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
+                 start=None, source: str = "G-code") -> Iterator[str]:
+    """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
+
+    Args:
+        lines: The program's lines, each with its line ending (as :func:`read_lines` gives them).
+        correct: ``correct(points)`` -> targets to send, both (N, 3) [mm]; may raise
+            :class:`~deltacal.exceptions.UnreachableError` naming indices of ``points``.
+        segment_mm: Longest segment sent [mm].
+        start: TCP position [mm] at the program's start, or None (unknown).
+        source: Name of the program in messages.
+
+    Yields:
+        The output text, a chunk at a time.
+
+    Raises:
+        InputError: a refused line (see the module's documentation), naming ``source`` and the line.
+    """
+    if not (isinstance(segment_mm, int | float) and math.isfinite(segment_mm) and segment_mm > 0):
+        raise ValueError(f"segment_mm must be a positive number of mm, got {segment_mm!r}")
+    if start is not None:
+        start = tuple(float(v) for v in start)
+        if len(start) != 3 or not all(math.isfinite(v) for v in start):
+            raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
+    read = _Reader(source, float(segment_mm), start).line
+    batch = Batch(correct, source)
+    if start is not None:
+        batch.anchor(start)
+    points, items = batch.points, batch.items
+    for number, line in enumerate(lines, 1):
+        plan = read(number, line)
+        if plan is None:
+            items.append(line)
+        elif len(plan) == 4:  # batch.single(number, plan), inline
+            points.append(plan[0])
+            items.append((1, plan[1], plan[2], plan[3], number))
+            if plan[1]:
+                batch.relative = True
+        else:
+            path, text = plan
+            k0 = 0
+            while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
+                k1 = min(path.n, k0 + batch.room())
+                batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
+                k0 = k1
+                if batch.full():
+                    yield batch.flush()
+        if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
+            yield batch.flush()
+    yield batch.flush()
+
+
+def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
+                 segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
+                 progress: Progress | None = None) -> None:
+    """Write the program ``source`` with every move corrected to ``destination``, atomically.
+
+    Args:
+        source: The G-code program (read as UTF-8; other bytes are kept as they are).
+        destination: The corrected program; left untouched if anything fails.
+        correct: ``correct(points)`` -> targets to send, both (N, 3) [mm] (see :func:`filter_lines`).
+        segment_mm: Longest segment sent [mm] (default :data:`DEFAULT_SEGMENT_MM`).
+        start: TCP position [mm] at the program's start (X, Y, Z), or None.
+        progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
+
+    Raises:
+        InputError: a refused line, naming the file and the line.
+    """
+    opened: list = []
+    path = Path(source)
+    size = max(path.stat().st_size, 1) if path.is_file() else 1
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source))
+    with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
+                                                 newline="") as out:
+        for block in blocks:
+            out.write(block)
+            if progress is not None and opened:
+                done = opened[0].buffer.tell() if not opened[0].closed else size
+                progress(min(done / size, 1.0), "")
+
+
+def _split(line: str) -> tuple[str, str, str]:
+    """(code, comment, ending) of a line: the comment from ';' on, the ending LF, CR LF, CR or ""."""
+    ending = "\r\n" if line.endswith("\r\n") else "\n" if line.endswith("\n") else \
+        "\r" if line.endswith("\r") else ""
+    body = line[: len(line) - len(ending)]
+    cut = body.find(";")
+    return (body, "", ending) if cut < 0 else (body[:cut], body[cut:], ending)
+
+
+class _Reader:
+    """Reads the program line by line: the state, and the plan of each move."""
+
+    def __init__(self, source: str, segment_mm: float, start) -> None:
+        self.source = source
+        self.segment_mm = segment_mm
+        self.state = _State(start)
+        self.newline = "\n"  # the last line ending read: it separates the segments of a last line
+
+    def fail(self, number: int, detail: str) -> InputError:
+        """The error for line ``number``."""
+        return InputError(detail, self.source, f"line {number}")
+
+    def line(self, number: int, line: str):
+        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``."""
+        fast = _FAST.fullmatch(line)
+        if fast is not None:  # the plain move of most programs, read at once
+            g, body, comment, ending = fast.groups()
+            st = self.state
+            if g is not None:
+                st.motion = 1.0 if g[-1] == "1" else 0.0
+            if st.motion == 0.0 or st.motion == 1.0:
+                words = _FAST_WORD.findall(body)
+                given = dict(words)
+                if len(given) == len(words):  # else a word given twice: refused below
+                    return self.plan(number, given, "", comment or "", ending or "")
+        s = line.lstrip()
+        if not s or s[0] not in _READ:
+            return None
+        m = _M_LINE.match(s)
+        if m is not None:  # M codes are kept as they are; M82 and M83 set the extruder's mode
+            if m.group(1) in ("82", "83"):
+                self.state.m83, self.state.m83_ended = m.group(1) == "83", False
+            return None
+        code, comment, ending = _split(line)
+        parens = ""
+        if "(" in code:
+            parens = " ".join(_PARENS.findall(code))
+            code = _PARENS.sub(" ", code)
+            if "(" in code:
+                raise self.fail(number, "a '(' comment is not closed on its line")
+        read = self.words(number, code)
+        if read is None:
+            return None
+        return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
+
+    def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
+        """The line's (LETTER, number text) words; None where the line is not G-code words."""
+        checksum = code.find("*")
+        body = code if checksum < 0 else code[:checksum]
+        whole = _LINE.fullmatch(body)
+        words = _WORD.findall(body)
+        if not words or not words[0][1]:
+            return None  # a firmware command (SET_FAN_SPEED, EXCLUDE_OBJECT_START ...) or a bare letter
+        if whole is None:
+            end = _LINE.match(body)
+            at = end.end() if end is not None else 0
+            raise self.fail(number, f"unexpected text {body[at:at + 12].strip()!r} in a G-code line "
+                                    "(a decimal comma? a word without its letter?)")
+        words = [(letter.upper(), value) for letter, value in words]
+        if checksum >= 0:
+            words.append(("*", code[checksum:].strip()))
+        return words
+
+    def dispatch(self, number: int, words, code: str, comment: str, ending: str):
+        """Update the state from a line's words; the plan of its move, if it has one."""
+        st = self.state
+        gs: list[float] = []
+        gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
+        if any(g in _HOMING for g in gs):
+            st.pos, st.unknown_since = (None, None, None), number
+            return None
+        if not gs and not any(w[0] in "XYZIJRE" for w in words):
+            return None  # a numbered line without motion, F alone ...
+        return self.g_line(number, gs, words, comment, ending)
+
+    def g_line(self, number: int, gs: list[float], words, comment: str, ending: str):
+        """A line of G words and axis words: modes, G92, a move, or a line to keep."""
+        st = self.state
+        axes = {w[0] for w in words} & set("XYZ")
+        motion = [g for g in gs if g in (0.0, 1.0, 2.0, 3.0)]
+        for g in gs:
+            if g == 20.0:
+                raise self.fail(number, "G20 (inches) is not supported: convert the program to "
+                                        "millimetres (G21)")
+            if g in _FRAMES or (g == 10.0 and any(w[0] == "L" for w in words)):
+                raise self.fail(number, f"G{g:g} changes the coordinate system: the filter cannot "
+                                        "follow it (remove it, or express the program in one frame)")
+        if 92.0 in gs:
+            return self.g92(number, words)
+        if len(motion) > 1:
+            raise self.fail(number, f"two motion codes on one line: G{motion[0]:g} and G{motion[1]:g}")
+        for g in gs:
+            if g == 90.0:
+                st.relative = False
+                st.m83_ended = st.m83
+            elif g == 91.0:
+                st.relative = True
+            elif g in (17.0, 18.0, 19.0):
+                st.plane = g
+        if motion:
+            st.motion = motion[0]
+        other = [g for g in gs if g not in _MODES and g not in (0.0, 1.0, 2.0, 3.0)]
+        arc_words = any(w[0] in "IJR" for w in words)
+        if not motion and (other or not (axes or arc_words)):
+            if axes and other:
+                raise self.fail(number, f"G{other[0]:g} with X, Y or Z is not supported by the filter")
+            e_text = next((v for letter, v in words if letter == "E"), None)
+            if e_text is not None:
+                self.track_e(self.number(number, "E", e_text), st.e_mode())
+            return None
+        if st.motion is None:
+            raise self.fail(number, "X, Y or Z without G0/G1/G2/G3, and no motion mode set before")
+        if other:
+            raise self.fail(number, f"G{other[0]:g} on a move line is not supported: put it on a line "
+                                    "of its own")
+        return self.move(number, words, gs, comment, ending)
+
+    def number(self, number: int, letter: str, value: str) -> float:
+        """The value of a word, or the error naming it."""
+        if not _NUMBER.fullmatch(value):
+            raise self.fail(number, f"word {letter}{value!r}: {value or 'nothing'} is not a number"
+                            if value else f"word {letter} has no number")
+        return float(value)
+
+    def g92(self, number: int, words):
+        """G92: E sets the extruder's position (the line is kept); X, Y, Z or nothing are refused."""
+        given = {w[0]: w[1] for w in words if w[0] != "G"}
+        if set(given) & set("XYZ"):
+            raise self.fail(number, "G92 with X, Y or Z is refused: it moves the origin of the "
+                                    "controller's targets, which the filter cannot follow")
+        if "E" not in given:
+            raise self.fail(number, "G92 without axes is refused: it sets X, Y and Z to zero")
+        self.state.e_pos = self.number(number, "E", given["E"])
+        return None
+
+    def track_e(self, value: float, mode: str) -> None:
+        """The extruder position after an E word of ``value`` read in ``mode``."""
+        st = self.state
+        if mode == "absolute":
+            st.e_pos = value
+        elif mode == "relative":
+            st.e_pos = None if st.e_pos is None else st.e_pos + value
+        else:
+            st.e_pos = None
+
+    def move(self, number: int, words, gs: list[float], comment: str, ending: str):
+        """The plan of a G0/G1/G2/G3 line, its words checked."""
+        arc = self.state.motion in (2.0, 3.0)
+        allowed = _ARC_WORDS if arc else _MOVE_WORDS
+        given: dict[str, str] = {}
+        for letter, value in words:
+            if letter == "*":
+                raise self.fail(number, f"checksum {value!r} on a move line: checksums and line numbers "
+                                        "belong to the serial link; remove them from the file")
+            if letter not in allowed:
+                raise self.fail(number, f"word {letter}{value} on {'an arc' if arc else 'a move'} line "
+                                        "is not supported by the filter")
+            if letter in given and letter != "G":
+                raise self.fail(number, f"word {letter} given twice")
+            self.number(number, letter, value)
+            given[letter] = value
+        head = " ".join(x for x in ((f"N{given['N']}" if "N" in given else ""),
+                                    *(f"G{g:g}" for g in gs if g in _MODES)) if x)
+        return self.plan(number, given, head, comment, ending)
+
+    def plan(self, number: int, given: dict[str, str], head: str, comment: str, ending: str):
+        """The plan of a move whose numbers are checked: None (no XYZ: kept), sent whole, or split."""
+        st = self.state
+        if ending:
+            self.newline = ending
+        arc = st.motion == 2.0 or st.motion == 3.0
+        e_text = given.get("E")
+        e_mode = "absolute" if e_text is None else st.e_mode()
+        if not arc and "X" not in given and "Y" not in given and "Z" not in given:
+            if e_text is not None:
+                self.track_e(float(e_text), e_mode)
+            return None  # no XYZ: the TCP does not move, the line is kept
+        start, e_start = st.pos, st.e_pos
+        if st.relative or None in start:
+            end = self.target(number, given)
+        else:  # the usual case, inline: absolute, position known
+            x, y, z = given.get("X"), given.get("Y"), given.get("Z")
+            end = st.pos = (start[0] if x is None else float(x), start[1] if y is None else float(y),
+                            start[2] if z is None else float(z))
+        if e_text is not None:
+            self.track_e(float(e_text), e_mode)
+        tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
+        code = "G0" if st.motion == 0.0 else "G1"
+        path: ArcPath | StraightPath | None = None
+        if arc:
+            if None in start:
+                raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
+                                        "move before it")
+            path = self.arc(number, start, end, given)
+        elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
+            path = StraightPath(start, end, self.segment_mm)
+        if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
+            e = f" E{e_text}" if e_text is not None else ""
+            return (end, st.relative, f"{head} {code} " if head else code + " ",
+                    e + tail + (" " + comment if comment else "") + ending)
+        if e_text is not None and e_mode == "ambiguous":
+            raise self.fail(number, "E is split here, but its mode is ambiguous (M83 then G90, or G91 "
+                                    "without M83: firmwares differ): add M82 or M83 before this line")
+        if e_text is not None and e_mode == "absolute" and e_start is None:
+            raise self.fail(number, "E is split here, but the extruder's position is not known yet "
+                                    "(absolute E, M82): add G92 E0 before the first extruding move")
+        return path, MoveText(st.relative, code, head, tail, comment, (ending, self.newline), e_text,
+                              e_mode, e_start)
+
+    def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
+        """The move's end [mm]; the position becomes it."""
+        st = self.state
+        pos = st.pos
+        if st.relative:
+            end = [None if p is None else p + float(given.get(a, 0.0))
+                   for p, a in zip(pos, "XYZ", strict=True)]
+        else:
+            x, y, z = given.get("X"), given.get("Y"), given.get("Z")
+            end = [pos[0] if x is None else float(x), pos[1] if y is None else float(y),
+                   pos[2] if z is None else float(z)]
+        if None in end:
+            missing = [axis for axis, v in zip("XYZ", end, strict=True) if v is None]
+            since = "at the start" if st.unknown_since == 0 else \
+                f"since the homing on line {st.unknown_since}"
+            hint = "give them on the first move, or the start position (--start X,Y,Z)" \
+                if st.unknown_since == 0 else "give X, Y and Z on the first move after it (absolute, G90)"
+            raise self.fail(number, f"move before X, Y and Z are all known ({', '.join(missing)} unknown "
+                                    f"{since}): {hint}")
+        st.pos = tuple(end)
+        return st.pos  # type: ignore[return-value]
+
+    def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
+        """The chords of a G2/G3 arc from start to end."""
+        st = self.state
+        values = {k: float(v) for k, v in given.items() if k in "IJR"}
+        clockwise = st.motion == 2.0
+        if st.plane != 17.0:
+            raise self.fail(number, f"arc in the plane of G{st.plane:g}: only XY arcs (G17) are supported")
+        if "R" in values:
+            if "I" in values or "J" in values:
+                raise self.fail(number, "arc with both R and I/J")
+            centre = centre_from_radius(start, end, values["R"], clockwise)
+            if centre is None:
+                raise self.fail(number, f"arc of radius R{values['R']:g} cannot join its ends "
+                                        "(they coincide, or are further apart than the diameter)")
+        elif "I" in values or "J" in values:
+            centre = (start[0] + values.get("I", 0.0), start[1] + values.get("J", 0.0))
+        else:
+            raise self.fail(number, "arc without I, J or R")
+        r0 = math.hypot(start[0] - centre[0], start[1] - centre[1])
+        r1 = math.hypot(end[0] - centre[0], end[1] - centre[1])
+        if r0 == 0.0 or abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, 1e-3 * r0):
+            raise self.fail(number, f"arc's end is not on its circle: radius {r0:.4f} mm at the start, "
+                                    f"{r1:.4f} mm at the end")
+        sweep = arc_sweep(start, end, centre, clockwise)
+        tolerance = ARC_TOLERANCE_RATIO * self.segment_mm
+        return ArcPath(start, end, centre, sweep, self.segment_mm, tolerance)
+
