@@ -32,7 +32,8 @@ from ..io import (
     load_calibration,
     load_controller,
 )
-from .common import check_input, check_output, warn
+from ..io.gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
+from .common import check_input, check_output, positive_float, three_numbers, warn
 from .progress import Progress
 
 
@@ -45,6 +46,10 @@ def run(args: argparse.Namespace) -> int:
     if args.controller is not None and args.method != "exact":
         raise UsageError("--method applies to joint readings: --controller's corrected targets come from the "
                          "exact compensation")
+    if is_gcode_path(args.targets):
+        return _program(args)
+    if args.segment_mm is not None or args.start is not None:
+        raise UsageError("--segment-mm and --start apply to a G-code program (.gcode, .gco, .g, .nc)")
     calibration = load_calibration(args.calibration)  # read and checked once
     controller = load_controller(args.controller) if args.controller is not None else None
     geometry, frames = calibration.geometry, calibration.instrument
@@ -85,6 +90,29 @@ def run(args: argparse.Namespace) -> int:
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {args.controller}")
     print(f"wrote {out.rows} {what} to {args.output}")
+    return 0
+
+
+def _program(args: argparse.Namespace) -> int:
+    """``compensate CAL PROGRAM.gcode --controller C -o OUT.gcode``: every move corrected, streamed."""
+    if args.controller is None:
+        raise UsageError(f"{args.targets}: a G-code program goes to a controller: give --controller (a "
+                         "controller file, or the robot file for its nominal controller)")
+    if args.frame != "base":
+        raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
+                         "instrument applies to a targets CSV")
+    calibration = load_calibration(args.calibration)
+    controller = load_controller(args.controller)
+
+    def correct(points: np.ndarray) -> np.ndarray:
+        return corrected_targets(calibration.geometry, controller, points).commands
+
+    segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
+    with Progress("compensate") as progress:
+        filter_gcode(args.targets, args.output, correct, segment, args.start,
+                     lambda fraction, _: progress.update(fraction, "program"))
+    print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
+          f"(moves split every {segment:g} mm at most)")
     return 0
 
 
@@ -162,4 +190,10 @@ def add_parser(sub) -> None:
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
                         "send a controller running this model (a controller file, or a robot file: its "
                         "nominal controller) instead of joint readings")
+    p.add_argument("--segment-mm", type=positive_float, metavar="S",
+                   help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
+                        "split so the real path follows the intended straight line")
+    p.add_argument("--start", type=lambda t: three_numbers(t, "X,Y,Z in mm"), metavar="X,Y,Z",
+                   help="G-code: the TCP position at the program's start [mm], if its first move does "
+                        "not give X, Y and Z")
     p.set_defaults(func=run)
