@@ -74,6 +74,36 @@ class Workspace:
 
 
 @dataclass(frozen=True)
+class Masses:
+    """Masses of the moving bodies [kg] (conventions, "Gravity and payload").
+
+    A payload is not a property of the robot: it is given per measurement or per command.
+
+    Attributes:
+        arm: Each arm [kg]; its centre of mass is half-way from its actuator axis to its
+            elbow balls' midpoint.
+        rod: Each of the six rods [kg], uniform (centre of mass half-way between its balls).
+        plate: The travelling plate [kg], at the plate frame's origin.
+    """
+
+    arm: float = 0.0
+    rod: float = 0.0
+    plate: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in ("arm", "rod", "plate"):
+            value = float(getattr(self, key))
+            if not (math.isfinite(value) and value >= 0.0):
+                raise GeometryError(f"mass {key} must be a finite non-negative number [kg], got {value!r}")
+            object.__setattr__(self, key, value)
+
+    @property
+    def is_zero(self) -> bool:
+        """True when no body has mass (a kinematic robot)."""
+        return self.arm == 0.0 and self.rod == 0.0 and self.plate == 0.0
+
+
+@dataclass(frozen=True)
 class NominalDelta:
     """Nominal (design) parameters of a Delta robot, as in a robot file.
 
@@ -89,6 +119,7 @@ class NominalDelta:
         points: Named reference points in the plate frame [mm].
         workspace: Cylinder for planning and validation, or None.
         description: Free text.
+        masses: Masses of the moving bodies (all zero: not given).
     """
 
     name: str
@@ -102,6 +133,7 @@ class NominalDelta:
     points: dict[str, np.ndarray] = field(default_factory=dict)
     workspace: Workspace | None = None
     description: str = ""
+    masses: Masses = field(default_factory=Masses)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "limb_azimuth", np.asarray(self.limb_azimuth, dtype=float))
@@ -157,6 +189,7 @@ class NominalDelta:
             tool=self.tool.copy(),
             points={k: v.copy() for k, v in self.points.items()},
             name=self.name,
+            masses=self.masses,
         )
 
 
@@ -278,6 +311,10 @@ class DeltaGeometry:
         tool: TCP in the plate frame [mm], shape (3,).
         points: Named reference points in the plate frame [mm].
         name: Robot name.
+        masses: Masses of the moving bodies (all zero: a kinematic robot).
+        compliance: Compliance c_i of each actuator [rad/N m], shape (3,): the true arm angle
+            is ``reading + encoder_offset + c_i tau_i`` with tau_i the gravity torque
+            (:mod:`deltacal.kinematics.statics`). Zeros: rigid actuators.
     """
 
     limb_azimuth: np.ndarray
@@ -290,6 +327,8 @@ class DeltaGeometry:
     tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
     points: dict[str, np.ndarray] = field(default_factory=dict)
     name: str = ""
+    masses: Masses = field(default_factory=Masses)
+    compliance: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
         shapes = {
@@ -301,6 +340,7 @@ class DeltaGeometry:
             "plate_ball": (3, 2, 3),
             "rod_length": (3, 2),
             "tool": (3,),
+            "compliance": (3,),
         }
         for key, shape in shapes.items():
             value = np.array(getattr(self, key), dtype=float)
@@ -565,8 +605,9 @@ class DeltaGeometry:
             "plate_ball",
             "rod_length",
             "tool",
+            "compliance",
         )
-        if set(self.points) != set(other.points):
+        if set(self.points) != set(other.points) or self.masses != other.masses:
             return False
         same = all(np.allclose(getattr(self, k), getattr(other, k), atol=atol, rtol=0) for k in keys)
         return same and all(

@@ -15,8 +15,21 @@ The robot is built as a kinematic tree closed by ball joints:
   minus the rod end, expressed in the rod-end frame [mm].
 
 The TCP (frame ``tcp``) and the named points of the geometry are frames of the
-plate. Inertias are placeholders (kinematics only): they only make the model
-valid for Pinocchio's dynamics algorithms.
+plate. Inertias: the geometry's masses (:class:`~deltacal.geometry.Masses`: each arm a
+slender bar whose centre of mass is half-way from the axis to its elbow balls' midpoint,
+each rod a uniform cylinder, the plate a sphere at its origin) and a payload as a point
+mass at the TCP; gravity is ``-9810 mm/s²`` along z of {O}. A robot without masses and
+payload gets placeholder inertias that only make the model valid for Pinocchio's
+dynamics algorithms (its gravity torques are then zero).
+
+Statics (:meth:`DeltaMultibody.gravity_torque`): at an assembled configuration,
+``pin.computeGeneralizedGravity`` gives ``G = dU/dv`` of the open tree. In static
+equilibrium the actuators' holding torques τ_a and the closures' forces λ balance it,
+``G = Sᵀ τ_a + J_cᵀ λ`` (S selects the arm velocities, J_c the 18 x nv closure Jacobian).
+These 27 equations in 21 unknowns are consistent (the idle rod spins carry no gravity
+torque and no constraint force) and their solution is unique away from singularities;
+it is solved by least squares and the gravity torque of the conventions is
+``tau = -τ_a`` (the torque gravity applies about each actuator).
 
 Forward kinematics holds the arms at the readings and runs Newton's method on
 the 18 stacked closure residuals over the 24 non-actuated velocities (rods and
@@ -52,7 +65,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry
+from ..geometry import DeltaGeometry, Masses
 from ..rotations import rotation_about_y
 from .closed_form import VirtualDelta
 from .exact import PlatePose
@@ -63,6 +76,10 @@ TOLERANCE = 1e-12
 ACCEPT = 1e-10
 #: Largest arm step of one inverse-kinematics iteration [rad]: keeps the knee-out branch.
 _MAX_ARM_STEP = 0.2
+#: Gravity along -z of {O} in the model's units [mm/s²] (conventions: 9.81 m/s²).
+GRAVITY_MM = 9810.0
+#: Generalised forces of the model (kg mm²/s² per rad) in N m.
+_TO_NEWTON_METRE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,6 +141,7 @@ class DeltaMultibody:
         max_iter: Newton iterations at most (Levenberg-Marquardt then gets ten times more).
         warm_radius: The last assembly warm-starts a solve when the readings moved by
             less than this in each joint [rad]; otherwise the closed-form pose is used.
+        payload: A point mass at the TCP [kg] (statics only).
     """
 
     def __init__(
@@ -132,8 +150,13 @@ class DeltaMultibody:
         tol: float = TOLERANCE,
         max_iter: int = 20,
         warm_radius: float = math.radians(5.0),
+        payload: float = 0.0,
     ) -> None:
+        if not (math.isfinite(payload) and payload >= 0.0):
+            raise ValueError(f"payload must be a finite non-negative mass [kg], got {payload!r}")
         self.geometry = geometry
+        self.payload = float(payload)
+        self._massive = not geometry.masses.is_zero or self.payload > 0.0
         self.tol = float(tol)
         self.max_iter = int(max_iter)
         self.warm_radius = float(warm_radius)
@@ -141,6 +164,7 @@ class DeltaMultibody:
         self._z_base = float(geometry.axis_point[:, 2].min())
         model = pin.Model()
         model.name = geometry.name or "delta"
+        model.gravity = pin.Motion(np.array([0.0, 0.0, -GRAVITY_MM]), np.zeros(3))
         self._build(model)
         self._model = model
         self._data = model.createData()
@@ -157,6 +181,7 @@ class DeltaMultibody:
     # ------------------------------------------------------------ building
     def _build(self, model: pin.Model) -> None:
         g = self.geometry
+        masses: Masses = g.masses
         R0 = g.actuator_rotation()
         placement_rot = R0 @ rotation_about_y(g.encoder_offset)
         arm_length = np.linalg.norm(g.arm_ball.mean(axis=1), axis=1)
@@ -168,21 +193,27 @@ class DeltaMultibody:
             jid = model.addJoint(
                 0, pin.JointModelRY(), pin.SE3(placement_rot[i], g.axis_point[i]), f"arm{i + 1}"
             )
-            # placeholder inertia: 1 kg slender bar along the arm [kg, mm]
-            com = g.arm_ball[i].mean(axis=0)
-            bar = np.diag([1.0, arm_length[i] ** 2, arm_length[i] ** 2]) / 12.0
-            model.appendBodyToJoint(jid, pin.Inertia(1.0, com, bar), pin.SE3.Identity())
+            # a slender bar along the arm [kg, mm]: the arm's mass half-way to its elbow (placeholder 1 kg
+            # at the elbow for a kinematic model)
+            elbow = g.arm_ball[i].mean(axis=0)
+            m_arm, com = (masses.arm, 0.5 * elbow) if self._massive else (1.0, elbow)
+            bar = m_arm * np.diag([1.0, arm_length[i] ** 2, arm_length[i] ** 2]) / 12.0
+            model.appendBodyToJoint(jid, pin.Inertia(m_arm, com, bar), pin.SE3.Identity())
             self._arm_joints.append(jid)
             for j in range(2):
                 rid = model.addJoint(
                     jid, pin.JointModelSpherical(), pin.SE3(np.eye(3), g.arm_ball[i, j]), f"rod{i + 1}{j + 1}"
                 )
                 length = float(g.rod_length[i, j])
-                inertia = pin.Inertia.FromCylinder(0.1, 5.0, length)
+                inertia = pin.Inertia.FromCylinder(masses.rod if self._massive else 0.1, 5.0, length)
                 model.appendBodyToJoint(rid, inertia, pin.SE3(np.eye(3), np.array([0.0, 0.0, -length / 2])))
                 self._rod_joints.append(rid)
         self._plate_joint = model.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "plate")
-        model.appendBodyToJoint(self._plate_joint, pin.Inertia.FromSphere(0.5, 50.0), pin.SE3.Identity())
+        plate = pin.Inertia.FromSphere(masses.plate if self._massive else 0.5, 50.0)
+        model.appendBodyToJoint(self._plate_joint, plate, pin.SE3.Identity())
+        if self.payload > 0.0:
+            payload = pin.Inertia(self.payload, np.array(g.tool), np.zeros((3, 3)))
+            model.appendBodyToJoint(self._plate_joint, payload, pin.SE3.Identity())
         self._frames: dict[str, int] = {}
         for name in ["plate", *g.point_names]:
             where = np.zeros(3) if name == "plate" else g.point(name)
@@ -260,6 +291,28 @@ class DeltaMultibody:
         self._evaluate(x, self._forward_system)
         system = self._forward_system
         return np.array(pin.getConstraintsJacobian(self._model, self._data, system.models, system.datas))
+
+    def gravity_torque(self, configuration: np.ndarray) -> np.ndarray:
+        """Gravity torque about each actuator of the closed loop, ``tau_i = -dU/dθ_i`` [N m], (3,).
+
+        Pinocchio's generalised gravity of the tree carried to the actuators through the
+        closures (module docstring: ``G = Sᵀ τ_a + J_cᵀ λ``, ``tau = -τ_a``), at an assembled
+        configuration (:meth:`solve_forward`). Positive when gravity lowers the arm tip.
+        """
+        if not self._massive:
+            return np.zeros(3)
+        x = np.asarray(configuration, dtype=float)
+        model, data, system = self._model, self._data, self._forward_system
+        G = np.array(pin.computeGeneralizedGravity(model, data, x))
+        pin.computeJointJacobians(model, data, x)
+        for c, d in zip(system.models, system.datas, strict=True):
+            c.calc(model, data, d)
+        Jc = np.array(pin.getConstraintsJacobian(model, data, system.models, system.datas))
+        S = np.zeros((3, model.nv))
+        S[np.arange(3), self._arm_v] = 1.0
+        balance = np.concatenate([S, Jc]).T  # (nv, 21): [Sᵀ J_cᵀ]
+        holding = np.linalg.lstsq(balance, G, rcond=None)[0][:3]
+        return -holding * _TO_NEWTON_METRE
 
     def frame_positions(self, configuration: np.ndarray, names: list[str] | None = None) -> np.ndarray:
         """Positions in {O} of plate frames (default: tcp and the named points) [mm], (k, 3)."""
