@@ -54,6 +54,7 @@ class Measurements:
             orientation was not measured.
         station: Name of the instrument station of each row (a tracker moved during the
             session has one frame per station); default :data:`DEFAULT_STATION` for all.
+        payload: Mass the robot carried at its TCP in each row [kg], shape (M,); default 0.
     """
 
     q: np.ndarray
@@ -61,6 +62,7 @@ class Measurements:
     point: list[str] = field(default_factory=list)
     rotation_vector: np.ndarray | None = None
     station: list[str] = field(default_factory=list)
+    payload: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         q = np.atleast_2d(np.asarray(self.q, dtype=float))
@@ -84,6 +86,12 @@ class Measurements:
         if len(station) != M:
             raise ValueError(f"{len(station)} station names for {M} measurements")
         object.__setattr__(self, "station", station)
+        payload = np.zeros(M) if self.payload is None else np.asarray(self.payload, dtype=float).reshape(-1)
+        if payload.shape != (M,):
+            raise ValueError(f"{payload.size} payloads for {M} measurements")
+        if not np.all(np.isfinite(payload) & (payload >= 0.0)):
+            raise ValueError(f"payloads must be finite non-negative masses [kg], got {payload.tolist()}")
+        object.__setattr__(self, "payload", payload)
 
     def __len__(self) -> int:
         return self.q.shape[0]
@@ -110,7 +118,19 @@ class Measurements:
             point=[self.point[k] for k in rows],
             rotation_vector=self.rotation_vector[index],
             station=[self.station[k] for k in rows],
+            payload=self.payload_kg[index],
         )
+
+    @property
+    def payload_kg(self) -> np.ndarray:
+        """The payload of each row [kg], shape (M,) (typed: never None after construction)."""
+        assert self.payload is not None
+        return self.payload
+
+    @property
+    def loaded(self) -> bool:
+        """True when some row carried a payload."""
+        return bool(np.any(self.payload_kg))
 
 
 @dataclass(frozen=True)

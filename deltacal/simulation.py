@@ -11,6 +11,9 @@ the commanded readings come from :class:`deltacal.kinematics.multibody.DeltaMult
 * a **6-DoF probe** measures the plate orientation: the measured rotation is
   ``exp([ξ]×) R_true`` with ξ normal of σ_angle per component (base frame), also
   averaged over the repeats;
+* a **payload** (a point mass at the TCP) and the robot's own masses load compliant
+  actuators (``truth.compliance``): the robot stands at its static equilibrium
+  (:func:`compliant_forward`), the Pinocchio model's by default;
 * **distances** need nothing more: identification forms them from the positions
   (:func:`deltacal.observations.build_rows` with ``distances=True``).
 
@@ -31,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .geometry import DeltaGeometry
+from .kinematics import statics
 from .kinematics.exact import PlatePose
 from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements
 from .rotations import rotation_from_vector, vector_from_rotation
@@ -44,6 +48,29 @@ def ground_truth_forward(geometry: DeltaGeometry, q: np.ndarray) -> PlatePose:
     from .kinematics.multibody import DeltaMultibody
 
     return DeltaMultibody(geometry).forward(q)
+
+
+def compliant_forward(
+    geometry: DeltaGeometry, q: np.ndarray, payload: float | np.ndarray = 0.0,
+    forward: ForwardKinematics | None = None,
+) -> PlatePose:
+    """Plate poses of a robot with compliant actuators in static equilibrium at readings q.
+
+    The rigid robot at the effective readings ``e = q + c tau(e)``
+    (:func:`~deltacal.kinematics.statics.compliant_readings`). With the default ``forward``
+    (the ground truth) the torques are the Pinocchio model's; with another, the exact
+    kinematics' virtual work. A robot with no compliance (or no mass and no payload) is rigid.
+
+    Args:
+        geometry: The robot (masses, compliances).
+        q: Readings [rad], shape (N, 3).
+        payload: Mass at the TCP [kg], one or one per pose.
+        forward: Forward kinematics of the rigid robot (default :func:`ground_truth_forward`).
+    """
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    torque = statics.multibody_gravity_torque if forward is None else statics.gravity_torque
+    effective = statics.compliant_readings(geometry, q, payload, torque)
+    return (ground_truth_forward if forward is None else forward)(geometry, effective)
 
 
 @dataclass(frozen=True)
@@ -94,8 +121,9 @@ def simulate_measurements(
     rng: np.random.Generator,
     metrology: Metrology | None = None,
     forward: ForwardKinematics | None = None,
+    payload: float | np.ndarray = 0.0,
 ) -> Measurements:
-    """Measurements of the true robot standing at readings q.
+    """Measurements of the true robot standing at readings q (carrying a payload).
 
     Args:
         truth: The true robot.
@@ -103,6 +131,8 @@ def simulate_measurements(
         rng: Random generator of the noise (pass a seeded one).
         metrology: The instruments (default :class:`Metrology`).
         forward: Forward kinematics of the true robot (default :func:`ground_truth_forward`).
+        payload: Mass at the TCP [kg], one or one per pose: with compliant actuators
+            the robot stands where its static equilibrium puts it (:func:`compliant_forward`).
 
     Returns:
         ``len(points) * N`` measurements, pose-major; rotation vectors NaN where not measured.
@@ -112,11 +142,11 @@ def simulate_measurements(
         AssemblyError: readings at which the true robot cannot be assembled.
     """
     metrology = Metrology() if metrology is None else metrology
-    forward = ground_truth_forward if forward is None else forward
     q = np.atleast_2d(np.asarray(q, dtype=float))
     N, k = q.shape[0], len(metrology.points)
+    payload = statics.payload_per_pose(payload, N)
     local = np.stack([truth.point(p) for p in metrology.points])  # (k, 3)
-    pose = forward(truth, q)
+    pose = compliant_forward(truth, q, payload, forward)
     exact_position = pose.position[:, None, :] + np.einsum("nij,kj->nki", pose.rotation, local)
     position = exact_position + rng.normal(0.0, metrology.position_noise, (N, k, 3))
     rotvec = np.full((N, k, 3), np.nan)
@@ -128,6 +158,7 @@ def simulate_measurements(
         position=position.reshape(N * k, 3),
         point=[p for _ in range(N) for p in metrology.points],
         rotation_vector=rotvec.reshape(N * k, 3),
+        payload=np.repeat(payload, k),
     )
 
 

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..exceptions import GeometryError, InputError
-from ..geometry import DeltaGeometry
+from ..geometry import DeltaGeometry, Masses
 from .atomic import atomic_write_text
 from .names import check_names
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
@@ -43,13 +43,44 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     }
     if geometry.points:
         out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
+    if not geometry.masses.is_zero:
+        out["masses"] = masses_to_dict(geometry.masses)
+    if np.any(geometry.compliance):
+        out["compliance"] = {"actuator_rad_per_nm": geometry.compliance.tolist()}
     return out
+
+
+def masses_to_dict(masses: Masses) -> dict[str, float]:
+    """The ``[masses]`` table (conventions, "Gravity and payload") [kg]."""
+    return {"arm_kg": masses.arm, "rod_kg": masses.rod, "plate_kg": masses.plate}
+
+
+def masses_from_table(table: _Table) -> Masses:
+    """Read a ``[masses]`` table: ``arm_kg``, ``rod_kg``, ``plate_kg``, each required, finite, >= 0.
+
+    Raises:
+        InputError: naming the file and the key.
+    """
+    table.check_unknown(["arm_kg", "rod_kg", "plate_kg"])
+    values = {}
+    for key in ("arm_kg", "rod_kg", "plate_kg"):
+        value = table.number(key)
+        if value < 0.0:
+            raise table.error(key, f"a mass cannot be negative, got {value!r} kg")
+        values[key[:-3]] = value
+    return Masses(**values)
+
+
+def _compliance_from_table(table: _Table) -> np.ndarray:
+    """A geometry's ``[compliance]``: ``actuator_rad_per_nm = [c1, c2, c3]`` [rad/N m]."""
+    table.check_unknown(["actuator_rad_per_nm"])
+    return table.vector("actuator_rad_per_nm", (3,))
 
 
 def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -> DeltaGeometry:
     """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
     top = _Table(data, source, prefix)
-    top.check_unknown(["format", "name", "tool_mm", "limb", "points"])
+    top.check_unknown(["format", "name", "tool_mm", "limb", "points", "masses", "compliance"])
     fmt = top.string("format")
     if fmt != GEOMETRY_FORMAT:
         raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
@@ -85,9 +116,14 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
         check_names(pts.data, "point", source, f"key {prefix}points")
         for k in pts.data:
             points[k] = pts.vector(k, (3,))
+    table = top.table("masses", required=False)
+    masses = Masses() if table is None else masses_from_table(table)
+    table = top.table("compliance", required=False)
+    compliance = np.zeros(3) if table is None else _compliance_from_table(table)
     try:
         return DeltaGeometry(
-            **{k: np.array(v) for k, v in fields.items()}, tool=tool, points=points, name=name
+            **{k: np.array(v) for k, v in fields.items()}, tool=tool, points=points, name=name,
+            masses=masses, compliance=compliance,
         )
     except GeometryError as exc:
         raise InputError(str(exc), source) from None

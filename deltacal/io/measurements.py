@@ -22,6 +22,10 @@ from .tables import (
 )
 
 
+#: The optional column of the mass carried at the TCP [kg] (conventions, "Gravity and payload").
+PAYLOAD_COLUMN = "payload_kg"
+
+
 @dataclass(frozen=True)
 class MeasurementFile:
     """A measurements file as read: the data and where each row stands in the file.
@@ -59,7 +63,7 @@ def read_measurements(
 def read_measurement_file(path: str | Path, point_names: list[str] | None = None) -> MeasurementFile:
     """Read a measurements CSV and keep each row's line (for messages); see :func:`read_measurements`."""
     table = read_csv_table(
-        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point", "station"],
+        path, MEASUREMENT_COLUMNS, ORIENTATION_COLUMNS + ["point", "station", PAYLOAD_COLUMN],
         text_columns=("point", "station"),
         all_or_none=(tuple(ORIENTATION_COLUMNS),),
     )
@@ -79,7 +83,14 @@ def read_measurement_file(path: str | Path, point_names: list[str] | None = None
     rv = None
     if "rx_deg" in table.numbers:
         rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
-    measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations)
+    payload = table.numbers.get(PAYLOAD_COLUMN, np.zeros(n))
+    negative = np.flatnonzero(payload < 0.0)
+    if negative.size:
+        k = int(negative[0])
+        raise InputError(f"a payload is a mass: must be >= 0 kg, got {payload[k]!r}", str(path),
+                         f"{data_row(table.lines[k], k + 1)}, column {PAYLOAD_COLUMN}")
+    measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations,
+                                payload=payload)
     warnings = list(table.warnings) + _station_warnings(table.text.get("station"), measurements)
     return MeasurementFile(measurements, np.asarray(table.lines), warnings, str(path))
 
@@ -139,6 +150,9 @@ def write_measurements(path: str | Path, measurements: Measurements) -> None:
         rv = np.degrees(np.where(has[:, None], measurements.rotation_vector, np.nan))
         cols += list(rv.T)
         header = header + ORIENTATION_COLUMNS
+    if measurements.loaded:
+        cols.append(measurements.payload_kg)
+        header = header + [PAYLOAD_COLUMN]
     if any(s != DEFAULT_STATION for s in measurements.station):
         extra = [[p, s] for p, s in zip(measurements.point, measurements.station, strict=True)]
         atomic_write_text(path, _format_rows(cols, header + ["point", "station"], extra))

@@ -9,9 +9,9 @@ from warnings import warn
 import numpy as np
 
 from ..exceptions import GeometryError, InputError, InputWarning
-from ..geometry import NominalDelta, Workspace
+from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
-from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
+from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
 from .names import check_names
 from .toml import _Table, read_toml
 
@@ -32,7 +32,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
         raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
                                   "robot file (such as deltacal/models/bai2015.toml)")
-    top.check_unknown(["name", "description", "geometry", "points", "workspace"])
+    top.check_unknown(["name", "description", "geometry", "points", "workspace", "masses"])
     name = top.string("name")
     description = top.string("description")
     geo = top.table("geometry")
@@ -87,6 +87,8 @@ def load_nominal(path: str | Path) -> NominalDelta:
         )
         if workspace.top_z >= 0.0:
             raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    masses_table = top.table("masses", required=False)
+    masses = Masses() if masses_table is None else masses_from_table(masses_table)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
@@ -101,6 +103,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             tool=tool,
             points=points,
             workspace=workspace,
+            masses=masses,
             **values,
         )
     except GeometryError as exc:
