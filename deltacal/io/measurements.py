@@ -21,7 +21,6 @@ from .tables import (
     read_csv_table,
 )
 
-
 #: The optional column of the mass carried at the TCP [kg] (conventions, "Gravity and payload").
 PAYLOAD_COLUMN = "payload_kg"
 

@@ -47,13 +47,14 @@ def payload_per_pose(payload: float | np.ndarray, n: int) -> np.ndarray:
     Raises:
         ValueError: a negative or non-finite mass, or a length other than n.
     """
-    m = np.broadcast_to(np.asarray(payload, dtype=float), (n,)) if np.ndim(payload) == 0 else np.asarray(
-        payload, dtype=float)
+    m = np.asarray(payload, dtype=float)
+    m = np.full(n, float(m)) if m.ndim == 0 else np.array(m)
     if m.shape != (n,):
         raise ValueError(f"payload must be one mass or one per pose ({n}), got shape {m.shape}")
-    if not np.all(np.isfinite(m) & (m >= 0.0)):
-        raise ValueError(f"payload must be finite non-negative masses [kg], got {m[~(np.isfinite(m) & (m >= 0))][0]!r}")
-    return np.array(m)
+    bad = ~(np.isfinite(m) & (m >= 0.0))
+    if np.any(bad):
+        raise ValueError(f"payload must be finite non-negative masses [kg], got {m[bad][0]!r}")
+    return m
 
 
 def _arm_lever(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
@@ -129,7 +130,9 @@ def gravity_torque(
     return -GRAVITY * 1e-3 * rate
 
 
-def multibody_gravity_torque(geometry: DeltaGeometry, q: np.ndarray, payload: float | np.ndarray = 0.0) -> np.ndarray:
+def multibody_gravity_torque(
+    geometry: DeltaGeometry, q: np.ndarray, payload: float | np.ndarray = 0.0
+) -> np.ndarray:
     """Gravity torques of the rigid robot at readings q by the Pinocchio closed-loop model [N m], (N, 3).
 
     The ground truth of :func:`gravity_torque` (one closed-loop solve per pose).
