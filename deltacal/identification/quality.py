@@ -231,13 +231,13 @@ def quality_factor(result) -> float:
 
 def needs_review(result, start: DeltaGeometry) -> bool:
     """Whether a fit's residuals or deviations call for trying other readings of the data."""
-    dof = max(result.n_rows - result.rank, 1)
+    dof = max((result.independent_rows or result.n_rows) - result.rank, 1)
     return quality_factor(result) > excess_bound(dof) or bool(implausible_deviations(start, result.geometry))
 
 
 def poor_fit_message(result, start: DeltaGeometry, causes: list[str], model_note: str = "") -> str:
     """One line: what is wrong with the fit, and the likely causes (``model_note``: a model that fits)."""
-    dof = max(result.n_rows - result.rank, 1)
+    dof = max((result.independent_rows or result.n_rows) - result.rank, 1)
     s0 = quality_factor(result)
     text = (
         f"the fit does not match the σ given: variance factor s0² = {s0:.3g} "
