@@ -76,19 +76,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             if k == "tcp":
                 raise pts.error(k, "'tcp' is reserved for the tool centre point")
             points[k] = pts.vector(k, (3,))
-    workspace = None
-    ws = top.table("workspace", required=False)
-    if ws is not None:
-        ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
-        workspace = Workspace(
-            radius=ws.number("radius_mm", positive=True),
-            height=ws.number("height_mm", positive=True),
-            top_z=ws.number("top_z_mm"),
-        )
-        if workspace.top_z >= 0.0:
-            raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
-    masses_table = top.table("masses", required=False)
-    masses = Masses() if masses_table is None else masses_from_table(masses_table)
+    workspace = _workspace(top)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
@@ -103,7 +91,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             tool=tool,
             points=points,
             workspace=workspace,
-            masses=masses,
+            masses=_masses(top),
             **values,
         )
     except GeometryError as exc:
@@ -111,6 +99,28 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if workspace is not None:
         _check_workspace_reachable(nominal, source)
     return nominal
+
+
+def _workspace(top: _Table) -> Workspace | None:
+    """The optional ``[workspace]`` cylinder."""
+    ws = top.table("workspace", required=False)
+    if ws is None:
+        return None
+    ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
+    workspace = Workspace(
+        radius=ws.number("radius_mm", positive=True),
+        height=ws.number("height_mm", positive=True),
+        top_z=ws.number("top_z_mm"),
+    )
+    if workspace.top_z >= 0.0:
+        raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    return workspace
+
+
+def _masses(top: _Table) -> Masses:
+    """The optional ``[masses]`` (conventions, "Gravity and payload"); none: a massless robot."""
+    table = top.table("masses", required=False)
+    return Masses() if table is None else masses_from_table(table)
 
 
 def _check_plausible(geo: _Table, key: str, value: float) -> None:
