@@ -79,6 +79,14 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+def non_negative_list(text: str) -> list[float]:
+    """Argparse type: comma-separated finite numbers >= 0 (at least one, each once)."""
+    values = [non_negative_float(part.strip()) for part in text.split(",")]
+    if len(set(values)) != len(values):
+        raise argparse.ArgumentTypeError(f"each value once, got {text!r}")
+    return values
+
+
 def positive_int(text: str) -> int:
     """Argparse type: an integer >= 1."""
     try:

@@ -25,6 +25,7 @@ from .common import (
     check_input,
     check_output,
     non_negative_float,
+    non_negative_list,
     point_list,
     positive_int,
     seed,
@@ -61,6 +62,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=positive_int, default=1,
                    help="readings averaged per measurement (default 1)")
     p.add_argument("--seed", type=seed, default=0, help="seed of the measurement noise (default 0)")
+    p.add_argument("--payload", type=non_negative_list, default=[0.0], metavar="KG[,KG...]",
+                   help="mass at the TCP [kg]; several: every pose measured at each, in that order "
+                        "(default 0). Loads the true robot's compliant actuators (column payload_kg)")
+    p.add_argument("--compliance", metavar="C[,C,C]",
+                   help="the true actuators' compliance [rad/N m], one for all or one each (default: the "
+                        "truth file's, else rigid); the robot's masses come from [masses]")
     p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
     p.add_argument("--station", action="append", type=station_frame, metavar="NAME:RX,RY,RZ:X,Y,Z",
                    help="write the measurements in an instrument frame: rotation vector of {O} in it [deg] "
@@ -68,6 +75,18 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "blocks of poses, one per station in order; all points of a pose in one station)")
     p.set_defaults(func=run)
     return p
+
+
+def _compliance(text: str) -> np.ndarray:
+    """``--compliance``: one value for the three actuators or three, finite, >= 0 [rad/N m]."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise UsageError(f"--compliance: numbers [rad/N m] expected, got {text!r}") from None
+    if len(values) not in (1, 3) or not all(math.isfinite(v) and v >= 0.0 for v in values):
+        raise UsageError(f"--compliance: one or three finite non-negative numbers [rad/N m], got {text!r}")
+    return np.broadcast_to(np.array(values), (3,)).copy()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -87,6 +106,11 @@ def run(args: argparse.Namespace) -> int:
         truth = load_geometry(args.truth)
     else:
         truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
+    if args.compliance is not None:
+        truth = replace(truth, compliance=_compliance(args.compliance))
+    payloads = args.payload
+    q = np.tile(poses.q, (len(payloads), 1))
+    payload = np.repeat(payloads, len(poses))
     points = tuple(point_list(args.points, truth.point_names))
     metrology = Metrology(
         points=points,
@@ -96,18 +120,20 @@ def run(args: argparse.Namespace) -> int:
         repeats=args.repeats,
     )
     try:
-        measurements = simulate_measurements(truth, poses.q, np.random.default_rng(args.seed), metrology)
+        measurements = simulate_measurements(truth, q, np.random.default_rng(args.seed), metrology,
+                                             payload=payload)
     except AssemblyError as exc:  # poses of the nominal robot the true one cannot take
         if not exc.indices:
             raise
         robot = f"the true robot ({args.truth})" if args.truth is not None else "the perturbed robot"
+        exc.indices = sorted({i % len(poses) for i in exc.indices})
         raise unassembled_rows(exc, args.poses, read.lines, poses.q, robot) from exc
     names = [name for name, _ in args.station or []]
     if len(set(names)) != len(names):
         raise UsageError(f"--station: each station once, got {', '.join(names)}")
     if args.station:
         frames = dict(args.station)
-        station = pose_stations(list(frames), len(poses), len(points))
+        station = pose_stations(list(frames), len(q), len(points))
         measurements = in_instrument_frames(replace(measurements, station=station), frames)
     if args.perturb is not None:
         save_geometry(truth, truth_path(args.output))
@@ -115,8 +141,9 @@ def run(args: argparse.Namespace) -> int:
     orientation = (
         f", orientation σ {math.degrees(metrology.angle_noise):.3g} deg" if metrology.orientation else ""
     )
+    loads = f" x {len(payloads)} payloads" if len(payloads) > 1 else ""
     print(
-        f"simulated {len(measurements)} measurements ({len(poses)} poses x {len(points)} point(s): "
+        f"simulated {len(measurements)} measurements ({len(poses)} poses{loads} x {len(points)} point(s): "
         f"{', '.join(points)}; σ {metrology.position_noise:.3g} mm per axis{orientation}) -> {args.output}"
     )
     if args.perturb is not None:

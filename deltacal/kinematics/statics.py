@@ -145,7 +145,11 @@ def multibody_gravity_torque(
     for mass in np.unique(payload):
         model = DeltaMultibody(geometry, payload=float(mass))
         for n in np.flatnonzero(payload == mass):
-            out[n] = model.gravity_torque(model.solve_forward(q[n]).configuration)
+            try:
+                assembled = model.solve_forward(q[n])
+            except AssemblyError as err:  # name the pose in the batch
+                raise AssemblyError(f"{err} (index {int(n)})", [int(n)], q[n][None], err.residual) from None
+            out[n] = model.gravity_torque(assembled.configuration)
     return out
 
 
