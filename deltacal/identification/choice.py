@@ -16,7 +16,7 @@ import numpy as np
 from ..exceptions import IdentificationError
 from ..identifiability import BaseParameters, base_parameters
 from ..observations import Rows
-from .columns import FRAME, POINT
+from .columns import COMPLIANCE, FRAME, POINT
 from .diagnostics import check_plausible, check_rank
 from .frames import FRAME_RTOL, absorbed_by_frames
 from .problem import Problem
@@ -31,7 +31,8 @@ class Choice:
         absorbed: Parameters of the geometry that the frames (nearly) absorb, held at their start.
         held: Parameters kept out of the base (the absorbed ones and, with frames, those outside
             the geometry's own base).
-        confounded: Free points' coordinates the geometry already accounts for (held).
+        confounded: Free points' coordinates the geometry already accounts for, and compliances
+            the measurements cannot tell from the geometry (held).
         hints: What richer measurements would identify.
     """
 
@@ -85,7 +86,7 @@ def with_points(
         ``(base, confounded)``: the base over every column, and the points' coordinates left out.
     """
     names = problem.columns.names
-    points = [k for k, c in enumerate(problem.columns.columns) if c.kind == POINT]
+    points = [k for k, c in enumerate(problem.columns.columns) if c.kind in (POINT, COMPLIANCE)]
     prefer = [base.names[k] for k in base.base] + [names[k] for k in points]
     full = base_parameters(W, names, rtol=problem.options.rtol, prefer=prefer, exclude=held)
     return full, tuple(names[k] for k in points if k not in full.base)
@@ -120,6 +121,6 @@ def choose(problem: Problem, rows: Rows) -> Choice:
     hints = check_rank(problem.start, problem.measurements, problem.model, base, W[:, : columns.n_fixed],
                        opt.sigma_position, opt.sigma_angle, opt.distances, opt.pairs, opt.rtol, stations)
     confounded: tuple[str, ...] = ()
-    if columns.points:
+    if columns.points or columns.compliance:
         base, confounded = with_points(problem, W, base, held)
     return Choice(base, tuple(absorbed), tuple(held), confounded, tuple(hints))

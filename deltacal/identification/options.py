@@ -37,6 +37,9 @@ class FitOptions:
         accept_poor_fit: Return a poor fit instead of raising :class:`~deltacal.PoorFitError`.
         axes_gauge: With free frames, move the identified robot (and the frames) to the gauge
             where its actuator axes have no net rigid motion; False keeps the model's own gauge.
+        compliance: Identify the actuators' compliances c1..c3 too (three more columns: the
+            measured point's sensitivity to θ_i times the gravity torque tau_i; the start's
+            masses and the measurements' payloads give the torques).
 
     Raises:
         ValueError: an option out of its range, or two that do not go together (the message
@@ -54,6 +57,7 @@ class FitOptions:
     free_points: tuple[str, ...] = ()
     accept_poor_fit: bool = False
     axes_gauge: bool = True
+    compliance: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "free_points", tuple(dict.fromkeys(self.free_points)))
@@ -71,6 +75,8 @@ class FitOptions:
             raise ValueError(
                 f"free_points={self.free_points!r} applies to positions and poses, not to distances=True"
             )
+        if self.distances and self.compliance:
+            raise ValueError("compliance=True applies to positions and poses, not to distances=True")
         if self.distances and self.frame == "free":
             raise ValueError(
                 "frame='free' applies to positions and poses: distances=True do not depend on the frame"

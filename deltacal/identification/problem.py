@@ -19,6 +19,7 @@ from ..kinematics import exact
 from ..observations import DISTANCE, Measurements, Rows, build_rows, distance_residual_stats
 from ..resources import require_memory
 from .columns import Columns, build_columns
+from .compliance import loaded_readings, with_compliance, with_compliance_moved
 from .frames import InstrumentFrame, frame_columns, in_base_frame, initial_frames
 from .options import FitOptions
 from .points import point_columns, with_points_moved
@@ -53,18 +54,24 @@ class Problem:
         """The rows at a geometry and frames: residuals, and the regressor of every column."""
         opt, stations, points = self.options, list(self.columns.stations), list(self.columns.points)
         seen = in_base_frame(self.measurements, frames) if frames else self.measurements
+        sensitivity = self.model.sensitivity
+        if self.columns.compliance:  # rows of the loaded robot, the compliances' columns last
+            seen = loaded_readings(geometry, seen)
+            sensitivity = with_compliance(sensitivity, seen.payload_kg)
         pose = exact.forward(geometry, seen.q)
         rows = build_rows(
-            geometry, seen, self.model.sensitivity, opt.sigma_position, opt.sigma_angle,
+            geometry, seen, sensitivity, opt.sigma_position, opt.sigma_angle,
             distances=opt.distances, pairs=opt.pairs, pose=pose,
         )
-        extra = []
+        n_model = self.columns.n_model
+        extra = [rows.regressor[:, :n_model]]
         if frames:
             centres = np.array([frames[name].centre for name in stations])
             extra.append(frame_columns(rows, seen, stations, centres))
         if points:
             extra.append(point_columns(rows, seen, points, pose.rotation))
-        return replace(rows, regressor=np.hstack([rows.regressor, *extra])) if extra else rows
+        extra.append(rows.regressor[:, n_model:])
+        return replace(rows, regressor=np.hstack(extra)) if len(extra) > 2 else rows
 
     def stats(self, geometry: DeltaGeometry, rows: Rows) -> ResidualStats:
         """Residual statistics of rows at a geometry; distances pair by pair, in bounded memory."""
@@ -83,7 +90,9 @@ class Problem:
         moved_geometry = self.model.apply(geometry, full[:n_model])
         if self.columns.points:
             moved_geometry = with_points_moved(moved_geometry, list(self.columns.points),
-                                               full[n_fixed:].reshape(-1, 3))
+                                               full[n_fixed : n_fixed + 3 * len(self.columns.points)].reshape(-1, 3))
+        if self.columns.compliance:
+            moved_geometry = with_compliance_moved(moved_geometry, full[-3:])
         return (
             moved_geometry,
             {s: frames[s].corrected(c) for s, c in zip(self.columns.stations, corrections, strict=True)},
@@ -118,6 +127,6 @@ def build_problem(
     frames: dict[str, InstrumentFrame] = {}
     if stations:
         frames = initial_frames(start, measurements, exact.forward(start, measurements.q))
-    columns = build_columns(model, stations, options.free_points)
+    columns = build_columns(model, stations, options.free_points, options.compliance)
     _require_memory(measurements, len(columns.columns), options)
     return Problem(start, measurements, model, options, columns, frames)
