@@ -4,7 +4,9 @@
 model, the base parameters with σ and correlations, the instrument frames, the fit's quality and
 (later) the actuators' compliances. It is read and written by
 :func:`deltacal.io.load_calibration` / :func:`deltacal.io.save_calibration` only; compensation,
-the report and the export take the value, never the file. The linear compensators' view of it
+the report and the export take the value, never the file. Compliances identified with the
+geometry are in ``geometry.compliance`` (what exact compensation uses) and, with their σ, in
+:attr:`Calibration.compliance` / :attr:`Calibration.compliance_sigma` (the file's ``[compliance]``). The linear compensators' view of it
 (:meth:`Calibration.linear`) refuses a calibration identified with free instrument frames: its
 base parameters are in the fit's own gauge, which those compensators cannot follow.
 """
@@ -21,7 +23,7 @@ from .compensation import LinearCalibration
 from .errormodels import ErrorModel
 from .exceptions import InputError
 from .geometry import DeltaGeometry
-from .identification.columns import FRAME, GEOMETRY, POINT, ParameterKind
+from .identification.columns import COMPLIANCE, COMPLIANCE_NAMES, FRAME, GEOMETRY, POINT, ParameterKind
 from .identification.frames import InstrumentFrame, axes_motion
 
 #: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],
@@ -44,6 +46,8 @@ _SECTION_KEYS = (
 
 def kind_of(name: str) -> ParameterKind:
     """The kind of a base parameter written without one (files of earlier versions)."""
+    if name in COMPLIANCE_NAMES:
+        return COMPLIANCE
     return FRAME if name.startswith("T[") else POINT if name.startswith("P[") else GEOMETRY
 
 
@@ -56,8 +60,9 @@ class BaseParameter:
         regrouping: What it stands for, e.g. ``δb11x − δa11y``.
         value: Identified value in ``unit``.
         sigma: Its standard deviation in ``unit``.
-        unit: ``"mm"`` or ``"deg"``.
-        kind: ``"geometry"``, ``"frame"`` or ``"point"`` (:mod:`deltacal.identification.columns`).
+        unit: ``"mm"``, ``"deg"`` or ``"rad/Nm"`` (a compliance).
+        kind: ``"geometry"``, ``"frame"``, ``"point"`` or ``"compliance"``
+            (:mod:`deltacal.identification.columns`).
     """
 
     name: str
@@ -126,7 +131,9 @@ class Calibration:
         outlier_lines: Lines of the measurement file flagged as outliers (command line).
         outlier_rows: Their 1-based data rows.
         frames: Instrument frames by station (empty: measured in the base frame).
-        compliance: Actuator compliances [rad/N m] when identified, else None.
+        compliance: Actuator compliances [rad/N m] when identified, else None (the same values
+            as ``geometry.compliance``).
+        compliance_sigma: Their σ [rad/N m] (0 for one the measurements could not identify).
         source: The file it was read from ("" when built in memory).
     """
 
@@ -148,6 +155,7 @@ class Calibration:
     outlier_rows: list[int] = field(default_factory=list)
     frames: dict[str, FrameRecord] = field(default_factory=dict)
     compliance: np.ndarray | None = None
+    compliance_sigma: np.ndarray | None = None
     source: str = ""
 
     @property

@@ -33,7 +33,7 @@ from .errormodels import ErrorModel, get_model
 from .errormodels.base import elementary_jacobian
 from .exceptions import AssemblyError, UnreachableError
 from .geometry import DeltaGeometry
-from .kinematics import exact
+from .kinematics import exact, statics
 from .kinematics.closed_form import VirtualDelta
 from .kinematics.exact import PlatePose
 from .kinematics.singularity import COMMAND_MARGIN
@@ -179,8 +179,14 @@ def compensate(
     method: str = "exact",
     linear: LinearCalibration | None = None,
     min_margin: float = 1.0,
+    payload: float = 0.0,
 ) -> np.ndarray:
     """Joint readings that put the identified robot's TCP at the targets.
+
+    With compliant actuators (``geometry.compliance``) the exact method puts the loaded TCP
+    there: the rigid robot's readings e reach the targets, and the robot stands there loaded at
+    the readings ``q = e − c tau(e)`` (:mod:`~deltacal.kinematics.statics`: e is its
+    equilibrium), its own weight and the payload included. The checks are on e.
 
     Args:
         geometry: The identified geometry (exact method).
@@ -189,6 +195,7 @@ def compensate(
         linear: Nominal geometry, model and deviations (required by the linear methods).
         min_margin: Targets whose readings have a :func:`singularity_margin` below this
             are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
+        payload: Mass carried at the TCP [kg] (exact method only).
 
     Returns:
         Readings to command [rad], shape (N, 3).
@@ -197,6 +204,8 @@ def compensate(
         UnreachableError: naming the targets out of reach or too close to a singularity.
     """
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    if payload and method != "exact":
+        raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
     if method == "exact":
         q = exact.inverse(geometry, targets)
     elif method in ("savoure", "bai"):
@@ -221,6 +230,8 @@ def compensate(
             targets[near],
             UnreachableError.SINGULAR,
         )
+    if method == "exact" and np.any(geometry.compliance):
+        q = q - geometry.compliance * statics.gravity_torque(geometry, q, payload)
     return q
 
 

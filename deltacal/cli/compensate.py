@@ -33,7 +33,7 @@ from ..io import (
     load_controller,
 )
 from ..io.gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
-from .common import check_input, check_output, positive_float, three_numbers, warn
+from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
 
 
@@ -46,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     if args.controller is not None and args.method != "exact":
         raise UsageError("--method applies to joint readings: --controller's corrected targets come from the "
                          "exact compensation")
+    _check_payload(args)
     if is_gcode_path(args.targets):
         return _program(args)
     if args.segment_mm is not None or args.start is not None:
@@ -78,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
                 in_base = chunk.targets if to_base is None else to_base(chunk.targets)
                 try:
                     if controller is None:
-                        values = compensate(geometry, in_base, args.method, linear)
+                        values = compensate(geometry, in_base, args.method, linear, payload=args.payload)
                     else:
                         values = corrected_targets(geometry, controller, in_base).commands
                 except UnreachableError as exc:
@@ -91,6 +92,18 @@ def run(args: argparse.Namespace) -> int:
             else f"corrected targets for the controller {args.controller}")
     print(f"wrote {out.rows} {what} to {args.output}")
     return 0
+
+
+def _check_payload(args: argparse.Namespace) -> None:
+    """``--payload``: joint readings of the exact method only (what the other routes cannot represent)."""
+    if not args.payload:
+        return
+    if args.method != "exact":
+        raise UsageError(f"--payload: the {args.method} method cannot represent a payload (the linear "
+                         "compensators know no gravity); use --method exact")
+    if args.controller is not None or is_gcode_path(args.targets):
+        raise UsageError("--payload applies to joint readings (a targets CSV without --controller): the "
+                         "controller and G-code routes do not model a payload yet")
 
 
 def _program(args: argparse.Namespace) -> int:
@@ -190,6 +203,9 @@ def add_parser(sub) -> None:
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
                         "send a controller running this model (a controller file, or a robot file: its "
                         "nominal controller) instead of joint readings")
+    p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
+                   help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
+                        "actuators' compliances, the readings put the loaded TCP on the targets (exact method)")
     p.add_argument("--segment-mm", type=positive_float, metavar="S",
                    help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
                         "split so the real path follows the intended straight line")

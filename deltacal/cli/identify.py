@@ -29,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
             frame=args.frame,
             accept_poor_fit=args.accept_poor_fit,
             free_points=tuple(args.free_points),
+            compliance=args.compliance,
         )
     except ValueError as exc:
         raise UsageError(f"options that do not go together: {exc}") from exc
@@ -100,4 +101,8 @@ def add_parser(sub) -> None:
     p.add_argument("--free-points", nargs="+", metavar="NAME", default=[],
                    help="identify the position on the plate of these measured points (reflectors) too, "
                         "where the data can tell it from the plate geometry")
+    p.add_argument("--compliance", action="store_true",
+                   help="identify the actuators' compliances c1..c3 too [rad/N m] (the robot file's [masses] "
+                        "and the measurements' payload_kg give the gravity torques; measure at 0 and a "
+                        "heavy payload)")
     p.set_defaults(func=run)

@@ -14,6 +14,7 @@ from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
 from ..identification import IdentificationResult
+from ..identification.columns import COMPLIANCE, COMPLIANCE_NAMES
 from ..identification.frames import InstrumentFrame
 from .atomic import atomic_write_text
 from .geometry_file import (
@@ -25,6 +26,9 @@ from .geometry_file import (
 )
 from .names import check_names
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
+
+#: The key suffix of each unit of a base parameter (``value_deg``, ``value_rad_per_nm``...).
+_UNIT_KEYS = {"mm": "mm", "deg": "deg", "rad/Nm": "rad_per_nm"}
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
 CORRELATION_ATOL = 1e-5
@@ -64,7 +68,9 @@ def calibration_from_result(result: IdentificationResult) -> Calibration:
     for label, name, v, s, u in zip(result.labels, result.base.base_names, result.values, result.sigma,
                                     result.units, strict=True):
         kind = kinds.get(name, kind_of(name))
-        if u == "rad":
+        if kind == COMPLIANCE:
+            base.append(BaseParameter(name, label, float(v), float(s), "rad/Nm", kind))
+        elif u == "rad":
             base.append(BaseParameter(name, label, math.degrees(v), math.degrees(s), "deg", kind))
         else:
             base.append(BaseParameter(name, label, float(v), float(s), "mm", kind))
@@ -80,16 +86,25 @@ def calibration_from_result(result: IdentificationResult) -> Calibration:
         iterations=result.iterations, variance_factor=float(result.variance_factor),
         unidentifiable=list(result.base.unidentifiable_names), residuals_before=result.before.as_dict(),
         residuals_after=result.after.as_dict(), outlier_rows=[int(k) + 1 for k in result.outliers],
-        frames=frames,
+        frames=frames, **_identified_compliance(result, base),
     )
+
+
+def _identified_compliance(result: IdentificationResult, base: list[BaseParameter]) -> dict:
+    """``compliance`` and ``compliance_sigma`` of a fit that identified them (else nothing)."""
+    if not any(c.kind == COMPLIANCE for c in result.columns):
+        return {}
+    sigma = {p.name: p.sigma for p in base if p.kind == COMPLIANCE}
+    return {"compliance": np.array(result.geometry.compliance, dtype=float),
+            "compliance_sigma": np.array([sigma.get(n, 0.0) for n in COMPLIANCE_NAMES])}
 
 
 def calibration_to_dict(calibration: Calibration) -> dict:
     """A calibration as the file's plain data (angles in degrees)."""
     cal = calibration
     params = [
-        {"name": p.name, "kind": p.kind, "regrouping": p.regrouping, f"value_{p.unit}": float(p.value),
-         f"sigma_{p.unit}": float(p.sigma)}
+        {"name": p.name, "kind": p.kind, "regrouping": p.regrouping, f"value_{_UNIT_KEYS[p.unit]}": float(p.value),
+         f"sigma_{_UNIT_KEYS[p.unit]}": float(p.sigma)}
         for p in cal.base
     ]
     report: dict = {
@@ -106,6 +121,10 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     report["correlation"] = np.round(cal.correlation, 6).tolist()
     data: dict = {"format": CALIBRATION_FORMAT, "calibration": report,
                   "geometry": geometry_to_dict(cal.geometry), "nominal": geometry_to_dict(cal.nominal)}
+    if cal.compliance is not None:
+        sigma = np.zeros(3) if cal.compliance_sigma is None else cal.compliance_sigma
+        data["compliance"] = {"actuator_rad_per_nm": [float(v) for v in cal.compliance],
+                              "sigma_rad_per_nm": [float(v) for v in sigma]}
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
@@ -209,10 +228,29 @@ def load_calibration(path: str | Path) -> Calibration:
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
         frames={name: FrameRecord(name=name, **item)
                 for name, item in instrument_tables(data, source).items()},
-        source=source,
+        source=source, **_compliance_table(data, source),
     )
     calibration.check()
     return calibration
+
+
+def _compliance_table(data: Mapping, source: str) -> dict:
+    """``[compliance]`` (``actuator_rad_per_nm``, ``sigma_rad_per_nm``), checked against ``[geometry]``."""
+    if "compliance" not in data:
+        return {}
+    t = _Table(data, source).table("compliance")
+    assert t is not None
+    t.check_unknown(["actuator_rad_per_nm", "sigma_rad_per_nm"])
+    value = t.vector("actuator_rad_per_nm", (3,))
+    sigma = t.vector("sigma_rad_per_nm", (3,)) if t.has("sigma_rad_per_nm") else np.zeros(3)
+    if np.any(sigma < 0.0):
+        raise t.error("sigma_rad_per_nm", f"must not be negative, got {sigma.tolist()}")
+    geometry = data["geometry"].get("compliance", {}).get("actuator_rad_per_nm", [0.0, 0.0, 0.0])
+    if not np.allclose(np.asarray(geometry, dtype=float), value, rtol=1e-12, atol=0.0):
+        raise t.error("actuator_rad_per_nm", f"{value.tolist()} disagrees with key "
+                      f"geometry.compliance.actuator_rad_per_nm = {_shown(geometry)} (a file edited in one "
+                      "place only? edit both, or identify again)")
+    return {"compliance": value, "compliance_sigma": sigma}
 
 
 def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
@@ -226,12 +264,13 @@ def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
         t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
         kind = t.string("kind", default=kind_of(name))
-        if kind not in ("geometry", "frame", "point"):
-            raise t.error("kind", f"must be 'geometry', 'frame' or 'point', got {kind!r}")
-        unit = "deg" if t.has("value_deg") else "mm"
-        value, sigma = t.number(f"value_{unit}"), t.number(f"sigma_{unit}")
+        if kind not in ("geometry", "frame", "point", "compliance"):
+            raise t.error("kind", f"must be 'geometry', 'frame', 'point' or 'compliance', got {kind!r}")
+        unit = "rad/Nm" if kind == "compliance" else "deg" if t.has("value_deg") else "mm"
+        key = _UNIT_KEYS[unit]
+        value, sigma = t.number(f"value_{key}"), t.number(f"sigma_{key}")
         if not sigma >= 0.0:
-            raise t.error(f"sigma_{unit}", f"must not be negative, got {sigma!r}")
+            raise t.error(f"sigma_{key}", f"must not be negative, got {sigma!r}")
         if kind == "geometry" and name not in model.names:
             raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
         base.append(BaseParameter(name, t.string("regrouping", default=f"δ{name}"), value, sigma, unit,
