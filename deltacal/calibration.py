@@ -6,7 +6,8 @@ model, the base parameters with σ and correlations, the instrument frames, the 
 :func:`deltacal.io.load_calibration` / :func:`deltacal.io.save_calibration` only; compensation,
 the report and the export take the value, never the file. Compliances identified with the
 geometry are in ``geometry.compliance`` (what exact compensation uses) and, with their σ, in
-:attr:`Calibration.compliance` / :attr:`Calibration.compliance_sigma` (the file's ``[compliance]``). The linear compensators' view of it
+:attr:`Calibration.compliance` / :attr:`Calibration.compliance_sigma` (the file's
+``[compliance]``). The linear compensators' view of it
 (:meth:`Calibration.linear`) refuses a calibration identified with free instrument frames: its
 base parameters are in the fit's own gauge, which those compensators cannot follow.
 """

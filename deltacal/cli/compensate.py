@@ -205,7 +205,8 @@ def add_parser(sub) -> None:
                         "nominal controller) instead of joint readings")
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
-                        "actuators' compliances, the readings put the loaded TCP on the targets (exact method)")
+                        "actuators' compliances, the readings put the loaded TCP on the targets "
+                        "(exact method)")
     p.add_argument("--segment-mm", type=positive_float, metavar="S",
                    help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
                         "split so the real path follows the intended straight line")

@@ -3,7 +3,8 @@
 The regressor's columns are, in order, the error model's parameters (``geometry``), six per
 station's instrument frame (``frame``, see :mod:`.frames`), three per free plate point
 (``point``, see :mod:`.points`) and, when fitted, the three actuators' compliances
-(``compliance``, ``c1..c3`` [rad/N m], see :mod:`deltacal.kinematics.statics`). Code tells them apart by :attr:`Column.kind`, never by name.
+(``compliance``, ``c1..c3`` [rad/N m], see :mod:`deltacal.kinematics.statics`). Code tells
+them apart by :attr:`Column.kind`, never by name.
 """
 
 from __future__ import annotations

@@ -24,7 +24,8 @@ from ..observations import Measurements
 
 def loaded_readings(geometry: DeltaGeometry, measurements: Measurements) -> Measurements:
     """The measurements with their readings replaced by the effective ones of ``geometry``."""
-    return replace(measurements, q=statics.compliant_readings(geometry, measurements.q, measurements.payload_kg))
+    effective = statics.compliant_readings(geometry, measurements.q, measurements.payload_kg)
+    return replace(measurements, q=effective)
 
 
 def with_compliance(sensitivity, payload: np.ndarray):

@@ -89,8 +89,8 @@ class Problem:
         corrections = full[n_model:n_fixed].reshape(-1, 6)
         moved_geometry = self.model.apply(geometry, full[:n_model])
         if self.columns.points:
-            moved_geometry = with_points_moved(moved_geometry, list(self.columns.points),
-                                               full[n_fixed : n_fixed + 3 * len(self.columns.points)].reshape(-1, 3))
+            moves = full[n_fixed : n_fixed + 3 * len(self.columns.points)]
+            moved_geometry = with_points_moved(moved_geometry, list(self.columns.points), moves.reshape(-1, 3))
         if self.columns.compliance:
             moved_geometry = with_compliance_moved(moved_geometry, full[-3:])
         return (

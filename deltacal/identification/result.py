@@ -11,7 +11,7 @@ import numpy as np
 from ..geometry import DeltaGeometry
 from ..identifiability import BaseParameters
 from ..observations import DISTANCE, ORIENTATION, POSITION, Rows
-from .columns import GEOMETRY, Column
+from .columns import COMPLIANCE_NAMES, GEOMETRY, Column
 from .frames import InstrumentFrame
 from .outliers import OUTLIER_THRESHOLD
 
@@ -173,6 +173,8 @@ class IdentificationResult:
         for label, v, s, u in zip(self.labels, self.values, self.sigma, self.units, strict=True):
             if u == "rad":
                 lines.append(f"  {label:<{width}}  {math.degrees(v):+12.6f} ± {math.degrees(s):.6f} deg")
+            elif u == "rad/Nm":  # an actuator's compliance, shown in µrad per N m
+                lines.append(f"  {label:<{width}}  {1e6 * v:+12.6f} ± {1e6 * s:.6f} µrad/N m")
             else:
                 lines.append(f"  {label:<{width}}  {v:+12.6f} ± {s:.6f} mm")
         absent = self.base.absent
@@ -180,12 +182,19 @@ class IdentificationResult:
             k for k in self.base.unidentifiable
             if k not in absent and self.base.names[k] not in (*self.absorbed, *self.confounded)
         ]
-        if self.confounded:
+        points = [n for n in self.confounded if n not in COMPLIANCE_NAMES]
+        if points:
             lines.append("")
             lines.append("free point coordinates confounded with the plate geometry (its own parameters "
                          "already account for them, e.g. a common shift of every plate point with the "
                          "plate balls moves nothing measured; held at their given values):")
-            lines.append("  " + ", ".join(self.confounded))
+            lines.append("  " + ", ".join(points))
+        compliances = [n for n in self.confounded if n in COMPLIANCE_NAMES]
+        if compliances:
+            lines.append("")
+            lines.append("compliances not identifiable (the gravity torques vary too little over the "
+                         "measurements: measure at two payloads, far apart; held at zero): "
+                         + ", ".join(compliances))
         if self.absorbed:
             lines.append("")
             lines.append("absorbed by the instrument frame(s) (rigid motions of the robot; held):")
@@ -260,6 +269,9 @@ class IdentificationResult:
             if u == "rad":
                 params.append({"name": name, "regrouping": label, "value_deg": math.degrees(v),
                                "sigma_deg": math.degrees(s)})
+            elif u == "rad/Nm":
+                params.append({"name": name, "regrouping": label, "value_rad_per_nm": v,
+                               "sigma_rad_per_nm": s})
             else:
                 params.append({"name": name, "regrouping": label, "value_mm": v, "sigma_mm": s})
         return {

@@ -103,8 +103,8 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     """A calibration as the file's plain data (angles in degrees)."""
     cal = calibration
     params = [
-        {"name": p.name, "kind": p.kind, "regrouping": p.regrouping, f"value_{_UNIT_KEYS[p.unit]}": float(p.value),
-         f"sigma_{_UNIT_KEYS[p.unit]}": float(p.sigma)}
+        {"name": p.name, "kind": p.kind, "regrouping": p.regrouping,
+         f"value_{_UNIT_KEYS[p.unit]}": float(p.value), f"sigma_{_UNIT_KEYS[p.unit]}": float(p.sigma)}
         for p in cal.base
     ]
     report: dict = {
