@@ -90,7 +90,8 @@ class Problem:
         moved_geometry = self.model.apply(geometry, full[:n_model])
         if self.columns.points:
             moves = full[n_fixed : n_fixed + 3 * len(self.columns.points)]
-            moved_geometry = with_points_moved(moved_geometry, list(self.columns.points), moves.reshape(-1, 3))
+            points = list(self.columns.points)
+            moved_geometry = with_points_moved(moved_geometry, points, moves.reshape(-1, 3))
         if self.columns.compliance:
             moved_geometry = with_compliance_moved(moved_geometry, full[-3:])
         return (
