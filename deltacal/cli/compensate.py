@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     if args.segment_mm is not None or args.start is not None:
         raise UsageError("--segment-mm and --start apply to a G-code program (.gcode, .gco, .g, .nc)")
     calibration = load_calibration(args.calibration)  # read and checked once
+    _warn_rigid_route(args, calibration.geometry.compliance)
     controller = load_controller(args.controller) if args.controller is not None else None
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(args.targets)
@@ -106,6 +107,14 @@ def _check_payload(args: argparse.Namespace) -> None:
                          "controller and G-code routes do not model a payload yet")
 
 
+def _warn_rigid_route(args: argparse.Namespace, compliance: np.ndarray) -> None:
+    """A compliant calibration through a route that models no gravity: say what it leaves out."""
+    if np.any(compliance) and (args.controller is not None or args.method != "exact"):
+        route = "--controller" if args.controller is not None else f"--method {args.method}"
+        warn([f"{args.calibration}: the actuators' compliances are identified, but {route} models no "
+              "gravity: the robot's own deflection is not compensated (the exact joint readings are)"])
+
+
 def _program(args: argparse.Namespace) -> int:
     """``compensate CAL PROGRAM.gcode --controller C -o OUT.gcode``: every move corrected, streamed."""
     if args.controller is None:
@@ -115,6 +124,7 @@ def _program(args: argparse.Namespace) -> int:
         raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
                          "instrument applies to a targets CSV")
     calibration = load_calibration(args.calibration)
+    _warn_rigid_route(args, calibration.geometry.compliance)
     controller = load_controller(args.controller)
 
     def correct(points: np.ndarray) -> np.ndarray:

@@ -1,0 +1,95 @@
+"""Gravity and payload on the command line: simulate --payload/--compliance, identify --compliance,
+compensate --payload, and their refusals (one line, status, nothing written)."""
+
+from __future__ import annotations
+
+import tomllib
+
+import numpy as np
+import pytest
+from conftest import MODELS, read_joints, write_targets
+from numpy.testing import assert_allclose
+
+from deltacal.cli import main
+from deltacal.compensation import compensate
+from deltacal.io import load_calibration, load_geometry, load_nominal, read_measurements
+from deltacal.kinematics import exact
+from deltacal.simulation import compliant_forward
+
+MASSES = "\n[masses]\narm_kg = 0.35\nrod_kg = 0.04\nplate_kg = 0.4\n"
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    """A flexpicker with masses, 30 planned poses simulated at 0 and 3 kg, identified with compliances."""
+    folder = tmp_path_factory.mktemp("gravity")
+    robot = folder / "robot.toml"
+    robot.write_text((MODELS / "flexpicker.toml").read_text() + MASSES)
+    poses, meas, cal = folder / "poses.csv", folder / "meas.csv", folder / "cal.toml"
+    assert main(["plan", str(robot), "--strategy", "doptimal", "--count", "30", "-o", str(poses)]) == 0
+    assert main(["simulate", str(robot), str(poses), "--perturb", "5", "--payload", "0,3", "--compliance",
+                 "2e-5,1.8e-5,2.2e-5", "-o", str(meas)]) == 0
+    assert main(["identify", str(robot), str(meas), "--compliance", "-o", str(cal)]) == 0
+    return folder, robot, meas, cal
+
+
+def test_simulate_writes_the_payloads_and_a_compliant_truth(session):
+    folder, robot, meas, _ = session
+    measured, _ = read_measurements(meas)
+    assert len(measured) == 60
+    assert_allclose(measured.payload_kg, np.repeat([0.0, 3.0], 30))
+    assert_allclose(measured.q[:30], measured.q[30:])
+    truth = load_geometry(folder / "meas.truth.toml")
+    assert_allclose(truth.compliance, [2e-5, 1.8e-5, 2.2e-5])
+    assert truth.masses == load_nominal(robot).masses
+    # the loaded robot stood where its equilibrium puts it: 3 kg moved the TCP by micrometres
+    moved = np.linalg.norm(measured.position[30:] - measured.position[:30], axis=1)
+    assert 0.002 < moved.max() < 0.2
+
+
+def test_identify_and_compensate_with_a_payload(session, capsys):
+    folder, _, _, cal = session
+    data = tomllib.loads(cal.read_text())
+    assert len(data["compliance"]["actuator_rad_per_nm"]) == 3
+    calibration = load_calibration(cal)
+    truth = load_geometry(folder / "meas.truth.toml")
+    assert calibration.compliance_sigma is not None
+    assert np.all(np.abs(calibration.compliance - truth.compliance) < 4.0 * calibration.compliance_sigma)
+    targets = np.array([[0.0, 0.0, -600.0], [150.0, -80.0, -700.0]])
+    write_targets(folder / "t.csv", targets)
+    assert main(["compensate", str(cal), str(folder / "t.csv"), "--payload", "3", "-o",
+                 str(folder / "j.csv")]) == 0
+    q = read_joints(folder / "j.csv")
+    assert_allclose(q, compensate(calibration.geometry, targets, payload=3.0), rtol=0.0, atol=1e-13)
+    reached = compliant_forward(truth, q, 3.0, exact.forward).point(truth.tool)
+    assert np.linalg.norm(reached - targets, axis=1).max() < 0.03  # mm: the loaded TCP on target
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--payload", "3", "--method", "bai"], "--payload: the bai method cannot represent a payload"),
+        (["--payload", "-1"], "argument --payload: must be a finite non-negative number"),
+        (["--payload", "3", "--controller", str(MODELS / "flexpicker.toml")], "--payload applies to joint"),
+    ],
+)
+def test_compensate_payload_refusals(session, capsys, extra, message):
+    folder, _, _, cal = session
+    write_targets(folder / "t2.csv", np.array([[0.0, 0.0, -600.0]]))
+    out = folder / "refused.csv"
+    try:
+        status = main(["compensate", str(cal), str(folder / "t2.csv"), "-o", str(out), *extra])
+    except SystemExit as exc:  # argparse's own refusals
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0]
+    assert not out.exists()
+
+
+def test_a_negative_mass_is_refused_naming_the_key(tmp_path, capsys):
+    robot = tmp_path / "robot.toml"
+    robot.write_text((MODELS / "flexpicker.toml").read_text() + MASSES.replace("0.4", "-0.4"))
+    assert main(["plan", str(robot), "-o", str(tmp_path / "p.csv")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "key masses.plate_kg: a mass cannot be negative" in err[0]
