@@ -40,6 +40,7 @@ _LAZY = {
     # geometry and kinematics
     "DeltaGeometry": "geometry",
     "NominalDelta": "geometry",
+    "Masses": "geometry",
     "Tolerances": "geometry",
     "Workspace": "geometry",
     "error_names": "geometry",
@@ -49,6 +50,9 @@ _LAZY = {
     "DeltaMultibody": "kinematics.multibody",
     "forward": "kinematics.exact",
     "inverse": "kinematics.exact",
+    "gravity_torque": "kinematics.statics",
+    "multibody_gravity_torque": "kinematics.statics",
+    "compliant_readings": "kinematics.statics",
     # models, measurements, identification
     "ErrorModel": "errormodels",
     "get_model": "errormodels",
@@ -70,6 +74,7 @@ _LAZY = {
     "d_optimal": "planning",
     "Metrology": "simulation",
     "simulate_measurements": "simulation",
+    "compliant_forward": "simulation",
     "ValidationMetrics": "validation",
     "validate": "validation",
     "validation_poses": "validation",
