@@ -26,7 +26,7 @@ import numpy as np
 
 from .geometry import DeltaGeometry, NominalDelta
 from .planning import PoseSet, circle, poses_from_reference, require_workspace
-from .simulation import ForwardKinematics, ground_truth_forward
+from .simulation import ForwardKinematics, compliant_forward
 
 #: Layers and radii (fractions of R) of Bai's validation circles, in order.
 LAYERS = ("top", "middle", "bottom")
@@ -150,6 +150,7 @@ def validate(
     targets: np.ndarray,
     forward: ForwardKinematics | None = None,
     home: int = 0,
+    payload: float = 0.0,
 ) -> ValidationMetrics:
     """Accuracy of the true robot commanded with readings q towards targets.
 
@@ -159,10 +160,11 @@ def validate(
         targets: Desired TCP positions [mm], shape (N, 3), home pose first.
         forward: Forward kinematics of the true robot (default: the Pinocchio model).
         home: Index of the home pose.
+        payload: Mass at the TCP [kg]: a robot with compliant actuators stands where its static
+            equilibrium puts it (:func:`~deltacal.simulation.compliant_forward`).
 
     Raises:
         AssemblyError: readings at which the true robot cannot be assembled.
     """
-    forward = ground_truth_forward if forward is None else forward
-    pose = forward(truth, np.atleast_2d(np.asarray(q, dtype=float)))
+    pose = compliant_forward(truth, np.atleast_2d(np.asarray(q, dtype=float)), payload, forward)
     return metrics_from_positions(pose.point(truth.tool), targets, home)

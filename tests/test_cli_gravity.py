@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli import main
 from deltacal.compensation import compensate
-from deltacal.io import load_calibration, load_geometry, load_nominal, read_measurements
+from deltacal.io import load_calibration, load_controller, load_geometry, load_nominal, read_measurements
 from deltacal.kinematics import exact
 from deltacal.simulation import compliant_forward
 
@@ -63,6 +63,12 @@ def test_identify_and_compensate_with_a_payload(session, capsys):
     assert_allclose(q, compensate(calibration.geometry, targets, payload=3.0), rtol=0.0, atol=1e-13)
     reached = compliant_forward(truth, q, 3.0, exact.forward).point(truth.tool)
     assert np.linalg.norm(reached - targets, axis=1).max() < 0.03  # mm: the loaded TCP on target
+    # through a controller: its corrected targets make it command those readings
+    controller = load_controller(MODELS / "flexpicker.toml")
+    assert main(["compensate", str(cal), str(folder / "t.csv"), "--payload", "3", "--controller",
+                 str(MODELS / "flexpicker.toml"), "-o", str(folder / "c.csv")]) == 0
+    rows = np.loadtxt(folder / "c.csv", delimiter=",", skiprows=1)
+    assert_allclose(controller.inverse(rows[:, 3:6]), q, rtol=0.0, atol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -70,7 +76,6 @@ def test_identify_and_compensate_with_a_payload(session, capsys):
     [
         (["--payload", "3", "--method", "bai"], "--payload: the bai method cannot represent a payload"),
         (["--payload", "-1"], "argument --payload: must be a finite non-negative number"),
-        (["--payload", "3", "--controller", str(MODELS / "flexpicker.toml")], "--payload applies to joint"),
     ],
 )
 def test_compensate_payload_refusals(session, capsys, extra, message):

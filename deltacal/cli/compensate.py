@@ -82,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
                     if controller is None:
                         values = compensate(geometry, in_base, args.method, linear, payload=args.payload)
                     else:
-                        values = corrected_targets(geometry, controller, in_base).commands
+                        corrected = corrected_targets(geometry, controller, in_base, payload=args.payload)
+                        values = corrected.commands
                 except UnreachableError as exc:
                     if not exc.indices:
                         raise
@@ -96,23 +97,19 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _check_payload(args: argparse.Namespace) -> None:
-    """``--payload``: joint readings of the exact method only (what the other routes cannot represent)."""
+    """``--payload``: the exact method's (joint readings, or corrected targets for a controller)."""
     if not args.payload:
         return
     if args.method != "exact":
         raise UsageError(f"--payload: the {args.method} method cannot represent a payload (the linear "
                          "compensators know no gravity); use --method exact")
-    if args.controller is not None or is_gcode_path(args.targets):
-        raise UsageError("--payload applies to joint readings (a targets CSV without --controller): the "
-                         "controller and G-code routes do not model a payload yet")
 
 
 def _warn_rigid_route(args: argparse.Namespace, compliance: np.ndarray) -> None:
-    """A compliant calibration through a route that models no gravity: say what it leaves out."""
-    if np.any(compliance) and (args.controller is not None or args.method != "exact"):
-        route = "--controller" if args.controller is not None else f"--method {args.method}"
-        warn([f"{args.calibration}: the actuators' compliances are identified, but {route} models no "
-              "gravity: the robot's own deflection is not compensated (the exact joint readings are)"])
+    """A compliant calibration through a linear method, which models no gravity: say what it leaves out."""
+    if np.any(compliance) and args.method != "exact":
+        warn([f"{args.calibration}: the actuators' compliances are identified, but --method {args.method} "
+              "models no gravity: the robot's own deflection is not compensated (--method exact's is)"])
 
 
 def _program(args: argparse.Namespace) -> int:
@@ -128,7 +125,7 @@ def _program(args: argparse.Namespace) -> int:
     controller = load_controller(args.controller)
 
     def correct(points: np.ndarray) -> np.ndarray:
-        return corrected_targets(calibration.geometry, controller, points).commands
+        return corrected_targets(calibration.geometry, controller, points, payload=args.payload).commands
 
     segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
     with Progress("compensate") as progress:
@@ -215,8 +212,8 @@ def add_parser(sub) -> None:
                         "nominal controller) instead of joint readings")
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
-                        "actuators' compliances, the readings put the loaded TCP on the targets "
-                        "(exact method)")
+                        "actuators' compliances, the readings (or a controller's corrected targets) put "
+                        "the loaded TCP on the targets (exact method)")
     p.add_argument("--segment-mm", type=positive_float, metavar="S",
                    help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
                         "split so the real path follows the intended straight line")

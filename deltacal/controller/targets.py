@@ -46,6 +46,7 @@ def corrected_targets(
     controller: Controller,
     targets: np.ndarray,
     min_margin: float = 1.0,
+    payload: float = 0.0,
 ) -> CorrectedTargets:
     """The targets to send ``controller`` so that the calibrated robot's TCP reaches ``targets``.
 
@@ -55,6 +56,8 @@ def corrected_targets(
         targets: Desired TCP positions in the base frame {O} [mm], (N, 3).
         min_margin: Singularity margin required of both the real robot (as
             :func:`~deltacal.compensation.compensate`) and the controller's model at the readings.
+        payload: Mass at the TCP [kg]: with compliant actuators the loaded TCP reaches the targets
+            (the readings are exact compensation's with this payload).
 
     Returns:
         The commands [mm] and readings [rad], each (N, 3).
@@ -67,7 +70,7 @@ def corrected_targets(
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
-    q = compensate(geometry, targets, "exact", min_margin=min_margin)
+    q = compensate(geometry, targets, "exact", min_margin=min_margin, payload=payload)
     virtual = controller.virtual
     plate = virtual.forward(q, check=False)
     with np.errstate(invalid="ignore"):
