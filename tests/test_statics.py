@@ -166,3 +166,14 @@ def test_robot_file_masses_reach_the_geometry(tmp_path):
     path.write_text((MODELS / "flexpicker.toml").read_text() + "\n[masses]\narm_kg = 0.35\nrod_kg = 0.04\n"
                     "plate_kg = 0.4\n")
     assert load_nominal(path).geometry().masses == MASSES
+
+
+def test_validation_stands_a_compliant_truth_at_its_equilibrium(heavy):
+    from deltacal.validation import validate
+
+    g, q = heavy
+    loaded = compliant_forward(g, q, 3.0, exact.forward).point(g.tool)
+    metrics = validate(g, q, loaded, forward=exact.forward, payload=3.0)
+    assert_allclose(metrics.actual, loaded, rtol=0.0, atol=1e-12)
+    rigid = validate(g, q, loaded, forward=exact.forward)  # unloaded: off by the payload's deflection
+    assert np.abs(rigid.actual - loaded).max() > 1e-3
