@@ -98,3 +98,17 @@ def test_a_negative_mass_is_refused_naming_the_key(tmp_path, capsys):
     assert main(["plan", str(robot), "-o", str(tmp_path / "p.csv")]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "key masses.plate_kg: a mass cannot be negative" in err[0]
+
+
+def test_report_shows_the_compliances_and_a_deflection_map(session):
+    folder, _, _, cal = session
+    out = folder / "report.html"
+    assert main(["report", str(cal), "-o", str(out), "--no-view", "--payload", "3", "--truth",
+                 str(folder / "meas.truth.toml")]) == 0
+    page = out.read_text()
+    assert "Actuator compliances and deflections" in page
+    assert "a payload of 3 kg at the TCP" in page
+    calibration = load_calibration(cal)
+    assert calibration.compliance is not None
+    shown = f"{1e6 * calibration.compliance[0]:.6g}"
+    assert shown in page  # c1 in µrad/N m

@@ -10,7 +10,7 @@ from ..exceptions import InputError
 from ..identification.quality import implausible_deviations
 from ..io import load_calibration, load_geometry, load_nominal
 from ..report import write_report
-from .common import check_input, check_output, three_numbers, warn
+from .common import check_input, check_output, non_negative_float, three_numbers, warn
 
 
 def tool_vector(text: str) -> np.ndarray:
@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
         truth=truth,
         truth_source=args.truth,
         tool=args.tool,
+        payload=args.payload,
         workspace=workspace,
         view=not args.no_view,
     )
@@ -79,5 +80,7 @@ def add_parser(sub) -> None:
         "--robot", metavar="ROBOT.toml",
         help="robot file whose [workspace] the accuracy map covers (default: sized from the robot)",
     )
+    p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
+                   help="a calibration with compliances: map the TCP deflection under this payload [kg] too")
     p.add_argument("--no-view", action="store_true", help="leave out the 3-D view (a smaller file)")
     p.set_defaults(func=run)

@@ -29,6 +29,7 @@ from .accuracy import (
     sigma_3d,
     tcp_jacobian,
 )
+from .deflection import deflection_map
 from .html import Page, render_page
 from .residuals import MeasurementResiduals, measurement_residuals
 
@@ -77,6 +78,7 @@ def write_report(
     workspace: Workspace | None = None,
     view: bool = True,
     grid: int = 41,
+    payload: float = 0.0,
 ) -> ReportSummary:
     """Write the HTML report of a calibration file, atomically.
 
@@ -90,6 +92,8 @@ def write_report(
         workspace: Cylinder of the accuracy map (default: one sized from the robot).
         view: Embed the meshcat 3-D view.
         grid: Points along each side of a slice.
+        payload: For a calibration that identified compliances: the payload [kg] whose TCP
+            deflection the report maps (beside the robot's own weight).
 
     Returns:
         A summary of what was written.
@@ -123,6 +127,7 @@ def write_report(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
         measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
         scene_html=scene, scene_note=note, warnings=warnings,
+        deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
     )
     path = Path(output)
     atomic_write_text(path, render_page(page))

@@ -33,8 +33,9 @@ import numpy as np
 from ..calibration import Calibration
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, Workspace
+from ..identification.columns import COMPLIANCE_NAMES
 from ..identification.frames import gauge_sensitivity, to_axes_gauge
-from ..kinematics import exact
+from ..kinematics import exact, statics
 from ..rotations import skew
 
 #: Grid points along a side of a horizontal slice (and along x and z of the vertical one).
@@ -72,12 +73,19 @@ def tcp_jacobian(
     tool = geometry.tool if tool is None else np.asarray(tool, dtype=float)
     pose = exact.forward(geometry, q)
     model = calibration.model
-    columns = [model.names.index(name) for name in calibration.robot_names]
+    names = calibration.robot_names
+    compliance = [COMPLIANCE_NAMES.index(n) for n in names if n in COMPLIANCE_NAMES]  # last in the fit
+    columns = [model.names.index(name) for name in names if name not in COMPLIANCE_NAMES]
     S = model.sensitivity(geometry, q, pose)[:, :, columns]  # (N, 6, r)
+    if compliance:  # unloaded: c_i moves the plate as θ_i by tau_i (the robot's own weight)
+        tau = statics.gravity_torque(geometry, q, 0.0, pose)
+        own = exact.forward_jacobian(geometry, q, pose) * tau[:, None]
+        S = np.concatenate([S, own[:, :, compliance]], axis=2)
     lever = pose.rotation @ tool  # R t, (N, 3)
     J = S[:, :3] - skew(lever) @ S[:, 3:]
     if calibration.frames:  # {O} is the axes gauge: the rigid motion it undoes is no error in {O}
         A = gauge_sensitivity(model, geometry, columns)
+        A = np.concatenate([A, np.zeros((6, len(compliance)))], axis=1)
         J = J + skew(pose.point(tool)) @ A[:3] - A[3:]
     return J
 
@@ -187,17 +195,23 @@ def actual_tcp_error(
 ) -> np.ndarray:
     """Where the true robot's TCP lands minus the target, commanding the identified robot's readings.
 
-    Both through the exact forward/inverse kinematics; NaN rows where either cannot reach, (N, 3).
+    Both through the exact forward/inverse kinematics, unloaded: with compliant actuators the
+    readings compensate the identified robot's own weight (as ``compensate``) and the true robot
+    stands at its equilibrium. NaN rows where either cannot reach, (N, 3).
     """
     points = np.atleast_2d(np.asarray(points, dtype=float))
     if tool is not None:
         geometry, truth = geometry.with_tool(tool), truth.with_tool(tool)
     q = reachable_readings(geometry, points)
+    if np.any(geometry.compliance):
+        ok = np.all(np.isfinite(q), axis=1)
+        q[ok] -= geometry.compliance * statics.gravity_torque(geometry, q[ok])
     out = np.full(points.shape, np.nan)
     todo = np.flatnonzero(np.all(np.isfinite(q), axis=1))
     while todo.size:
         try:
-            out[todo] = exact.forward(truth, q[todo]).point(truth.tool) - points[todo]
+            effective = statics.compliant_readings(truth, q[todo])
+            out[todo] = exact.forward(truth, effective).point(truth.tool) - points[todo]
             break
         except AssemblyError as exc:
             if not exc.indices:

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from .accuracy import AccuracyMap
+from .deflection import DeflectionMap
 from .residuals import MeasurementResiduals
 
 CSS = """
@@ -108,6 +109,7 @@ class Page:
     scene_html: str | None = None
     scene_note: str = ""
     warnings: list[str] = field(default_factory=list)
+    deflection: DeflectionMap | None = None
 
 
 def _summary(page: Page) -> str:
@@ -296,6 +298,27 @@ def _scene(page: Page) -> str:
             "browser.</p>")
 
 
+def _compliance(page: Page) -> str:
+    c, m = page.calibration, page.deflection
+    assert c.compliance is not None and m is not None
+    sigma = np.zeros(3) if c.compliance_sigma is None else c.compliance_sigma
+    rows = [[td(f"actuator {i + 1}"), cell(1e6 * c.compliance[i]), cell(1e6 * sigma[i]),
+             cell(1.0 / c.compliance[i] if c.compliance[i] > 0 else math.nan)] for i in range(3)]
+    out = ("<p>Each actuator yields to the gravity torque it holds: true angle = reading + offset + "
+           "c<sub>i</sub> τ<sub>i</sub>. σ 0: not identifiable from these measurements (held at zero).</p>")
+    out += table(["actuator", "c [µrad/N m]", "σ [µrad/N m]", "stiffness 1/c [N m/rad]"], rows, "compliance")
+    header = ["layer z [mm]"] + [f"r = {r:.0f} mm" for r in m.radii]
+    for title, values in (("own weight (compliant against rigid actuators)", m.own_weight),
+                          (f"a payload of {m.payload_kg:g} kg at the TCP", m.payload)):
+        if title.startswith("a payload") and m.payload_kg == 0.0:
+            out += "<p class=\"muted\">No payload given (<code>report --payload KG</code> maps one).</p>"
+            continue
+        out += f"<h3>TCP deflection under {esc(title)}: largest on each ring [µm]</h3>"
+        out += table(header, [[cell(z, 5)] + [cell(1e3 * v, 3) for v in row]
+                              for z, row in zip(m.layers, values, strict=True)], "deflection")
+    return out
+
+
 def render_page(page: Page) -> str:
     """The whole HTML document."""
     c = page.calibration
@@ -306,6 +329,8 @@ def render_page(page: Page) -> str:
         ("residuals", "Residuals", _residuals(page)),
         ("accuracy", "Predicted accuracy map", _accuracy(page)),
     ]
+    if page.deflection is not None:
+        sections.append(("compliance", "Actuator compliances and deflections", _compliance(page)))
     if page.accuracy.error is not None:
         sections.append(("truth", "Actual errors against the true geometry", _truth(page)))
     sections.append(("view", "3-D view of the identified robot", _scene(page)))
