@@ -394,3 +394,29 @@ def test_real_path_follows_the_intended_lines(tmp_path, robot, seed):
     assert max(worst[1], worst[2]) <= 1e-3, worst
     assert worst[3] <= 1e-3 + tol, worst
     assert set(worst) == {1, 2, 3} and len(sent_arr) > 100
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_plain_lines_read_alike_by_the_fast_and_the_full_reading(seed):
+    """Plain upper-case moves take a fast path; in lower case the full reading: same output."""
+    rng = np.random.default_rng(seed)
+    relative = seed % 3 == 0
+    lines = ["G92 E0\n", "G91\n" if relative else "G90\n", "M83\n" if seed % 2 or relative else "M82\n"]
+    for _ in range(300):
+        words = [f"{a}{v:.3f}" for a, v in zip("XYZ", rng.normal(0.0, 6.0, 3), strict=True)
+                 if rng.random() < 0.7]
+        if rng.random() < 0.5:
+            words.append(f"E{rng.uniform(0.0, 2.0):.4f}")
+        if rng.random() < 0.2:
+            words.append(f"F{int(rng.integers(100, 9000))}")
+        code = str(rng.choice(["G0", "G1", "G00", "G01", ""]))
+        comment = " ; note" if rng.random() < 0.2 else ""
+        lines.append(" ".join([code, *words]).strip() + comment + "\n")
+    program = "".join(lines).replace("\nX", "\nG1 X", 1)  # a motion mode before any modal line
+    fast = run(program, warp, start=(0.0, 0.0, -800.0))
+    full = run(program.lower().replace("; note", "; NOTE"), warp, start=(0.0, 0.0, -800.0))
+    fast_lines, full_lines = fast.splitlines(), full.replace("; NOTE", "; note").splitlines()
+    assert len(fast_lines) == len(full_lines)
+    for a, b in zip(fast_lines, full_lines, strict=True):
+        assert a == b if MOVE.match(b) else a.lower() == b.lower()  # kept lines: as given, lower case
+    assert len(moves(fast)) >= 200
