@@ -113,6 +113,10 @@ _PARENS = re.compile(r"\([^)]*\)")
 #: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
 _FAST = re.compile(r"[ \t]*(G0?[01](?=[ \t]))?((?:[ \t]*[XYZEF][-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))+)[ \t]*"
                    r"(;[^\r\n]*)?(\r\n|\n|\r)?")
+_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+#: The plainest move, in the order slicers write it (F first or last).
+_PLAIN = re.compile(rf"(G0?[01]) (?:F({_NUM}) )?X({_NUM}) Y({_NUM})(?: Z({_NUM}))?(?: E({_NUM}))?"
+                    rf"(?: F({_NUM}))?(\r\n|\n|\r)?")
 _FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
 _M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
 #: First letters of a line the filter reads (others are kept without reading them).
@@ -282,6 +286,11 @@ class _Reader:
 
     def line(self, number: int, line: str):
         """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``."""
+        plain = _PLAIN.fullmatch(line)
+        if plain is not None:
+            plan = self.plain(plain)
+            if plan is not None:
+                return plan
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
             g, body, comment, ending = fast.groups()
@@ -312,6 +321,32 @@ class _Reader:
         if read is None:
             return None
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
+
+    def plain(self, match: re.Match) -> tuple | None:
+        """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
+
+        Most lines of a printing program are these: read here at once, as :meth:`plan` would
+        (tests/test_gcode.py holds the two to the same output).
+        """
+        st = self.state
+        start = st.pos
+        g, f1, x, y, z, e, f2, ending = match.groups()
+        if st.relative or start[2] is None or start[0] is None or start[1] is None or \
+                (f1 is not None and f2 is not None):
+            return None
+        end = (float(x), float(y), start[2] if z is None else float(z))
+        dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+        if dx * dx + dy * dy + dz * dz > self.segment_mm * self.segment_mm:
+            return None
+        st.motion = 1.0 if g[-1] == "1" else 0.0
+        st.pos = end
+        if ending:
+            self.newline = ending
+        f = f1 if f2 is None else f2
+        if e is not None:
+            self.track_e(float(e), st.e_mode())
+        suffix = ("" if e is None else " E" + e) + ("" if f is None else " F" + f) + (ending or "")
+        return end, False, "G1 " if st.motion == 1.0 else "G0 ", suffix
 
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
