@@ -205,13 +205,15 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start = tuple(float(v) for v in start)
         if len(start) != 3 or not all(math.isfinite(v) for v in start):
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
-    read = _Reader(source, float(segment_mm), start).line
+    reader = _Reader(source, float(segment_mm), start)
+    read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source)
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
-        plan = read(number, line)
+        match = match_plain(line)  # the plainest move first, at the least cost
+        plan = (match is not None and plain(match)) or read(number, line)
         if plan is None:
             items.append(line)
         elif len(plan) == 4:  # batch.single(number, plan), inline
@@ -285,12 +287,10 @@ class _Reader:
         return InputError(detail, self.source, f"line {number}")
 
     def line(self, number: int, line: str):
-        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``."""
-        plain = _PLAIN.fullmatch(line)
-        if plain is not None:
-            plan = self.plain(plain)
-            if plan is not None:
-                return plan
+        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``.
+
+        (:meth:`plain` first reads what it can of the plainest moves.)
+        """
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
             g, body, comment, ending = fast.groups()
