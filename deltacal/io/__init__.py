@@ -18,6 +18,7 @@ from .calibration import (
     load_linear_calibration,
     save_calibration,
 )
+from .gcode import filter_gcode, filter_lines, is_gcode_path
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -66,6 +67,9 @@ __all__ = [
     "lines_text",
     "unassembled_rows",
     "exact_degrees",
+    "filter_gcode",
+    "filter_lines",
+    "is_gcode_path",
     "geometry_from_dict",
     "geometry_to_dict",
     "load_geometry",
