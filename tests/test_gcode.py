@@ -420,3 +420,9 @@ def test_plain_lines_read_alike_by_the_fast_and_the_full_reading(seed):
     for a, b in zip(fast_lines, full_lines, strict=True):
         assert a == b if MOVE.match(b) else a.lower() == b.lower()  # kept lines: as given, lower case
     assert len(moves(fast)) >= 200
+
+
+def test_line_endings_kept_and_a_last_line_without_one_split_with_the_files():
+    out = run("G1 X0 Y0 Z-800 ; a\r\nG1 X12", start=(0.0, 0.0, -800.0))
+    assert out == ("G1 X0.0000 Y0.0000 Z-800.0000 ; a\r\nG1 X4.0000 Y0.0000 Z-800.0000\r\n"
+                   "G1 X8.0000 Y0.0000 Z-800.0000\r\nG1 X12.0000 Y0.0000 Z-800.0000")
