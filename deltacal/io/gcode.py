@@ -51,9 +51,9 @@ G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19) or with K or P
 would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
 line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); a
 number that is not one (``X1.2.3``, ``X``); a split extruding move where the extruder mode is
-ambiguous (M83 then G90 with no M82/M83 since: firmwares differ on whether G90 ends M83; or G91
-without M83: RepRapFirmware leaves E to M82/M83, Marlin and Klipper make it relative) or where the
-extruder position is not known yet in absolute mode (add ``G92 E0``); a target that ``correct``
+ambiguous (M83 then G90 with no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware
+makes it absolute; or G91 without M83: firmwares differ on whether G91 makes E relative) or where
+the extruder position is not known yet in absolute mode (add ``G92 E0``); a target that ``correct``
 refuses (its :class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
