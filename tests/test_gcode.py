@@ -250,6 +250,7 @@ REFUSED = [
     ("G1 X0 Y0 Z-800\nG1 X50 E2\n", 2, r"extruder's position is not known yet"),
     ("G1 X0 Y0 Z-800\nG1 X1 (open\n", 2, r"'\(' comment is not closed"),
     ("X1 Y1 Z1\n", 1, r"no motion mode set before"),
+    ("G1 X0 Y0 Z-800\nG90 M83\n", 2, r"M83 on a line of G words: firmwares differ"),
 ]
 
 

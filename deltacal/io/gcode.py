@@ -49,12 +49,13 @@ Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the f
 origin the controller's targets are given in); work offsets and coordinate transforms (G10 L, G52,
 G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19) or with K or P; a word the filter
 would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
-line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); a
-number that is not one (``X1.2.3``, ``X``); a split extruding move where the extruder mode is
-ambiguous (M83 then G90 with no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware
-makes it absolute; or G91 without M83: firmwares differ on whether G91 makes E relative) or where
-the extruder position is not known yet in absolute mode (add ``G92 E0``); a target that ``correct``
-refuses (its :class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); M82
+or M83 on a line of G words (read by some firmwares, not by others); a number that is not one
+(``X1.2.3``, ``X``); a split extruding move where the extruder mode is ambiguous (M83 then G90 with
+no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
+without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
+not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -369,8 +370,11 @@ class _Reader:
     def dispatch(self, number: int, words, code: str, comment: str, ending: str):
         """Update the state from a line's words; the plan of its move, if it has one."""
         st = self.state
-        gs: list[float] = []
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
+        mode = next((f"M{v}" for letter, v in words if letter == "M" and v.lstrip("0") in ("82", "83")), None)
+        if mode is not None:  # G90 M83: Marlin reads one command a line, LinuxCNC both
+            raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
+                                    "put it on a line of its own")
         if any(g in _HOMING for g in gs):
             st.pos, st.unknown_since = (None, None, None), number
             return None
