@@ -62,6 +62,18 @@ def _silent(text: str) -> None:
     """The default progress callback: says nothing."""
 
 
+def _fit_summary(r) -> dict:
+    """What demo.json keeps of a fit."""
+    return {
+        "rank": r.rank,
+        "parameters": len(r.base.names),
+        "condition_number": r.condition_number,
+        "iterations": r.iterations,
+        "variance_factor": r.variance_factor,
+        "residual_rms_mm": r.after.position_rms,
+    }
+
+
 def run_demo(
     out_dir: Path = Path("results"),
     seed: int = 2015,
@@ -140,17 +152,7 @@ def run_demo(
         "sigma_angle_deg": math.degrees(metrology.sigma_angle),
         "true_encoder_offsets_deg": np.degrees(truth.encoder_offset).tolist(),
         "plate_tilt_deg": {"min": tilt[0], "max": tilt[1]},
-        "identification": {
-            name: {
-                "rank": r.rank,
-                "parameters": len(r.base.names),
-                "condition_number": r.condition_number,
-                "iterations": r.iterations,
-                "variance_factor": r.variance_factor,
-                "residual_rms_mm": r.after.position_rms,
-            }
-            for name, r in results.items()
-        },
+        "identification": {name: _fit_summary(r) for name, r in results.items()},
         "validation": rows,
         "tracker": tracker,
         "controller_routes": routes,
