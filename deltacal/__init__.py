@@ -73,7 +73,15 @@ _LAZY = {
     "ValidationMetrics": "validation",
     "validate": "validation",
     "validation_poses": "validation",
+    # controllers
+    "Controller": "controller",
+    "ControllerFit": "controller",
+    "CorrectedTargets": "controller",
+    "corrected_targets": "controller",
+    "fit_controller": "controller",
     # files
+    "load_controller": "io",
+    "save_controller": "io",
     "load_nominal": "io",
     "load_geometry": "io",
     "save_geometry": "io",

@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from .compensation import METHODS, compensate, linear_calibration_from_result
+from .controller import FIT_KINDS, Controller, corrected_targets, fit_controller
+from .controller.fit import tcp_errors
 from .exceptions import ViewerError
 from .export import write_mjcf
 from .geometry import NominalDelta, Tolerances
@@ -39,6 +41,7 @@ from .kinematics import exact
 from .observations import SIGMA_ANGLE, SIGMA_POSITION
 from .planning import d_optimal
 from .report import write_report
+from .report.accuracy import workspace_slices
 from .simulation import Metrology, simulate_measurements
 from .validation import validate, validation_poses
 from .viz import export_views
@@ -57,6 +60,18 @@ TRACKER_STATIONS = {
 
 def _silent(text: str) -> None:
     """The default progress callback: says nothing."""
+
+
+def _fit_summary(r) -> dict:
+    """What demo.json keeps of a fit."""
+    return {
+        "rank": r.rank,
+        "parameters": len(r.base.names),
+        "condition_number": r.condition_number,
+        "iterations": r.iterations,
+        "variance_factor": r.variance_factor,
+        "residual_rms_mm": r.after.position_rms,
+    }
 
 
 def run_demo(
@@ -123,6 +138,10 @@ def run_demo(
         f"{tracker['base_frame']['max_mm']:.4f} mm with the same data given in {{O}}"
     )
 
+    routes = _controller_routes(results["complete"], truth, nominal)
+    progress("fitted the controller's joint offsets and per-limb values; corrected targets for the nominal "
+             "controller")
+
     tilt = _tilt_range(truth, nominal)
     summary = {
         "robot": nominal.name,
@@ -133,19 +152,10 @@ def run_demo(
         "sigma_angle_deg": math.degrees(metrology.sigma_angle),
         "true_encoder_offsets_deg": np.degrees(truth.encoder_offset).tolist(),
         "plate_tilt_deg": {"min": tilt[0], "max": tilt[1]},
-        "identification": {
-            name: {
-                "rank": r.rank,
-                "parameters": len(r.base.names),
-                "condition_number": r.condition_number,
-                "iterations": r.iterations,
-                "variance_factor": r.variance_factor,
-                "residual_rms_mm": r.after.position_rms,
-            }
-            for name, r in results.items()
-        },
+        "identification": {name: _fit_summary(r) for name, r in results.items()},
         "validation": rows,
         "tracker": tracker,
+        "controller_routes": routes,
     }
     atomic_write_text(out_dir / "demo.json", json.dumps(summary, indent=2) + "\n")
     written = [out_dir / "demo.json"]
@@ -253,6 +263,61 @@ def _row(tool: str, model: str, method: str, metrics) -> dict:
         "max_delta_rho_mm": metrics.max_delta_rho_mm,
         "max_delta_v_mm": metrics.max_delta_v_mm,
     }
+
+
+def _controller_routes(result, truth, nominal: NominalDelta) -> dict:
+    """What each route to a Cartesian controller leaves on the true robot, tool 200 mm.
+
+    The routes (README, "Using a calibration on your controller"): the nominal controller fed the
+    targets as they are, its joint offsets or per-limb values fitted to the complete model's
+    calibration, and corrected targets for it.
+
+    Each route is validated on the true robot over Bai's validation set and, for the fits, over
+    the fit's grid (the report's accuracy-map grid of the workspace), beside what the fit says it
+    leaves there (computed on the identified robot: its ``[fit]``).
+    """
+    tool = TOOLS["tool 200 mm"]
+    identified, true_tool = result.geometry.with_tool(tool), truth.with_tool(tool)
+    controller = Controller.from_geometry(nominal).replace(tool=tool)
+    targets = validation_poses(nominal, tool=tool).targets
+    assert nominal.workspace is not None  # the demo robot's file has one
+    grid = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(nominal.workspace)]) + tool
+    grid = grid[np.all(np.isfinite(grid), axis=1)]
+
+    def on_truth(commanded: Controller, sent: np.ndarray) -> dict:
+        metrics = validate(true_tool, commanded.inverse(sent), targets)
+        return {"max_mm": metrics.max_mm, "rms_mm": metrics.rms_mm}
+
+    routes = {"nominal": on_truth(controller, targets)}
+    for kind in FIT_KINDS:
+        fit = fit_controller(identified, controller, grid, kind)
+        left = np.linalg.norm(tcp_errors(true_tool, fit.controller, grid), axis=1)
+        routes[kind] = {**on_truth(fit.controller, targets), "held": fit.held,
+                        "fit_max_mm": fit.max_error, "fit_rms_mm": fit.rms_error,
+                        "grid_max_mm": float(left.max()), "grid_rms_mm": float(np.sqrt(np.mean(left**2)))}
+    routes["corrected"] = on_truth(controller, corrected_targets(identified, controller, targets).commands)
+    return routes
+
+
+def controller_table(summary: dict) -> str:
+    """The controller routes of a demo run as plain text (what ``deltacal demo`` prints after its table)."""
+    routes = summary.get("controller_routes")
+    if not routes:
+        return ""
+    names = {"nominal": "nominal model, targets as they are", "offsets": "joint offsets fitted",
+             "limbs": "per-limb values fitted", "corrected": "nominal model, corrected targets"}
+    lines = ["", "", "a Cartesian controller (classical model), complete model's calibration, tool 200 mm, "
+             "mm:",
+             f"{'route':<36} | {'validation max':>14} {'RMS':>7} | {'grid: [fit] max':>15} {'RMS':>7} | "
+             f"{'true max':>8} {'RMS':>7}"]
+    for key, name in names.items():
+        r = routes[key]
+        line = f"{name:<36} | {r['max_mm']:14.4f} {r['rms_mm']:7.4f}"
+        if "fit_max_mm" in r:
+            line += (f" | {r['fit_max_mm']:15.4f} {r['fit_rms_mm']:7.4f} | {r['grid_max_mm']:8.4f} "
+                     f"{r['grid_rms_mm']:7.4f}")
+        lines.append(line)
+    return "\n".join(lines)
 
 
 def _tilt_range(truth, nominal: NominalDelta) -> tuple[float, float]:

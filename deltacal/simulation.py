@@ -24,7 +24,7 @@ Units: mm and rad inside; the measurements file is in mm and deg.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -129,6 +129,24 @@ def simulate_measurements(
         point=[p for _ in range(N) for p in metrology.points],
         rotation_vector=rotvec.reshape(N * k, 3),
     )
+
+
+def pose_stations(names: Sequence[str], poses: int, rows_per_pose: int = 1) -> list[str]:
+    """The station of each measurement row: consecutive blocks of whole poses, one per station.
+
+    A tracker moved during a session measures a run of poses from each place, and every
+    reflector of a pose from the same place. Rows are pose-major, ``rows_per_pose`` per pose
+    (as :func:`simulate_measurements` gives them); the poses split as evenly as they can
+    among the stations, in the order given.
+
+    Args:
+        names: The stations, in the order the tracker stood there.
+        poses: Number of poses.
+        rows_per_pose: Measurement rows of each pose (the reflectors measured).
+    """
+    blocks = np.array_split(np.arange(poses), len(names))
+    rows = [len(block) * rows_per_pose for block in blocks]
+    return [name for name, n in zip(names, rows, strict=True) for _ in range(n)]
 
 
 # --------------------------------------------------------------------------- command line

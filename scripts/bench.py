@@ -398,6 +398,45 @@ def bench_cli_streaming(setup: Setup) -> list[Row]:
     return rows
 
 
+def bench_controller(setup: Setup) -> list[Row]:
+    """Corrected targets for a controller (issue 22), and the fits of its values.
+
+    The library on 10^5 targets; ``compensate --controller`` on 10^5 and 10^6 (wall time, peak
+    RSS); ``export --controller`` of both kinds.
+    """
+    from deltacal.controller import Controller, corrected_targets
+
+    rng = setup.rng()
+    start, meas = _calibration_measurements(setup, 60, rng)
+    result = identify(start, meas, "complete")
+    controller = Controller.from_geometry(setup.nominal).replace(tool=start.tool)
+    targets = setup.workspace_points(100_000, rng) + (start.tool - setup.nominal.tool)
+    repeat = max(1, min(setup.repeat, 3)) if not setup.quick else 1
+    t_lib = median_time(lambda: corrected_targets(result.geometry, controller, targets), repeat)
+    rows = [Row("corrected_targets", targets.shape[0] / t_lib, "targets/s", ">= 100000")]
+    command = _command()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        cal, robot = folder / "cal.toml", folder / "controller.toml"
+        save_calibration(result, cal)
+        from deltacal.io import save_controller
+
+        save_controller(robot, controller)
+        for n in (100_000,) if setup.quick else (100_000, 1_000_000):
+            path = folder / f"t{n}.csv"
+            _write_targets(path, setup.workspace_points(n, rng) + (start.tool - setup.nominal.tool))
+            args = command + ["compensate", str(cal), str(path), "--controller", str(robot), "-o",
+                              str(folder / "c.csv")]
+            label = "1e5" if n == 100_000 else "1e6"
+            rows += spread_rows(f"compensate_controller_{label}", [timed_run(args) for _ in range(repeat)],
+                                "<= 10" if n == 1_000_000 else None, "<= 300" if n == 1_000_000 else None)
+        for kind in ("offsets", "limbs"):
+            args = command + ["export", str(cal), "--controller", kind, "--robot", str(setup.robot),
+                              "-o", str(folder / f"{kind}.toml")]
+            rows += spread_rows(f"export_controller_{kind}", [timed_run(args) for _ in range(repeat)], None)
+    return rows
+
+
 def _distance_rows(setup: Setup, folder: Path, n: int, model: str,
                    limit_gb: float | None = None) -> list[Row]:
     """``identify --distances`` (all pairs) of ``n`` positions of the TCP with ``model``."""
@@ -514,6 +553,7 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_identify_free_frame,
     bench_cli_distances,
     bench_cli_streaming,
+    bench_controller,
     bench_gcode_filter,
 ]
 

@@ -180,3 +180,20 @@ def test_a_problem_too_large_is_refused_in_one_line(bai, tmp_path):
     assert len(lines) == 1 and "100,000 measurements" in lines[0] and "--pairs reference" in lines[0], lines
     assert "GB" in lines[0]
     assert not (tmp_path / "cal.toml").exists()
+
+
+def test_the_poor_fit_bound_counts_independent_rows(bai):
+    """All pairs of n positions of a point: 3n - 6 independent rows, not C(n, 2) (issue 20's leftover).
+
+    The review's bound on s0² took C(n, 2) - r degrees of freedom: too tight, so fits were reviewed
+    (and refitted several times) more often than noise allows.
+    """
+    from deltacal.identification.quality import excess_bound, poor_fit_message
+
+    g0, meas = _measurements(bai, 16, n=20)
+    n = len(meas) // 2  # positions of each of the two points
+    result = fit(g0, meas, "bai42", distances=True)
+    assert result.n_rows == 2 * n * (n - 1) // 2 and result.independent_rows == 2 * (3 * n - 6)
+    bound = excess_bound(result.independent_rows - result.rank)
+    assert bound > excess_bound(result.n_rows - result.rank)
+    assert f"noise alone gives at most {bound:.3g}" in poor_fit_message(result, g0, [])

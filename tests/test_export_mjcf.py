@@ -380,3 +380,12 @@ def test_odd_names_stay_well_formed_xml(tmp_path):
     assert root.get("model") == "robot <1> & 'two'"
     m = mujoco.MjModel.from_xml_string(text)
     assert m.site('a "quoted" <point> & co').id >= 0
+
+
+@pytest.mark.parametrize("station", ["a---b", "süd-", "ταυ", "-"])
+def test_station_names_with_runs_of_dashes_stay_well_formed_xml(station):
+    """'--' was replaced once: 'a---b' still left '--' in the comment (issue 21, item 3)."""
+    text = mjcf_model(load_nominal(BAI).geometry(), stations=[station, "east"], source="x---y.toml")
+    ET.fromstring(text)
+    assert mujoco.MjModel.from_xml_string(text).nsite > 0
+

@@ -29,6 +29,7 @@ LAYERS = {
     "planning": 40,
     "simulation": 40,
     "validation": 40,
+    "controller": 38,
     "calibration": 36,
     "identification": 35,
     "compensation": 33,
@@ -200,7 +201,7 @@ def test_third_party_imports_are_declared_dependencies():
 
     project = tomllib.loads((PACKAGE.parent / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     declared = {re.split(r"[<>=!~ \[]", d)[0].lower() for d in project["dependencies"]}
-    import_name = {"pin": "pinocchio", "u-msgpack-python": "umsgpack"}
+    import_name = {"pin": "pinocchio", "u-msgpack-python": "umsgpack", "tomli-w": "tomli_w"}
     declared_imports = {import_name.get(d, d) for d in declared}
     used: set[str] = set()
     for path in PACKAGE.rglob("*.py"):

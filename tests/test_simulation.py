@@ -18,7 +18,13 @@ from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import build_rows
 from deltacal.planning import bai_poses
-from deltacal.simulation import Metrology, ground_truth_forward, simulate_measurements, truth_path
+from deltacal.simulation import (
+    Metrology,
+    ground_truth_forward,
+    pose_stations,
+    simulate_measurements,
+    truth_path,
+)
 
 
 @pytest.fixture(scope="module")
@@ -121,3 +127,29 @@ def test_simulate_command(tmp_path, capsys):
                  "-o", str(bad)]) == 1
     assert "unknown point 'nope'" in capsys.readouterr().err
     assert not bad.exists() and not truth_path(bad).exists()
+
+
+def test_pose_stations_are_blocks_of_whole_poses():
+    assert pose_stations(["a", "b"], 5, 2) == ["a"] * 6 + ["b"] * 4
+    assert pose_stations(["a", "b", "c"], 3) == ["a", "b", "c"]
+    assert pose_stations(["only"], 4, 3) == ["only"] * 12
+
+
+def test_simulate_two_points_two_stations_keeps_each_pose_in_one_station(tmp_path):
+    """Stations went by measurement index: one pose's two reflectors fell in different stations and
+    the stations interleaved (issue 21, item 5)."""
+    robot = str(MODELS / "bai2015.toml")
+    poses, meas, cal = tmp_path / "poses.csv", tmp_path / "meas.csv", tmp_path / "cal.toml"
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "25", "-o", str(poses)]) == 0
+    stations = ["--station", "east:1.1,-1.0,35:2680,830,250",
+                "--station", "west:-0.6,1.2,-140:-1900,2100,-120"]
+    assert main(["simulate", robot, str(poses), "--perturb", "7", "--points", "smr_centre,smr_offset",
+                 *stations, "-o", str(meas)]) == 0
+    m, _ = read_measurements(meas)
+    assert len(m) == 50 and m.point == ["smr_centre", "smr_offset"] * 25
+    station = np.array(m.station).reshape(25, 2)
+    assert np.all(station[:, 0] == station[:, 1])  # both reflectors of a pose from one place
+    assert np.all(m.q[0::2] == m.q[1::2])
+    assert station[:, 0].tolist() == ["east"] * 13 + ["west"] * 12  # consecutive pose blocks
+    assert main(["identify", robot, str(meas), "--frame", "free", "-o", str(cal)]) == 0
+

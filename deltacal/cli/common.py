@@ -13,6 +13,7 @@ import numpy as np
 
 from ..exceptions import InputError, UsageError
 from ..io.atomic import check_output_path
+from ..io.names import name_problem
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
@@ -179,6 +180,9 @@ def station_frame(text: str):
     parts = text.split(":")
     if len(parts) != 3 or not parts[0].strip():
         raise argparse.ArgumentTypeError(f"expected NAME:RX,RY,RZ:X,Y,Z (deg, mm), got {text!r}")
+    problem = name_problem(parts[0].strip())
+    if problem is not None:
+        raise argparse.ArgumentTypeError(f"station name {parts[0].strip()!r} {problem}, in {text!r}")
     rotation = three_numbers(parts[1], "RX,RY,RZ (deg)", text)
     translation = three_numbers(parts[2], "X,Y,Z (mm)", text)
     return parts[0].strip(), InstrumentFrame.from_vectors(np.radians(rotation), np.array(translation))

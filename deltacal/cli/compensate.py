@@ -1,4 +1,8 @@
-"""``deltacal compensate``: joint readings that put the TCP at target positions.
+"""``deltacal compensate``: joint readings (or a controller's corrected targets) that put the TCP on targets.
+
+With ``--controller`` the output holds, after the targets, the targets to send a controller running
+that model (:func:`~deltacal.controller.corrected_targets`), computed and refused chunk by chunk
+as the joint readings are.
 
 The targets file is streamed: read and checked whole first (a bad row fails at reading
 speed, before anything is computed), each chunk screened on the way by the closed-form
@@ -12,46 +16,46 @@ file replaces an earlier one only once complete.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
 import numpy as np
 
 from ..compensation import METHODS, compensate, screen
+from ..controller import corrected_targets
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..io import (
+    CommandsWriter,
     JointsWriter,
     TargetChunk,
     TargetFile,
     lines_text,
     load_calibration,
+    load_controller,
 )
-from .common import check_input, check_output, warn
+from ..io.gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
+from .common import check_input, check_output, positive_float, three_numbers, warn
 from .progress import Progress
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal compensate``; returns the exit status."""
-    for path in (args.calibration, args.targets):
+    inputs = [p for p in (args.calibration, args.targets, args.controller) if p is not None]
+    for path in inputs:
         check_input(path)
-    check_output(args.output, (args.calibration, args.targets))
+    check_output(args.output, inputs)
+    if args.controller is not None and args.method != "exact":
+        raise UsageError("--method applies to joint readings: --controller's corrected targets come from the "
+                         "exact compensation")
+    if is_gcode_path(args.targets):
+        return _program(args)
+    if args.segment_mm is not None or args.start is not None:
+        raise UsageError("--segment-mm and --start apply to a G-code program (.gcode, .gco, .g, .nc)")
     calibration = load_calibration(args.calibration)  # read and checked once
+    controller = load_controller(args.controller) if args.controller is not None else None
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(args.targets)
     linear = None if args.method == "exact" else _linear(calibration, args.calibration)
-    to_base = None
-    if args.frame == "instrument":
-        if not frames:
-            raise UsageError(f"{args.calibration}: no [instrument] table: --frame instrument needs a "
-                             "calibration identified with --frame free")
-        station = args.station
-        if station is None:
-            if len(frames) > 1:
-                raise UsageError(f"--station is needed: the calibration has stations {', '.join(frames)}")
-            station = next(iter(frames))
-        if station not in frames:
-            raise UsageError(f"--station {station!r}: the calibration's stations are {', '.join(frames)}")
-        to_base = frames[station].to_base
-    elif args.station is not None:
-        raise UsageError("--station applies to --frame instrument only")
+    to_base = _to_base(args, frames)
     size = max(targets_file.size, 1)
     with Progress("compensate") as progress:
         refused: tuple[UnreachableError, TargetChunk] | None = None
@@ -68,19 +72,67 @@ def run(args: argparse.Namespace) -> int:
         warn(targets_file.warnings)
         if refused is not None:  # a bad value anywhere came first; the file's rows are now known
             raise _unreachable(*refused, targets_file, _frame_hint(args, frames)) from refused[0]
-        with JointsWriter(args.output) as out:
+        writer = JointsWriter if controller is None else CommandsWriter
+        with writer(args.output) as out:
             for chunk in targets_file.chunks():
                 in_base = chunk.targets if to_base is None else to_base(chunk.targets)
                 try:
-                    q = compensate(geometry, in_base, args.method, linear)
+                    if controller is None:
+                        values = compensate(geometry, in_base, args.method, linear)
+                    else:
+                        values = corrected_targets(geometry, controller, in_base).commands
                 except UnreachableError as exc:
                     if not exc.indices:
                         raise
                     raise _unreachable(exc, chunk, targets_file, _frame_hint(args, frames)) from exc
-                out.write(chunk, q)
+                out.write(chunk, values)
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
-    print(f"wrote {out.rows} joint readings to {args.output}")
+    what = ("joint readings" if controller is None
+            else f"corrected targets for the controller {args.controller}")
+    print(f"wrote {out.rows} {what} to {args.output}")
     return 0
+
+
+def _program(args: argparse.Namespace) -> int:
+    """``compensate CAL PROGRAM.gcode --controller C -o OUT.gcode``: every move corrected, streamed."""
+    if args.controller is None:
+        raise UsageError(f"{args.targets}: a G-code program goes to a controller: give --controller (a "
+                         "controller file, or the robot file for its nominal controller)")
+    if args.frame != "base":
+        raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
+                         "instrument applies to a targets CSV")
+    calibration = load_calibration(args.calibration)
+    controller = load_controller(args.controller)
+
+    def correct(points: np.ndarray) -> np.ndarray:
+        return corrected_targets(calibration.geometry, controller, points).commands
+
+    segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
+    with Progress("compensate") as progress:
+        filter_gcode(args.targets, args.output, correct, segment, args.start,
+                     lambda fraction, _: progress.update(fraction, "program"))
+    print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
+          f"(moves split every {segment:g} mm at most)")
+    return 0
+
+
+def _to_base(args: argparse.Namespace, frames: dict) -> Callable[[np.ndarray], np.ndarray] | None:
+    """The map of the targets to the base frame {O} (None: they are in it), from --frame and --station."""
+    if args.frame != "instrument":
+        if args.station is not None:
+            raise UsageError("--station applies to --frame instrument only")
+        return None
+    if not frames:
+        raise UsageError(f"{args.calibration}: no [instrument] table: --frame instrument needs a "
+                         "calibration identified with --frame free")
+    station = args.station
+    if station is None:
+        if len(frames) > 1:
+            raise UsageError(f"--station is needed: the calibration has stations {', '.join(frames)}")
+        station = next(iter(frames))
+    if station not in frames:
+        raise UsageError(f"--station {station!r}: the calibration's stations are {', '.join(frames)}")
+    return frames[station].to_base
 
 
 def _linear(calibration, path: str):
@@ -126,11 +178,22 @@ def add_parser(sub) -> None:
     p = sub.add_parser("compensate", help="joint readings that put the TCP at target positions")
     p.add_argument("calibration", help="calibration file written by identify (TOML)")
     p.add_argument("targets", help="targets (CSV: x_mm,y_mm,z_mm)")
-    p.add_argument("-o", "--output", required=True, help="joints file to write (CSV)")
+    p.add_argument("-o", "--output", required=True, help="joints (or, with --controller, corrected targets) "
+                                                          "file to write (CSV)")
     p.add_argument("--method", choices=METHODS, default="exact",
                    help="exact (default), or a linear compensator: savoure (Eq. 29-33), bai (Eq. 22-25)")
     p.add_argument("--frame", choices=("base", "instrument"), default="base",
                    help="targets in the robot base frame {O} (default), or in the instrument frame {T} of a "
                         "calibration identified with --frame free")
     p.add_argument("--station", help="with --frame instrument: the station whose frame the targets are in")
+    p.add_argument("--controller", metavar="CONTROLLER",
+                   help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
+                        "send a controller running this model (a controller file, or a robot file: its "
+                        "nominal controller) instead of joint readings")
+    p.add_argument("--segment-mm", type=positive_float, metavar="S",
+                   help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
+                        "split so the real path follows the intended straight line")
+    p.add_argument("--start", type=lambda t: three_numbers(t, "X,Y,Z in mm"), metavar="X,Y,Z",
+                   help="G-code: the TCP position at the program's start [mm], if its first move does "
+                        "not give X, Y and Z")
     p.set_defaults(func=run)

@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..demo import run_demo, text_table
+from ..demo import controller_table, run_demo, text_table
 from .common import seed
 
 
@@ -19,7 +19,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{time.perf_counter() - start:5.1f} s] {text}", file=sys.stderr, flush=True)
 
     summary = run_demo(out_dir=Path(args.out), seed=args.seed, quick=args.quick, progress=progress)
-    print(text_table(summary))
+    print(text_table(summary) + controller_table(summary))
     return 0
 
 

@@ -1,4 +1,10 @@
-"""``deltacal export``: the identified robot as an MJCF model (MuJoCo, Pinocchio)."""
+"""``deltacal export``: the identified robot as an MJCF model (MuJoCo, Pinocchio), or a controller's values.
+
+``--controller offsets|limbs`` fits the controller's joint offsets, or its per-limb values, to the
+calibration over a grid of the workspace (the report's accuracy-map grid of the robot file's
+``[workspace]``, else of the report's default cylinder) and writes a controller file whose ``[fit]``
+holds the TCP error these values leave (:func:`deltacal.controller.fit_controller`).
+"""
 
 from __future__ import annotations
 
@@ -7,9 +13,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..controller import FIT_KINDS, Controller, fit_controller
+from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableError, UsageError
 from ..export import write_mjcf
-from ..geometry import DeltaGeometry
-from ..io import load_calibration, load_nominal, read_toml
+from ..geometry import DeltaGeometry, Workspace
+from ..io import load_calibration, load_nominal, read_toml, save_controller
+from ..report.accuracy import GRID, workspace_slices
+from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
 
 
@@ -37,6 +47,11 @@ def _readings_deg(text: str) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal export``; returns the exit status."""
+    if args.controller is not None:
+        return run_controller(args)
+    if args.output is not None or args.robot is not None:
+        raise UsageError(f"{'-o' if args.output is not None else '--robot'} applies to --controller; "
+                         "--mjcf names its own output")
     check_input(args.calibration)
     check_output(args.mjcf, (args.calibration,))
     geometry, stations = load_robot(args.calibration)
@@ -47,22 +62,97 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def run_controller(args: argparse.Namespace) -> int:
+    """``export --controller offsets|limbs``: the controller values that best fit the calibration."""
+    if args.output is None:
+        raise UsageError("--controller needs -o CONTROLLER.toml, the controller file to write")
+    if args.home is not None:
+        raise UsageError("--home applies to --mjcf")
+    inputs = [p for p in (args.calibration, args.robot) if p is not None]
+    for path in inputs:
+        check_input(path)
+    check_output(args.output, inputs)
+    calibration = load_calibration(args.calibration)
+    start, workspace, shift, sized = _start(calibration, args)
+    points = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(workspace, GRID)]) + shift
+    points = points[np.all(np.isfinite(points), axis=1)]
+    try:
+        fit = fit_controller(calibration, start, points, args.controller)
+    except (UnreachableError, AssemblyError) as exc:
+        k = exc.indices[0] if exc.indices else 0
+        raise InputError(f"the workspace point {np.round(points[k], 3).tolist()} mm is out of reach of the "
+                         f"{'controller model' if isinstance(exc, UnreachableError) else 'identified robot'}"
+                         f" (workspace: {_text(workspace)}{sized}): give --robot with a [workspace] it "
+                         "reaches",
+                         str(args.robot or args.calibration), "key workspace") from None
+    notes = {"calibration": str(args.calibration), "workspace": _text(workspace) + sized}
+    name = args.name or start.name or calibration.robot
+    save_controller(args.output, fit.controller.replace(name=name), fit, notes)
+    what = {"offsets": "joint offsets", "limbs": "per-limb values"}[args.controller]
+    print(f"wrote the {what} that best fit {args.calibration} to {args.output}")
+    print(f"TCP error left over the workspace ({fit.points} points; {_text(workspace)}{sized}): "
+          f"max {fit.max_error:.4f} mm, RMS {fit.rms_error:.4f} mm (the nominal controller leaves max "
+          f"{fit.max_error_before:.4f} mm, RMS {fit.rms_error_before:.4f} mm)")
+    if fit.held:
+        print(f"held at nominal (not identifiable from the TCP error; b_i and a_i enter only as b_i - a_i): "
+              f"{', '.join(fit.held)}")
+    return 0
+
+
+def _start(calibration, args: argparse.Namespace) -> tuple[Controller, Workspace, np.ndarray, str]:
+    """The nominal controller, the workspace, its shift [mm] and a note on where it came from.
+
+    The controller's tool is the calibration's (the TCP identified); a robot file's workspace is
+    for its own tool, so it is shifted by the difference (the convention of the robot file).
+    """
+    tool = calibration.nominal.tool
+    if args.robot is not None:
+        nominal = load_nominal(args.robot)
+        start = Controller.from_geometry(nominal).replace(tool=tool)
+        if nominal.workspace is not None:
+            return start, nominal.workspace, tool - nominal.tool, ""
+        return start, default_workspace(nominal.geometry().with_tool(tool)), np.zeros(3), " (the default)"
+    try:
+        start = Controller.from_geometry(calibration.nominal)
+    except GeometryError:
+        raise InputError("the calibration's nominal geometry is not a classical Delta (a geometry file?): "
+                         "give the robot file with --robot", str(args.calibration), "key nominal") from None
+    return (start, default_workspace(calibration.nominal), np.zeros(3),
+            " (the default; --robot gives the robot's own)")
+
+
+def _text(workspace: Workspace) -> str:
+    return (f"radius {workspace.radius:g} mm, z from {workspace.bottom_z:g} to {workspace.top_z:g} mm")
+
+
 def add_parser(sub) -> None:
     """Register ``export``."""
     p = sub.add_parser(
         "export",
-        help="write the robot as an MJCF model (MuJoCo, Pinocchio)",
+        help="write the robot as an MJCF model (MuJoCo, Pinocchio), or a controller's fitted values",
         description=(
             "Write the identified robot (a calibration file from identify, a geometry file or a nominal "
             "robot file) as an MJCF model in SI units: hinge joints arm1..arm3 whose values are the "
             "encoder readings [rad], ball-jointed rods closed on the plate by <connect> constraints, "
-            "sites tcp and the named points, and a keyframe 'home' holding an assembly."
+            "sites tcp and the named points, and a keyframe 'home' holding an assembly. With --controller "
+            "offsets|limbs: the controller file (deltacal-controller-1) of the joint offsets alone, or of "
+            "the per-limb values, that leave the least TCP error over the workspace; its [fit] and the "
+            "printed line give the error they leave."
         ),
     )
     p.add_argument("calibration", metavar="CALIBRATION",
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
-    p.add_argument("--mjcf", required=True, metavar="ROBOT.xml", help="MJCF file to write")
-    p.add_argument("--name", help="model name (default: the robot's name)")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
+    what.add_argument("--controller", choices=FIT_KINDS,
+                      help="write a controller file (-o) with the joint offsets alone, or the per-limb "
+                           "values, that best fit the calibration over the workspace")
+    p.add_argument("-o", "--output", metavar="CONTROLLER.toml", help="with --controller: the controller file")
+    p.add_argument("--robot", metavar="ROBOT.toml",
+                   help="with --controller: the robot file (its nominal values start the fit and hold "
+                        "what the fit cannot identify; its [workspace] is the fit's; default: the "
+                        "calibration's nominal and the report's default workspace)")
+    p.add_argument("--name", help="model (or controller) name (default: the robot's name)")
     p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
                    help="readings of the 'home' keyframe [deg] (default 0,0,0)")
     p.set_defaults(func=run)

@@ -20,7 +20,7 @@ from ..io import (
     write_measurements,
 )
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from ..simulation import Metrology, simulate_measurements, truth_path
+from ..simulation import Metrology, pose_stations, simulate_measurements, truth_path
 from .common import (
     check_input,
     check_output,
@@ -64,8 +64,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="MEAS.csv", help="output file")
     p.add_argument("--station", action="append", type=station_frame, metavar="NAME:RX,RY,RZ:X,Y,Z",
                    help="write the measurements in an instrument frame: rotation vector of {O} in it [deg] "
-                        "and origin of {O} in it [mm]; repeat for several stations (the poses split "
-                        "among them in order)")
+                        "and origin of {O} in it [mm]; repeat for several stations (consecutive "
+                        "blocks of poses, one per station in order; all points of a pose in one station)")
     p.set_defaults(func=run)
     return p
 
@@ -106,13 +106,8 @@ def run(args: argparse.Namespace) -> int:
     if len(set(names)) != len(names):
         raise UsageError(f"--station: each station once, got {', '.join(names)}")
     if args.station:
-        # contiguous blocks of poses, one per station (a tracker moved during the session)
         frames = dict(args.station)
-        block = np.array_split(np.arange(len(poses)), len(frames))
-        owner = np.empty(len(poses), dtype=object)
-        for name, rows in zip(frames, block, strict=True):
-            owner[rows] = name
-        station = [str(owner[k % len(poses)]) for k in range(len(measurements))]
+        station = pose_stations(list(frames), len(poses), len(points))
         measurements = in_instrument_frames(replace(measurements, station=station), frames)
     if args.perturb is not None:
         save_geometry(truth, truth_path(args.output))

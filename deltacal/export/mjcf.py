@@ -46,6 +46,7 @@ solve the closures kinematically, as the tests do.
 
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -323,7 +324,7 @@ def mjcf_model(
             "station's frame. "
         )
     for line in lines:
-        root.append(ET.Comment(line.replace("--", "- -")))  # "--" may not appear in an XML comment
+        root.append(ET.Comment(re.sub("-(?=-)", "- ", line)))  # "--" may not appear in an XML comment
     ET.SubElement(root, "compiler", {"angle": "radian", "autolimits": "true"})
     ET.SubElement(root, "option", {"timestep": "0.001", "integrator": "implicitfast"})
     world = ET.SubElement(root, "worldbody")

@@ -16,6 +16,20 @@ from ..observations import DISTANCE, POSITION, Measurements, Rows, build_rows, p
 from .frames import frame_columns
 
 
+def _stations_in_metres(measurements: Measurements) -> list[str]:
+    """Stations whose measured positions spread 300 to 3000 times less than the widest station's."""
+    stations = list(measurements.stations)
+    if len(stations) < 2:
+        return []
+    station = np.array(measurements.station)
+    spread = {}
+    for name in stations:
+        p = measurements.position[station == name]
+        spread[name] = float(np.sqrt(np.mean(np.sum((p - p.mean(axis=0)) ** 2, axis=1))))
+    widest = max(spread.values())
+    return [name for name, s in spread.items() if 300.0 < widest / max(s, 1e-300) < 3000.0]
+
+
 def check_plausible(
     start: DeltaGeometry, measurements: Measurements, rows: Rows, frame_free: bool = False
 ) -> None:
@@ -39,6 +53,12 @@ def check_plausible(
     if not error.size:
         return
     median = float(np.median(error))
+    metres = _stations_in_metres(measurements)
+    if median > 0.2 * arm and metres:
+        raise IdentificationError(
+            f"the positions of station(s) {', '.join(map(repr, metres))} spread about 1000 times less than "
+            "those of the other stations: in metres, not millimetres? Convert them (x1000) or measure again"
+        )
     if median > 0.2 * arm:
         where = (
             "that each station's measurements are of one rigid set-up"

@@ -48,6 +48,10 @@ CLEARLY_BETTER = 0.5
 FITS_WELL = 10.0
 
 
+#: Stations reviewed one by one at most (each of their readings is one more fit).
+STATIONS_REVIEWED = 6
+
+
 def excess_bound(dof: int) -> float:
     """Largest s0² that noise alone gives, 5 standard deviations above 1: ``1 + 5 sqrt(2 / dof)``."""
     return 1.0 + 5.0 * math.sqrt(2.0 / max(dof, 1))
@@ -134,6 +138,7 @@ def _readings(
                     frame,
                     points,
                 )
+    yield from _station_readings(measurements, names, frame, points)
     named = tuple(n for n in names if n != "tcp")
     if len(names) > 1 and named and set(named) - set(points) and not distances:
         # one point is held so that the rest can be told from the plate geometry
@@ -152,6 +157,41 @@ def _readings(
             "free",
             points,
         )
+
+
+def _station_readings(
+    measurements: Measurements, names: list[str], frame: str, points: tuple[str, ...]
+) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+    """The mistakes of one station alone: its positions in metres, its point labels swapped.
+
+    A file-wide reading cannot explain them (the other stations are right), and the fit said "no
+    single cause stands out". At most :data:`STATIONS_REVIEWED` stations: each reading is a fit.
+    """
+    stations = list(measurements.stations)
+    if not 1 < len(stations) <= STATIONS_REVIEWED:
+        return
+    station = np.array(measurements.station)
+    for name in stations:
+        rows = station == name
+        yield (
+            f"the positions of station {name!r} are in metres, not millimetres",
+            replace(measurements, position=np.where(rows[:, None], measurements.position * 1000.0,
+                                                    measurements.position)),
+            frame,
+            points,
+        )
+        if 1 < len(names) <= 4:
+            for i, a in enumerate(names):
+                for b in names[i + 1 :]:
+                    swap = {a: b, b: a}
+                    labels = [swap.get(p, p) if here else p
+                              for p, here in zip(measurements.point, rows, strict=True)]
+                    yield (
+                        f"the point labels {a!r} and {b!r} are swapped in station {name!r}",
+                        replace(measurements, point=labels),
+                        frame,
+                        points,
+                    )
 
 
 def verdict(
@@ -191,13 +231,13 @@ def quality_factor(result) -> float:
 
 def needs_review(result, start: DeltaGeometry) -> bool:
     """Whether a fit's residuals or deviations call for trying other readings of the data."""
-    dof = max(result.n_rows - result.rank, 1)
+    dof = max((result.independent_rows or result.n_rows) - result.rank, 1)
     return quality_factor(result) > excess_bound(dof) or bool(implausible_deviations(start, result.geometry))
 
 
 def poor_fit_message(result, start: DeltaGeometry, causes: list[str], model_note: str = "") -> str:
     """One line: what is wrong with the fit, and the likely causes (``model_note``: a model that fits)."""
-    dof = max(result.n_rows - result.rank, 1)
+    dof = max((result.independent_rows or result.n_rows) - result.rank, 1)
     s0 = quality_factor(result)
     text = (
         f"the fit does not match the σ given: variance factor s0² = {s0:.3g} "

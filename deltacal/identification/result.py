@@ -73,6 +73,8 @@ class IdentificationResult:
         variance_factor: s0² = χ² / (m − r) at the end.
         units: Unit of each base parameter.
         n_rows: Number of regressor rows.
+        independent_rows: Number of independent rows (all-pair distances: 3n - 6 per point, not
+            the pairs); 0 when not known (a result built by hand): ``n_rows`` stands for it.
         residual_after: Residual of every row at the end [mm or rad].
         hints: What richer measurements would identify.
         frames: The identified instrument frame of each station (``frame="free"``), or empty.
@@ -103,6 +105,7 @@ class IdentificationResult:
     units: list[str]
     n_rows: int
     residual_after: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(0))
+    independent_rows: int = 0
     hints: tuple[str, ...] = ()
     frames: dict[str, InstrumentFrame] = field(default_factory=dict)
     gauge_motion: tuple[float, float] = (0.0, 0.0)

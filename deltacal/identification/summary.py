@@ -94,6 +94,7 @@ def summarise(
         before=before, after=problem.stats(solution.geometry, rows), outliers=[int(k) for k in flagged],
         iterations=solution.iterations, variance_factor=variance_factor,
         units=[columns[k].unit for k in kept], n_rows=_equations(solution.covariance_rows),
+        independent_rows=rows.independent,
         residual_after=rows.residual, hints=choice.hints, frames=frames, gauge_motion=gauge,
         absorbed=choice.absorbed, inlier_variance_factor=inlier_factor, confounded=choice.confounded,
         columns=columns,

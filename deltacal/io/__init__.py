@@ -18,6 +18,7 @@ from .calibration import (
     load_linear_calibration,
     save_calibration,
 )
+from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
 from .gcode import filter_gcode, filter_lines, is_gcode_path
 from .geometry_file import (
     CALIBRATION_FORMAT,
@@ -29,6 +30,7 @@ from .geometry_file import (
     save_geometry,
 )
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
+from .names import check_names, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .robot import load_nominal
 from .tables import (
@@ -42,11 +44,24 @@ from .tables import (
     read_csv_table,
     unassembled_rows,
 )
-from .targets import JointsWriter, TargetChunk, TargetFile, joint_rows, read_target_table, write_joints
+from .targets import (
+    COMMAND_COLUMNS,
+    CommandsWriter,
+    JointsWriter,
+    TargetChunk,
+    TargetFile,
+    joint_rows,
+    read_target_table,
+    write_joints,
+)
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [
     "CALIBRATION_FORMAT",
+    "CONTROLLER_FORMAT",
+    "controller_to_dict",
+    "load_controller",
+    "save_controller",
     "CsvTable",
     "GEOMETRY_FORMAT",
     "JOINT_COLUMNS",
@@ -60,6 +75,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "calibration_from_result",
+    "check_names",
     "calibration_to_dict",
     "check_calibration",
     "check_format",
@@ -78,6 +94,7 @@ __all__ = [
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",
+    "name_problem",
     "radians_from_text",
     "read_csv_table",
     "read_measurements",
@@ -88,6 +105,8 @@ __all__ = [
     "PosesFile",
     "read_target_table",
     "JointsWriter",
+    "CommandsWriter",
+    "COMMAND_COLUMNS",
     "TargetChunk",
     "TargetFile",
     "joint_rows",

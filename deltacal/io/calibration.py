@@ -23,6 +23,7 @@ from .geometry_file import (
     geometry_from_dict,
     geometry_to_dict,
 )
+from .names import check_names
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
@@ -49,6 +50,9 @@ def save_calibration(
         calibration = calibration_from_result(result)
         if lines is not None:
             calibration = replace(calibration, outlier_lines=[int(lines[k]) for k in result.outliers])
+    for geometry in (calibration.geometry, calibration.nominal):
+        check_names(geometry.points, "point", str(path))
+    check_names(calibration.frames, "station", str(path))
     header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"
     atomic_write_text(path, header + toml_dumps(calibration_to_dict(calibration)))
 
@@ -139,6 +143,7 @@ def instrument_tables(data: Mapping, source: str) -> dict[str, dict[str, np.ndar
     raw = data.get("instrument", {})
     if not isinstance(raw, Mapping):
         raise InputError("must be a table of stations [instrument.NAME]", source, "key instrument")
+    check_names(raw, "station", source, "key instrument")
     out = {}
     for name, item in raw.items():
         if not isinstance(item, Mapping):

@@ -11,6 +11,7 @@ import numpy as np
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry
 from .atomic import atomic_write_text
+from .names import check_names
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
@@ -81,6 +82,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     points = {}
     pts = top.table("points", required=False)
     if pts is not None:
+        check_names(pts.data, "point", source, f"key {prefix}points")
         for k in pts.data:
             points[k] = pts.vector(k, (3,))
     try:
@@ -92,7 +94,12 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
 
 
 def save_geometry(geometry: DeltaGeometry, path: str | Path) -> None:
-    """Write a DeltaGeometry to TOML (mm, deg), atomically; it reads back bit for bit."""
+    """Write a DeltaGeometry to TOML (mm, deg), atomically; it reads back bit for bit.
+
+    Raises:
+        InputError: a point name no file can carry (:func:`~deltacal.io.names.name_problem`).
+    """
+    check_names(geometry.points, "point", str(path))
     header = "# deltacal geometry: every element of a real Delta robot (mm, deg)\n"
     atomic_write_text(path, header + toml_dumps(geometry_to_dict(geometry)))
 

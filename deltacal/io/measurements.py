@@ -10,6 +10,7 @@ import numpy as np
 from ..exceptions import InputError
 from ..observations import DEFAULT_STATION, Measurements
 from .atomic import atomic_write_text
+from .names import check_names, name_problem
 from .tables import (
     JOINT_COLUMNS,
     MEASUREMENT_COLUMNS,
@@ -63,6 +64,8 @@ def read_measurement_file(path: str | Path, point_names: list[str] | None = None
         all_or_none=(tuple(ORIENTATION_COLUMNS),),
     )
     n = len(table.lines)
+    for column, values in table.text.items():
+        _check_column_names(values, column, str(path), table.lines)
     points = table.text.get("point", ["tcp"] * n)
     points = [p if p else "tcp" for p in points]
     stations = [s if s else DEFAULT_STATION for s in table.text.get("station", [DEFAULT_STATION] * n)]
@@ -79,6 +82,14 @@ def read_measurement_file(path: str | Path, point_names: list[str] | None = None
     measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations)
     warnings = list(table.warnings) + _station_warnings(table.text.get("station"), measurements)
     return MeasurementFile(measurements, np.asarray(table.lines), warnings, str(path))
+
+
+def _check_column_names(values: list[str], column: str, source: str, lines: np.ndarray) -> None:
+    """Refuse the first non-empty name of a text column that is not a name (control characters)."""
+    bad = {v for v in set(values) if v and name_problem(v) is not None}
+    if bad:
+        k = next(k for k, v in enumerate(values) if v in bad)
+        check_names([values[k]], column, source, f"{data_row(lines[k], k + 1)}, column {column}")
 
 
 def _station_warnings(column: list[str] | None, measurements: Measurements) -> list[str]:
@@ -111,7 +122,14 @@ def _station_warnings(column: list[str] | None, measurements: Measurements) -> l
 
 
 def write_measurements(path: str | Path, measurements: Measurements) -> None:
-    """Write measurements in the CSV format of the conventions (mm, deg), atomically."""
+    """Write measurements in the CSV format of the conventions (mm, deg), atomically.
+
+    Raises:
+        InputError: a point or station name that the file could not carry (see
+            :func:`~deltacal.io.names.name_problem`); nothing is written.
+    """
+    check_names(dict.fromkeys(measurements.point), "point", str(path))
+    check_names(dict.fromkeys(measurements.station), "station", str(path))
     q = np.degrees(measurements.q)
     cols = [q[:, 0], q[:, 1], q[:, 2], *measurements.position.T]
     header = JOINT_COLUMNS + TARGET_COLUMNS

@@ -12,6 +12,7 @@ from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
+from .names import check_names
 from .toml import _Table, read_toml
 
 #: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
@@ -67,24 +68,8 @@ def load_nominal(path: str | Path) -> NominalDelta:
             InputWarning, stacklevel=2,
         )
     tool = geo.vector("tool_mm", (3,))
-    points: dict[str, np.ndarray] = {}
-    pts = top.table("points", required=False)
-    if pts is not None:
-        for k in pts.data:
-            if k == "tcp":
-                raise pts.error(k, "'tcp' is reserved for the tool centre point")
-            points[k] = pts.vector(k, (3,))
-    workspace = None
-    ws = top.table("workspace", required=False)
-    if ws is not None:
-        ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
-        workspace = Workspace(
-            radius=ws.number("radius_mm", positive=True),
-            height=ws.number("height_mm", positive=True),
-            top_z=ws.number("top_z_mm"),
-        )
-        if workspace.top_z >= 0.0:
-            raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    points = _points(top, source)
+    workspace = _workspace(top)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
@@ -106,6 +91,35 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if workspace is not None:
         _check_workspace_reachable(nominal, source)
     return nominal
+
+
+def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
+    """The ``[points]`` table: named plate points [mm]."""
+    points: dict[str, np.ndarray] = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        check_names(pts.data, "point", source, "key points")
+        for k in pts.data:
+            if k == "tcp":
+                raise pts.error(k, "'tcp' is reserved for the tool centre point")
+            points[k] = pts.vector(k, (3,))
+    return points
+
+
+def _workspace(top: _Table) -> Workspace | None:
+    """The ``[workspace]`` table, or None."""
+    ws = top.table("workspace", required=False)
+    if ws is None:
+        return None
+    ws.check_unknown(["radius_mm", "height_mm", "top_z_mm"])
+    workspace = Workspace(
+        radius=ws.number("radius_mm", positive=True),
+        height=ws.number("height_mm", positive=True),
+        top_z=ws.number("top_z_mm"),
+    )
+    if workspace.top_z >= 0.0:
+        raise ws.error("top_z_mm", f"the plate works below the base: must be < 0, got {workspace.top_z}")
+    return workspace
 
 
 def _check_plausible(geo: _Table, key: str, value: float) -> None:

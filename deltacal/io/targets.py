@@ -39,6 +39,11 @@ from .tables import (
 CHUNK_BYTES = 1 << 20
 #: Decimals of the readings written [deg]: 1e-12 deg, far below any encoder's resolution.
 JOINT_DECIMALS = 12
+#: Columns of the corrected targets written after the targets (``compensate --controller``).
+COMMAND_COLUMNS = ["x_cmd_mm", "y_cmd_mm", "z_cmd_mm"]
+#: Decimals of the corrected targets written [mm]: 1e-9 mm (a picometre), far below any
+#: controller's resolution; values up to 9e6 mm are written exactly to it.
+COMMAND_DECIMALS = 9
 #: The bytes a chunk of plain numbers may hold (no quotes, names, nan, inf, underscores).
 _PLAIN = b"0123456789+-.eE, \r\n"
 
@@ -214,6 +219,10 @@ class JointsWriter:
     the path is left as it was (:func:`~deltacal.io.atomic.atomic_output`).
     """
 
+    #: The columns written after the targets, and their decimals.
+    COLUMNS = JOINT_COLUMNS
+    DECIMALS = JOINT_DECIMALS
+
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.rows = 0
@@ -222,7 +231,7 @@ class JointsWriter:
         self._atomic = atomic_output(self.path)
         tmp = self._atomic.__enter__()
         self._file = open(tmp, "wb")  # noqa: SIM115 (closed in __exit__)
-        self._file.write((",".join(TARGET_COLUMNS + JOINT_COLUMNS) + "\n").encode())
+        self._file.write((",".join(TARGET_COLUMNS + self.COLUMNS) + "\n").encode())
         return self
 
     def write(self, chunk: TargetChunk, q: np.ndarray) -> None:
@@ -230,13 +239,27 @@ class JointsWriter:
         text = chunk.text
         if text is None:
             text = np.array([",".join(map(repr, row)).encode() for row in chunk.targets.tolist()])
-        self._file.write(joint_rows(text, np.degrees(q)))
+        self._file.write(joint_rows(text, self._shown(q), self.DECIMALS))
         self.rows += len(chunk)
+
+    def _shown(self, values: np.ndarray) -> np.ndarray:
+        """The values in the file's unit (readings [rad] in degrees)."""
+        return np.degrees(values)
 
     def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
                  traceback: TracebackType | None) -> None:
         self._file.close()
         self._atomic.__exit__(kind, value, traceback)
+
+
+class CommandsWriter(JointsWriter):
+    """The corrected-targets CSV (targets, then ``x_cmd_mm,y_cmd_mm,z_cmd_mm``), as :class:`JointsWriter`."""
+
+    COLUMNS = COMMAND_COLUMNS
+    DECIMALS = COMMAND_DECIMALS
+
+    def _shown(self, values: np.ndarray) -> np.ndarray:
+        return values  # mm already
 
 
 def joint_rows(text: np.ndarray, q_deg: np.ndarray, decimals: int = JOINT_DECIMALS) -> bytes:
@@ -255,7 +278,9 @@ def joint_rows(text: np.ndarray, q_deg: np.ndarray, decimals: int = JOINT_DECIMA
         return b""
     scaled = np.rint(np.abs(q_deg) * 10.0**decimals)
     if not np.all(scaled < 2.0**53):
-        raise ValueError("readings must be finite and below 9,000 deg to be written exactly")
+        limit = 2.0**53 / 10.0**decimals
+        raise ValueError(f"values must be finite and below {limit:,.0f} to be written exactly to {decimals} "
+                         "decimals")
     m = scaled.astype(np.int64)
     width = max(decimals + 1, len(str(int(m.max()))))
     digits = (m[..., None] // 10 ** np.arange(width - 1, -1, -1, dtype=np.int64)) % 10

@@ -1,4 +1,10 @@
-"""TOML files: reading with one-line errors naming the key, writing with exact angles."""
+"""TOML files: reading with one-line errors naming the key, writing with exact angles.
+
+Keys and strings are written by tomli-w (what may stay bare, what must be quoted and how a
+character is escaped are its job); numbers and arrays are laid out here, an array on one line,
+because tomli-w puts each element of an array on a line of its own (a correlation matrix of 40
+base parameters would take 1,700 lines) and cannot write the exact degrees of :class:`RawToml`.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import tomli_w
 
 from ..exceptions import InputError
 
@@ -37,6 +44,24 @@ def exact_degrees(angle: float) -> RawToml:
     return RawToml(text.replace("E", "e"))
 
 
+def short_degrees(angle: float) -> RawToml:
+    """An angle [rad] in degrees with the fewest digits that read back to it within two ulps.
+
+    ``30.0`` rather than ``29.999999999999996`` for ``math.radians(30.0)`` (which
+    :func:`radians_from_text` reads back one ulp, 6e-17 rad, away): for files a person reads and
+    types into a controller. :func:`exact_degrees` is the bit-for-bit form.
+    """
+    if math.isfinite(angle):
+        with localcontext() as ctx:
+            ctx.prec = 50
+            deg = Decimal(angle) * 180 / _PI
+        for digits in range(1, 18):
+            text = repr(float(format(deg, f".{digits}g")))
+            if abs(radians_from_text(Decimal(text)) - angle) <= 2.0 * math.ulp(angle):
+                return RawToml(text)
+    return exact_degrees(angle)
+
+
 def radians_from_text(value: Decimal | float) -> float:
     """Degrees read from a file (Decimal keeps every digit) to radians, rounded once."""
     if isinstance(value, float):
@@ -61,10 +86,7 @@ def _toml_value(value: Any) -> str:
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(value, str):
-        escaped = (
-            value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n").replace("\t", "\\t")
-        )
-        return f'"{escaped}"'
+        return tomli_w.dumps({"v": value})[len("v = "):-1]
     if isinstance(value, np.ndarray):
         return _toml_value(value.tolist())
     if isinstance(value, (list, tuple)):
@@ -73,9 +95,8 @@ def _toml_value(value: Any) -> str:
 
 
 def _toml_key(key: str) -> str:
-    if key and all(c.isalnum() or c in "_-" for c in key):
-        return key
-    return _toml_value(key)
+    """A key as TOML writes it: bare when it holds only ASCII letters, digits, '_' and '-'."""
+    return tomli_w.dumps({key: 0})[: -len(" = 0\n")]
 
 
 def toml_dumps(data: Mapping[str, Any]) -> str:

@@ -33,6 +33,7 @@ import numpy as np
 from ..calibration import Calibration
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, Workspace
+from ..identification.frames import gauge_sensitivity, to_axes_gauge
 from ..kinematics import exact
 from ..rotations import skew
 
@@ -74,7 +75,11 @@ def tcp_jacobian(
     columns = [model.names.index(name) for name in calibration.robot_names]
     S = model.sensitivity(geometry, q, pose)[:, :, columns]  # (N, 6, r)
     lever = pose.rotation @ tool  # R t, (N, 3)
-    return S[:, :3] - skew(lever) @ S[:, 3:]
+    J = S[:, :3] - skew(lever) @ S[:, 3:]
+    if calibration.frames:  # {O} is the axes gauge: the rigid motion it undoes is no error in {O}
+        A = gauge_sensitivity(model, geometry, columns)
+        J = J + skew(pose.point(tool)) @ A[:3] - A[3:]
+    return J
 
 
 def predicted_tcp_covariance(
@@ -163,6 +168,8 @@ class AccuracyMap:
         worst: Largest 3-D σ [mm].
         worst_point: Where it is [mm], (3,).
         worst_axes: σ_x, σ_y, σ_z there [mm].
+        shift: With a true geometry and free instrument frames, the common shift removed from the
+            actual errors [mm], (3,); else None (see :func:`accuracy_map`).
     """
 
     slices: list[Slice]
@@ -172,6 +179,7 @@ class AccuracyMap:
     worst: float
     worst_point: np.ndarray
     worst_axes: np.ndarray
+    shift: np.ndarray | None = None
 
 
 def actual_tcp_error(
@@ -205,7 +213,12 @@ def accuracy_map(
     truth: DeltaGeometry | None = None,
     n: int = GRID,
 ) -> AccuracyMap:
-    """Predicted σ (and actual errors with ``truth``) on :func:`workspace_slices`, in one batch."""
+    """Predicted σ (and actual errors with ``truth``) on :func:`workspace_slices`, in one batch.
+
+    With free instrument frames the calibration's {O} is its axes gauge, not the simulator's: the
+    truth is moved to its own axes gauge first, and the errors' mean (the translation no
+    measurement in a station's frame sees) is removed and returned as ``shift``.
+    """
     tool = calibration.geometry.tool if tool is None else np.asarray(tool, dtype=float)
     slices = workspace_slices(workspace, n)
     flat = np.concatenate([s.points.reshape(-1, 3) for s in slices])
@@ -214,11 +227,20 @@ def accuracy_map(
     sizes = np.cumsum([0] + [s.points.shape[0] * s.points.shape[1] for s in slices])
     shapes = [s.points.shape[:2] for s in slices]
     sigma = [total[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]
-    error = None
+    error, shift = None, None
     if truth is not None:
-        err = np.linalg.norm(actual_tcp_error(calibration.geometry, truth, flat, tool), axis=1)
+        if calibration.frames:
+            # the truth is in the simulator's {O}; the calibration in its axes gauge: compare there
+            truth = to_axes_gauge(calibration.nominal, truth, {})[0]
+        vectors = actual_tcp_error(calibration.geometry, truth, flat, tool)
+        if calibration.frames:
+            # what a free frame cannot see: where the robot is along its own axes (the common shift
+            # of its axes and plate balls); the gauge holds it at nominal, the truth has its own
+            shift = np.nanmean(vectors, axis=0)
+            vectors = vectors - shift
+        err = np.linalg.norm(vectors, axis=1)
         error = [err[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]
     if not np.any(np.isfinite(total)):
         raise UnreachableError("no point of the workspace slices is within reach of the identified robot")
     k = int(np.nanargmax(total))
-    return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k])
+    return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k], shift)

@@ -250,6 +250,18 @@ def _accuracy(page: Page) -> str:
     return out
 
 
+def _gauge_note(shift: np.ndarray | None) -> str:
+    if shift is None:
+        return ""
+    return ("<p id=\"truth-gauge\">Compared in the calibration's gauge: identified with free instrument "
+            "frames, its {O} is where its actuator axes have no net rigid motion from the nominal ones, so "
+            "the true robot is moved to its own axes gauge first. A common shift of "
+            f"{esc(num(float(np.linalg.norm(shift)) * 1000.0, 4))} µm "
+            f"({esc(', '.join(num(v * 1000.0, 4) for v in shift))} µm in x, y, z) is then removed: where "
+            "the robot sits relative to its own axes, which no measurement in a station's frame sees "
+            "(targets given in a station's frame do not depend on it).</p>")
+
+
 def _truth(page: Page) -> str:
     a = page.accuracy
     assert a.error is not None
@@ -266,6 +278,7 @@ def _truth(page: Page) -> str:
            f"RMS {esc(num(float(np.sqrt(np.mean(e[ok] ** 2))) * 1000.0, 4))} µm; RMS of error / predicted σ "
            f"{esc(num(ratio, 3))} (about 1 expected, one draw of correlated errors); error below 2σ at "
            f"{esc(num(100.0 * within, 3))} % of the points.</p>")
+    out += _gauge_note(a.shift)
     out += figure(page.figures["error"], "Actual TCP error of the calibrated robot on the same slices.",
                   "fig-error")
     out += figure(page.figures["error_vs_sigma"], "Actual error against predicted σ at every slice point.",

@@ -1,0 +1,16 @@
+"""Controllers: a robot controller's own model, corrected targets for it, and the fit of its values.
+
+* :mod:`.model`: :class:`Controller`, the classical Delta with per-limb values that an industrial
+  controller, a PLC's Delta transform or a firmware runs (conventions, "Controllers").
+* :mod:`.targets`: :func:`corrected_targets`, the targets to send it so the real TCP lands on the
+  targets (exact compensation, then the controller's forward model of those readings).
+* :mod:`.fit`: :func:`fit_controller`, the joint offsets or per-limb values that best represent an
+  identified robot over a workspace.
+"""
+
+from .fit import FIT_KINDS, ControllerFit, fit_controller
+from .model import Controller
+from .targets import CorrectedTargets, corrected_targets
+
+__all__ = ["FIT_KINDS", "Controller", "ControllerFit", "CorrectedTargets", "corrected_targets",
+           "fit_controller"]

@@ -1,0 +1,60 @@
+"""``deltacal compensate CAL PROGRAM.gcode --controller C``: the G-code route of the command line.
+
+The calibration is a true geometry (perturbed, seeded); the controller the robot file's nominal
+one. Every corrected move, commanded through the controller's inverse kinematics and run on the
+true robot's exact forward kinematics, puts the TCP on the program's intended straight line.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from conftest import MODELS
+
+from deltacal import Tolerances
+from deltacal.cli import main
+from deltacal.io import load_nominal
+from deltacal.io.controller_file import load_controller
+from deltacal.io.geometry_file import save_geometry
+from deltacal.kinematics import exact
+
+
+def test_a_program_is_corrected_for_the_nominal_controller(tmp_path, capsys):
+    robot = MODELS / "bai2015.toml"
+    truth = load_nominal(robot).geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(8))
+    cal, program, out = tmp_path / "true.toml", tmp_path / "p.gcode", tmp_path / "out.gcode"
+    save_geometry(truth, cal)
+    program.write_text("G21\nG90\n; a comment\nG1 X0 Y0 Z-800 F3000\nG1 X60 Y-30 Z-820\nM400\n")
+    assert main(["compensate", str(cal), str(program), "--controller", str(robot), "-o", str(out),
+                 "--segment-mm", "10"]) == 0
+    lines = out.read_text().splitlines()
+    assert lines[:3] == ["G21", "G90", "; a comment"] and lines[-1] == "M400"
+    moves = np.array([[float(v) for v in re.findall(r"[XYZ](-?[\d.]+)", line)] for line in lines[3:-1]])
+    assert len(moves) == 1 + 7  # 67.1 mm in segments of at most 10 mm
+    controller = load_controller(robot)
+    tcp = exact.forward(truth, controller.inverse(moves)).point(truth.tool)
+    start, end = np.array([0.0, 0.0, -800.0]), np.array([60.0, -30.0, -820.0])
+    assert np.allclose(tcp[0], start, atol=1e-3) and np.allclose(tcp[-1], end, atol=1e-3)  # 4 decimals
+    along = (tcp[1:] - start) @ (end - start) / np.sum((end - start) ** 2)
+    on_line = start + along[:, None] * (end - start)
+    assert np.max(np.linalg.norm(tcp[1:] - on_line, axis=1)) < 1e-3
+    assert np.allclose(np.diff(along), along[0], atol=1e-6)  # equal segments
+
+
+@pytest.mark.parametrize("extra, message", [
+    ([], "a G-code program goes to a controller: give --controller"),
+    (["--controller", "ROBOT", "--frame", "instrument"], "--frame instrument applies to a targets CSV"),
+])
+def test_program_refusals(tmp_path, capsys, extra, message):
+    robot = str(MODELS / "bai2015.toml")
+    program = tmp_path / "p.gcode"
+    program.write_text("G1 X0 Y0 Z-800\n")
+    cal = tmp_path / "true.toml"
+    save_geometry(load_nominal(robot).geometry(), cal)
+    args = ["compensate", str(cal), str(program), "-o", str(tmp_path / "o.gcode")]
+    assert main(args + [robot if e == "ROBOT" else e for e in extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "o.gcode").exists()
