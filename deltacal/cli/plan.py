@@ -161,7 +161,7 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
     rank = base_parameters(H, model.names, rtol=_RTOL).rank  # what such measurements can identify
     count = max(math.ceil(2 * rank / rows), 3) if args.count is None else args.count
     if args.pool >= LARGE_POOL:
-        cost = pool_cost(len(pool), rows, rank, count)
+        cost = pool_cost(len(pool), rows, model.size, rank, count)
         print(f"plan: {len(pool):,} candidates: the selection takes about {cost.memory / 1e6:.0f} MB of "
               f"memory and {cost.step:.2g} s per step on one core ({cost.steps_min} steps, then {count} per "
               f"exchange pass, up to {cost.steps_max} in all: {_duration(cost.steps_min * cost.step)} to "

@@ -53,18 +53,20 @@ class PoolCost:
     steps_max: int
 
 
-def pool_cost(pool_size: int, rows: int, parameters: int, count: int, max_passes: int = 10) -> PoolCost:
+def pool_cost(pool_size: int, rows: int, parameters: int, base: int, count: int,
+              max_passes: int = 10) -> PoolCost:
     """The memory and time of selecting ``count`` poses from ``pool_size`` candidates, estimated.
 
     Args:
         pool_size: Candidates.
         rows: Regressor rows per candidate.
-        parameters: Parameters of the model (base parameters, or the model's size as a bound).
+        parameters: Parameters of the error model.
+        base: Its base parameters for these measurements.
         count: Poses to select.
         max_passes: Exchange passes at most.
     """
-    return PoolCost(memory=pool_memory(pool_size, rows, parameters),
-                    step=STEP_SECONDS * pool_size * rows * parameters,
+    return PoolCost(memory=pool_memory(pool_size, rows, parameters, base),
+                    step=STEP_SECONDS * pool_size * rows * base,
                     steps_min=count, steps_max=count * (1 + max_passes))
 
 
@@ -227,19 +229,20 @@ def _chunks(a: np.ndarray, size: int) -> Iterator[np.ndarray]:
         yield a[start:start + size]
 
 
-def pool_memory(pool_size: int, rows: int, parameters: int) -> float:
+def pool_memory(pool_size: int, rows: int, parameters: int, base: int | None = None) -> float:
     """Peak memory [bytes] of a D-optimal selection beyond the pool itself, estimated.
 
-    The column-scaled base regressor of every candidate is kept, ``rows × parameters`` numbers
-    each (the gains of every candidate are computed at each step); the rest works on
+    The column-scaled base regressor of every candidate is kept, ``rows × base`` numbers each
+    (the gains of every candidate are computed at each step); the rest works on
     :data:`CHUNK` candidates at a time.
 
     Args:
         pool_size: Candidates.
         rows: Regressor rows per candidate (6 for pose measurements, 3 per point for positions).
-        parameters: Parameters of the error model (an upper bound on the base parameters).
+        parameters: Parameters of the error model.
+        base: Base parameters, if known (default: ``parameters``, an upper bound).
     """
-    kept = 8.0 * pool_size * rows * parameters
+    kept = 8.0 * pool_size * rows * (parameters if base is None else base)
     work = 8.0 * min(pool_size, CHUNK) * rows * parameters * CHUNK_WORK
     return kept + work
 
