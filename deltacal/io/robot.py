@@ -68,14 +68,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             InputWarning, stacklevel=2,
         )
     tool = geo.vector("tool_mm", (3,))
-    points: dict[str, np.ndarray] = {}
-    pts = top.table("points", required=False)
-    if pts is not None:
-        check_names(pts.data, "point", source, "key points")
-        for k in pts.data:
-            if k == "tcp":
-                raise pts.error(k, "'tcp' is reserved for the tool centre point")
-            points[k] = pts.vector(k, (3,))
+    points = _points(top, source)
     workspace = None
     ws = top.table("workspace", required=False)
     if ws is not None:
@@ -108,6 +101,19 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if workspace is not None:
         _check_workspace_reachable(nominal, source)
     return nominal
+
+
+def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
+    """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters)."""
+    points: dict[str, np.ndarray] = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        check_names(pts.data, "point", source, "key points")
+        for k in pts.data:
+            if k == "tcp":
+                raise pts.error(k, "'tcp' is reserved for the tool centre point")
+            points[k] = pts.vector(k, (3,))
+    return points
 
 
 def _check_plausible(geo: _Table, key: str, value: float) -> None:
