@@ -9,7 +9,7 @@ import numpy as np
 
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry
-from ..io import load_calibration, load_nominal, read_toml
+from ..io import control_character, load_calibration, load_nominal, read_toml
 from .common import check_input, check_output, three_numbers
 
 
@@ -62,7 +62,16 @@ def add_parser(sub) -> None:
     p.add_argument("calibration", metavar="CALIBRATION",
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
     p.add_argument("--mjcf", required=True, metavar="ROBOT.xml", help="MJCF file to write")
-    p.add_argument("--name", help="model name (default: the robot's name)")
+    p.add_argument("--name", type=_model_name, help="model name (default: the robot's name)")
     p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
                    help="readings of the 'home' keyframe [deg] (default 0,0,0)")
     p.set_defaults(func=run)
+
+
+def _model_name(text: str) -> str:
+    """Argparse type of ``--name``: text without control characters (no XML file holds them)."""
+    problem = control_character(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(f"model name {text!r} {problem}")
+    return text
+
