@@ -30,7 +30,7 @@ from .geometry_file import (
     save_geometry,
 )
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
-from .names import check_names, name_problem
+from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .robot import load_nominal
 from .tables import (
@@ -76,6 +76,8 @@ __all__ = [
     "atomic_write_text",
     "calibration_from_result",
     "check_names",
+    "check_robot_name",
+    "control_character",
     "calibration_to_dict",
     "check_calibration",
     "check_format",
