@@ -16,7 +16,7 @@ from conftest import MODELS, workspace_points, write_targets
 from numpy.testing import assert_allclose
 from scipy.optimize import least_squares
 
-from deltacal import DeltaMultibody, Tolerances, UnreachableError, identify
+from deltacal import DeltaMultibody, NominalDelta, Tolerances, UnreachableError, identify
 from deltacal.cli import main
 from deltacal.compensation import compensate
 from deltacal.controller import Controller, corrected_targets, fit_controller
@@ -160,6 +160,26 @@ def test_corrected_targets_put_the_true_tcp_where_compensation_does(bai, robot, 
     assert np.max(np.linalg.norm(where_controller - targets, axis=1)) < 0.05
     raw = mb.forward(controller.readings(targets)).point(robot["truth"].tool)
     assert np.max(np.linalg.norm(raw - targets, axis=1)) > 1.0
+
+
+def test_corrected_targets_on_a_robot_no_other_test_uses():
+    """Odd azimuths, another size, a tool off the axis: the spec's controller puts the Pinocchio TCP on
+    the targets (the calibration is the true geometry itself, so what is left is the solvers')."""
+    nominal = NominalDelta(name="odd", base_radius=120.0, plate_radius=35.0, arm_length=250.0,
+                           rod_length=600.0, rod_spacing=60.0, limb_azimuth=np.radians([10.0, 130.0, 250.0]),
+                           tool=np.array([5.0, -3.0, -80.0]))
+    truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(2207))
+    spec = SpecController([10.0, 130.0, 250.0], [120.0] * 3, [35.0] * 3, [250.0] * 3, [600.0] * 3, [0, 0, 0],
+                          nominal.tool)
+    rng = np.random.default_rng(2208)
+    radius, angle = 150.0 * np.sqrt(rng.random(30)), rng.uniform(0.0, 2.0 * np.pi, 30)
+    z = rng.uniform(-620.0, -520.0, 30)
+    targets = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), z])
+    commands, _ = corrected_targets(truth, Controller.from_geometry(nominal), targets)
+    reached = DeltaMultibody(truth).forward(spec.readings(commands)).point(truth.tool)
+    assert np.max(np.linalg.norm(reached - targets, axis=1)) < 1e-6
+    raw = DeltaMultibody(truth).forward(spec.readings(targets)).point(truth.tool)
+    assert np.max(np.linalg.norm(raw - targets, axis=1)) > 0.5  # what the controller alone leaves
 
 
 def test_targets_the_controller_model_cannot_command_are_refused_by_index(bai, robot):
@@ -348,3 +368,24 @@ def test_export_controller_writes_the_fit_and_says_what_it_leaves(files, robot, 
     rms = np.sqrt(np.mean(error**2))
     assert abs(rms - data["fit"]["rms_error_mm"]) < 0.005
 
+
+
+def test_export_controller_refusals(files, capsys, tmp_path):
+    out = tmp_path / "c.toml"
+    code, _, err = run(capsys, "export", files["cal"], "--controller", "offsets")
+    assert code == 2 and "--controller needs -o CONTROLLER.toml" in err
+    code, _, err = run(capsys, "export", files["cal"], "--mjcf", tmp_path / "r.xml", "-o", out)
+    assert code == 2 and "-o applies to --controller" in err
+    code, _, err = run(capsys, "export", files["cal"], "--controller", "both", "-o", out)
+    assert code == 2 and "invalid choice: 'both'" in err
+    # a geometry file has no nominal controller: the robot file is asked for
+    from deltacal.io import save_geometry
+
+    geometry = tmp_path / "g.toml"
+    perturbed = load_nominal(NOMINAL).geometry().perturbed(Tolerances(), np.random.default_rng(1))
+    save_geometry(perturbed, geometry)
+    code, _, err = run(capsys, "export", geometry, "--controller", "offsets", "-o", out)
+    assert code == 1
+    assert err.strip() == (f"deltacal export: error: {geometry}: key nominal: the calibration's nominal "
+                           "geometry is not a classical Delta (a geometry file?): give the robot file with --robot")
+    assert not out.exists()
