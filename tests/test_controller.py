@@ -387,5 +387,6 @@ def test_export_controller_refusals(files, capsys, tmp_path):
     code, _, err = run(capsys, "export", geometry, "--controller", "offsets", "-o", out)
     assert code == 1
     assert err.strip() == (f"deltacal export: error: {geometry}: key nominal: the calibration's nominal "
-                           "geometry is not a classical Delta (a geometry file?): give the robot file with --robot")
+                           "geometry is not a classical Delta (a geometry file?): give the robot file with "
+                           "--robot")
     assert not out.exists()
