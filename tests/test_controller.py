@@ -390,3 +390,24 @@ def test_export_controller_refusals(files, capsys, tmp_path):
                            "geometry is not a classical Delta (a geometry file?): give the robot file with "
                            "--robot")
     assert not out.exists()
+
+
+def test_the_fit_jacobian_matches_finite_differences_through_the_exact_kinematics(bai, robot):
+    from deltacal.controller.fit import _jacobian, parameter_names, tcp_errors, values_of, with_values
+
+    truth = robot["truth"]  # plate tilted, tool 100 mm below: the lever term counts
+    controller = as_package(CELL)
+    points = workspace_points(bai, 40, np.random.default_rng(2209)) + truth.tool
+    names = parameter_names("limbs")
+    residual, J = _jacobian(truth, controller, points, names)
+    assert_allclose(residual, tcp_errors(truth, controller, points).ravel(), atol=1e-12, rtol=0)
+    start = values_of(controller, names)
+    for k, name in enumerate(names):
+        h = 1e-6 if name.endswith(("azimuth", "offset")) else 1e-3
+        moved = []
+        for sign in (1.0, -1.0):
+            v = start.copy()
+            v[k] += sign * h
+            moved.append(tcp_errors(truth, with_values(controller, names, v), points).ravel())
+        fd = (moved[0] - moved[1]) / (2.0 * h)
+        assert_allclose(J[:, k], fd, atol=1e-5 * max(1.0, np.abs(fd).max()), rtol=0, err_msg=name)
