@@ -193,6 +193,16 @@ def test_targets_the_controller_model_cannot_command_are_refused_by_index(bai, r
     with pytest.raises(UnreachableError, match=r"controller's model.*index 1") as info:
         corrected_targets(robot["calibration"], short, targets)
     assert info.value.indices == [1] and info.value.reason == UnreachableError.CONTROLLER_OUT_OF_REACH
+    # rods of (b - a) / cos 30° + L: at the arms' -30° the controller's rods fold back along its arms
+    rod = 149.0 / math.cos(math.radians(30.0)) + 375.0
+    folded = as_package(SpecController(np.degrees(bai.limb_azimuth), [200.0] * 3, [51.0] * 3, [375.0] * 3,
+                                       [rod] * 3, [0, 0, 0], [0, 0, 0]))
+    nominal = bai.geometry()
+    targets = exact.forward(nominal, np.radians([[10.0] * 3, [-30.0] * 3])).point(nominal.tool)
+    with pytest.raises(UnreachableError, match=r"singularity of the controller's model.*index 1") as info:
+        corrected_targets(nominal, folded, targets)
+    assert info.value.indices == [1] and info.value.reason == UnreachableError.CONTROLLER_SINGULAR
+    corrected_targets(nominal, folded, targets[:1])
     with pytest.raises(UnreachableError) as info:  # beyond the real robot: compensate's own refusal
         corrected_targets(robot["calibration"], short, np.array([[0.0, 0.0, -850.0], [0.0, 0.0, -5000.0]]))
     assert info.value.indices == [1] and info.value.reason == UnreachableError.OUT_OF_REACH
