@@ -23,6 +23,7 @@ from deltacal.controller import Controller, corrected_targets, fit_controller
 from deltacal.exceptions import GeometryError
 from deltacal.io import (
     calibration_from_result,
+    load_calibration,
     load_controller,
     load_nominal,
     save_calibration,
@@ -421,3 +422,31 @@ def test_the_fit_jacobian_matches_finite_differences_through_the_exact_kinematic
             moved.append(tcp_errors(truth, with_values(controller, names, v), points).ravel())
         fd = (moved[0] - moved[1]) / (2.0 * h)
         assert_allclose(J[:, k], fd, atol=1e-5 * max(1.0, np.abs(fd).max()), rtol=0, err_msg=name)
+
+
+def test_compensate_controller_with_targets_in_the_tracker_frame(bai, robot, capsys, tmp_path):
+    """``--frame instrument``: the targets are taken to {O} as joint compensation takes them; the
+    commands are in the controller's frame {O}."""
+    truth = robot["truth"]
+    q = bai_poses(bai, 9).q
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    rng = np.random.default_rng(2210)
+    pose = exact.forward(truth, q)
+    position = pose.point(truth.tool) @ turn.T + [1500.0, 200.0, 100.0] + rng.normal(0.0, 0.005, (len(q), 3))
+    result = identify(bai.geometry().with_tool(truth.tool), Measurements(q, position), "complete",
+                      frame="free")
+    cal = tmp_path / "free.toml"
+    save_calibration(result, cal)
+    station = load_calibration(cal).instrument["default"]
+    in_base = workspace_points(bai, 10, rng) + truth.tool
+    targets = tmp_path / "t.csv"
+    write_targets(targets, station.from_base(in_base))
+    out = tmp_path / "c.csv"
+    code, _, err = run(capsys, "compensate", cal, targets, "--controller", NOMINAL, "--frame", "instrument",
+                       "-o", out)
+    assert code == 0, err
+    commands = np.loadtxt(out, delimiter=",", skiprows=1)[:, 3:]
+    controller = Controller.from_geometry(bai).replace(tool=truth.tool)
+    want = corrected_targets(load_calibration(cal), controller, station.to_base(station.from_base(in_base)))
+    # the robot file's nominal controller has tool 0: the commands differ by the tool only
+    assert_allclose(commands, want.commands - truth.tool, atol=2e-9, rtol=0)
