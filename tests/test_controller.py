@@ -450,3 +450,30 @@ def test_compensate_controller_with_targets_in_the_tracker_frame(bai, robot, cap
     want = corrected_targets(load_calibration(cal), controller, station.to_base(station.from_base(in_base)))
     # the robot file's nominal controller has tool 0: the commands differ by the tool only
     assert_allclose(commands, want.commands - truth.tool, atol=2e-9, rtol=0)
+
+
+def test_the_report_shows_what_each_controller_route_leaves(files, robot, tmp_path):
+    from deltacal.report import accuracy_map, controller_routes, write_report
+
+    calibration = load_calibration(files["cal"])
+    workspace = load_nominal(NOMINAL).workspace
+    amap = accuracy_map(calibration, workspace, truth=robot["truth"], n=9)
+    routes = controller_routes(calibration, amap, robot["truth"])
+    assert [r.name for r in routes.routes] == ["nominal", "offsets", "limbs"]
+    points = np.concatenate([s.points.reshape(-1, 3) for s in amap.slices])
+    points = points[np.all(np.isfinite(points), axis=1)]
+    assert routes.points == len(points)
+    start = Controller.from_geometry(calibration.nominal).replace(tool=amap.tool)
+    fit = fit_controller(calibration, start, points, "limbs")
+    limbs = routes.routes[2]
+    assert limbs.max_error == pytest.approx(fit.max_error, abs=1e-9) and limbs.held == fit.held
+    nominal, offsets = routes.routes[0], routes.routes[1]
+    assert nominal.max_error > offsets.max_error > limbs.max_error
+    for r in routes.routes:  # on the true robot: the same to the calibration's own error
+        assert abs(r.true_max_error - r.max_error) < 0.01 and abs(r.true_rms_error - r.rms_error) < 0.005
+    html = tmp_path / "r.html"
+    write_report(files["cal"], html, truth=robot["truth"], truth_source="test", workspace=workspace,
+                 view=False, grid=9)
+    text = html.read_text()
+    assert 'id="controller-routes"' in text
+    assert "per-limb values fitted" in text and "corrected targets" in text
