@@ -22,7 +22,7 @@ from ..calibration import Calibration
 from ..exceptions import ConvergenceError
 from ..geometry import AXES, DeltaGeometry
 from ..identifiability import base_parameters
-from ..kinematics import exact
+from ..kinematics import exact, statics
 from ..rotations import skew
 from .model import LIMB_VALUES, Controller
 
@@ -107,14 +107,14 @@ def tcp_errors(geometry: DeltaGeometry, controller: Controller, points: np.ndarr
         UnreachableError: a point out of the controller model's reach.
         AssemblyError: readings at which the real robot has no assembly.
     """
-    q = controller.inverse(points)
+    q = statics.compliant_readings(geometry, controller.inverse(points))  # a compliant robot sags
     return exact.forward(geometry, q).point(geometry.tool) - points
 
 
 def _jacobian(geometry: DeltaGeometry, controller: Controller, points: np.ndarray,
               names: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (3N,) and their Jacobian in the parameters (3N, k)."""
-    q = controller.inverse(points)
+    q = statics.compliant_readings(geometry, controller.inverse(points))
     pose = exact.forward(geometry, q)
     residual = pose.point(geometry.tool) - points
     J = exact.forward_jacobian(geometry, q, pose)  # (N, 6, 3)

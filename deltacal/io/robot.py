@@ -12,7 +12,7 @@ from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
-from .names import check_names
+from .names import check_names, control_character
 from .toml import _Table, read_toml
 
 #: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
@@ -33,7 +33,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
         raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
                                   "robot file (such as deltacal/models/bai2015.toml)")
     top.check_unknown(["name", "description", "geometry", "points", "workspace", "masses"])
-    name = top.string("name")
+    name = _robot_name(top)
     description = top.string("description")
     geo = top.table("geometry")
     assert geo is not None
@@ -68,14 +68,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             InputWarning, stacklevel=2,
         )
     tool = geo.vector("tool_mm", (3,))
-    points: dict[str, np.ndarray] = {}
-    pts = top.table("points", required=False)
-    if pts is not None:
-        check_names(pts.data, "point", source, "key points")
-        for k in pts.data:
-            if k == "tcp":
-                raise pts.error(k, "'tcp' is reserved for the tool centre point")
-            points[k] = pts.vector(k, (3,))
+    points = _points(top, source)
     workspace = _workspace(top)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
@@ -101,8 +94,30 @@ def load_nominal(path: str | Path) -> NominalDelta:
     return nominal
 
 
+def _robot_name(top: _Table) -> str:
+    """The robot's ``name``: any text without control characters (it names the MJCF model too)."""
+    name = top.string("name")
+    problem = control_character(name)
+    if problem is not None:
+        raise top.error("name", f"robot name {name!r} {problem}")
+    return name
+
+
+def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
+    """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters)."""
+    points: dict[str, np.ndarray] = {}
+    pts = top.table("points", required=False)
+    if pts is not None:
+        check_names(pts.data, "point", source, "key points")
+        for k in pts.data:
+            if k == "tcp":
+                raise pts.error(k, "'tcp' is reserved for the tool centre point")
+            points[k] = pts.vector(k, (3,))
+    return points
+
+
 def _workspace(top: _Table) -> Workspace | None:
-    """The optional ``[workspace]`` cylinder."""
+    """The ``[workspace]`` table, or None."""
     ws = top.table("workspace", required=False)
     if ws is None:
         return None
