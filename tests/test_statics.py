@@ -177,3 +177,17 @@ def test_validation_stands_a_compliant_truth_at_its_equilibrium(heavy):
     assert_allclose(metrics.actual, loaded, rtol=0.0, atol=1e-12)
     rigid = validate(g, q, loaded, forward=exact.forward)  # unloaded: off by the payload's deflection
     assert np.abs(rigid.actual - loaded).max() > 1e-3
+
+
+def test_a_controller_fit_sees_the_sag_of_a_compliant_robot(heavy):
+    from deltacal.controller import Controller
+    from deltacal.controller.fit import tcp_errors
+
+    g, q = heavy
+    nominal = load_nominal(MODELS / "flexpicker.toml")
+    controller = Controller.from_geometry(nominal)
+    points = exact.forward(g, q).point(g.tool)
+    sagging = compliant_forward(g, controller.inverse(points), 0.0, exact.forward).point(g.tool)
+    assert_allclose(tcp_errors(g, controller, points), sagging - points, rtol=0.0, atol=1e-9)
+    rigid = replace(g, compliance=np.zeros(3))
+    assert np.abs(tcp_errors(g, controller, points) - tcp_errors(rigid, controller, points)).max() > 1e-3
