@@ -92,6 +92,17 @@ def test_compensate_payload_refusals(session, capsys, extra, message):
     assert not out.exists()
 
 
+def test_a_payload_for_a_rigid_calibration_is_warned(session, tmp_path, capsys):
+    folder, robot, meas, _ = session
+    rigid = tmp_path / "rigid.toml"
+    assert main(["identify", str(robot), str(meas), "--accept-poor-fit", "-o", str(rigid)]) == 0
+    capsys.readouterr()
+    write_targets(tmp_path / "t.csv", np.array([[0.0, 0.0, -600.0]]))
+    assert main(["compensate", str(rigid), str(tmp_path / "t.csv"), "--payload", "3", "-o",
+                 str(tmp_path / "j.csv")]) == 0
+    assert "--payload 3 changes nothing" in capsys.readouterr().err
+
+
 def test_a_negative_mass_is_refused_naming_the_key(tmp_path, capsys):
     robot = tmp_path / "robot.toml"
     robot.write_text((MODELS / "flexpicker.toml").read_text() + MASSES.replace("0.4", "-0.4"))

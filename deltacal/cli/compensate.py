@@ -106,7 +106,13 @@ def _check_payload(args: argparse.Namespace) -> None:
 
 
 def _warn_rigid_route(args: argparse.Namespace, compliance: np.ndarray) -> None:
-    """A compliant calibration through a linear method, which models no gravity: say what it leaves out."""
+    """A compliant calibration through a linear method, which models no gravity: say what it leaves out.
+
+    And a payload given for a calibration without compliances: it changes nothing.
+    """
+    if args.payload and not np.any(compliance):
+        warn([f"{args.calibration}: --payload {args.payload:g} changes nothing: the calibration holds no "
+              "actuator compliance (identify --compliance, from measurements at two payloads)"])
     if np.any(compliance) and args.method != "exact":
         warn([f"{args.calibration}: the actuators' compliances are identified, but --method {args.method} "
               "models no gravity: the robot's own deflection is not compensated (--method exact's is)"])
