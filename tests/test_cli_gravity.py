@@ -103,6 +103,14 @@ def test_a_payload_for_a_rigid_calibration_is_warned(session, tmp_path, capsys):
     assert "--payload 3 changes nothing" in capsys.readouterr().err
 
 
+def test_plan_for_the_compliances(session, tmp_path, capsys):
+    _, robot, _, _ = session
+    capsys.readouterr()
+    assert main(["plan", str(robot), "--strategy", "doptimal", "--count", "20", "--pool", "200", "--payload",
+                 "0,3", "-o", str(tmp_path / "p.csv")]) == 0
+    assert "compliances c1, c2, c3 identifiable" in capsys.readouterr().out
+
+
 def test_a_negative_mass_is_refused_naming_the_key(tmp_path, capsys):
     robot = tmp_path / "robot.toml"
     robot.write_text((MODELS / "flexpicker.toml").read_text() + MASSES.replace("0.4", "-0.4"))

@@ -104,3 +104,18 @@ def test_the_rigid_fit_of_a_loaded_robot_is_warned(session):
     assert rigid.variance_factor > 1.5
     assert elastic.variance_factor < 1.2
     assert any("variance factor" in w for w in rigid.warnings)
+
+
+def test_the_planner_plans_for_the_compliances():
+    """Poses measured at 0 and 3 kg keep c1..c3 as base parameters; a massless robot at 0 kg does not."""
+    from deltacal.planning import d_optimal
+
+    loaded = d_optimal(NOMINAL, "complete", 30, rng=np.random.default_rng(5), pool_size=200,
+                       payloads=(0.0, 3.0))
+    assert {"c1", "c2", "c3"} <= set(loaded.base_names)
+    assert loaded.blocks.shape[1] == 12  # six rows per pose at each payload
+    rigid = d_optimal(NOMINAL, "complete", 30, rng=np.random.default_rng(5), pool_size=200)
+    assert len(loaded.base_names) == len(rigid.base_names) + 3
+    massless = replace(NOMINAL, masses=Masses())
+    none = d_optimal(massless, "complete", 30, rng=np.random.default_rng(5), pool_size=200, payloads=(0.0,))
+    assert not {"c1", "c2", "c3"} & set(none.base_names)

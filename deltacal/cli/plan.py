@@ -29,7 +29,7 @@ from ..planning import (
     rough_poses,
 )
 from ..planning.regressor import _RTOL
-from .common import check_input, check_output, int_at_most, point_list, positive_int, seed
+from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
 
 #: Pools from this size on are told what they cost before the selection starts.
 LARGE_POOL = 20_000
@@ -85,6 +85,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "take about 0.6 GB and one to a few minutes. From 20,000 on, plan says the "
                         "estimate before it starts")
     p.add_argument("--seed", type=seed, default=0, help="seed of the candidate pool (doptimal)")
+    p.add_argument("--payload", type=non_negative_list, metavar="KG[,KG...]",
+                   help="doptimal: plan for the actuators' compliances too, every pose measured at each "
+                        "payload [kg] (simulate --payload with the same list; the robot file's [masses])")
     p.add_argument("--n-max", type=int_at_most(N_MAX_LIMIT, "each n is a pose set to condition"),
                    default=20, help="largest n of the κ(n) curve")
     p.add_argument("-o", "--output", required=True, metavar="POSES.csv", help="output file")
@@ -109,6 +112,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         points = default_points(geometry, model, measurement)
     if args.strategy == "bai":
+        if args.payload is not None:
+            raise UsageError("--payload applies to --strategy doptimal (planning for the compliances)")
         if args.count is not None:
             raise UsageError("--count applies to --strategy doptimal; the bai strategy chooses n by Eq. 21 "
                              "(or --n)")
@@ -166,7 +171,9 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
               f"memory and {cost.step:.2g} s per step on one core ({cost.steps_min} steps, then {count} per "
               f"exchange pass, up to {cost.steps_max} in all: {_duration(cost.steps_min * cost.step)} to "
               f"{_duration(cost.steps_max * cost.step)})", file=sys.stderr)
-    design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points)
+    payloads = tuple(args.payload or ())
+    design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points,
+                       payloads=payloads)
     chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
     got = base_parameters(chosen, model.names, rtol=_RTOL).rank
     if got < rank or not math.isfinite(design.log_det):
@@ -181,6 +188,11 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
         f"{count} of {len(pool)} candidates (seed {args.seed}), {len(design.base_names)} base "
         f"parameters, log det(WᵀW) of the scaled base regressor = {design.log_det:.6g}"
     )
+    if payloads:
+        kept = [n for n in design.base_names if n in ("c1", "c2", "c3")]
+        text += (f"; each pose to be measured at {', '.join(f'{p:g}' for p in payloads)} kg: compliances "
+                 + (f"{', '.join(sorted(kept))} identifiable" if kept else "not identifiable (no gravity "
+                    "torque: give the robot file [masses] or a payload)"))
     return design.poses, text
 
 

@@ -13,6 +13,7 @@ from ..errormodels import ErrorModel
 from ..exceptions import PlanningError
 from ..geometry import DeltaGeometry, NominalDelta
 from ..identifiability import BaseParameters, base_parameters
+from ..identification.columns import COMPLIANCE_NAMES
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import PLANNING_MARGIN, SingularityMargin
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION
@@ -262,7 +263,7 @@ def require_pool_memory(pool_size: int, rows: int, parameters: int) -> float:
 
 def scaled_base_blocks(
     geometry: DeltaGeometry, error_model: ErrorModel, q: np.ndarray, measurement: str, points: list[str],
-    sigma_position: float, sigma_angle: float, chunk: int | None = None,
+    sigma_position: float, sigma_angle: float, chunk: int | None = None, payloads: Sequence[float] = (),
 ) -> tuple[np.ndarray, BaseParameters]:
     """The column-scaled base regressor blocks of candidate poses, and the base parameters.
 
@@ -272,26 +273,31 @@ def scaled_base_blocks(
     pivoted QR needs) and the columns' RMS; the second keeps each pose's rows of the base
     parameters, divided by their column's RMS over the pool.
 
+    With ``payloads``, each pose measured at each and the compliances c1..c3 fitted too
+    (:func:`pose_blocks`).
+
     Returns:
         Blocks of shape (N, b, r) and the base parameters (r of the model's n).
     """
-    n = error_model.size
+    names = list(error_model.names) + (list(COMPLIANCE_NAMES) if payloads else [])
+    n = len(names)
     size = CHUNK if chunk is None else chunk
     R = np.zeros((0, n))
     squares = np.zeros(n)
 
     def raw_chunks() -> Iterator[np.ndarray]:
         for qc in _chunks(q, size):
-            yield pose_blocks(geometry, error_model, qc, measurement, points, sigma_position, sigma_angle)
+            yield pose_blocks(geometry, error_model, qc, measurement, points, sigma_position, sigma_angle,
+                              payloads)
 
     for raw in raw_chunks():
         A = raw.reshape(-1, n)
         squares += np.einsum("ij,ij->j", A, A)
         R = np.asarray(np.linalg.qr(np.concatenate([R, A]), mode="r"))
-    base = base_parameters(R, error_model.names, rtol=_RTOL)
+    base = base_parameters(R, names, rtol=_RTOL)
     scale = np.sqrt(squares / len(q))[base.base]
     scale = np.where(scale > 0.0, scale, 1.0)
-    blocks = np.empty((len(q), _rows(measurement, points), len(base.base)))
+    blocks = np.empty((len(q), _rows(measurement, points) * max(len(payloads), 1), len(base.base)))
     start = 0
     for raw in raw_chunks():
         blocks[start:start + len(raw)] = raw[:, :, base.base] / scale
@@ -318,6 +324,7 @@ def d_optimal(
     sigma_position: float = SIGMA_POSITION,
     sigma_angle: float = SIGMA_ANGLE,
     max_passes: int = 10,
+    payloads: Sequence[float] = (),
 ) -> DOptimalDesign:
     """Select ``count`` poses maximising log det(Wᵀ W) of the column-scaled base regressor.
 
@@ -341,6 +348,9 @@ def d_optimal(
         sigma_position: σ of a position coordinate [mm].
         sigma_angle: σ of an orientation component [rad].
         max_passes: Exchange passes at most.
+        payloads: Plan for the actuators' compliances too [kg]: every pose measured at each
+            payload (``simulate --payload``); the base parameters then hold c1..c3 where the
+            gravity torques (the robot's masses, the payloads) separate them.
 
     Raises:
         PlanningError: more poses asked than candidates.
@@ -356,9 +366,10 @@ def d_optimal(
     pts = default_points(geometry, error_model, measurement) if points is None else list(points)
     if measurement not in ("pose", "position"):
         raise ValueError(f"per-pose blocks exist for pose or position measurements, not {measurement!r}")
-    require_pool_memory(len(pool), _rows(measurement, pts), error_model.size)
+    loads = max(len(payloads), 1)
+    require_pool_memory(len(pool), _rows(measurement, pts) * loads, error_model.size + 3 * bool(payloads))
     blocks, base = scaled_base_blocks(geometry, error_model, pool.q, measurement, pts, sigma_position,
-                                      sigma_angle)
+                                      sigma_angle, payloads=tuple(payloads))
     chosen = _greedy_exchange(blocks, count, max_passes)
     W = blocks[chosen]
     return DOptimalDesign(

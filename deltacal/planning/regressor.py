@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errormodels import MODEL_NAMES, ErrorModel, get_model
 from ..geometry import DeltaGeometry, skew
-from ..kinematics import exact
+from ..kinematics import exact, statics
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements, build_rows, pair_rows
 
 #: Measurement kinds a regressor can be built for.
@@ -114,23 +114,34 @@ def pose_blocks(
     points: Sequence[str] = ("tcp",),
     sigma_position: float = SIGMA_POSITION,
     sigma_angle: float = SIGMA_ANGLE,
+    payloads: Sequence[float] = (),
 ) -> np.ndarray:
     """Weighted regressor rows of each pose, stacked per pose, shape (N, b, n).
 
     ``pose``: 3 position rows of the first point and 3 orientation rows (b = 6);
     ``position``: 3 rows per point (b = 3 × points). Rows divided by σ as in
-    :func:`deltacal.observations.build_rows`.
+    :func:`deltacal.observations.build_rows`. With ``payloads`` [kg], each pose is measured at
+    each payload and the actuators' compliances are fitted too: the rows of every payload, one
+    after the other (b times the payloads), with three more columns ``c1..c3`` (the plate's
+    sensitivity to θ_i times the gravity torque tau_i at that payload,
+    :mod:`deltacal.identification.compliance`), shape (N, b P, n + 3).
     """
     if measurement not in ("pose", "position"):
         raise ValueError(f"per-pose blocks exist for pose or position measurements, not {measurement!r}")
     q = np.atleast_2d(np.asarray(q, dtype=float))
     pose = exact.forward(geometry, q)
     S = model.sensitivity(geometry, q, pose)  # (N, 6, n)
+    loads = [S]
+    if payloads:
+        J = exact.forward_jacobian(geometry, q, pose)  # (N, 6, 3): the plate per θ_i
+        loads = [np.concatenate([S, J * statics.gravity_torque(geometry, q, p, pose)[:, None]], axis=2)
+                 for p in payloads]
     names = list(points)[:1] if measurement == "pose" else list(points)
     blocks = []
-    for name in names:
-        lever = pose.rotation @ geometry.point(name)  # (N, 3)
-        blocks.append((S[:, :3] - skew(lever) @ S[:, 3:]) / sigma_position)  # dP = dx + dα × (R p)
-    if measurement == "pose":
-        blocks.append(S[:, 3:] / sigma_angle)
+    for S in loads:
+        for name in names:
+            lever = pose.rotation @ geometry.point(name)  # (N, 3)
+            blocks.append((S[:, :3] - skew(lever) @ S[:, 3:]) / sigma_position)  # dP = dx + dα × (R p)
+        if measurement == "pose":
+            blocks.append(S[:, 3:] / sigma_angle)
     return np.concatenate(blocks, axis=1)
