@@ -77,10 +77,8 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
     virtual rods ``n_i = x + a_i − E_i``.
     """
     virtual = VirtualDelta.from_geometry(geometry)
-    lever = virtual.elbows(q) - virtual.axis_point  # E_i - P_i, (N, 3, 3)
-    n = x[:, None, :] + virtual.plate_attachment - virtual.axis_point - lever
-    w = virtual.actuator_rotation[:, :, 1]
-    dE = np.cross(w, lever)
+    n = x[:, None, :] + virtual.plate_attachment - virtual.elbows(q)
+    dE = virtual.elbow_velocity(q)  # the chain's own motion (deltacal.chains)
     return n / np.sum(n * dE, axis=2)[..., None]
 
 

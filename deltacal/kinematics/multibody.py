@@ -6,6 +6,10 @@ The robot is built as a kinematic tree closed by ball joints:
   ``SE3(R0_i @ Ry(encoder_offset_i), axis_point_i)``, revolute about the local
   y axis, so the joint value *is* the reading q_i; the encoder offset and the
   axis misalignment live in the placement (geometry module, arm frame);
+  or, for a linear Delta (a prismatic chain, :mod:`deltacal.chains`), three carriages on
+  prismatic joints along the local y axis (up the tower) placed at
+  ``SE3(R0_i, axis_point_i − encoder_offset_i w_i)``: the joint value is ``−joint_scale_i q_i``
+  (a reading is a travel down the tower);
 * six rods on spherical joints placed at the arm balls ``arm_ball[i, j]`` (arm
   frame); the rod hangs along its body's local -z axis and its far ball
   centre is the point ``(0, 0, -rod_length[i, j])`` of the rod body;
@@ -51,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..chains import MAX_STEP, WARM_RADIUS
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry
 from ..rotations import rotation_about_y
@@ -61,8 +66,6 @@ from .exact import PlatePose
 TOLERANCE = 1e-12
 #: A solve stalled on the floating-point floor is accepted below this residual [mm].
 ACCEPT = 1e-10
-#: Largest arm step of one inverse-kinematics iteration [rad]: keeps the knee-out branch.
-_MAX_ARM_STEP = 0.2
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,7 +126,8 @@ class DeltaMultibody:
         tol: Target closure residual [mm].
         max_iter: Newton iterations at most (Levenberg-Marquardt then gets ten times more).
         warm_radius: The last assembly warm-starts a solve when the readings moved by
-            less than this in each joint [rad]; otherwise the closed-form pose is used.
+            less than this in each joint [rad or mm; default: the chain's
+            :data:`~deltacal.chains.WARM_RADIUS`]; otherwise the closed-form pose is used.
     """
 
     def __init__(
@@ -131,12 +135,13 @@ class DeltaMultibody:
         geometry: DeltaGeometry,
         tol: float = TOLERANCE,
         max_iter: int = 20,
-        warm_radius: float = math.radians(5.0),
+        warm_radius: float | None = None,
     ) -> None:
         self.geometry = geometry
         self.tol = float(tol)
         self.max_iter = int(max_iter)
-        self.warm_radius = float(warm_radius)
+        self.warm_radius = float(WARM_RADIUS[geometry.joint] if warm_radius is None else warm_radius)
+        self._max_arm_step = MAX_STEP[geometry.joint]
         self._virtual = VirtualDelta.from_geometry(geometry)
         self._z_base = float(geometry.axis_point[:, 2].min())
         model = pin.Model()
@@ -155,23 +160,39 @@ class DeltaMultibody:
         self._last: np.ndarray | None = None
 
     # ------------------------------------------------------------ building
-    def _build(self, model: pin.Model) -> None:
+    def _add_actuator(self, model: pin.Model, i: int) -> int:
+        """Joint of actuator i (revolute arm or prismatic carriage) with a placeholder body."""
         g = self.geometry
         R0 = g.actuator_rotation()
+        com = g.arm_ball[i].mean(axis=0)
+        if g.joint == "prismatic":
+            place = pin.SE3(R0[i], g.axis_point[i] - g.encoder_offset[i] * R0[i][:, 1])
+            jid = model.addJoint(0, pin.JointModelPY(), place, f"carriage{i + 1}")
+            # placeholder inertia: a 0.2 kg carriage [kg, mm]
+            model.appendBodyToJoint(jid, pin.Inertia.FromBox(0.2, 60.0, 20.0, 60.0), pin.SE3(np.eye(3), com))
+            return jid
         placement_rot = R0 @ rotation_about_y(g.encoder_offset)
-        arm_length = np.linalg.norm(g.arm_ball.mean(axis=1), axis=1)
+        jid = model.addJoint(0, pin.JointModelRY(), pin.SE3(placement_rot[i], g.axis_point[i]), f"arm{i + 1}")
+        # placeholder inertia: 1 kg slender bar along the arm [kg, mm]
+        arm_length = float(np.linalg.norm(com))
+        bar = np.diag([1.0, arm_length**2, arm_length**2]) / 12.0
+        model.appendBodyToJoint(jid, pin.Inertia(1.0, com, bar), pin.SE3.Identity())
+        return jid
+
+    def _joint_values(self, q: np.ndarray) -> np.ndarray:
+        """Actuator joint values of readings q (revolute: the readings; prismatic: ``−scale q``)."""
+        if self.geometry.joint == "prismatic":
+            return -self.geometry.joint_scale * q
+        return q
+
+    def _build(self, model: pin.Model) -> None:
+        g = self.geometry
         self._arm_joints: list[int] = []
         self._rod_joints: list[int] = []
         # depth first (each arm then its rods): Pinocchio wants every subtree's
         # velocities contiguous (model.check, CRBA)
         for i in range(3):
-            jid = model.addJoint(
-                0, pin.JointModelRY(), pin.SE3(placement_rot[i], g.axis_point[i]), f"arm{i + 1}"
-            )
-            # placeholder inertia: 1 kg slender bar along the arm [kg, mm]
-            com = g.arm_ball[i].mean(axis=0)
-            bar = np.diag([1.0, arm_length[i] ** 2, arm_length[i] ** 2]) / 12.0
-            model.appendBodyToJoint(jid, pin.Inertia(1.0, com, bar), pin.SE3.Identity())
+            jid = self._add_actuator(model, i)
             self._arm_joints.append(jid)
             for j in range(2):
                 rid = model.addJoint(
@@ -236,8 +257,11 @@ class DeltaMultibody:
         return list(self._frames)
 
     def readings_of(self, configuration: np.ndarray) -> np.ndarray:
-        """Arm readings q [rad] of a full configuration, shape (3,)."""
-        return np.array(configuration)[self._arm_q]
+        """Readings q [rad, or mm for a prismatic chain] of a full configuration, shape (3,)."""
+        values = np.array(configuration)[self._arm_q]
+        if self.geometry.joint == "prismatic":
+            return -values / self.geometry.joint_scale
+        return values
 
     def plate_placement(self, configuration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Plate position [mm] (3,) and rotation (3, 3) in {O} of a full configuration."""
@@ -303,8 +327,8 @@ class DeltaMultibody:
                 break
             if system.arm_columns.size:
                 big = np.max(np.abs(dv[system.arm_columns]))
-                if big > _MAX_ARM_STEP:
-                    dv *= _MAX_ARM_STEP / big
+                if big > self._max_arm_step:
+                    dv *= self._max_arm_step / big
             x_new = self._step(x, dv, system)
             e, J = self._evaluate(x_new, system)
             res_new = float(np.max(np.abs(e)))
@@ -376,7 +400,7 @@ class DeltaMultibody:
         else:
             x = np.asarray(position, dtype=float)
         config = pin.neutral(self._model)
-        config[self._arm_q] = q
+        config[self._arm_q] = self._joint_values(q)
         config[self._plate_q : self._plate_q + 3] = x
         pin.forwardKinematics(self._model, self._data, config)
         oMi = self._data.oMi
@@ -393,10 +417,15 @@ class DeltaMultibody:
         return config
 
     def _accept_branch(self, x: np.ndarray) -> bool:
-        """Working assembly mode: plate below the actuator axes and not turned over."""
+        """Working assembly mode: plate below the actuator axes (a linear Delta's: below its
+        carriages' balls) and not turned over."""
         p = x[self._plate_q : self._plate_q + 3]
         R = pin.XYZQUATToSE3(np.array(x[self._plate_q : self._plate_q + 7])).rotation
-        return bool(p[2] < self._z_base and R[2, 2] > 0.0)
+        ceiling = self._z_base
+        if self.geometry.joint == "prismatic":
+            pin.forwardKinematics(self._model, self._data, x)
+            ceiling = min(float(self._data.oMi[rid].translation[2]) for rid in self._rod_joints)
+        return bool(p[2] < ceiling and R[2, 2] > 0.0)
 
     def _solution(self, x: np.ndarray, residual: float, iterations: int, method: str) -> ClosureSolution:
         position, rotation = self.plate_placement(x)
@@ -436,11 +465,11 @@ class DeltaMultibody:
         if start is not None:
             starts.append(np.array(start, dtype=float))
         elif warm and self._last is not None:
-            if np.max(np.abs(self._last[self._arm_q] - q)) <= self.warm_radius:
+            if np.max(np.abs(self.readings_of(self._last) - q)) <= self.warm_radius:
                 starts.append(np.array(self._last))
         used = 0
         for x0 in starts:
-            x0[self._arm_q] = q
+            x0[self._arm_q] = self._joint_values(q)
             try:
                 x, res, it = self._newton(x0, system)
             except _NotConverged as fail:
