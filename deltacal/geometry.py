@@ -254,8 +254,9 @@ def error_names(joint: str = "revolute") -> list[str]:
 
     Units: [mm] for positions and lengths, [rad] for the two axis tilts (``axis_tilt_r`` about
     r_i, then ``axis_tilt_z`` about z for a revolute axis or ``axis_tilt_t`` about t_i for a
-    tower) and a revolute ``encoder_offset``; a prismatic chain's ``encoder_offset`` (its
-    endstop) is in [mm] and its ``joint_scale`` (true over nominal step distance) has no unit.
+    tower: a positive one moves its top outward) and a revolute ``encoder_offset``; a prismatic
+    chain's ``encoder_offset`` (its endstop) is in [mm] and its ``joint_scale`` (true over
+    nominal step distance) has no unit.
     """
     check_joint(joint)
     names = []
