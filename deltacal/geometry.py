@@ -431,7 +431,10 @@ class DeltaGeometry:
 
     @cached_property
     def arm_ball_path(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The arm balls' paths, ``A_ij = C_ij + f(θ_i) U_ij + g(θ_i) V_ij`` (:mod:`deltacal.chains`): C, U, V, each (3, 2, 3)."""
+        """The arm balls' paths, ``A_ij = C_ij + f(θ_i) U_ij + g(θ_i) V_ij``: C, U, V, each (3, 2, 3).
+
+        f and g are the chain's (:mod:`deltacal.chains`): cos and sin, or θ and 0.
+        """
         path = carried_points(self.joint, self.axis_point, self._actuator_rotation, self.arm_ball)
         for v in path:
             v.setflags(write=False)  # cached by a frozen geometry: not to be changed through it

@@ -73,8 +73,9 @@ class NominalLinearDelta:
         if self.tool.shape != (3,) or not np.all(np.isfinite(self.tool)):
             raise GeometryError(f"tool must be 3 finite coordinates, got {self.tool}")
         if self.rod_length <= self.tower_radius - self.effector_radius:
+            reach = self.tower_radius - self.effector_radius
             raise GeometryError(f"rod_length {self.rod_length} must exceed the horizontal reach "
-                                f"tower_radius - effector_radius = {self.tower_radius - self.effector_radius}")
+                                f"tower_radius - effector_radius = {reach}")
 
     @property
     def radial(self) -> np.ndarray:
@@ -95,7 +96,8 @@ class NominalLinearDelta:
         carriage_ball[:, 1, 2] = half
         axis_point = self.tower_radius * r
         axis_point[:, 2] = self.endstop_height
-        plate_ball = np.stack([self.effector_radius * r + half * t, self.effector_radius * r - half * t], axis=1)
+        a = self.effector_radius
+        plate_ball = np.stack([a * r + half * t, a * r - half * t], axis=1)
         return DeltaGeometry(
             limb_azimuth=self.tower_azimuth.copy(),
             axis_point=axis_point,

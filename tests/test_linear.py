@@ -189,7 +189,8 @@ def test_pinocchio_printer_agrees_with_the_numpy_solver(kossel):
     numpy_pose = exact.forward(g, q)
     pin_pose = mb.forward(q)
     assert_allclose(pin_pose.position, numpy_pose.position, atol=1e-9)
-    angle = np.linalg.norm(vector_from_rotation(np.swapaxes(pin_pose.rotation, 1, 2) @ numpy_pose.rotation), axis=1)
+    relative = np.swapaxes(pin_pose.rotation, 1, 2) @ numpy_pose.rotation
+    angle = np.linalg.norm(vector_from_rotation(relative), axis=1)
     assert np.max(angle) < 1e-11
     assert_allclose(mb.point_positions(q[:5])[:, 0], targets[:5], atol=1e-9)
     # the carriages' ball centres of the tree are the geometry's
@@ -242,14 +243,16 @@ height_mm = 200.0
         ('kind = "linear"', 'kind = "scara"', r"key kind: unknown robot kind 'scara'"),
         ("step_distance_mm = 0.0125", "step_distance_mm = 80.0",
          r"key geometry.step_distance_mm: 80.0 mm per step is not a printer's"),
-        ("rod_length_mm = 269.0", "rod_length_mm = 120.0", r"key geometry.rod_length_mm: rods of 120.0 mm cannot"),
+        ("rod_length_mm = 269.0", "rod_length_mm = 120.0",
+         r"key geometry.rod_length_mm: rods of 120.0 mm cannot"),
         ("tower_radius_mm = 164.4", "tower_radius_mm = 0.1644", r"key geometry.tower_radius_mm: 0.1644 mm is "
                                                                  r"implausible"),
         ("nozzle_mm = [0.0, 0.0, -30.0]\n", "", r"key geometry.nozzle_mm"),
         ("rod_spacing_mm = 50.0", "rod_spacing_mm = 50.0\narm_length_mm = 3.0", r"arm_length_mm"),
         ("tower_azimuth_deg = [210.0, 330.0, 90.0]", "tower_azimuth_deg = [210.0, 330.0, 210.0]",
          r"key geometry.tower_azimuth_deg: the three azimuths must differ"),
-        ("height_mm = 200.0", "height_mm = 400.0", r"key workspace: the workspace reaches .* out of reach of the "
+        ("height_mm = 200.0", "height_mm = 400.0",
+         r"key workspace: the workspace reaches .* out of reach of the "
                                                    r"printer"),
         ("height_mm = 200.0", "height_mm = 200.0\ntop_z_mm = -5.0", r"top_z_mm"),
     ],

@@ -1,4 +1,4 @@
-"""Klipper's own model of a linear Delta printer (``[printer] kinematics: delta``): the firmware as a controller.
+"""Klipper's model of a linear Delta printer (``[printer] kinematics: delta``): the firmware as a controller.
 
 Klipper's meaning of its values (Config Reference, ``klippy/kinematics/delta.py``), in its frame
 (the bed's, the nozzle's coordinates):
@@ -91,8 +91,8 @@ class KlipperDelta:
         radius = printer.tower_radius - printer.effector_radius
         carriage_top = printer.endstop_height + float(printer.tool[2])
         endstop = carriage_top - np.sqrt(printer.rod_length**2 - radius**2)
-        return cls(radius, np.array(printer.tower_azimuth), np.full(3, printer.rod_length), np.full(3, endstop),
-                   np.full(3, printer.step_distance), name or printer.name)
+        return cls(radius, np.array(printer.tower_azimuth), np.full(3, printer.rod_length),
+                   np.full(3, endstop), np.full(3, printer.step_distance), name or printer.name)
 
     @cached_property
     def towers(self) -> np.ndarray:
@@ -131,7 +131,7 @@ class KlipperDelta:
         return steps
 
     def inverse(self, targets: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
-        """deltacal's readings (steps × the printer's nominal ``step_distance``) for targets, (N, 3) [mm]."""
+        """Deltacal's readings (steps × the printer's nominal ``step_distance``) for targets, (N, 3) [mm]."""
         return self.steps(targets, check) * step_distance
 
     @cached_property

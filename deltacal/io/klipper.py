@@ -1,4 +1,4 @@
-"""Klipper's ``printer.cfg`` read as Klipper reads it, into its delta model (conventions, "Linear Delta printers").
+"""Klipper's ``printer.cfg`` read as Klipper reads it, into its delta model (conventions: printers).
 
 What Klipper does with the file (``klippy/configfile.py``), and so what deltacal does:
 
@@ -67,9 +67,11 @@ class KlipperConfig:
         return InputError(detail, source, f"section [{section}], key {option}")
 
     def has(self, section: str, option: str) -> bool:
+        """Whether the section sets the option."""
         return option in self.sections.get(section, {})
 
     def text(self, section: str, option: str) -> str:
+        """An option's text; a missing one is an error naming the section and key."""
         if not self.has(section, option):
             raise InputError(f"missing required key {option!r} (Klipper's delta kinematics needs it)",
                              self.source, f"section [{section}]")
@@ -129,11 +131,12 @@ def _split_autosave(data: str, source: str) -> tuple[str, str]:
         return data, ""
     regular, block = data[:pos], data[pos + len(AUTOSAVE_HEADER):].strip()
     if "\n#*# " in regular:
-        warn(f"{source}: '#*#' lines before the SAVE_CONFIG block: Klipper ignores the block, so does deltacal",
-             InputWarning, stacklevel=3)
+        warn(f"{source}: '#*#' lines before the SAVE_CONFIG block: Klipper ignores the block, so does "
+             "deltacal", InputWarning, stacklevel=3)
         return data, ""
     lines = block.split("\n")
-    bad = [n for n, line in enumerate(lines) if not line.startswith("#*#") or (len(line) >= 4 and line[3] != " ")]
+    bad = [n for n, line in enumerate(lines)
+           if not line.startswith("#*#") or (len(line) >= 4 and line[3] != " ")]
     if block and bad:
         warn(f"{source}: the SAVE_CONFIG block was edited (line {lines[bad[0]]!r} after its header): Klipper "
              "ignores the block, so does deltacal", InputWarning, stacklevel=3)
@@ -209,10 +212,12 @@ def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperCon
     try:
         parser.read_string("\n".join(buffer), source=filename)
     except configparser.MissingSectionHeaderError as exc:
-        raise InputError(f"an option outside any [section]: {exc.line.strip()!r}", filename,
+        line = buffer[exc.lineno - 1] if 0 < exc.lineno <= len(buffer) else ""
+        raise InputError(f"an option outside any [section]: {line.strip()!r}", filename,
                          f"line {start + exc.lineno - 1}") from None
     except configparser.ParsingError as exc:
-        lineno, line = exc.errors[0]
+        lineno = exc.errors[0][0]
+        line = buffer[lineno - 1] if 0 < lineno <= len(buffer) else ""
         raise InputError(f"not an option ('key: value') nor a [section]: {line.strip()!r}", filename,
                          f"line {start + lineno - 1}") from None
     for section in parser.sections():
@@ -257,7 +262,8 @@ def _step_distance(config: KlipperConfig, stepper: str) -> float:
         return config.number(stepper, "step_distance", above=0.0)  # Klipper's older format
     rotation = config.number(stepper, "rotation_distance", above=0.0)
     microsteps = config.number(stepper, "microsteps", integer=True, above=0.0)
-    full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True, above=0.0)
+    full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True,
+                         above=0.0)
     if full % 4:
         raise config.error(stepper, "full_steps_per_rotation", f"value {int(full)} must be a multiple of 4")
     return rotation / (full * microsteps * _gear_ratio(config, stepper))
@@ -276,6 +282,7 @@ def _gear_ratio(config: KlipperConfig, stepper: str) -> float:
         except ValueError:
             first = second = math.nan
         if not (math.isfinite(first) and math.isfinite(second) and first > 0.0 and second > 0.0):
-            raise config.error(stepper, "gear_ratio", f"value {text!r} is not a list of ratios such as '57:11, 2:1'")
+            raise config.error(stepper, "gear_ratio",
+                               f"value {text!r} is not a list of ratios such as '57:11, 2:1'")
         ratio *= first / second
     return ratio

@@ -10,8 +10,8 @@ import numpy as np
 
 from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import NominalDelta, Workspace
-from ..printer import NominalLinearDelta
 from ..kinematics.closed_form import VirtualDelta
+from ..printer import NominalLinearDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
 from .names import check_names
 from .toml import _Table, read_toml
@@ -210,7 +210,8 @@ def load_printer(path: str | Path) -> NominalLinearDelta:
     reach = lengths["tower_radius_mm"] - lengths["effector_radius_mm"]
     if lengths["rod_length_mm"] <= reach:
         raise geo.error("rod_length_mm", f"rods of {lengths['rod_length_mm']} mm cannot reach the effector "
-                                         f"from towers {reach} mm away (tower_radius_mm - effector_radius_mm)")
+                                         f"from towers {reach} mm away (tower_radius_mm - "
+                                         "effector_radius_mm)")
     try:
         printer = NominalLinearDelta(
             name=top.string("name"),

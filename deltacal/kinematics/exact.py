@@ -407,8 +407,11 @@ def forward(
 
 
 def _ceiling(geometry: DeltaGeometry, rods: _Rods, q: np.ndarray) -> np.ndarray | float:
-    """Height the plate origin of the working assembly stays below [mm]: the actuator axes of a
-    rotary Delta, each pose's lowest carriage ball of a linear one (the effector hangs below)."""
+    """Height the plate origin of the working assembly stays below [mm].
+
+    The actuator axes of a rotary Delta; each pose's lowest carriage ball of a linear one (the
+    effector hangs below its carriages).
+    """
     if rods.joint == "revolute":
         return rods.axis_z
     return geometry.arm_balls_in_base(q)[..., 2].reshape(q.shape[0], -1).min(axis=1)

@@ -417,8 +417,10 @@ class DeltaMultibody:
         return config
 
     def _accept_branch(self, x: np.ndarray) -> bool:
-        """Working assembly mode: plate below the actuator axes (a linear Delta's: below its
-        carriages' balls) and not turned over."""
+        """Working assembly mode: plate below the actuator axes and not turned over.
+
+        A linear Delta's effector hangs below its carriages' balls.
+        """
         p = x[self._plate_q : self._plate_q + 3]
         R = pin.XYZQUATToSE3(np.array(x[self._plate_q : self._plate_q + 7])).rotation
         ceiling = self._z_base
