@@ -40,6 +40,7 @@ _LAZY = {
     # geometry and kinematics
     "DeltaGeometry": "geometry",
     "NominalDelta": "geometry",
+    "NominalLinearDelta": "printer",
     "Tolerances": "geometry",
     "Workspace": "geometry",
     "error_names": "geometry",
@@ -79,10 +80,14 @@ _LAZY = {
     "CorrectedTargets": "controller",
     "corrected_targets": "controller",
     "fit_controller": "controller",
+    "KlipperDelta": "controller.klipper",
     # files
     "load_controller": "io",
     "save_controller": "io",
     "load_nominal": "io",
+    "load_printer": "io",
+    "load_robot": "io",
+    "load_klipper": "io",
     "load_geometry": "io",
     "save_geometry": "io",
     "save_calibration": "io",

@@ -31,7 +31,8 @@ from .geometry_file import (
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
-from .robot import load_nominal
+from .klipper import KlipperConfig, load_klipper, read_klipper_config
+from .robot import load_nominal, load_printer, load_robot
 from .tables import (
     JOINT_COLUMNS,
     MEASUREMENT_COLUMNS,
@@ -90,6 +91,11 @@ __all__ = [
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",
+    "load_printer",
+    "load_robot",
+    "load_klipper",
+    "read_klipper_config",
+    "KlipperConfig",
     "name_problem",
     "radians_from_text",
     "read_csv_table",
