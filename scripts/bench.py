@@ -479,6 +479,84 @@ def bench_cli_distances(setup: Setup) -> list[Row]:
     return rows
 
 
+def _write_gcode(path: Path, n: int, rng: np.random.Generator) -> None:
+    """A printing-like program of about n lines: short extrusions, travels, comments, M codes.
+
+    Of each 1,000 lines: 850 extrusion moves of 0.5-3 mm (``G1 X Y E``, absolute E), 50 travels
+    of 5-100 mm (``G0 X Y F``, cut in 1-20 segments at the default 5 mm), 50 comments, 50 M codes.
+    """
+    with open(path, "w") as f:
+        f.write("G21\nG90\nM82\nG92 E0\nG28\nG1 X0 Y0 Z-800 F3000\n")
+        x, y, e = 0.0, 0.0, 0.0
+        for _ in range(max(1, n // 1000)):
+            kind = rng.random(1000)
+            step = rng.uniform(0.5, 3.0, 1000)
+            turn = rng.uniform(0.0, 2.0 * np.pi, 1000)
+            travel = rng.uniform(5.0, 100.0, 1000)
+            lines = []
+            for k in range(1000):
+                if kind[k] < 0.85:
+                    x, y, e = x + step[k] * np.cos(turn[k]), y + step[k] * np.sin(turn[k]), e + 0.04 * step[k]
+                    lines.append(f"G1 X{x:.3f} Y{y:.3f} E{e:.5f}\n")
+                elif kind[k] < 0.90:
+                    x, y = travel[k] * np.cos(turn[k]) / 2.0, travel[k] * np.sin(turn[k]) / 2.0
+                    lines.append(f"G0 X{x:.3f} Y{y:.3f} F9000\n")
+                elif kind[k] < 0.95:
+                    lines.append(";TYPE:WALL-OUTER\n")
+                else:
+                    lines.append("M106 S255\n")
+            f.write("".join(lines))
+
+
+#: The library's G-code filter in a process of its own, with a cheap vectorised correction.
+_GCODE_FILTER = """
+import sys
+import numpy as np
+from deltacal.io.gcode import filter_gcode
+def correct(p):
+    x, y = p[:, 0], p[:, 1]
+    return p + np.stack([0.3 * np.sin(y / 50.0), 0.2 * np.cos(x / 40.0), 1e-5 * x * y], axis=1)
+filter_gcode(sys.argv[1], sys.argv[2], correct)
+"""
+
+
+def bench_gcode_filter(setup: Setup) -> list[Row]:
+    """``io.gcode.filter_gcode`` on 10^5 and 10^6 lines of G-code: wall time and peak RSS (flat).
+
+    A process per run (Python and numpy start-up included, about 0.3 s), the correction a
+    cheap smooth map: the figure is the filter's own cost.
+    """
+    rng = setup.rng()
+    repeat = max(1, min(setup.repeat, 3)) if not setup.quick else 1
+    rows: list[Row] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for n in (100_000,) if setup.quick else (100_000, 1_000_000):
+            src = folder / f"p{n}.gcode"
+            _write_gcode(src, n, rng)
+            args = ["env", f"PYTHONPATH={REPO_ROOT}", sys.executable, "-c", _GCODE_FILTER, str(src),
+                    str(folder / "out.gcode")]
+            label = "1e5" if n == 100_000 else "1e6"
+            rows += spread_rows(f"gcode_filter_{label}", [timed_run(args) for _ in range(repeat)],
+                                "<= 20" if n == 1_000_000 else None, "<= 300")
+def bench_cli_doptimal_pool(setup: Setup) -> list[Row]:
+    """``deltacal plan --strategy doptimal --pool N`` (complete model, pose measurements).
+
+    The pool is processed in chunks (issue 21, item 7): the memory grows by the scaled
+    regressor kept per candidate (about 2 KB) and nothing else; before, 200,000 candidates
+    took 4.7 GB and 4.4 minutes, 50,000 took 1.2 GB and 62 s. Once each: a run takes minutes.
+    """
+    rows: list[Row] = []
+    sizes = (20000,) if setup.quick else (50000, 200000)
+    targets = {20000: "<= 300", 50000: "<= 400", 200000: "<= 800"}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in sizes:
+            args = _command() + ["plan", str(setup.robot), "--strategy", "doptimal", "--pool", str(n),
+                                 "-o", str(Path(tmp) / f"poses{n}.csv")]
+            rows += spread_rows(f"cli_plan_doptimal_pool{n}", [timed_run(args)], None, targets[n])
+    return rows
+
+
 BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_pinocchio_forward,
     bench_exact_batch,
@@ -491,6 +569,8 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_cli_distances,
     bench_cli_streaming,
     bench_controller,
+    bench_gcode_filter,
+    bench_cli_doptimal_pool,
 ]
 
 

@@ -250,6 +250,7 @@ REFUSED = [
     ("G1 X0 Y0 Z-800\nG1 X50 E2\n", 2, r"extruder's position is not known yet"),
     ("G1 X0 Y0 Z-800\nG1 X1 (open\n", 2, r"'\(' comment is not closed"),
     ("X1 Y1 Z1\n", 1, r"no motion mode set before"),
+    ("G1 X0 Y0 Z-800\nG90 M83\n", 2, r"M83 on a line of G words: firmwares differ"),
 ]
 
 
@@ -366,31 +367,70 @@ def test_real_path_follows_the_intended_lines(tmp_path, robot, seed):
     program += f"N3 G3 X{ends[3][0]:.3f} Y{ends[3][1]:.3f} I0 J30 Z{ends[3][2] - 5.0:.3f}\n"
     src, dst = tmp_path / "p.gcode", tmp_path / "o.gcode"
     src.write_text(program)
-    filter_gcode(src, dst, correct, start=ends[0])
-    labels, sent = [], []
-    for line in dst.read_text().splitlines():
-        m = MOVE.match(line)
-        labels.append(int(line[1:line.index(" ")]) if line.startswith("N") else labels[-1])
-        sent.append([float(v) for v in m.groups()])
-    sent_arr = np.array(sent)
-    # the controller interpolates each output segment in its own space; the true robot moves the TCP
     s = np.linspace(0.0, 1.0, 17)
     phi = np.asarray(nominal.limb_azimuth)
     dims = [np.full(3, v) for v in (nominal.base_radius, nominal.plate_radius, nominal.arm_length,
                                      nominal.rod_length)]
-    worst = {}
-    for k in range(1, len(sent_arr)):
-        c = sent_arr[k - 1] + s[:, None] * (sent_arr[k] - sent_arr[k - 1])
-        real = exact.forward(true, controller_inverse(c, *dims, phi, tool)).point(true.tool)
-        label = labels[k]
-        if label < 3:  # a line from the end of the move before
-            a, b = np.array(ends[label - 1]), np.array(ends[label])
-            u = (b - a) / np.linalg.norm(b - a)
-            dev = np.linalg.norm((real - a) - ((real - a) @ u)[:, None] * u, axis=1)
-        else:  # the helix about (0, -r + 30)
-            dev = np.abs(np.hypot(real[:, 0], real[:, 1] - (-r + 30.0)) - 30.0)
-        worst[label] = max(worst.get(label, 0.0), float(dev.max()))
-    tol = ARC_TOLERANCE_RATIO * DEFAULT_SEGMENT_MM
+
+    def worst_deviation(segment_mm: float) -> dict[int, float]:
+        """The real path's largest distance [mm] from each programmed move, by move label."""
+        filter_gcode(src, dst, correct, segment_mm=segment_mm, start=ends[0])
+        labels, sent = [], []
+        for line in dst.read_text().splitlines():
+            m = MOVE.match(line)
+            labels.append(int(line[1:line.index(" ")]) if line.startswith("N") else labels[-1])
+            sent.append([float(v) for v in m.groups()])
+        sent_arr = np.array(sent)
+        worst: dict[int, float] = {}
+        for k in range(1, len(sent_arr)):
+            # the controller interpolates each output segment in its own space; the true robot follows
+            c = sent_arr[k - 1] + s[:, None] * (sent_arr[k] - sent_arr[k - 1])
+            real = exact.forward(true, controller_inverse(c, *dims, phi, tool)).point(true.tool)
+            label = labels[k]
+            if label < 3:  # a line from the end of the move before
+                a, b = np.array(ends[label - 1]), np.array(ends[label])
+                u = (b - a) / np.linalg.norm(b - a)
+                dev = np.linalg.norm((real - a) - ((real - a) @ u)[:, None] * u, axis=1)
+            else:  # the helix about (0, -r + 30)
+                dev = np.abs(np.hypot(real[:, 0], real[:, 1] - (-r + 30.0)) - 30.0)
+            worst[label] = max(worst.get(label, 0.0), float(dev.max()))
+        assert set(worst) == {1, 2, 3} and len(sent_arr) > 10
+        return worst
+
+    worst = worst_deviation(DEFAULT_SEGMENT_MM)
     assert max(worst[1], worst[2]) <= 1e-3, worst
-    assert worst[3] <= 1e-3 + tol, worst
-    assert set(worst) == {1, 2, 3} and len(sent_arr) > 100
+    assert worst[3] <= 1e-3 + ARC_TOLERANCE_RATIO * DEFAULT_SEGMENT_MM, worst
+    coarse = worst_deviation(60.0)  # the same check sees a path cut too coarsely
+    assert min(coarse[1], coarse[2]) > 2e-3, coarse
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_plain_lines_read_alike_by_the_fast_and_the_full_reading(seed):
+    """Plain upper-case moves take a fast path; in lower case the full reading: same output."""
+    rng = np.random.default_rng(seed)
+    relative = seed % 3 == 0
+    lines = ["G92 E0\n", "G91\n" if relative else "G90\n", "M83\n" if seed % 2 or relative else "M82\n"]
+    for _ in range(300):
+        words = [f"{a}{v:.3f}" for a, v in zip("XYZ", rng.normal(0.0, 6.0, 3), strict=True)
+                 if rng.random() < 0.7]
+        if rng.random() < 0.5:
+            words.append(f"E{rng.uniform(0.0, 2.0):.4f}")
+        if rng.random() < 0.2:
+            words.append(f"F{int(rng.integers(100, 9000))}")
+        code = str(rng.choice(["G0", "G1", "G00", "G01", ""]))
+        comment = " ; note" if rng.random() < 0.2 else ""
+        lines.append(" ".join([code, *words]).strip() + comment + "\n")
+    program = "".join(lines).replace("\nX", "\nG1 X", 1)  # a motion mode before any modal line
+    fast = run(program, warp, start=(0.0, 0.0, -800.0))
+    full = run(program.lower().replace("; note", "; NOTE"), warp, start=(0.0, 0.0, -800.0))
+    fast_lines, full_lines = fast.splitlines(), full.replace("; NOTE", "; note").splitlines()
+    assert len(fast_lines) == len(full_lines)
+    for a, b in zip(fast_lines, full_lines, strict=True):
+        assert a == b if MOVE.match(b) else a.lower() == b.lower()  # kept lines: as given, lower case
+    assert len(moves(fast)) >= 200
+
+
+def test_line_endings_kept_and_a_last_line_without_one_split_with_the_files():
+    out = run("G1 X0 Y0 Z-800 ; a\r\nG1 X12", start=(0.0, 0.0, -800.0))
+    assert out == ("G1 X0.0000 Y0.0000 Z-800.0000 ; a\r\nG1 X4.0000 Y0.0000 Z-800.0000\r\n"
+                   "G1 X8.0000 Y0.0000 Z-800.0000\r\nG1 X12.0000 Y0.0000 Z-800.0000")

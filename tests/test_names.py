@@ -7,6 +7,7 @@ writes must read back equal, or the name is refused where it enters, by its file
 from __future__ import annotations
 
 import tomllib
+import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 import numpy as np
@@ -192,3 +193,23 @@ def test_unicode_stations_and_points_go_through_every_command(tmp_path, capsys):
     assert main(["export", str(cal), "--mjcf", str(tmp_path / "robot.xml")]) == 0
     err = capsys.readouterr().err
     assert "not valid TOML" not in err and "error" not in err
+
+
+def test_a_robot_name_with_a_control_character_is_refused_where_it_enters(fitted, tmp_path, capsys):
+    """It became the MJCF model's name: raw in an XML attribute, the file was not XML."""
+    robot = tmp_path / "robot.toml"
+    text = (MODELS / "bai2015.toml").read_text(encoding="utf-8")
+    robot.write_text(text.replace('name = "bai2015"', 'name = "bai\\u00012015"'), encoding="utf-8")
+    with pytest.raises(InputError, match=r"key name: robot name 'bai\\x012015' holds the control character"):
+        load_nominal(robot)
+    cal = calibration_from_result(fitted)
+    with pytest.raises(InputError, match="robot name"):
+        save_geometry(replace(cal.geometry, name="x\x1b[31m"), tmp_path / "g.toml")
+    out = tmp_path / "robot.xml"
+    assert main(["export", str(MODELS / "bai2015.toml"), "--mjcf", str(out), "--name", "a\x07"]) == 2
+    assert "model name 'a\\x07' holds the control character U+0007" in capsys.readouterr().err
+    assert not out.exists()
+    # any other text names the robot and the model, read back as written
+    name = "süd <1> & 'ταυ'"
+    assert main(["export", str(MODELS / "bai2015.toml"), "--mjcf", str(out), "--name", name]) == 0
+    assert ET.parse(out).getroot().get("model") == name

@@ -17,7 +17,7 @@ from ..controller import FIT_KINDS, Controller, fit_controller
 from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableError, UsageError
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
-from ..io import load_calibration, load_nominal, read_toml, save_controller
+from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
 from ..report.accuracy import GRID, workspace_slices
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
@@ -152,7 +152,16 @@ def add_parser(sub) -> None:
                    help="with --controller: the robot file (its nominal values start the fit and hold "
                         "what the fit cannot identify; its [workspace] is the fit's; default: the "
                         "calibration's nominal and the report's default workspace)")
-    p.add_argument("--name", help="model (or controller) name (default: the robot's name)")
+    p.add_argument("--name", type=_model_name, help="model (or controller) name (default: the robot's name)")
     p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
                    help="readings of the 'home' keyframe [deg] (default 0,0,0)")
     p.set_defaults(func=run)
+
+
+def _model_name(text: str) -> str:
+    """Argparse type of ``--name``: text without control characters (no XML file holds them)."""
+    problem = control_character(text)
+    if problem is not None:
+        raise argparse.ArgumentTypeError(f"model name {text!r} {problem}")
+    return text
+

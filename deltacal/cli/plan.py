@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 
 import numpy as np
 
@@ -22,11 +23,16 @@ from ..planning import (
     default_points,
     identification_matrix,
     planning_model,
+    pool_cost,
+    require_pool_memory,
     require_workspace,
     rough_poses,
 )
 from ..planning.regressor import _RTOL
 from .common import check_input, check_output, int_at_most, point_list, positive_int, seed
+
+#: Pools from this size on are told what they cost before the selection starts.
+LARGE_POOL = 20_000
 
 #: Largest --n-max: the κ(n) curve conditions one pose set per n (n = 200 takes minutes already).
 N_MAX_LIMIT = 200
@@ -72,7 +78,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--points", help="comma-separated plate points measured (default: by model)")
     p.add_argument("--count", type=positive_int, help="poses to select (strategy doptimal; "
                    "default: twice the number of base parameters, divided by the rows per pose)")
-    p.add_argument("--pool", type=positive_int, default=1000, help="candidate pool size (doptimal)")
+    p.add_argument("--pool", type=positive_int, default=1000, metavar="N",
+                   help="candidate pool size (doptimal; default 1000). Memory and time grow linearly with "
+                        "it: each candidate keeps its scaled regressor (about 2 KB for the complete model "
+                        "and pose measurements) and each selection step scores every candidate; 200,000 "
+                        "take about 0.6 GB and one to a few minutes. From 20,000 on, plan says the "
+                        "estimate before it starts")
     p.add_argument("--seed", type=seed, default=0, help="seed of the candidate pool (doptimal)")
     p.add_argument("--n-max", type=int_at_most(N_MAX_LIMIT, "each n is a pose set to condition"),
                    default=20, help="largest n of the κ(n) curve")
@@ -142,12 +153,19 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
         raise UsageError("--n and --epsilon apply to --strategy bai, not doptimal")
     if measurement == "distance":
         raise UsageError("D-optimal selection is for pose or position measurements (--measure)")
+    rows = 6 if measurement == "pose" else 3 * len(points)
+    require_pool_memory(args.pool, rows, model.size)  # before drawing: a pool too large is refused at once
     rng = np.random.default_rng(args.seed)
     pool = candidate_pool(nominal, args.pool, rng)
-    rows = 6 if measurement == "pose" else 3 * len(points)
     H = identification_matrix(nominal.geometry(), model, pool.q[:200], measurement, points)
     rank = base_parameters(H, model.names, rtol=_RTOL).rank  # what such measurements can identify
     count = max(math.ceil(2 * rank / rows), 3) if args.count is None else args.count
+    if args.pool >= LARGE_POOL:
+        cost = pool_cost(len(pool), rows, model.size, rank, count)
+        print(f"plan: {len(pool):,} candidates: the selection takes about {cost.memory / 1e6:.0f} MB of "
+              f"memory and {cost.step:.2g} s per step on one core ({cost.steps_min} steps, then {count} per "
+              f"exchange pass, up to {cost.steps_max} in all: {_duration(cost.steps_min * cost.step)} to "
+              f"{_duration(cost.steps_max * cost.step)})", file=sys.stderr)
     design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points)
     chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
     got = base_parameters(chosen, model.names, rtol=_RTOL).rank
@@ -164,3 +182,9 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
         f"parameters, log det(WᵀW) of the scaled base regressor = {design.log_det:.6g}"
     )
     return design.poses, text
+
+
+def _duration(seconds: float) -> str:
+    """``"40 s"``, ``"2.5 min"``: a duration as a person reads it."""
+    return f"{seconds:.2g} s" if seconds < 90.0 else f"{seconds / 60.0:.2g} min"
+

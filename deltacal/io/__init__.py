@@ -19,6 +19,7 @@ from .calibration import (
     save_calibration,
 )
 from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
+from .gcode import filter_gcode, filter_lines, is_gcode_path
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -28,10 +29,10 @@ from .geometry_file import (
     load_geometry,
     save_geometry,
 )
-from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
-from .names import check_names, name_problem
-from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .klipper import KlipperConfig, load_klipper, read_klipper_config
+from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
+from .names import check_names, check_robot_name, control_character, name_problem
+from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
 from .robot import load_nominal, load_printer, load_robot
 from .tables import (
     JOINT_COLUMNS,
@@ -76,6 +77,8 @@ __all__ = [
     "atomic_write_text",
     "calibration_from_result",
     "check_names",
+    "check_robot_name",
+    "control_character",
     "calibration_to_dict",
     "check_calibration",
     "check_format",
@@ -83,6 +86,9 @@ __all__ = [
     "lines_text",
     "unassembled_rows",
     "exact_degrees",
+    "filter_gcode",
+    "filter_lines",
+    "is_gcode_path",
     "geometry_from_dict",
     "geometry_to_dict",
     "load_geometry",

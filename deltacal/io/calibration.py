@@ -23,7 +23,7 @@ from .geometry_file import (
     geometry_from_dict,
     geometry_to_dict,
 )
-from .names import check_names
+from .names import check_names, check_robot_name
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
@@ -51,6 +51,7 @@ def save_calibration(
         if lines is not None:
             calibration = replace(calibration, outlier_lines=[int(lines[k]) for k in result.outliers])
     for geometry in (calibration.geometry, calibration.nominal):
+        check_robot_name(geometry.name, str(path))
         check_names(geometry.points, "point", str(path))
     check_names(calibration.frames, "station", str(path))
     header = "# deltacal calibration: identified geometry (mm, deg) and identification report\n"

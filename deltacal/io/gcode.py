@@ -49,12 +49,13 @@ Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the f
 origin the controller's targets are given in); work offsets and coordinate transforms (G10 L, G52,
 G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19) or with K or P; a word the filter
 would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
-line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); a
-number that is not one (``X1.2.3``, ``X``); a split extruding move where the extruder mode is
-ambiguous (M83 then G90 with no M82/M83 since: firmwares differ on whether G90 ends M83; or G91
-without M83: RepRapFirmware leaves E to M82/M83, Marlin and Klipper make it relative) or where the
-extruder position is not known yet in absolute mode (add ``G92 E0``); a target that ``correct``
-refuses (its :class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); M82
+or M83 on a line of G words (read by some firmwares, not by others); a number that is not one
+(``X1.2.3``, ``X``); a split extruding move where the extruder mode is ambiguous (M83 then G90 with
+no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
+without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
+not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -113,6 +114,10 @@ _PARENS = re.compile(r"\([^)]*\)")
 #: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
 _FAST = re.compile(r"[ \t]*(G0?[01](?=[ \t]))?((?:[ \t]*[XYZEF][-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))+)[ \t]*"
                    r"(;[^\r\n]*)?(\r\n|\n|\r)?")
+_NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+#: The plainest move, in the order slicers write it (F first or last).
+_PLAIN = re.compile(rf"(G0?[01]) (?:F({_NUM}) )?X({_NUM}) Y({_NUM})(?: Z({_NUM}))?(?: E({_NUM}))?"
+                    rf"(?: F({_NUM}))?(\r\n|\n|\r)?")
 _FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
 _M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
 #: First letters of a line the filter reads (others are kept without reading them).
@@ -201,13 +206,15 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start = tuple(float(v) for v in start)
         if len(start) != 3 or not all(math.isfinite(v) for v in start):
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
-    read = _Reader(source, float(segment_mm), start).line
+    reader = _Reader(source, float(segment_mm), start)
+    read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source)
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
-        plan = read(number, line)
+        match = match_plain(line)  # the plainest move first, at the least cost
+        plan = (match is not None and plain(match)) or read(number, line)
         if plan is None:
             items.append(line)
         elif len(plan) == 4:  # batch.single(number, plan), inline
@@ -281,7 +288,10 @@ class _Reader:
         return InputError(detail, self.source, f"line {number}")
 
     def line(self, number: int, line: str):
-        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``."""
+        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``.
+
+        (:meth:`plain` first reads what it can of the plainest moves.)
+        """
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
             g, body, comment, ending = fast.groups()
@@ -313,6 +323,32 @@ class _Reader:
             return None
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
 
+    def plain(self, match: re.Match) -> tuple | None:
+        """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
+
+        Most lines of a printing program are these: read here at once, as :meth:`plan` would
+        (tests/test_gcode.py holds the two to the same output).
+        """
+        st = self.state
+        start = st.pos
+        g, f1, x, y, z, e, f2, ending = match.groups()
+        if st.relative or start[2] is None or start[0] is None or start[1] is None or \
+                (f1 is not None and f2 is not None):
+            return None
+        end = (float(x), float(y), start[2] if z is None else float(z))
+        dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+        if dx * dx + dy * dy + dz * dz > self.segment_mm * self.segment_mm:
+            return None
+        st.motion = 1.0 if g[-1] == "1" else 0.0
+        st.pos = end
+        if ending:
+            self.newline = ending
+        f = f1 if f2 is None else f2
+        if e is not None:
+            self.track_e(float(e), st.e_mode())
+        suffix = ("" if e is None else " E" + e) + ("" if f is None else " F" + f) + (ending or "")
+        return end, False, "G1 " if st.motion == 1.0 else "G0 ", suffix
+
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
         checksum = code.find("*")
@@ -334,8 +370,11 @@ class _Reader:
     def dispatch(self, number: int, words, code: str, comment: str, ending: str):
         """Update the state from a line's words; the plan of its move, if it has one."""
         st = self.state
-        gs: list[float] = []
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
+        mode = next((f"M{v}" for letter, v in words if letter == "M" and v.lstrip("0") in ("82", "83")), None)
+        if mode is not None:  # G90 M83: Marlin reads one command a line, LinuxCNC both
+            raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
+                                    "put it on a line of its own")
         if any(g in _HOMING for g in gs):
             st.pos, st.unknown_since = (None, None, None), number
             return None

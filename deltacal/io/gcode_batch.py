@@ -135,9 +135,9 @@ class Batch:
         if plan[1]:
             self.relative = True
 
-    def split(self, points: np.ndarray, number: int, text: MoveText, k0: int, k1: int, n: int) -> None:
+    def split(self, points: np.ndarray | list, number: int, text: MoveText, k0: int, k1: int, n: int) -> None:
         """Points k0+1 .. k1 [mm] of a move cut into n segments."""
-        self.points.extend(points.tolist())
+        self.points.extend(points if isinstance(points, list) else points.tolist())
         self.items.append((k1 - k0, text.relative, None, (text, k0, n), number))
         if text.relative:
             self.relative = True

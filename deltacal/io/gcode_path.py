@@ -18,21 +18,26 @@ import numpy as np
 
 
 class StraightPath:
-    """A straight move from ``start`` to ``end`` [mm], cut into ``n`` equal segments."""
+    """A straight move from ``start`` to ``end`` [mm], cut into ``n`` equal segments.
+
+    Plain Python, not numpy: a move is cut into a few segments, where numpy's call costs more
+    than the arithmetic.
+    """
 
     __slots__ = ("start", "end", "n")
 
     def __init__(self, start, end, segment_mm: float) -> None:
-        self.start = np.array(start, dtype=float)
-        self.end = np.array(end, dtype=float)
-        length = float(np.linalg.norm(self.end - self.start))
-        self.n = max(1, math.ceil(length / segment_mm - 1e-9))
+        self.start = tuple(float(v) for v in start)
+        self.end = tuple(float(v) for v in end)
+        self.n = max(1, math.ceil(math.dist(self.start, self.end) / segment_mm - 1e-9))
 
-    def points(self, k0: int, k1: int) -> np.ndarray:
-        """Points k0+1 .. k1 of the n [mm], shape (k1 - k0, 3); point n is ``end`` exactly."""
-        t = np.arange(k0 + 1, k1 + 1, dtype=float)[:, None] / self.n
-        out = self.start + (self.end - self.start) * t
-        if k1 == self.n:
+    def points(self, k0: int, k1: int) -> list[tuple[float, ...]]:
+        """Points k0+1 .. k1 of the n [mm]; point n is ``end`` exactly."""
+        (x0, y0, z0), (x1, y1, z1), n = self.start, self.end, self.n
+        dx, dy, dz = x1 - x0, y1 - y0, z1 - z0
+        out: list[tuple[float, ...]] = [(x0 + dx * (k / n), y0 + dy * (k / n), z0 + dz * (k / n))
+                                        for k in range(k0 + 1, k1 + 1)]
+        if k1 == n:
             out[-1] = self.end
         return out
 

@@ -11,7 +11,7 @@ import numpy as np
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry
 from .atomic import atomic_write_text
-from .names import check_names
+from .names import check_names, check_robot_name, control_character
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
@@ -62,6 +62,9 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     if fmt != GEOMETRY_FORMAT:
         raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
     name = top.string("name", default="")
+    problem = control_character(name)
+    if problem is not None:
+        raise top.error("name", f"robot name {name!r} {problem}")
     tool = top.vector("tool_mm", (3,))
     limbs = top.raw("limb")
     if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):
@@ -106,6 +109,7 @@ def save_geometry(geometry: DeltaGeometry, path: str | Path) -> None:
     Raises:
         InputError: a point name no file can carry (:func:`~deltacal.io.names.name_problem`).
     """
+    check_robot_name(geometry.name, str(path))
     check_names(geometry.points, "point", str(path))
     header = "# deltacal geometry: every element of a real Delta robot (mm, deg)\n"
     atomic_write_text(path, header + toml_dumps(geometry_to_dict(geometry)))

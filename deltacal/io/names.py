@@ -17,16 +17,28 @@ from collections.abc import Iterable
 from ..exceptions import InputError
 
 
-def name_problem(name: str) -> str | None:
-    """What keeps ``name`` from being a point or station name, or None if it is one."""
-    if not name:
-        return "is empty"
-    for c in name:
+def control_character(text: str) -> str | None:
+    """The first control character or lone surrogate of ``text``, described; None if it has none.
+
+    The rule for any text deltacal writes into a file where a person or another program reads
+    it as a name (a robot's name too, which ends up in an MJCF model's attributes).
+    """
+    for c in text:
         category = unicodedata.category(c)
         if category == "Cc":
             return f"holds the control character U+{ord(c):04X}"
         if category == "Cs":
             return f"holds the lone surrogate U+{ord(c):04X} (not UTF-8 text)"
+    return None
+
+
+def name_problem(name: str) -> str | None:
+    """What keeps ``name`` from being a point or station name, or None if it is one."""
+    if not name:
+        return "is empty"
+    problem = control_character(name)
+    if problem is not None:
+        return problem
     if name != name.strip():
         return "begins or ends with a space"
     return None
@@ -49,3 +61,15 @@ def check_names(names: Iterable[str], what: str, source: str = "", where: str = 
         if problem is not None:
             raise InputError(f"{what} name {name!r} {problem}: names of points and stations are "
                              "text without control characters or spaces at either end", source, where)
+
+
+def check_robot_name(name: str, source: str = "", where: str = "") -> None:
+    """Refuse a robot name holding a control character (:func:`control_character`).
+
+    Raises:
+        InputError: naming the name, as Python writes it.
+    """
+    problem = control_character(name)
+    if problem is not None:
+        raise InputError(f"robot name {name!r} {problem}", source, where)
+

@@ -13,7 +13,7 @@ from ..geometry import NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from ..printer import NominalLinearDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
-from .names import check_names
+from .names import check_names, control_character
 from .toml import _Table, read_toml
 
 #: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
@@ -65,7 +65,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
         raise top.error("kind", "a linear Delta printer's file (kind = 'linear'): this command "
                                 "serves rotary Delta robots only")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace"])
-    name = top.string("name")
+    name = _robot_name(top)
     description = top.string("description")
     geo = top.table("geometry")
     assert geo is not None
@@ -125,8 +125,17 @@ def load_nominal(path: str | Path) -> NominalDelta:
     return nominal
 
 
+def _robot_name(top: _Table) -> str:
+    """The robot's ``name``: any text without control characters (it names the MJCF model too)."""
+    name = top.string("name")
+    problem = control_character(name)
+    if problem is not None:
+        raise top.error("name", f"robot name {name!r} {problem}")
+    return name
+
+
 def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
-    """The ``[points]`` table: named plate points [mm]."""
+    """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters)."""
     points: dict[str, np.ndarray] = {}
     pts = top.table("points", required=False)
     if pts is not None:
@@ -214,7 +223,7 @@ def load_printer(path: str | Path) -> NominalLinearDelta:
                                          "effector_radius_mm)")
     try:
         printer = NominalLinearDelta(
-            name=top.string("name"),
+            name=_robot_name(top),
             description=top.string("description", ""),
             tower_radius=lengths["tower_radius_mm"],
             effector_radius=lengths["effector_radius_mm"],

@@ -28,7 +28,15 @@ nominal TCP target they reach. Units: mm and rad inside, mm and deg in files.
 from ..exceptions import PlanningError
 from ..kinematics.singularity import PLANNING_MARGIN, SingularityMargin
 from .condition import ConditionCurve, condition_curve
-from .doptimal import DOptimalDesign, candidate_pool, d_optimal
+from .doptimal import (
+    DOptimalDesign,
+    PoolCost,
+    candidate_pool,
+    d_optimal,
+    pool_cost,
+    pool_memory,
+    require_pool_memory,
+)
 from .poses import (
     PoseSet,
     bai_poses,
@@ -62,6 +70,10 @@ __all__ = [
     "circle",
     "condition_curve",
     "d_optimal",
+    "PoolCost",
+    "pool_cost",
+    "pool_memory",
+    "require_pool_memory",
     "default_points",
     "identification_matrix",
     "planning_model",
