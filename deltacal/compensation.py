@@ -31,7 +31,7 @@ import numpy as np
 
 from .errormodels import ErrorModel, get_model
 from .errormodels.base import elementary_jacobian
-from .exceptions import AssemblyError, UnreachableError
+from .exceptions import AssemblyError, GeometryError, UnreachableError
 from .geometry import DeltaGeometry
 from .kinematics import exact
 from .kinematics.closed_form import VirtualDelta
@@ -195,6 +195,9 @@ def compensate(
         UnreachableError: naming the targets out of reach or too close to a singularity.
     """
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    if geometry.joint != "revolute":  # its margins and checks are a rotary Delta's, so far
+        raise GeometryError(f"compensation serves rotary Delta robots; {geometry.name or 'this geometry'!r} "
+                            f"is a {geometry.joint} chain")
     if method == "exact":
         q = exact.inverse(geometry, targets)
     elif method in ("savoure", "bai"):
