@@ -262,3 +262,12 @@ def test_klippers_model_has_no_horizontal_nozzle_offset(kossel):
 
     with pytest.raises(GeometryError, match="no horizontal nozzle offset"):
         KlipperDelta.from_printer(replace(kossel, tool=np.array([5.0, 0.0, -30.0])))
+
+
+def test_a_missing_tower_section_is_named(tmp_path, kossel):
+    main = PRINTER_CFG.replace("#delta_radius: 132.0", "delta_radius: 134.4").replace(
+        "#position_endstop: 297.0\n#arm_length: 269.0", "position_endstop: 297.0\narm_length: 269.0")
+    start = main.index("[stepper_c]")
+    main = main[:start] + main[main.index("[probe]"):]
+    with pytest.raises(InputError, match=r"printer.cfg: missing section \[stepper_c\] \(a delta printer has three"):
+        load_klipper(write_config(tmp_path, "", main))
