@@ -138,10 +138,6 @@ def run_demo(
         f"{tracker['base_frame']['max_mm']:.4f} mm with the same data given in {{O}}"
     )
 
-    routes = _controller_routes(results["complete"], truth, nominal)
-    progress("fitted the controller's joint offsets and per-limb values; corrected targets for the nominal "
-             "controller")
-
     tilt = _tilt_range(truth, nominal)
     summary = {
         "robot": nominal.name,
@@ -155,7 +151,7 @@ def run_demo(
         "identification": {name: _fit_summary(r) for name, r in results.items()},
         "validation": rows,
         "tracker": tracker,
-        "controller_routes": routes,
+        "controller_routes": _controller_routes(results["complete"], truth, nominal, progress),
     }
     atomic_write_text(out_dir / "demo.json", json.dumps(summary, indent=2) + "\n")
     written = [out_dir / "demo.json"]
@@ -265,7 +261,7 @@ def _row(tool: str, model: str, method: str, metrics) -> dict:
     }
 
 
-def _controller_routes(result, truth, nominal: NominalDelta) -> dict:
+def _controller_routes(result, truth, nominal: NominalDelta, progress: Callable[[str], None]) -> dict:
     """What each route to a Cartesian controller leaves on the true robot, tool 200 mm.
 
     The routes (README, "Using a calibration on your controller"): the nominal controller fed the
@@ -296,6 +292,7 @@ def _controller_routes(result, truth, nominal: NominalDelta) -> dict:
                         "fit_max_mm": fit.max_error, "fit_rms_mm": fit.rms_error,
                         "grid_max_mm": float(left.max()), "grid_rms_mm": float(np.sqrt(np.mean(left**2)))}
     routes["corrected"] = on_truth(controller, corrected_targets(identified, controller, targets).commands)
+    progress("fitted the controller's joint offsets and per-limb values; corrected targets for it")
     return routes
 
 

@@ -9,9 +9,15 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from hypothesis import settings  # noqa: E402
 
 from deltacal import NominalDelta  # noqa: E402
 from deltacal.io import load_nominal  # noqa: E402
+
+# every random test is seeded: hypothesis draws the same examples on every machine and run (a
+# failure is then a failure of the code, not of the draw), and keeps no example database
+settings.register_profile("deltacal", derandomize=True, database=None)
+settings.load_profile("deltacal")
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"

@@ -16,13 +16,14 @@ from conftest import MODELS, workspace_points, write_targets
 from numpy.testing import assert_allclose
 from scipy.optimize import least_squares
 
-from deltacal import DeltaMultibody, Tolerances, UnreachableError, identify
+from deltacal import DeltaMultibody, NominalDelta, Tolerances, UnreachableError, identify
 from deltacal.cli import main
 from deltacal.compensation import compensate
 from deltacal.controller import Controller, corrected_targets, fit_controller
 from deltacal.exceptions import GeometryError
 from deltacal.io import (
     calibration_from_result,
+    load_calibration,
     load_controller,
     load_nominal,
     save_calibration,
@@ -162,6 +163,26 @@ def test_corrected_targets_put_the_true_tcp_where_compensation_does(bai, robot, 
     assert np.max(np.linalg.norm(raw - targets, axis=1)) > 1.0
 
 
+def test_corrected_targets_on_a_robot_no_other_test_uses():
+    """Odd azimuths, another size, a tool off the axis: the spec's controller puts the Pinocchio TCP on
+    the targets (the calibration is the true geometry itself, so what is left is the solvers')."""
+    nominal = NominalDelta(name="odd", base_radius=120.0, plate_radius=35.0, arm_length=250.0,
+                           rod_length=600.0, rod_spacing=60.0, limb_azimuth=np.radians([10.0, 130.0, 250.0]),
+                           tool=np.array([5.0, -3.0, -80.0]))
+    truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(2207))
+    spec = SpecController([10.0, 130.0, 250.0], [120.0] * 3, [35.0] * 3, [250.0] * 3, [600.0] * 3, [0, 0, 0],
+                          nominal.tool)
+    rng = np.random.default_rng(2208)
+    radius, angle = 150.0 * np.sqrt(rng.random(30)), rng.uniform(0.0, 2.0 * np.pi, 30)
+    z = rng.uniform(-620.0, -520.0, 30)
+    targets = np.column_stack([radius * np.cos(angle), radius * np.sin(angle), z])
+    commands, _ = corrected_targets(truth, Controller.from_geometry(nominal), targets)
+    reached = DeltaMultibody(truth).forward(spec.readings(commands)).point(truth.tool)
+    assert np.max(np.linalg.norm(reached - targets, axis=1)) < 1e-6
+    raw = DeltaMultibody(truth).forward(spec.readings(targets)).point(truth.tool)
+    assert np.max(np.linalg.norm(raw - targets, axis=1)) > 0.5  # what the controller alone leaves
+
+
 def test_targets_the_controller_model_cannot_command_are_refused_by_index(bai, robot):
     short = as_package(SpecController(np.degrees(bai.limb_azimuth), [200.0] * 3, [51.0] * 3, [375.0] * 3,
                                       [500.0] * 3, [0, 0, 0], robot["truth"].tool))
@@ -173,6 +194,16 @@ def test_targets_the_controller_model_cannot_command_are_refused_by_index(bai, r
     with pytest.raises(UnreachableError, match=r"controller's model.*index 1") as info:
         corrected_targets(robot["calibration"], short, targets)
     assert info.value.indices == [1] and info.value.reason == UnreachableError.CONTROLLER_OUT_OF_REACH
+    # rods of (b - a) / cos 30° + L: at the arms' -30° the controller's rods fold back along its arms
+    rod = 149.0 / math.cos(math.radians(30.0)) + 375.0
+    folded = as_package(SpecController(np.degrees(bai.limb_azimuth), [200.0] * 3, [51.0] * 3, [375.0] * 3,
+                                       [rod] * 3, [0, 0, 0], [0, 0, 0]))
+    nominal = bai.geometry()
+    targets = exact.forward(nominal, np.radians([[10.0] * 3, [-30.0] * 3])).point(nominal.tool)
+    with pytest.raises(UnreachableError, match=r"singularity of the controller's model.*index 1") as info:
+        corrected_targets(nominal, folded, targets)
+    assert info.value.indices == [1] and info.value.reason == UnreachableError.CONTROLLER_SINGULAR
+    corrected_targets(nominal, folded, targets[:1])
     with pytest.raises(UnreachableError) as info:  # beyond the real robot: compensate's own refusal
         corrected_targets(robot["calibration"], short, np.array([[0.0, 0.0, -850.0], [0.0, 0.0, -5000.0]]))
     assert info.value.indices == [1] and info.value.reason == UnreachableError.OUT_OF_REACH
@@ -348,3 +379,101 @@ def test_export_controller_writes_the_fit_and_says_what_it_leaves(files, robot, 
     rms = np.sqrt(np.mean(error**2))
     assert abs(rms - data["fit"]["rms_error_mm"]) < 0.005
 
+
+
+def test_export_controller_refusals(files, capsys, tmp_path):
+    out = tmp_path / "c.toml"
+    code, _, err = run(capsys, "export", files["cal"], "--controller", "offsets")
+    assert code == 2 and "--controller needs -o CONTROLLER.toml" in err
+    code, _, err = run(capsys, "export", files["cal"], "--mjcf", tmp_path / "r.xml", "-o", out)
+    assert code == 2 and "-o applies to --controller" in err
+    code, _, err = run(capsys, "export", files["cal"], "--controller", "both", "-o", out)
+    assert code == 2 and "invalid choice: 'both'" in err
+    # a geometry file has no nominal controller: the robot file is asked for
+    from deltacal.io import save_geometry
+
+    geometry = tmp_path / "g.toml"
+    perturbed = load_nominal(NOMINAL).geometry().perturbed(Tolerances(), np.random.default_rng(1))
+    save_geometry(perturbed, geometry)
+    code, _, err = run(capsys, "export", geometry, "--controller", "offsets", "-o", out)
+    assert code == 1
+    assert err.strip() == (f"deltacal export: error: {geometry}: key nominal: the calibration's nominal "
+                           "geometry is not a classical Delta (a geometry file?): give the robot file with "
+                           "--robot")
+    assert not out.exists()
+
+
+def test_the_fit_jacobian_matches_finite_differences_through_the_exact_kinematics(bai, robot):
+    from deltacal.controller.fit import _jacobian, parameter_names, tcp_errors, values_of, with_values
+
+    truth = robot["truth"]  # plate tilted, tool 100 mm below: the lever term counts
+    controller = as_package(CELL)
+    points = workspace_points(bai, 40, np.random.default_rng(2209)) + truth.tool
+    names = parameter_names("limbs")
+    residual, J = _jacobian(truth, controller, points, names)
+    assert_allclose(residual, tcp_errors(truth, controller, points).ravel(), atol=1e-12, rtol=0)
+    start = values_of(controller, names)
+    for k, name in enumerate(names):
+        h = 1e-6 if name.endswith(("azimuth", "offset")) else 1e-3
+        moved = []
+        for sign in (1.0, -1.0):
+            v = start.copy()
+            v[k] += sign * h
+            moved.append(tcp_errors(truth, with_values(controller, names, v), points).ravel())
+        fd = (moved[0] - moved[1]) / (2.0 * h)
+        assert_allclose(J[:, k], fd, atol=1e-5 * max(1.0, np.abs(fd).max()), rtol=0, err_msg=name)
+
+
+def test_compensate_controller_with_targets_in_the_tracker_frame(bai, robot, capsys, tmp_path):
+    """``--frame instrument``: the targets are taken to {O} as joint compensation takes them; the
+    commands are in the controller's frame {O}."""
+    truth = robot["truth"]
+    q = bai_poses(bai, 9).q
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    rng = np.random.default_rng(2210)
+    pose = exact.forward(truth, q)
+    position = pose.point(truth.tool) @ turn.T + [1500.0, 200.0, 100.0] + rng.normal(0.0, 0.005, (len(q), 3))
+    result = identify(bai.geometry().with_tool(truth.tool), Measurements(q, position), "complete",
+                      frame="free")
+    cal = tmp_path / "free.toml"
+    save_calibration(result, cal)
+    station = load_calibration(cal).instrument["default"]
+    in_base = workspace_points(bai, 10, rng) + truth.tool
+    targets = tmp_path / "t.csv"
+    write_targets(targets, station.from_base(in_base))
+    out = tmp_path / "c.csv"
+    code, _, err = run(capsys, "compensate", cal, targets, "--controller", NOMINAL, "--frame", "instrument",
+                       "-o", out)
+    assert code == 0, err
+    commands = np.loadtxt(out, delimiter=",", skiprows=1)[:, 3:]
+    controller = Controller.from_geometry(bai).replace(tool=truth.tool)
+    want = corrected_targets(load_calibration(cal), controller, station.to_base(station.from_base(in_base)))
+    # the robot file's nominal controller has tool 0: the commands differ by the tool only
+    assert_allclose(commands, want.commands - truth.tool, atol=2e-9, rtol=0)
+
+
+def test_the_report_shows_what_each_controller_route_leaves(files, robot, tmp_path):
+    from deltacal.report import accuracy_map, controller_routes, write_report
+
+    calibration = load_calibration(files["cal"])
+    workspace = load_nominal(NOMINAL).workspace
+    amap = accuracy_map(calibration, workspace, truth=robot["truth"], n=9)
+    routes = controller_routes(calibration, amap, robot["truth"])
+    assert [r.name for r in routes.routes] == ["nominal", "offsets", "limbs"]
+    points = np.concatenate([s.points.reshape(-1, 3) for s in amap.slices])
+    points = points[np.all(np.isfinite(points), axis=1)]
+    assert routes.points == len(points)
+    start = Controller.from_geometry(calibration.nominal).replace(tool=amap.tool)
+    fit = fit_controller(calibration, start, points, "limbs")
+    limbs = routes.routes[2]
+    assert limbs.max_error == pytest.approx(fit.max_error, abs=1e-9) and limbs.held == fit.held
+    nominal, offsets = routes.routes[0], routes.routes[1]
+    assert nominal.max_error > offsets.max_error > limbs.max_error
+    for r in routes.routes:  # on the true robot: the same to the calibration's own error
+        assert abs(r.true_max_error - r.max_error) < 0.01 and abs(r.true_rms_error - r.rms_error) < 0.005
+    html = tmp_path / "r.html"
+    write_report(files["cal"], html, truth=robot["truth"], truth_source="test", workspace=workspace,
+                 view=False, grid=9)
+    text = html.read_text()
+    assert 'id="controller-routes"' in text
+    assert "per-limb values fitted" in text and "corrected targets" in text

@@ -70,14 +70,16 @@ def corrected_targets(
     q = compensate(geometry, targets, "exact", min_margin=min_margin)
     virtual = controller.virtual
     plate = virtual.forward(q, check=False)
-    with np.errstate(invalid="ignore"):
-        back = virtual.inverse(plate, check=False)
-        apart = np.abs((back - q + np.pi) % (2.0 * np.pi) - np.pi)
-        bad = ~np.all(apart <= ROUND_TRIP_TOLERANCE, axis=1)  # NaN (no assembly) too
-    if np.any(bad):
-        raise UnreachableError.from_mask(bad, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
-    margin = COMMAND_MARGIN.margin(virtual, q, plate)
-    near = ~(margin >= min_margin)
+    unassembled = ~np.all(np.isfinite(plate), axis=1)
+    if np.any(unassembled):
+        raise UnreachableError.from_mask(unassembled, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
+    # the margin before the round trip: near a singularity the inverse loses digits (arccos near ±1)
+    near = ~(COMMAND_MARGIN.margin(virtual, q, plate) >= min_margin)
     if np.any(near):
         raise UnreachableError.from_mask(near, targets, UnreachableError.CONTROLLER_SINGULAR)
+    with np.errstate(invalid="ignore"):
+        apart = np.abs((virtual.inverse(plate, check=False) - q + np.pi) % (2.0 * np.pi) - np.pi)
+    other_branch = ~np.all(apart <= ROUND_TRIP_TOLERANCE, axis=1)
+    if np.any(other_branch):
+        raise UnreachableError.from_mask(other_branch, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
     return CorrectedTargets(plate + controller.tool, q)

@@ -62,8 +62,7 @@ def load_controller(path: str | Path) -> Controller:
     assert table is not None
     table.check_unknown(CONTROLLER_KEYS)
     values = {field: _values(table, key, unit) for key, (field, unit) in CONTROLLER_KEYS.items()}
-    fit = top.table("fit", required=False)  # informative: any content
-    del fit
+    top.table("fit", required=False)  # informative: a table of any content, read by no command
     try:
         return Controller(**values, name=name)
     except GeometryError as exc:

@@ -3,6 +3,7 @@
 * :mod:`.data`: the calibration file as the report reads it;
 * :mod:`.accuracy`: the predicted σ of the TCP over the workspace (covariance propagation);
 * :mod:`.residuals`: each measurement's residual before and after;
+* :mod:`.controllers`: what each route to a Cartesian controller leaves over the same slices;
 * :mod:`.figures`: matplotlib figures as inline SVG;
 * :mod:`.html`: the page.
 """
@@ -29,6 +30,7 @@ from .accuracy import (
     sigma_3d,
     tcp_jacobian,
 )
+from .controllers import ControllerRoutes, controller_routes
 from .html import Page, render_page
 from .residuals import MeasurementResiduals, measurement_residuals
 
@@ -122,7 +124,7 @@ def write_report(
     page = Page(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
         measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
-        scene_html=scene, scene_note=note, warnings=warnings,
+        scene_html=scene, scene_note=note, warnings=warnings, controllers=controller_routes(cal, amap, truth),
     )
     path = Path(output)
     atomic_write_text(path, render_page(page))
@@ -131,10 +133,12 @@ def write_report(
 
 __all__ = [
     "AccuracyMap",
+    "ControllerRoutes",
     "MeasurementResiduals",
     "ReportSummary",
     "accuracy_map",
     "actual_tcp_error",
+    "controller_routes",
     "measurement_residuals",
     "predicted_tcp_covariance",
     "predicted_tcp_sigma",

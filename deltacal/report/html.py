@@ -15,6 +15,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from .accuracy import AccuracyMap
+from .controllers import ControllerRoutes
 from .residuals import MeasurementResiduals
 
 CSS = """
@@ -108,6 +109,7 @@ class Page:
     scene_html: str | None = None
     scene_note: str = ""
     warnings: list[str] = field(default_factory=list)
+    controllers: ControllerRoutes | None = None
 
 
 def _summary(page: Page) -> str:
@@ -286,6 +288,39 @@ def _truth(page: Page) -> str:
     return out
 
 
+def _controllers(page: Page) -> str:
+    routes = page.controllers
+    assert routes is not None
+    out = ("<p>A controller that takes Cartesian targets runs its own classical (perfect-parallelogram) "
+           "model. Over the same slices as the map, the TCP error each way of handing it this calibration "
+           "leaves: the targets sent as they are; the joint offsets alone, or the per-limb values, fitted "
+           "(<code>deltacal export CAL --controller offsets|limbs</code>); corrected targets "
+           "(<code>deltacal compensate CAL TARGETS --controller CONTROLLER</code>), which leave what the "
+           "calibration itself leaves: the predicted σ above"
+           + (" and the actual errors against the true geometry" if page.accuracy.error is not None else "")
+           + ".</p>")
+    if not routes.routes:
+        return out + f"<p class=\"muted\">{esc(routes.note)}</p>"
+    names = {"nominal": "targets sent as they are (nominal controller)", "offsets": "joint offsets fitted",
+             "limbs": "per-limb values fitted"}
+    truth = page.accuracy.error is not None
+    rows = []
+    for r in routes.routes:
+        row = [td(names[r.name]), cell(r.max_error, 4), cell(r.rms_error, 4)]
+        row += [cell(r.true_max_error, 4), cell(r.true_rms_error, 4)] if truth else []
+        rows.append(row + [td(", ".join(r.held) or "–")])
+    a = page.accuracy
+    rows.append([td("corrected targets"), cell(a.worst, 4), td("as the map")]
+                + ([cell(float(np.nanmax(np.concatenate([e.ravel() for e in a.error]))), 4), td("")]
+                   if truth and a.error is not None else []) + [td("–")])
+    header = ["route", "max [mm]", "RMS [mm]"] + (["true max [mm]", "true RMS [mm]"] if truth else [])
+    out += table(header + ["held at nominal"], rows, "controller-routes")
+    out += (f"<p class=\"muted\">{routes.points} points. Errors on the identified robot; corrected "
+            "targets' row: the largest predicted σ (and actual error). Values held at nominal cannot be told "
+            "apart by the TCP error (b_i and a_i enter only as b_i − a_i).</p>")
+    return out
+
+
 def _scene(page: Page) -> str:
     if page.scene_html is None:
         return f"<p class=\"muted\">{esc(page.scene_note or 'No 3-D view.')}</p>"
@@ -308,6 +343,8 @@ def render_page(page: Page) -> str:
     ]
     if page.accuracy.error is not None:
         sections.append(("truth", "Actual errors against the true geometry", _truth(page)))
+    if page.controllers is not None:
+        sections.append(("controllers", "What a controller can hold", _controllers(page)))
     sections.append(("view", "3-D view of the identified robot", _scene(page)))
     toc = "".join(f'<li><a href="#{k}">{esc(t)}</a></li>' for k, t, _ in sections)
     warn = "".join(f'<p class="warning">warning: {esc(w)}</p>' for w in page.warnings)
