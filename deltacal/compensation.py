@@ -31,7 +31,7 @@ import numpy as np
 
 from .errormodels import ErrorModel, get_model
 from .errormodels.base import elementary_jacobian
-from .exceptions import AssemblyError, UnreachableError
+from .exceptions import AssemblyError, GeometryError, UnreachableError
 from .geometry import DeltaGeometry
 from .kinematics import exact, statics
 from .kinematics.closed_form import VirtualDelta
@@ -77,10 +77,8 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
     virtual rods ``n_i = x + a_i − E_i``.
     """
     virtual = VirtualDelta.from_geometry(geometry)
-    lever = virtual.elbows(q) - virtual.axis_point  # E_i - P_i, (N, 3, 3)
-    n = x[:, None, :] + virtual.plate_attachment - virtual.axis_point - lever
-    w = virtual.actuator_rotation[:, :, 1]
-    dE = np.cross(w, lever)
+    n = x[:, None, :] + virtual.plate_attachment - virtual.elbows(q)
+    dE = virtual.elbow_velocity(q)  # the chain's own motion (deltacal.chains)
     return n / np.sum(n * dE, axis=2)[..., None]
 
 
@@ -204,6 +202,9 @@ def compensate(
         UnreachableError: naming the targets out of reach or too close to a singularity.
     """
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    if geometry.joint != "revolute":  # its margins and checks are a rotary Delta's, so far
+        raise GeometryError(f"compensation serves rotary Delta robots; {geometry.name or 'this geometry'!r} "
+                            f"is a {geometry.joint} chain")
     if payload and method != "exact":
         raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
     if method == "exact":

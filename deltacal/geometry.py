@@ -33,6 +33,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .chains import JOINTS, carried_points, check_joint, path_slopes, path_terms
+from .chains import arm_frame_circle as arm_frame_circle  # re-exported: old import paths
 from .exceptions import GeometryError
 from .rotations import rotation_about_y as rotation_about_y  # re-exported: old import paths
 from .rotations import rotation_from_vector as rotation_from_vector
@@ -205,28 +207,6 @@ def tangent_vectors(azimuth: np.ndarray) -> np.ndarray:
     return np.stack([-np.sin(azimuth), np.cos(azimuth), np.zeros_like(azimuth)], axis=-1)
 
 
-def arm_frame_circle(
-    axis_point: np.ndarray, actuator_rotation: np.ndarray, local: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points fixed in the arm frames, on their circles about the actuator axes.
-
-    A point ``a`` of arm i is at ``P_i + R0_i R_y(θ_i) a = C + cos θ_i U + sin θ_i V`` in {O}
-    (θ the true angle; conventions), with ``C = P_i + a_y w_i``, ``U = a_x x0_i + a_z z0_i``
-    and ``V = a_z x0_i − a_x z0_i`` in the actuator frame's axes ``R0_i = [x0 w z0]``.
-
-    Args:
-        axis_point: P_i [mm], shape (3, 3).
-        actuator_rotation: R0_i, shape (3, 3, 3).
-        local: Points in the arm frames [mm], shape (3, K, 3) (K points of each arm).
-
-    Returns:
-        C, U, V, each of shape (3, K, 3).
-    """
-    x0, w, z0 = (actuator_rotation[:, None, :, k] for k in range(3))  # (3, 1, 3) each
-    ax, ay, az = local[..., 0:1], local[..., 1:2], local[..., 2:3]
-    return axis_point[:, None, :] + ay * w, ax * x0 + az * z0, az * x0 - ax * z0
-
-
 @dataclass(frozen=True)
 class Tolerances:
     """Standard deviations of the manufacturing errors of each class.
@@ -239,8 +219,10 @@ class Tolerances:
         rod_length: Rod lengths [mm].
         axis_position: Actuator axis point, per coordinate [mm].
         axis_direction: Actuator axis direction, each of its two tilts [rad].
-        encoder_offset: Encoder zero [rad].
+        encoder_offset: Encoder zero [rad] (a prismatic chain's endstop [mm]).
         tool: TCP in the plate frame, per coordinate [mm] (0: the tool is known).
+        joint_scale: Relative error of a prismatic chain's step distance (the scale's
+            deviation from 1); revolute chains have none.
     """
 
     ball_centre: float = 0.05
@@ -249,6 +231,23 @@ class Tolerances:
     axis_direction: float = math.radians(0.05)
     encoder_offset: float = math.radians(0.3)
     tool: float = 0.0
+    joint_scale: float = 0.0
+
+    @classmethod
+    def printer_kit(cls) -> Tolerances:
+        """Errors of a typical linear Delta printer kit (issue 24).
+
+        Towers placed to 0.3 mm and leaning 0.15 deg, endstops to 0.5 mm, step distances to
+        0.3 %, balls to 0.05 mm and rods to 0.1 mm (the two rods of a pair differ).
+        """
+        return cls(
+            ball_centre=0.05,
+            rod_length=0.1,
+            axis_position=0.3,
+            axis_direction=math.radians(0.15),
+            encoder_offset=0.5,
+            joint_scale=0.003,
+        )
 
     @classmethod
     def bai2015(cls) -> Tolerances:
@@ -271,22 +270,35 @@ _NAME_RE = re.compile(
     r"^limb(?P<limb>[123])\."
     r"(?:(?P<kind>axis_point|arm_ball(?P<ab>[12])|plate_ball(?P<pb>[12]))\.(?P<axis>[xyz])"
     r"|rod(?P<rod>[12])\.length"
-    r"|encoder_offset"
-    r"|axis_tilt_(?P<tilt>[rz]))$"
+    r"|(?P<offset>encoder_offset)"
+    r"|joint_scale"
+    r"|axis_tilt_(?P<tilt>[rzt]))$"
     r"|^tool\.(?P<taxis>[xyz])$"
 )
 
 
-def error_names() -> list[str]:
-    """All names accepted by :meth:`DeltaGeometry.with_errors`, in a fixed order.
+def _second_tilt(joint: str) -> str:
+    """The second axis tilt's name: about z (a revolute axis along t_i), about t_i (a tower along z)."""
+    return "z" if joint == "revolute" else "t"
 
-    Units: [mm] for positions and lengths, [rad] for ``encoder_offset`` and the
-    two axis tilts (``axis_tilt_r`` about r_i, ``axis_tilt_z`` about z).
+
+def error_names(joint: str = "revolute") -> list[str]:
+    """All names accepted by :meth:`DeltaGeometry.with_errors` of a chain kind, in a fixed order.
+
+    Units: [mm] for positions and lengths, [rad] for the two axis tilts (``axis_tilt_r`` about
+    r_i, then ``axis_tilt_z`` about z for a revolute axis or ``axis_tilt_t`` about t_i for a
+    tower: a positive one moves its top outward) and a revolute ``encoder_offset``; a prismatic
+    chain's ``encoder_offset`` (its endstop) is in [mm] and its ``joint_scale`` (true over
+    nominal step distance) has no unit.
     """
+    check_joint(joint)
     names = []
     for i in range(1, 4):
         names += [f"limb{i}.axis_point.{a}" for a in AXES]
-        names += [f"limb{i}.axis_tilt_r", f"limb{i}.axis_tilt_z", f"limb{i}.encoder_offset"]
+        names += [f"limb{i}.axis_tilt_r", f"limb{i}.axis_tilt_{_second_tilt(joint)}",
+                  f"limb{i}.encoder_offset"]
+        if joint == "prismatic":
+            names.append(f"limb{i}.joint_scale")
         for j in (1, 2):
             names += [f"limb{i}.arm_ball{j}.{a}" for a in AXES]
         for j in (1, 2):
@@ -304,13 +316,20 @@ class DeltaGeometry:
         limb_azimuth: phi_i [rad], shape (3,): defines r_i, the zero direction of each arm.
         axis_point: A point of each actuator axis, in {O} [mm], shape (3, 3).
         axis_direction: Unit direction of each actuator axis, in {O}, shape (3, 3).
-        encoder_offset: True arm angle minus reading [rad], shape (3,).
+        encoder_offset: True arm angle minus reading [rad], shape (3,); for a prismatic chain
+            the carriage's true travel minus its scaled reading [mm] (the endstop's error).
         arm_ball: Arm-side ball centres in the arm frame [mm], shape (3, 2, 3).
         plate_ball: Plate-side ball centres in the plate frame [mm], shape (3, 2, 3).
         rod_length: Rod lengths [mm], shape (3, 2).
         tool: TCP in the plate frame [mm], shape (3,).
         points: Named reference points in the plate frame [mm].
         name: Robot name.
+        joint: The actuated chain (:mod:`deltacal.chains`): ``"revolute"`` (a rotary Delta's
+            arms) or ``"prismatic"`` (a linear Delta's carriages: axis point = carriage frame
+            origin at the endstop, axis direction = up the tower, reading = travel below the
+            endstop [mm]).
+        joint_scale: True joint coordinate per unit reading, shape (3,): a prismatic chain's
+            true over nominal step distance; 1 for a revolute chain.
         masses: Masses of the moving bodies (all zero: a kinematic robot).
         compliance: Compliance c_i of each actuator [rad/N m], shape (3,): the true arm angle
             is ``reading + encoder_offset + c_i tau_i`` with tau_i the gravity torque
@@ -327,11 +346,16 @@ class DeltaGeometry:
     tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
     points: dict[str, np.ndarray] = field(default_factory=dict)
     name: str = ""
+    joint: str = "revolute"
+    joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     masses: Masses = field(default_factory=Masses)
     compliance: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
+        if self.joint not in JOINTS:
+            raise GeometryError(f"joint must be one of {', '.join(JOINTS)}, got {self.joint!r}")
         shapes = {
+            "joint_scale": (3,),
             "limb_azimuth": (3,),
             "axis_point": (3, 3),
             "axis_direction": (3, 3),
@@ -365,6 +389,10 @@ class DeltaGeometry:
             raise GeometryError(f"rod lengths must be positive, got {self.rod_length.tolist()}")
         if "tcp" in pts:
             raise GeometryError("'tcp' is reserved for the tool centre point")
+        if self.joint == "revolute" and np.any(self.joint_scale != 1.0):
+            raise GeometryError(f"a revolute chain's joint_scale must be 1, got {self.joint_scale.tolist()}")
+        if np.any(self.joint_scale <= 0.0):
+            raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
 
     # ------------------------------------------------------------------ frames
     @property
@@ -396,41 +424,72 @@ class DeltaGeometry:
         rotation.setflags(write=False)  # cached by a frozen geometry: not to be changed through it
         return rotation
 
+    def joint_coordinate(self, q: np.ndarray) -> np.ndarray:
+        """True joint coordinates ``θ = joint_scale q + encoder_offset`` [rad or mm], (N, 3)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
+            return q + self.encoder_offset
+        return self.joint_scale * q + self.encoder_offset
+
     def arm_rotation(self, q: np.ndarray) -> np.ndarray:
-        """Rotation of each arm frame in {O} at readings q.
+        """Rotation of each arm (or carriage) frame in {O} at readings q.
 
         Args:
-            q: Joint readings [rad], shape (N, 3).
+            q: Joint readings [rad or mm], shape (N, 3).
 
         Returns:
             Rotations, shape (N, 3, 3, 3) (pose, limb, 3x3).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.joint == "prismatic":  # a carriage slides without turning
+            return np.broadcast_to(self.actuator_rotation(), (q.shape[0], 3, 3, 3)).copy()
         return self.actuator_rotation()[None] @ rotation_about_y(q + self.encoder_offset)
 
     def arm_balls_in_base(self, q: np.ndarray) -> np.ndarray:
         """Arm-side ball centres in {O} at readings q.
 
         Args:
-            q: Joint readings [rad], shape (N, 3).
+            q: Joint readings [rad or mm], shape (N, 3).
 
         Returns:
             Ball centres A_ij [mm], shape (N, 3, 2, 3).
         """
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        # each ball on its circle (arm_frame_circle): elementwise products are several times
+        # each ball on its path (chains.carried_points): elementwise products are several times
         # faster than a batched (N, 3, 3, 3) matrix product and einsum
-        theta = (q + self.encoder_offset)[:, :, None, None]  # (N, 3, 1, 1)
-        centre, along_cos, along_sin = self.arm_ball_circle
-        return centre + np.cos(theta) * along_cos + np.sin(theta) * along_sin
+        theta = self.joint_coordinate(q)[:, :, None, None]  # (N, 3, 1, 1)
+        centre, along_f, along_g = self.arm_ball_path
+        f, g = path_terms(self.joint, theta)
+        return centre + f * along_f + g * along_g
+
+    def arm_ball_velocity(self, q: np.ndarray) -> np.ndarray:
+        """dA_ij/dq_i: each arm ball's motion per unit of its own reading [mm/rad or mm/mm], (N, 3, 2, 3)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        theta = self.joint_coordinate(q)[:, :, None, None]
+        _, along_f, along_g = self.arm_ball_path
+        f, g = path_slopes(self.joint, theta)
+        return self.joint_scale[None, :, None, None] * (f * along_f + g * along_g)
 
     @cached_property
-    def arm_ball_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The arm balls' circles, ``A_ij = C_ij + cos θ_i U_ij + sin θ_i V_ij``: C, U, V, each (3, 2, 3)."""
-        circle = arm_frame_circle(self.axis_point, self._actuator_rotation, self.arm_ball)
-        for v in circle:
+    def arm_ball_path(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The arm balls' paths, ``A_ij = C_ij + f(θ_i) U_ij + g(θ_i) V_ij``: C, U, V, each (3, 2, 3).
+
+        f and g are the chain's (:mod:`deltacal.chains`): cos and sin, or θ and 0.
+        """
+        path = carried_points(self.joint, self.axis_point, self._actuator_rotation, self.arm_ball)
+        for v in path:
             v.setflags(write=False)  # cached by a frozen geometry: not to be changed through it
-        return circle
+        return path
+
+    @property
+    def arm_ball_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A revolute chain's arm-ball circles, ``A_ij = C_ij + cos θ_i U_ij + sin θ_i V_ij``: C, U, V.
+
+        Raises:
+            GeometryError: the chain is prismatic (its balls move on lines: :attr:`arm_ball_path`).
+        """
+        if self.joint != "revolute":
+            raise GeometryError("a prismatic chain's balls move on lines, not circles: use arm_ball_path")
+        return self.arm_ball_path
 
     def point(self, name: str) -> np.ndarray:
         """A named point of the plate in the plate frame [mm]; ``"tcp"`` is the tool."""
@@ -453,14 +512,17 @@ class DeltaGeometry:
         The actuator axes (points and directions) turn and shift; each actuator frame
         turns rigidly, so where the derived zero direction (``r_i`` made orthogonal to the
         new axis) differs from the turned one, the difference goes into the encoder
-        offset. Everything held in the arm and plate frames is unchanged. At the same
-        readings the plate of the moved robot is the moved plate.
+        offset (a prismatic chain: into its carriage's balls, which a slide does not turn).
+        Everything else held in the arm and plate frames is unchanged. At the same readings
+        the plate of the moved robot is the moved plate.
         """
         R = np.asarray(rotation, dtype=float).reshape(3, 3)
         t = np.asarray(translation, dtype=float).reshape(3)
         turned = np.einsum("kl,ilm->ikm", R, self.actuator_rotation())
         moved = replace(self, axis_point=self.axis_point @ R.T + t, axis_direction=turned[:, :, 1])
         rel = np.einsum("ilk,ilm->ikm", moved.actuator_rotation(), turned)  # a rotation about y
+        if self.joint == "prismatic":  # a carriage turned about its tower: its balls turn with it
+            return replace(moved, arm_ball=np.einsum("ikl,ijl->ijk", rel, self.arm_ball))
         return replace(moved, encoder_offset=self.encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]))
 
     # ------------------------------------------------------------ perturbation
@@ -469,14 +531,19 @@ class DeltaGeometry:
         return replace(self, tool=np.asarray(tool, dtype=float))
 
     def with_errors(self, errors: dict[str, float]) -> DeltaGeometry:
-        """The robot with individual errors added, by name (see :func:`error_names`).
+        """The robot with individual errors added, by name (see :func:`error_names` of its joint).
 
         Args:
-            errors: Name to deviation, in [mm] or [rad].
+            errors: Name to deviation, in [mm] or [rad] (``joint_scale``: no unit).
 
         Returns:
             A new geometry.
         """
+        known = set(error_names(self.joint))
+        wrong = [n for n in errors if _NAME_RE.match(n) is not None and n not in known]
+        if wrong:
+            raise GeometryError(f"error name {wrong[0]!r} does not apply to a {self.joint} chain")
+        joint_scale = np.array(self.joint_scale)
         axis_point = np.array(self.axis_point)
         axis_direction = np.array(self.axis_direction)
         encoder_offset = np.array(self.encoder_offset)
@@ -505,13 +572,15 @@ class DeltaGeometry:
             elif m.group("rod"):
                 rod_length[i, int(m.group("rod")) - 1] += value
             elif m.group("tilt"):
-                tilts[i, "rz".index(m.group("tilt"))] += value
-            else:
+                tilts[i, 0 if m.group("tilt") == "r" else 1] += value
+            elif m.group("offset"):
                 encoder_offset[i] += value
+            else:
+                joint_scale[i] += value
         if np.any(tilts):
             r = self.radial
-            z = np.array([0.0, 0.0, 1.0])
-            rotvec = tilts[:, :1] * r + tilts[:, 1:] * z
+            second = np.array([0.0, 0.0, 1.0]) if self.joint == "revolute" else self.tangent
+            rotvec = tilts[:, :1] * r + tilts[:, 1:] * second
             axis_direction = np.einsum("ikl,il->ik", rotation_from_vector(rotvec), axis_direction)
             axis_direction /= np.linalg.norm(axis_direction, axis=1, keepdims=True)
         return replace(
@@ -523,6 +592,7 @@ class DeltaGeometry:
             plate_ball=plate_ball,
             rod_length=rod_length,
             tool=tool,
+            joint_scale=joint_scale,
         )
 
     def perturbed(self, tolerances: Tolerances, rng: np.random.Generator) -> DeltaGeometry:
@@ -536,7 +606,7 @@ class DeltaGeometry:
             A new geometry.
         """
         errors: dict[str, float] = {}
-        for name in error_names():
+        for name in error_names(self.joint):
             if name.startswith("tool."):
                 sigma = tolerances.tool
             elif ".axis_point." in name:
@@ -545,6 +615,8 @@ class DeltaGeometry:
                 sigma = tolerances.axis_direction
             elif name.endswith("encoder_offset"):
                 sigma = tolerances.encoder_offset
+            elif name.endswith("joint_scale"):
+                sigma = tolerances.joint_scale
             elif "_ball" in name:
                 sigma = tolerances.ball_centre
             else:
@@ -558,14 +630,19 @@ class DeltaGeometry:
         dw = self.axis_direction - other.axis_direction
         r = other.radial
         w = other.axis_direction
+        tilt = _second_tilt(other.joint)
+        second = np.array([0.0, 0.0, 1.0]) if tilt == "z" else None
         for i in range(3):
             n = f"limb{i + 1}"
             for k, a in enumerate(AXES):
                 out[f"{n}.axis_point.{a}"] = float(self.axis_point[i, k] - other.axis_point[i, k])
-            # dw = (tilt_r r + tilt_z z) x w to first order
+            # dw = (tilt_r r + tilt_2 s) x w to first order (s: z, or t_i for a tower)
             out[f"{n}.axis_tilt_r"] = float(np.dot(np.cross(w[i], dw[i]), r[i]))
-            out[f"{n}.axis_tilt_z"] = float(np.cross(w[i], dw[i])[2])
+            s_i = other.tangent[i] if second is None else second
+            out[f"{n}.axis_tilt_{tilt}"] = float(np.dot(np.cross(w[i], dw[i]), s_i))
             out[f"{n}.encoder_offset"] = float(self.encoder_offset[i] - other.encoder_offset[i])
+            if other.joint == "prismatic":
+                out[f"{n}.joint_scale"] = float(self.joint_scale[i] - other.joint_scale[i])
             for j in range(2):
                 for k, a in enumerate(AXES):
                     out[f"{n}.arm_ball{j + 1}.{a}"] = float(
@@ -605,9 +682,10 @@ class DeltaGeometry:
             "plate_ball",
             "rod_length",
             "tool",
+            "joint_scale",
             "compliance",
         )
-        if set(self.points) != set(other.points) or self.masses != other.masses:
+        if set(self.points) != set(other.points) or self.joint != other.joint or self.masses != other.masses:
             return False
         same = all(np.allclose(getattr(self, k), getattr(other, k), atol=atol, rtol=0) for k in keys)
         return same and all(

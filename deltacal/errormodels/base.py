@@ -40,6 +40,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..exceptions import GeometryError
 from ..geometry import DeltaGeometry, arm_frame_circle
 from ..kinematics import batch3 as b3
 from ..kinematics import exact
@@ -100,6 +101,9 @@ def elementary_jacobian(
     """
     q = np.atleast_2d(q)
     N = q.shape[0]
+    if geometry.joint != "revolute":  # the elementary moves are a rotary Delta's, so far
+        raise GeometryError(f"the error models serve rotary Delta robots; "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
     if moves is not None:
         return _moved_rods(geometry, q, pose, np.asarray(moves, dtype=float))
     A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)

@@ -184,6 +184,9 @@ def _reserved_names() -> set[str]:
 
 
 def _check_point_names(geometry: DeltaGeometry) -> None:
+    if geometry.joint != "revolute":  # hinges only, so far
+        raise GeometryError(f"the MJCF export builds rotary Delta robots (hinge joints); "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
     taken = _reserved_names()
     for name in geometry.points:
         if name in taken:

@@ -29,10 +29,11 @@ from .geometry_file import (
     load_geometry,
     save_geometry,
 )
+from .klipper import KlipperConfig, load_klipper, read_klipper_config
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
-from .robot import load_nominal
+from .robot import load_nominal, load_printer, load_robot
 from .tables import (
     JOINT_COLUMNS,
     MEASUREMENT_COLUMNS,
@@ -96,6 +97,11 @@ __all__ = [
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",
+    "load_printer",
+    "load_robot",
+    "load_klipper",
+    "read_klipper_config",
+    "KlipperConfig",
     "name_problem",
     "radians_from_text",
     "read_csv_table",

@@ -21,7 +21,15 @@ CALIBRATION_FORMAT = "deltacal-calibration-1"
 
 
 def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
-    """The TOML tables of a DeltaGeometry (mm, deg), as written by :func:`save_geometry`."""
+    """The TOML tables of a DeltaGeometry (mm, deg), as written by :func:`save_geometry`.
+
+    Raises:
+        GeometryError: a linear Delta's geometry (a prismatic chain), which this format (of
+            rotary Deltas: encoder offsets in degrees) cannot carry yet.
+    """
+    if geometry.joint != "revolute":
+        raise GeometryError(f"the {GEOMETRY_FORMAT!r} format holds rotary Delta robots; "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
     limbs = []
     for i in range(3):
         limbs.append(
@@ -124,10 +132,9 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     table = top.table("compliance", required=False)
     compliance = np.zeros(3) if table is None else _compliance_from_table(table)
     try:
-        return DeltaGeometry(
-            **{k: np.array(v) for k, v in fields.items()}, tool=tool, points=points, name=name,
-            masses=masses, compliance=compliance,
-        )
+        arrays: dict[str, Any] = {k: np.array(v) for k, v in fields.items()}
+        return DeltaGeometry(**arrays, tool=tool, points=points, name=name, masses=masses,
+                             compliance=compliance)
     except GeometryError as exc:
         raise InputError(str(exc), source) from None
 

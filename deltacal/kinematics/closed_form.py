@@ -13,13 +13,14 @@ Units: mm and rad. Batches: positions (N, 3), readings (N, 3).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
-from ..exceptions import AssemblyError, UnreachableError
-from ..geometry import DeltaGeometry, NominalDelta, arm_frame_circle
+from ..chains import carried_points, path_slopes, path_terms
+from ..exceptions import AssemblyError, GeometryError, UnreachableError
+from ..geometry import DeltaGeometry, NominalDelta
 from . import batch3 as b3
 
 
@@ -34,6 +35,10 @@ class VirtualDelta:
         elbow: Elbow midpoint E_i in the arm frame [mm], (3, 3).
         plate_attachment: a_i, the virtual rod's end in the plate frame [mm], (3, 3).
         rod_length: Virtual rod lengths [mm], (3,).
+        joint: The actuated chain, ``"revolute"`` or ``"prismatic"`` (:mod:`deltacal.chains`):
+            for a prismatic one the "elbow" is the carriage's ball-pair midpoint in its frame,
+            the readings are travels [mm] and the offsets endstop errors [mm].
+        joint_scale: True joint coordinate per unit reading, (3,).
     """
 
     axis_point: np.ndarray
@@ -42,6 +47,8 @@ class VirtualDelta:
     elbow: np.ndarray
     plate_attachment: np.ndarray
     rod_length: np.ndarray
+    joint: str = "revolute"
+    joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     @classmethod
     def from_nominal(cls, nominal: NominalDelta) -> VirtualDelta:
@@ -61,33 +68,52 @@ class VirtualDelta:
             elbow=geometry.arm_ball.mean(axis=1),
             plate_attachment=geometry.plate_ball.mean(axis=1),
             rod_length=geometry.rod_length.mean(axis=1),
+            joint=geometry.joint,
+            joint_scale=np.array(geometry.joint_scale),
         )
 
     # ------------------------------------------------------------- helpers
     @cached_property
-    def elbow_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Elbow circles about the axes, ``E_i = C_i + cos θ_i U_i + sin θ_i V_i``: C, U, V, each (3, 3).
+    def elbow_path(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Elbow paths, ``E_i = C_i + f(θ_i) U_i + g(θ_i) V_i``: C, U, V, each (3, 3).
 
-        θ is the true angle; :func:`~deltacal.geometry.arm_frame_circle` (rows are limbs).
+        θ is the true joint coordinate; :func:`~deltacal.chains.carried_points` (rows are limbs).
         """
-        circle = arm_frame_circle(self.axis_point, self.actuator_rotation, self.elbow[:, None])
-        centre, along_cos, along_sin = (np.array(v[:, 0]) for v in circle)
-        for v in (centre, along_cos, along_sin):
+        path = carried_points(self.joint, self.axis_point, self.actuator_rotation, self.elbow[:, None])
+        centre, along_f, along_g = (np.array(v[:, 0]) for v in path)
+        for v in (centre, along_f, along_g):
             v.setflags(write=False)
-        return centre, along_cos, along_sin
+        return centre, along_f, along_g
+
+    @property
+    def elbow_circle(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A revolute chain's elbow circles, ``E_i = C_i + cos θ_i U_i + sin θ_i V_i``: C, U, V.
+
+        Raises:
+            GeometryError: the chain is prismatic (:attr:`elbow_path`).
+        """
+        if self.joint != "revolute":
+            raise GeometryError("a prismatic chain's elbows move on lines, not circles: use elbow_path")
+        return self.elbow_path
+
+    def _theta(self, q: np.ndarray) -> np.ndarray:
+        """True joint coordinates at readings q, (N, 3, 1)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
+            return (q + self.encoder_offset)[..., None]
+        return (self.joint_scale * q + self.encoder_offset)[..., None]
 
     def elbows(self, q: np.ndarray) -> np.ndarray:
-        """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad]."""
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        theta = (q + self.encoder_offset)[..., None]
-        base, cos_term, sin_term = self.elbow_circle
-        return base + np.cos(theta) * cos_term + np.sin(theta) * sin_term
+        """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad or mm]."""
+        f, g = path_terms(self.joint, self._theta(q))
+        base, along_f, along_g = self.elbow_path
+        return base + f * along_f + g * along_g
 
-    def _elbow_derivative(self, q: np.ndarray) -> np.ndarray:
-        """dE_i/dq_i [mm/rad], shape (N, 3, 3): rotation about the axis w_i."""
-        E = self.elbows(q)
-        w = self.actuator_rotation[:, :, 1]
-        return np.cross(w[None], E - self.axis_point[None])
+    def elbow_velocity(self, q: np.ndarray) -> np.ndarray:
+        """dE_i/dq_i [mm/rad or mm/mm], shape (N, 3, 3): each elbow's motion per unit of its reading."""
+        f, g = path_slopes(self.joint, self._theta(q))
+        _, along_f, along_g = self.elbow_path
+        return self.joint_scale[:, None] * (f * along_f + g * along_g)
 
     # ------------------------------------------------------------ kinematics
     def forward(self, q: np.ndarray, check: bool = True) -> np.ndarray:
@@ -151,6 +177,8 @@ class VirtualDelta:
             Readings [rad], shape (N, 3).
         """
         x = np.atleast_2d(np.asarray(x, dtype=float))
+        if self.joint == "prismatic":
+            return self._inverse_prismatic(x, check)
         # d in actuator frames: X - p_i, X = x + a_i
         # d = X - p_i in the actuator frames, coordinate by coordinate: (N, 3) arrays, limbs last
         offset = self.plate_attachment - self.axis_point
@@ -178,6 +206,26 @@ class VirtualDelta:
                 raise UnreachableError.from_mask(bad, x)
         return q
 
+    def _inverse_prismatic(self, x: np.ndarray, check: bool) -> np.ndarray:
+        """IPR_S of a prismatic chain: the travel that puts each carriage's elbow above the plate point.
+
+        With ``D = x + a_i − C_i`` (C_i the elbow at zero travel) and the elbow at ``C_i − θ w_i``,
+        ``|D + θ w_i| = l_i`` gives ``θ = −D·w − sqrt((D·w)² − |D|² + l²)``: the root with the
+        carriage above the plate point along its tower.
+        """
+        centre, _, _ = self.elbow_path
+        w = self.actuator_rotation[:, :, 1]
+        D = x[:, None, :] + (self.plate_attachment - centre)[None]  # (N, 3, 3)
+        along = np.sum(D * w, axis=2)
+        with np.errstate(invalid="ignore"):
+            theta = -along - np.sqrt(along * along - np.sum(D * D, axis=2) + self.rod_length**2)
+        q = (theta - self.encoder_offset) / self.joint_scale
+        if check:
+            bad = ~np.all(np.isfinite(q), axis=1)
+            if np.any(bad):
+                raise UnreachableError.from_mask(bad, x)
+        return q
+
     def velocity_matrices(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The two sides of the velocity constraint ``A xdot = B qdot``.
 
@@ -190,7 +238,7 @@ class VirtualDelta:
         q = np.atleast_2d(np.asarray(q, dtype=float))
         x = self.forward(q)
         n = x[:, None, :] + self.plate_attachment[None] - self.elbows(q)
-        dE = self._elbow_derivative(q)
+        dE = self.elbow_velocity(q)
         B = np.zeros((q.shape[0], 3, 3))
         idx = np.arange(3)
         B[:, idx, idx] = np.sum(n * dE, axis=2)

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..chains import MAX_STEP, path_slopes, path_terms
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry
 from ..rotations import vector_from_rotation
@@ -143,12 +144,10 @@ def plate_displacement(
     return out
 
 
-def _joint_jacobian(geometry: DeltaGeometry, A: np.ndarray, d: np.ndarray, dist: np.ndarray):
+def _joint_jacobian(geometry: DeltaGeometry, q: np.ndarray, d: np.ndarray, dist: np.ndarray):
     """d(|d_ij|)/dq, shape (N, 6, 3): only the rod's own actuator moves its arm ball."""
     n = d / dist[..., None]
-    w = geometry.axis_direction / np.linalg.norm(geometry.axis_direction, axis=1, keepdims=True)
-    arm = A.reshape(-1, 3, 2, 3) - geometry.axis_point[None, :, None, :]
-    dA = np.cross(w[None, :, None, :], arm).reshape(-1, 6, 3)
+    dA = geometry.arm_ball_velocity(q).reshape(-1, 6, 3)  # the chain's motion (deltacal.chains)
     out = np.zeros(d.shape[:2] + (3,))
     limb = np.repeat(np.arange(3), 2)
     out[:, np.arange(6), limb] = -np.sum(n * dA, axis=2)
@@ -171,43 +170,51 @@ BLOCK = 1024
 class _Rods:
     """A geometry's rods in the solvers' component-first layout (rod k = 2 i + j, limb i).
 
-    The arm ball of rod k at reading q_i is ``base_k + cos(θ_i) cos_k + sin(θ_i) sin_k`` with
-    ``θ_i = q_i + encoder_offset_i`` (:attr:`DeltaGeometry.arm_ball_circle`).
+    The arm ball of rod k at reading q_i is ``base_k + f(θ_i) along_f_k + g(θ_i) along_g_k`` with
+    ``θ_i = scale_i q_i + encoder_offset_i`` and f, g the chain's (:attr:`DeltaGeometry.arm_ball_path`).
     """
 
+    joint: str  # the actuated chain (deltacal.chains)
     base: np.ndarray  # (3, 6, 1)
-    cos_coef: np.ndarray  # (3, 6, 1)
-    sin_coef: np.ndarray  # (3, 6, 1)
+    along_f: np.ndarray  # (3, 6, 1)
+    along_g: np.ndarray  # (3, 6, 1)
     offset: np.ndarray  # (3, 1)
+    scale: np.ndarray  # (3, 1)
     plate: np.ndarray  # (6, 3): plate balls in the plate frame
     length: np.ndarray  # (6, 1)
-    axis_point: np.ndarray  # (3, 6, 1): the rod's actuator axis point
-    axis: np.ndarray  # (3, 6, 1): the rod's unit actuator axis
-    axis_z: float  # the lowest axis point's z [mm]: assembled plates are below it
+    axis_z: float  # the lowest axis point's z [mm]: a rotary Delta's assembled plates are below it
 
     @classmethod
     def of(cls, geometry: DeltaGeometry) -> _Rods:
-        limb = np.repeat(np.arange(3), 2)
-        centre, along_cos, along_sin = geometry.arm_ball_circle
+        centre, along_f, along_g = geometry.arm_ball_path
         col = lambda v: np.ascontiguousarray(v.reshape(6, 3).T)[:, :, None]  # noqa: E731  -> (3, 6, 1)
         return cls(
+            joint=geometry.joint,
             base=col(centre),
-            cos_coef=col(along_cos),
-            sin_coef=col(along_sin),
+            along_f=col(along_f),
+            along_g=col(along_g),
             offset=np.asarray(geometry.encoder_offset, dtype=float)[:, None],
+            scale=np.asarray(geometry.joint_scale, dtype=float)[:, None],
             plate=np.array(geometry.plate_ball.reshape(6, 3)),
             length=geometry.rod_length.reshape(6, 1),
-            axis_point=col(geometry.axis_point[limb]),
-            axis=col(geometry.actuator_rotation()[limb, :, 1]),
             axis_z=float(geometry.axis_point[:, 2].min()),
         )
 
+    def _theta(self, q: np.ndarray) -> np.ndarray:
+        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
+            return q + self.offset
+        return self.scale * q + self.offset
+
     def arm_balls(self, q: np.ndarray) -> np.ndarray:
         """Arm balls A_k in {O} at readings q (3, N), shape (3, 6, N)."""
-        theta = q + self.offset
-        c = np.repeat(np.cos(theta), 2, axis=0)
-        s = np.repeat(np.sin(theta), 2, axis=0)
-        return self.base + c * self.cos_coef + s * self.sin_coef
+        f, g = path_terms(self.joint, self._theta(q))
+        return self.base + np.repeat(f, 2, axis=0) * self.along_f + np.repeat(g, 2, axis=0) * self.along_g
+
+    def arm_ball_slopes(self, q: np.ndarray) -> np.ndarray:
+        """dA_k/dq_i of each rod's arm ball by its own reading at readings q (3, N), shape (3, 6, N)."""
+        f, g = path_slopes(self.joint, self._theta(q))
+        f, g = (np.repeat(self.scale * v, 2, axis=0) for v in (f, g))
+        return f * self.along_f + g * self.along_g
 
     def rods(self, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Residuals ``|d_k| - l_k`` (6, N) and unit directions (3, 6, N) of rod vectors d (3, 6, N)."""
@@ -383,7 +390,7 @@ def forward(
         p, R, residual[b], done[b] = _forward_block(rods, q[b].T, p0, R0, tol, max_iter)
         position[b] = p.T
         rotation[b] = R.transpose(2, 0, 1)
-    bad = ~(done & (residual < 1e3 * tol) & (position[:, 2] < rods.axis_z))
+    bad = ~(done & (residual < 1e3 * tol) & (position[:, 2] < _ceiling(geometry, rods, q)))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         known = residual[bad & np.isfinite(residual)]
@@ -399,6 +406,17 @@ def forward(
     return PlatePose(position, rotation)
 
 
+def _ceiling(geometry: DeltaGeometry, rods: _Rods, q: np.ndarray) -> np.ndarray | float:
+    """Height the plate origin of the working assembly stays below [mm].
+
+    The actuator axes of a rotary Delta; each pose's lowest carriage ball of a linear one (the
+    effector hangs below its carriages).
+    """
+    if rods.joint == "revolute":
+        return rods.axis_z
+    return geometry.arm_balls_in_base(q)[..., 2].reshape(q.shape[0], -1).min(axis=1)
+
+
 def forward_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) -> np.ndarray:
     """Plate twist per joint rate at an assembled pose: ``dX = J dq`` with X = (p, phi).
 
@@ -408,9 +426,9 @@ def forward_jacobian(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose) ->
         J [mm/rad and rad/rad], shape (N, 6, 3).
     """
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    A, d, dist, RB = _rod_terms(geometry, q, pose.position, pose.rotation)
+    _, d, dist, RB = _rod_terms(geometry, q, pose.position, pose.rotation)
     JX = _pose_jacobian(d, dist, RB)
-    Jq = _joint_jacobian(geometry, A, d, dist)
+    Jq = _joint_jacobian(geometry, q, d, dist)
     return -np.linalg.solve(JX, Jq)
 
 
@@ -429,7 +447,7 @@ def _inverse_step(rods: _Rods, target: np.ndarray, lever: np.ndarray, q: np.ndar
     r, n = rods.rods(RB + target[:, None] - A)
     if np.all(np.abs(r) <= tol):
         return r, None
-    g = -b3.dot(n, b3.cross(rods.axis, A - rods.axis_point))  # d r_k / d q_i
+    g = -b3.dot(n, rods.arm_ball_slopes(q))  # d r_k / d q_i
     m = b3.cross(RB, n)
     g1, g2, r1, r2 = g[0::2], g[1::2], r[0::2], r[1::2]
     m1, m2 = m[:, 0::2], m[:, 1::2]  # (component, limb, N)
@@ -463,7 +481,7 @@ def inverse(
     Batched Newton on the six rod equations with the plate origin eliminated by the point's
     position (6 unknowns: q and the plate rotation; see :func:`_inverse_step`), in blocks of
     :data:`BLOCK` targets. Joint steps are limited to 0.2 rad, so a far start cannot jump to
-    another branch.
+    another branch (a prismatic chain's: :data:`~deltacal.chains.MAX_STEP`).
 
     Args:
         geometry: The robot.
@@ -474,7 +492,7 @@ def inverse(
         max_iter: Newton iterations at most.
 
     Returns:
-        Readings [rad], shape (N, 3).
+        Readings [rad], shape (N, 3) ([mm] for a prismatic chain).
 
     Raises:
         UnreachableError: naming the targets out of reach or where Newton failed.
@@ -490,13 +508,14 @@ def inverse(
         q_all = np.array(start, dtype=float).reshape(N, 3)
     residual = np.empty(N)
     done = np.empty(N, dtype=bool)
+    max_step = MAX_STEP[geometry.joint]
 
     def step(t, q, R):
         r, solved = _inverse_step(rods, t, lever, q, R, tol)
         if solved is None:
             return r, None, None
         dq, dphi = solved
-        limit = np.minimum(1.0, 0.2 / np.maximum(np.max(np.abs(dq), axis=0), 1e-300))
+        limit = np.minimum(1.0, max_step / np.maximum(np.max(np.abs(dq), axis=0), 1e-300))
         dq *= limit
         dphi *= limit
         moved = np.maximum(np.max(np.abs(dq), axis=0), np.max(np.abs(dphi), axis=0))

@@ -6,6 +6,10 @@ The robot is built as a kinematic tree closed by ball joints:
   ``SE3(R0_i @ Ry(encoder_offset_i), axis_point_i)``, revolute about the local
   y axis, so the joint value *is* the reading q_i; the encoder offset and the
   axis misalignment live in the placement (geometry module, arm frame);
+  or, for a linear Delta (a prismatic chain, :mod:`deltacal.chains`), three carriages on
+  prismatic joints along the local y axis (up the tower) placed at
+  ``SE3(R0_i, axis_point_i − encoder_offset_i w_i)``: the joint value is ``−joint_scale_i q_i``
+  (a reading is a travel down the tower);
 * six rods on spherical joints placed at the arm balls ``arm_ball[i, j]`` (arm
   frame); the rod hangs along its body's local -z axis and its far ball
   centre is the point ``(0, 0, -rod_length[i, j])`` of the rod body;
@@ -64,6 +68,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..chains import MAX_STEP, WARM_RADIUS
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, Masses
 from ..rotations import rotation_about_y
@@ -74,8 +79,6 @@ from .exact import PlatePose
 TOLERANCE = 1e-12
 #: A solve stalled on the floating-point floor is accepted below this residual [mm].
 ACCEPT = 1e-10
-#: Largest arm step of one inverse-kinematics iteration [rad]: keeps the knee-out branch.
-_MAX_ARM_STEP = 0.2
 #: Gravity along -z of {O} in the model's units [mm/s²] (conventions: 9.81 m/s²).
 GRAVITY_MM = 9810.0
 #: Generalised forces of the model (kg mm²/s² per rad) in N m.
@@ -140,7 +143,8 @@ class DeltaMultibody:
         tol: Target closure residual [mm].
         max_iter: Newton iterations at most (Levenberg-Marquardt then gets ten times more).
         warm_radius: The last assembly warm-starts a solve when the readings moved by
-            less than this in each joint [rad]; otherwise the closed-form pose is used.
+            less than this in each joint [rad or mm; default: the chain's
+            :data:`~deltacal.chains.WARM_RADIUS`]; otherwise the closed-form pose is used.
         payload: A point mass at the TCP [kg] (statics only).
     """
 
@@ -149,7 +153,7 @@ class DeltaMultibody:
         geometry: DeltaGeometry,
         tol: float = TOLERANCE,
         max_iter: int = 20,
-        warm_radius: float = math.radians(5.0),
+        warm_radius: float | None = None,
         payload: float = 0.0,
     ) -> None:
         if not (math.isfinite(payload) and payload >= 0.0):
@@ -159,7 +163,8 @@ class DeltaMultibody:
         self._massive = not geometry.masses.is_zero or self.payload > 0.0
         self.tol = float(tol)
         self.max_iter = int(max_iter)
-        self.warm_radius = float(warm_radius)
+        self.warm_radius = float(WARM_RADIUS[geometry.joint] if warm_radius is None else warm_radius)
+        self._max_arm_step = MAX_STEP[geometry.joint]
         self._virtual = VirtualDelta.from_geometry(geometry)
         self._z_base = float(geometry.axis_point[:, 2].min())
         model = pin.Model()
@@ -179,26 +184,45 @@ class DeltaMultibody:
         self._last: np.ndarray | None = None
 
     # ------------------------------------------------------------ building
+    def _add_actuator(self, model: pin.Model, i: int) -> int:
+        """Joint of actuator i (revolute arm or prismatic carriage) with its body.
+
+        A revolute arm is a slender bar [kg, mm]: with masses, the arm's mass half-way from the axis
+        to its elbow (conventions); without, a placeholder 1 kg at the elbow. A carriage is a
+        placeholder 0.2 kg box (linear Deltas have no statics yet).
+        """
+        g = self.geometry
+        R0 = g.actuator_rotation()
+        com = g.arm_ball[i].mean(axis=0)
+        if g.joint == "prismatic":
+            place = pin.SE3(R0[i], g.axis_point[i] - g.encoder_offset[i] * R0[i][:, 1])
+            jid = model.addJoint(0, pin.JointModelPY(), place, f"carriage{i + 1}")
+            # placeholder inertia: a 0.2 kg carriage [kg, mm]
+            model.appendBodyToJoint(jid, pin.Inertia.FromBox(0.2, 60.0, 20.0, 60.0), pin.SE3(np.eye(3), com))
+            return jid
+        placement_rot = R0 @ rotation_about_y(g.encoder_offset)
+        jid = model.addJoint(0, pin.JointModelRY(), pin.SE3(placement_rot[i], g.axis_point[i]), f"arm{i + 1}")
+        arm_length = float(np.linalg.norm(com))
+        mass, centre = (g.masses.arm, 0.5 * com) if self._massive else (1.0, com)
+        bar = mass * np.diag([1.0, arm_length**2, arm_length**2]) / 12.0
+        model.appendBodyToJoint(jid, pin.Inertia(mass, centre, bar), pin.SE3.Identity())
+        return jid
+
+    def _joint_values(self, q: np.ndarray) -> np.ndarray:
+        """Actuator joint values of readings q (revolute: the readings; prismatic: ``−scale q``)."""
+        if self.geometry.joint == "prismatic":
+            return -self.geometry.joint_scale * q
+        return q
+
     def _build(self, model: pin.Model) -> None:
         g = self.geometry
         masses: Masses = g.masses
-        R0 = g.actuator_rotation()
-        placement_rot = R0 @ rotation_about_y(g.encoder_offset)
-        arm_length = np.linalg.norm(g.arm_ball.mean(axis=1), axis=1)
         self._arm_joints: list[int] = []
         self._rod_joints: list[int] = []
         # depth first (each arm then its rods): Pinocchio wants every subtree's
         # velocities contiguous (model.check, CRBA)
         for i in range(3):
-            jid = model.addJoint(
-                0, pin.JointModelRY(), pin.SE3(placement_rot[i], g.axis_point[i]), f"arm{i + 1}"
-            )
-            # a slender bar along the arm [kg, mm]: the arm's mass half-way to its elbow (placeholder 1 kg
-            # at the elbow for a kinematic model)
-            elbow = g.arm_ball[i].mean(axis=0)
-            m_arm, com = (masses.arm, 0.5 * elbow) if self._massive else (1.0, elbow)
-            bar = m_arm * np.diag([1.0, arm_length[i] ** 2, arm_length[i] ** 2]) / 12.0
-            model.appendBodyToJoint(jid, pin.Inertia(m_arm, com, bar), pin.SE3.Identity())
+            jid = self._add_actuator(model, i)
             self._arm_joints.append(jid)
             for j in range(2):
                 rid = model.addJoint(
@@ -267,8 +291,11 @@ class DeltaMultibody:
         return list(self._frames)
 
     def readings_of(self, configuration: np.ndarray) -> np.ndarray:
-        """Arm readings q [rad] of a full configuration, shape (3,)."""
-        return np.array(configuration)[self._arm_q]
+        """Readings q [rad, or mm for a prismatic chain] of a full configuration, shape (3,)."""
+        values = np.array(configuration)[self._arm_q]
+        if self.geometry.joint == "prismatic":
+            return -values / self.geometry.joint_scale
+        return values
 
     def plate_placement(self, configuration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Plate position [mm] (3,) and rotation (3, 3) in {O} of a full configuration."""
@@ -356,8 +383,8 @@ class DeltaMultibody:
                 break
             if system.arm_columns.size:
                 big = np.max(np.abs(dv[system.arm_columns]))
-                if big > _MAX_ARM_STEP:
-                    dv *= _MAX_ARM_STEP / big
+                if big > self._max_arm_step:
+                    dv *= self._max_arm_step / big
             x_new = self._step(x, dv, system)
             e, J = self._evaluate(x_new, system)
             res_new = float(np.max(np.abs(e)))
@@ -429,7 +456,7 @@ class DeltaMultibody:
         else:
             x = np.asarray(position, dtype=float)
         config = pin.neutral(self._model)
-        config[self._arm_q] = q
+        config[self._arm_q] = self._joint_values(q)
         config[self._plate_q : self._plate_q + 3] = x
         pin.forwardKinematics(self._model, self._data, config)
         oMi = self._data.oMi
@@ -446,10 +473,17 @@ class DeltaMultibody:
         return config
 
     def _accept_branch(self, x: np.ndarray) -> bool:
-        """Working assembly mode: plate below the actuator axes and not turned over."""
+        """Working assembly mode: plate below the actuator axes and not turned over.
+
+        A linear Delta's effector hangs below its carriages' balls.
+        """
         p = x[self._plate_q : self._plate_q + 3]
         R = pin.XYZQUATToSE3(np.array(x[self._plate_q : self._plate_q + 7])).rotation
-        return bool(p[2] < self._z_base and R[2, 2] > 0.0)
+        ceiling = self._z_base
+        if self.geometry.joint == "prismatic":
+            pin.forwardKinematics(self._model, self._data, x)
+            ceiling = min(float(self._data.oMi[rid].translation[2]) for rid in self._rod_joints)
+        return bool(p[2] < ceiling and R[2, 2] > 0.0)
 
     def _solution(self, x: np.ndarray, residual: float, iterations: int, method: str) -> ClosureSolution:
         position, rotation = self.plate_placement(x)
@@ -489,11 +523,11 @@ class DeltaMultibody:
         if start is not None:
             starts.append(np.array(start, dtype=float))
         elif warm and self._last is not None:
-            if np.max(np.abs(self._last[self._arm_q] - q)) <= self.warm_radius:
+            if np.max(np.abs(self.readings_of(self._last) - q)) <= self.warm_radius:
                 starts.append(np.array(self._last))
         used = 0
         for x0 in starts:
-            x0[self._arm_q] = q
+            x0[self._arm_q] = self._joint_values(q)
             try:
                 x, res, it = self._newton(x0, system)
             except _NotConverged as fail:

@@ -27,7 +27,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..exceptions import AssemblyError
+from ..exceptions import AssemblyError, GeometryError
 from ..geometry import DeltaGeometry
 from . import exact
 from .exact import PlatePose
@@ -55,6 +55,14 @@ def payload_per_pose(payload: float | np.ndarray, n: int) -> np.ndarray:
     if np.any(bad):
         raise ValueError(f"payload must be finite non-negative masses [kg], got {m[bad][0]!r}")
     return m
+
+
+def _check_revolute(geometry: DeltaGeometry) -> None:
+    """Statics serve rotary Deltas (arms on revolute joints); a printer's carriages have none yet."""
+    if geometry.joint != "revolute":
+        name = geometry.name or "this geometry"
+        raise GeometryError(f"gravity statics serve rotary Delta robots; {name!r} is a {geometry.joint} "
+                            "chain")
 
 
 def _arm_lever(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
@@ -119,6 +127,7 @@ def gravity_torque(
     payload = payload_per_pose(payload, q.shape[0])
     if m.is_zero and not np.any(payload):
         return np.zeros(q.shape)
+    _check_revolute(geometry)
     pose = exact.forward(geometry, q) if pose is None else pose
     J = exact.forward_jacobian(geometry, q, pose)  # (N, 6, 3)
     plate_balls = np.einsum("nkl,jl->nk", pose.rotation, geometry.plate_ball.reshape(6, 3))  # Σ_j R B_j

@@ -1,0 +1,168 @@
+"""Klipper's model of a linear Delta printer (``[printer] kinematics: delta``): the firmware as a controller.
+
+Klipper's meaning of its values (Config Reference, ``klippy/kinematics/delta.py``), in its frame
+(the bed's, the nozzle's coordinates):
+
+* ``delta_radius`` ρ: horizontal distance from each tower's carriage point to the effector point
+  when the effector is centred; tower i is at ``ρ (cos α_i, sin α_i)`` with ``angle`` α_i
+  (210, 330 and 90 deg unless given);
+* ``arm_length`` ℓ_i: the rod from the carriage point to the effector point (a point effector, one
+  rod per tower);
+* ``position_endstop`` e_i: the nozzle's height when the nozzle is centred and the carriage at its
+  endstop, so the carriage point's height at the endstop is ``E_i = e_i + sqrt(ℓ_i² − ρ²)``;
+* the step distance ``d_i = rotation_distance / (full_steps_per_rotation × microsteps × gear
+  ratio)``.
+
+Inverse kinematics: carriage height ``h_i = sqrt(ℓ_i² − (x − X_i)² − (y − Y_i)²) + z`` and steps
+below the endstop ``(E_i − h_i) / d_i``. Forward: the trilateration of the three spheres of radii
+ℓ_i about ``(X_i, Y_i, E_i − n_i d_i)``, the solution below them. deltacal's readings of a printer
+are travels below the endstops counted in its nominal step distance (:mod:`deltacal.printer`):
+reading = steps × that step distance. Units: mm (angles of the dataclass in rad).
+
+In deltacal's terms Klipper's model is the perfect printer (:meth:`KlipperDelta.from_printer`) with
+``ρ = R − a`` (tower radius minus effector radius), ``ℓ = l``, ``E = H + nozzle_z`` and no
+horizontal nozzle offset.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from ..exceptions import GeometryError, UnreachableError
+from ..geometry import radial_vectors
+from ..kinematics.closed_form import VirtualDelta
+from ..printer import NominalLinearDelta
+
+#: Klipper's tower angles when a ``[stepper_*]`` gives none [deg] (towers A, B, C).
+DEFAULT_ANGLES_DEG = (210.0, 330.0, 90.0)
+#: Klipper's full steps per rotation when a ``[stepper_*]`` gives none.
+DEFAULT_FULL_STEPS = 200
+
+
+@dataclass(frozen=True, eq=False)
+class KlipperDelta:
+    """Klipper's delta kinematics with its configuration's values.
+
+    Attributes:
+        delta_radius: ρ [mm].
+        angle: Tower angles α_i [rad], (3,).
+        arm_length: ℓ_i [mm], (3,).
+        position_endstop: e_i [mm], (3,).
+        step_distance: d_i, carriage travel per (micro)step [mm], (3,).
+        name: A name (the configuration file).
+    """
+
+    delta_radius: float
+    angle: np.ndarray
+    arm_length: np.ndarray
+    position_endstop: np.ndarray
+    step_distance: np.ndarray = field(default_factory=lambda: np.full(3, 0.0125))
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        for key in ("angle", "arm_length", "position_endstop", "step_distance"):
+            value = np.array(getattr(self, key), dtype=float).reshape(-1)
+            if value.shape != (3,) or not np.all(np.isfinite(value)):
+                raise GeometryError(f"{key} must be 3 finite values, got {getattr(self, key)!r}")
+            value.setflags(write=False)
+            object.__setattr__(self, key, value)
+        if not np.isfinite(self.delta_radius) or self.delta_radius <= 0.0:
+            raise GeometryError(f"delta_radius must be a positive length, got {self.delta_radius!r}")
+        if np.any(self.arm_length <= self.delta_radius):
+            raise GeometryError(f"arm_length must be above delta_radius {self.delta_radius}, "
+                                f"got {self.arm_length.tolist()}")
+        if np.any(self.step_distance <= 0.0):
+            raise GeometryError(f"step_distance must be positive, got {self.step_distance.tolist()}")
+
+    @classmethod
+    def from_printer(cls, printer: NominalLinearDelta, name: str = "") -> KlipperDelta:
+        """The configuration that makes Klipper's model the perfect printer built to these values.
+
+        Raises:
+            GeometryError: the nozzle is off the effector's axis (Klipper's point effector has no
+                horizontal nozzle offset).
+        """
+        if np.any(printer.tool[:2] != 0.0):
+            raise GeometryError(f"Klipper's model has no horizontal nozzle offset; the nozzle is at "
+                                f"{printer.tool.tolist()} mm in the effector frame")
+        radius = printer.tower_radius - printer.effector_radius
+        carriage_top = printer.endstop_height + float(printer.tool[2])
+        endstop = carriage_top - np.sqrt(printer.rod_length**2 - radius**2)
+        return cls(radius, np.array(printer.tower_azimuth), np.full(3, printer.rod_length),
+                   np.full(3, endstop), np.full(3, printer.step_distance), name or printer.name)
+
+    @cached_property
+    def towers(self) -> np.ndarray:
+        """Tower positions ``(X_i, Y_i)`` [mm], (3, 2)."""
+        towers = self.delta_radius * radial_vectors(self.angle)[:, :2]
+        towers.setflags(write=False)
+        return towers
+
+    @cached_property
+    def carriage_top(self) -> np.ndarray:
+        """Carriage point heights at the endstops, ``E_i = e_i + sqrt(ℓ_i² − ρ²)`` [mm], (3,)."""
+        top = self.position_endstop + np.sqrt(self.arm_length**2 - self.delta_radius**2)
+        top.setflags(write=False)
+        return top
+
+    def carriage_heights(self, targets: np.ndarray) -> np.ndarray:
+        """Klipper's carriage heights ``h_i`` for nozzle targets [mm], (N, 3) -> (N, 3); NaN out of reach."""
+        targets = np.atleast_2d(np.asarray(targets, dtype=float))
+        dx = targets[:, None, 0] - self.towers[None, :, 0]
+        dy = targets[:, None, 1] - self.towers[None, :, 1]
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(self.arm_length**2 - dx * dx - dy * dy) + targets[:, 2:3]
+
+    def steps(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """Steps below the endstops Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3).
+
+        Raises:
+            UnreachableError: a target no rod reaches (``check``; else NaN rows).
+        """
+        targets = np.atleast_2d(np.asarray(targets, dtype=float))
+        steps = (self.carriage_top - self.carriage_heights(targets)) / self.step_distance
+        if check:
+            bad = ~np.all(np.isfinite(steps), axis=1)
+            if np.any(bad):
+                raise UnreachableError.from_mask(bad, targets)
+        return steps
+
+    def inverse(self, targets: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+        """Deltacal's readings (steps × the printer's nominal ``step_distance``) for targets, (N, 3) [mm]."""
+        return self.steps(targets, check) * step_distance
+
+    @cached_property
+    def virtual(self) -> VirtualDelta:
+        """Klipper's model as a prismatic :class:`VirtualDelta` whose readings are steps.
+
+        Carriage point ``(X_i, Y_i, E_i)`` at the endstop, sliding down z by ``d_i`` per step,
+        a point effector (attachment and elbow at the origins), rods ℓ_i.
+        """
+        r = radial_vectors(self.angle)
+        z = np.tile([0.0, 0.0, 1.0], (3, 1))
+        axis_point = np.column_stack([self.towers, self.carriage_top])
+        return VirtualDelta(
+            axis_point=axis_point,
+            actuator_rotation=np.stack([r, z, np.cross(r, z)], axis=-1),
+            encoder_offset=np.zeros(3),
+            elbow=np.zeros((3, 3)),
+            plate_attachment=np.zeros((3, 3)),
+            rod_length=np.array(self.arm_length),
+            joint="prismatic",
+            joint_scale=np.array(self.step_distance),
+        )
+
+    def positions(self, steps: np.ndarray, check: bool = True) -> np.ndarray:
+        """Klipper's nozzle positions at steps below the endstops, (N, 3) -> (N, 3) [mm] (trilateration).
+
+        Raises:
+            AssemblyError: steps where the three spheres do not meet (``check``; else NaN rows).
+        """
+        return self.virtual.forward(steps, check=check)
+
+    def forward(self, readings: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+        """Nozzle positions at deltacal's readings (travels in the printer's ``step_distance``) [mm]."""
+        return self.positions(np.atleast_2d(np.asarray(readings, dtype=float)) / step_distance, check)

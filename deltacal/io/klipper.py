@@ -1,0 +1,288 @@
+"""Klipper's ``printer.cfg`` read as Klipper reads it, into its delta model (conventions: printers).
+
+What Klipper does with the file (``klippy/configfile.py``), and so what deltacal does:
+
+* a ``#`` starts a comment anywhere on a line; ``;`` starts one at a line's start or after
+  white space; options are ``key: value`` or ``key = value``, keys case-insensitive, indented
+  lines continue a value; a section given twice is merged, a later value of an option wins;
+* ``[include PATTERN]`` reads the files matching the pattern (relative to the including file,
+  sorted; a pattern without wildcards must match a file) at that point; a file including itself
+  is an error;
+* the ``SAVE_CONFIG`` block at the end (after the ``#*# <---- SAVE_CONFIG ---->`` header, every
+  line prefixed ``#*# ``) is read after the rest. An option both in it and in the rest keeps the
+  rest's value (Klipper comments the block's copy out; ``SAVE_CONFIG`` itself comments out the
+  rest's copy when it writes): deltacal warns. A block with other lines after its header, or
+  ``#*#`` lines before it, is ignored with a warning, as Klipper does.
+
+Only ``[printer]`` and ``[stepper_a]`` .. ``[stepper_c]`` are interpreted (:mod:`deltacal.controller.klipper`
+gives each value's meaning); every other section is left alone. Errors are one line naming the file,
+section, key and value.
+"""
+
+from __future__ import annotations
+
+import configparser
+import glob
+import math
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from warnings import warn
+
+import numpy as np
+
+from ..controller.klipper import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
+from ..exceptions import GeometryError, InputError, InputWarning
+
+#: The line that opens Klipper's SAVE_CONFIG block.
+AUTOSAVE_MARK = "#*# <---------------------- SAVE_CONFIG ---------------------->"
+#: Klipper's header of the block: the mark, a warning line and an empty ``#*#`` line.
+AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are "
+                   "auto-generated.\n#*#\n")
+#: The three towers' sections, in Klipper's order.
+STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
+
+_COMMENT = re.compile(r"[#;].*$")
+_FIELD = re.compile(r"[^A-Za-z0-9_].*$")
+
+
+@dataclass
+class KlipperConfig:
+    """The options of a Klipper configuration as Klipper resolves them.
+
+    Attributes:
+        source: The main file.
+        sections: Section name -> option (lower case) -> value text.
+        origin: (section, option) -> the file its value came from.
+    """
+
+    source: str
+    sections: dict[str, dict[str, str]] = field(default_factory=dict)
+    origin: dict[tuple[str, str], str] = field(default_factory=dict)
+
+    def error(self, section: str, option: str, detail: str) -> InputError:
+        """A one-line error naming the file the option came from, its section and key."""
+        source = self.origin.get((section, option), self.source)
+        return InputError(detail, source, f"section [{section}], key {option}")
+
+    def has(self, section: str, option: str) -> bool:
+        """Whether the section sets the option."""
+        return option in self.sections.get(section, {})
+
+    def text(self, section: str, option: str) -> str:
+        """An option's text; a missing one is an error naming the section and key."""
+        if not self.has(section, option):
+            raise InputError(f"missing required key {option!r} (Klipper's delta kinematics needs it)",
+                             self.source, f"section [{section}]")
+        return self.sections[section][option]
+
+    def number(self, section: str, option: str, default: float | None = None, above: float | None = None,
+               integer: bool = False) -> float:
+        """An option's number as Klipper's ``getfloat``/``getint`` parse it, or the default."""
+        if default is not None and not self.has(section, option):
+            return default
+        text = self.text(section, option)
+        try:
+            value = float(int(text)) if integer else float(text)
+        except ValueError:
+            what = "an integer" if integer else "a number"
+            raise self.error(section, option, f"value {text!r} is not {what}") from None
+        if not math.isfinite(value):
+            raise self.error(section, option, f"value {text!r} is not a finite number")
+        if above is not None and value <= above:
+            raise self.error(section, option, f"value {text!r} must be above {above:g}")
+        return value
+
+
+def read_klipper_config(path: str | Path) -> KlipperConfig:
+    """Every option of a Klipper configuration, includes and the SAVE_CONFIG block resolved.
+
+    Raises:
+        InputError: naming the file (and line) of a syntax error, a missing include or a
+            recursive one.
+    """
+    source = str(path)
+    data = _read_text(source, source)
+    regular, autosave = _split_autosave(data, source)
+    config = KlipperConfig(source)
+    _parse(regular, source, config, set())
+    if autosave:
+        saved = KlipperConfig(source)
+        _parse(_strip_duplicates(autosave, config, source), source, saved, set())
+        for section, options in saved.sections.items():
+            config.sections.setdefault(section, {}).update(options)
+            for option in options:
+                config.origin[(section, option)] = f"{source} (SAVE_CONFIG block)"
+    return config
+
+
+def _read_text(filename: str, source: str) -> str:
+    try:
+        return Path(filename).read_text(encoding="utf-8").replace("\r\n", "\n")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the Klipper configuration file {filename}: {exc}", source) from None
+
+
+def _split_autosave(data: str, source: str) -> tuple[str, str]:
+    """The regular part and the SAVE_CONFIG block's lines without their ``#*# `` prefix."""
+    pos = data.find(AUTOSAVE_HEADER)
+    if pos < 0:
+        return data, ""
+    regular, block = data[:pos], data[pos + len(AUTOSAVE_HEADER):].strip()
+    if "\n#*# " in regular:
+        warn(f"{source}: '#*#' lines before the SAVE_CONFIG block: Klipper ignores the block, so does "
+             "deltacal", InputWarning, stacklevel=3)
+        return data, ""
+    lines = block.split("\n")
+    bad = [n for n, line in enumerate(lines)
+           if not line.startswith("#*#") or (len(line) >= 4 and line[3] != " ")]
+    if block and bad:
+        warn(f"{source}: the SAVE_CONFIG block was edited (line {lines[bad[0]]!r} after its header): Klipper "
+             "ignores the block, so does deltacal", InputWarning, stacklevel=3)
+        return data, ""
+    return regular, "\n".join(["", *(line[4:] for line in lines), ""])
+
+
+def _strip_duplicates(block: str, config: KlipperConfig, source: str) -> str:
+    """The block without the options the rest already sets (Klipper keeps the rest's), with a warning."""
+    lines = block.split("\n")
+    section = ""
+    duplicate = False
+    for n, line in enumerate(lines):
+        pruned = _COMMENT.sub("", line).rstrip()
+        if not pruned:
+            continue
+        if pruned[0].isspace():
+            if duplicate:
+                lines[n] = "#" + line
+            continue
+        duplicate = False
+        if pruned[0] == "[":
+            section = pruned[1:-1].strip()
+            continue
+        option = _FIELD.sub("", pruned).lower()
+        if config.has(section, option):
+            duplicate = True
+            lines[n] = "#" + line
+            warn(f"{source}: section [{section}], key {option}: set both in the configuration and in its "
+                 f"SAVE_CONFIG block; Klipper keeps the configuration's value "
+                 f"{config.sections[section][option]!r}, so does deltacal", InputWarning, stacklevel=4)
+    return "\n".join(lines)
+
+
+def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str]) -> None:
+    """Klipper's parse of one file: the lines between includes as one unit, includes where they stand."""
+    path = os.path.abspath(filename)
+    if path in visited:
+        raise InputError("recursive include of this file", filename)
+    visited.add(path)
+    buffer: list[str] = []
+    start = 1
+    for number, line in enumerate(data.split("\n"), start=1):
+        pos = line.find("#")
+        if pos >= 0:
+            line = line[:pos]
+        match = configparser.RawConfigParser.SECTCRE.match(line)
+        header = match.group("header") if match else None
+        if header and header.startswith("include "):
+            _parse_unit(buffer, start, filename, config)
+            _include(filename, header[len("include "):].strip(), config, visited, number)
+            buffer, start = [], number + 1
+        else:
+            buffer.append(line)
+    _parse_unit(buffer, start, filename, config)
+    visited.remove(path)
+
+
+def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str], number: int) -> None:
+    pattern = os.path.join(os.path.dirname(filename), spec)
+    found = sorted(glob.glob(pattern))
+    if not found and not glob.has_magic(pattern):
+        raise InputError(f"include file {pattern!r} does not exist", filename, f"line {number}")
+    for name in found:
+        _parse(_read_text(name, filename), name, config, visited)
+
+
+def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperConfig) -> None:
+    """Lines of one file between includes, read by configparser with Klipper's settings."""
+    if not any(line.strip() for line in buffer):
+        return
+    parser = configparser.RawConfigParser(strict=False, inline_comment_prefixes=(";", "#"))
+    try:
+        parser.read_string("\n".join(buffer), source=filename)
+    except configparser.MissingSectionHeaderError as exc:
+        line = buffer[exc.lineno - 1] if 0 < exc.lineno <= len(buffer) else ""
+        raise InputError(f"an option outside any [section]: {line.strip()!r}", filename,
+                         f"line {start + exc.lineno - 1}") from None
+    except configparser.ParsingError as exc:
+        lineno = exc.errors[0][0]
+        line = buffer[lineno - 1] if 0 < lineno <= len(buffer) else ""
+        raise InputError(f"not an option ('key: value') nor a [section]: {line.strip()!r}", filename,
+                         f"line {start + lineno - 1}") from None
+    for section in parser.sections():
+        options = config.sections.setdefault(section, {})
+        for option, value in parser.items(section):
+            options[option] = value
+            config.origin[(section, option)] = filename
+
+
+def load_klipper(path: str | Path) -> KlipperDelta:
+    """Klipper's delta model from a ``printer.cfg`` (``[printer] kinematics: delta``).
+
+    Raises:
+        InputError: naming the file, section, key and value of the first problem found.
+    """
+    config = read_klipper_config(path)
+    kinematics = config.text("printer", "kinematics").strip()
+    if kinematics != "delta":
+        raise config.error("printer", "kinematics", f"value {kinematics!r}: deltacal reads Klipper's linear "
+                                                    "Delta printers (kinematics: delta)")
+    radius = config.number("printer", "delta_radius", above=0.0)
+    endstop_a = config.number("stepper_a", "position_endstop")
+    arm_a = config.number("stepper_a", "arm_length", above=radius)
+    angles, arms, endstops, steps = [], [], [], []
+    for stepper, angle in zip(STEPPERS, DEFAULT_ANGLES_DEG, strict=True):
+        if stepper not in config.sections:
+            raise InputError(f"missing section [{stepper}] (a delta printer has three towers)", config.source)
+        angles.append(config.number(stepper, "angle", angle))
+        arms.append(config.number(stepper, "arm_length", arm_a, above=radius))
+        endstops.append(config.number(stepper, "position_endstop", endstop_a))
+        steps.append(_step_distance(config, stepper))
+    try:
+        return KlipperDelta(radius, np.radians(angles), np.array(arms), np.array(endstops), np.array(steps),
+                            name=Path(path).name)
+    except GeometryError as exc:
+        raise InputError(str(exc), config.source) from None
+
+
+def _step_distance(config: KlipperConfig, stepper: str) -> float:
+    """``rotation_distance / (full_steps_per_rotation × microsteps × gear ratio)`` [mm], as Klipper's."""
+    if not config.has(stepper, "rotation_distance") and config.has(stepper, "step_distance"):
+        return config.number(stepper, "step_distance", above=0.0)  # Klipper's older format
+    rotation = config.number(stepper, "rotation_distance", above=0.0)
+    microsteps = config.number(stepper, "microsteps", integer=True, above=0.0)
+    full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True,
+                         above=0.0)
+    if full % 4:
+        raise config.error(stepper, "full_steps_per_rotation", f"value {int(full)} must be a multiple of 4")
+    return rotation / (full * microsteps * _gear_ratio(config, stepper))
+
+
+def _gear_ratio(config: KlipperConfig, stepper: str) -> float:
+    """The product of ``gear_ratio``'s ``a:b`` pairs (comma separated), 1 without one."""
+    if not config.has(stepper, "gear_ratio"):
+        return 1.0
+    text = config.text(stepper, "gear_ratio")
+    ratio = 1.0
+    for pair in (p.strip() for p in text.split(",") if p.strip()):
+        parts = [v.strip() for v in pair.split(":")]
+        try:
+            first, second = (float(v) for v in parts) if len(parts) == 2 else (math.nan, math.nan)
+        except ValueError:
+            first = second = math.nan
+        if not (math.isfinite(first) and math.isfinite(second) and first > 0.0 and second > 0.0):
+            raise config.error(stepper, "gear_ratio",
+                               f"value {text!r} is not a list of ratios such as '57:11, 2:1'")
+        ratio *= first / second
+    return ratio
