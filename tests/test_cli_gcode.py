@@ -58,3 +58,31 @@ def test_program_refusals(tmp_path, capsys, extra, message):
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o.gcode").exists()
+
+
+def test_worker_processes_correct_a_program_as_one_process_does(tmp_path, capsys, monkeypatch):
+    """A large program's batches are split among forked workers (``cli.workers.shared_values``):
+    the same bytes, and a point refused in the second half named by its own line."""
+    from deltacal.cli import workers
+
+    robot = MODELS / "bai2015.toml"
+    truth = load_nominal(robot).geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(9))
+    cal, program = tmp_path / "true.toml", tmp_path / "p.gcode"
+    save_geometry(truth, cal)
+    moves = [f"G1 X{20.0 * np.cos(k / 5.0):.3f} Y{20.0 * np.sin(k / 5.0):.3f} Z-{800 + k}" for k in range(40)]
+    program.write_text("G21\nG90\n" + "\n".join(moves) + "\n")
+    outputs = []
+    for pool_rows in (10**9, 0):
+        monkeypatch.setattr(workers, "POOL_ROWS", pool_rows)
+        out = tmp_path / f"o{pool_rows}.gcode"
+        assert main(["compensate", str(cal), str(program), "--controller", str(robot), "-o", str(out)]) == 0
+        outputs.append(out.read_bytes())
+    assert outputs[0] == outputs[1]
+    moves[30] = "G1 X0 Y0 Z-200"  # line 33: out of reach, in the second worker's half
+    program.write_text("G21\nG90\n" + "\n".join(moves) + "\n")
+    capsys.readouterr()
+    out = tmp_path / "refused.gcode"
+    assert main(["compensate", str(cal), str(program), "--controller", str(robot), "-o", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "line 33: point" in err and "out of reach" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()

@@ -151,3 +151,39 @@ def test_an_unreachable_last_row_is_refused_by_the_reading_pass(tmp_path, capsys
     assert main(["compensate", str(geometry), str(targets), "-o", str(out)]) == 1
     assert "line 43 (data row 42), column z_mm: value '-9x0' is not a number" in capsys.readouterr().err
     assert out.read_text() == "earlier joints\n"
+
+
+def test_worker_processes_write_what_one_process_writes(tmp_path, capsys, monkeypatch):
+    """A large file is solved by a pool of forked workers (``cli.workers``): the same bytes, in order,
+    and a refusal in a worker named by its line."""
+    from deltacal import Controller, Tolerances
+    from deltacal.cli import workers
+    from deltacal.io import save_controller
+
+    monkeypatch.setattr(targets_module, "CHUNK_BYTES", 256)
+    nominal = load_nominal(NOMINAL)
+    geometry = tmp_path / "g.toml"
+    save_geometry(nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(3)), geometry)
+    rng = np.random.default_rng(4)
+    points = np.column_stack([rng.uniform(-200, 200, (120, 2)), rng.uniform(-950, -800, 120)])
+    rows = [f"{x:.3f},{y:.3f},{z:.3f}" for x, y, z in points]
+    targets = tmp_path / "t.csv"
+    targets.write_text("x_mm,y_mm,z_mm\n" + "\n".join(rows) + "\n")
+    for extra in ([], ["--controller", str(NOMINAL)]):
+        outputs = []
+        for pool_rows in (10**9, 0):  # one process, then the pool
+            monkeypatch.setattr(workers, "POOL_ROWS", pool_rows)
+            out = tmp_path / f"o{pool_rows}.csv"
+            assert main(["compensate", str(geometry), str(targets), "-o", str(out), *extra]) == 0
+            outputs.append(out.read_bytes())
+        assert workers._workers(120) > 1 or len(workers.os.sched_getaffinity(0)) == 1
+        assert outputs[0] == outputs[1] and len(outputs[0].splitlines()) == 121
+    # a controller whose arms cannot reach: refused in a worker, named by its line, nothing written
+    short = tmp_path / "short.toml"
+    save_controller(short, Controller.from_geometry(nominal).replace(rod_length=np.full(3, 400.0)))
+    out = tmp_path / "refused.csv"
+    capsys.readouterr()
+    assert main(["compensate", str(geometry), str(targets), "-o", str(out), "--controller", str(short)]) == 1
+    err = capsys.readouterr().err
+    assert "line 2 (data row 1)" in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()

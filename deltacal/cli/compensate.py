@@ -16,12 +16,12 @@ file replaces an earlier one only once complete.
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Callable
 
 import numpy as np
 
-from ..compensation import METHODS, compensate, screen
-from ..controller import corrected_targets
+from ..compensation import METHODS, screen
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..io import (
     CommandsWriter,
@@ -35,6 +35,7 @@ from ..io import (
 from ..io.gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
+from .workers import Job, shared_values, solved_in_order
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,20 +76,14 @@ def run(args: argparse.Namespace) -> int:
         if refused is not None:  # a bad value anywhere came first; the file's rows are now known
             raise _unreachable(*refused, targets_file, _frame_hint(args, frames)) from refused[0]
         writer = JointsWriter if controller is None else CommandsWriter
+        job = Job(geometry, controller, args.method, linear, args.payload, writer)
         with writer(args.output) as out:
-            for chunk in targets_file.chunks():
-                in_base = chunk.targets if to_base is None else to_base(chunk.targets)
-                try:
-                    if controller is None:
-                        values = compensate(geometry, in_base, args.method, linear, payload=args.payload)
-                    else:
-                        corrected = corrected_targets(geometry, controller, in_base, payload=args.payload)
-                        values = corrected.commands
-                except UnreachableError as exc:
-                    if not exc.indices:
-                        raise
-                    raise _unreachable(exc, chunk, targets_file, _frame_hint(args, frames)) from exc
-                out.write(chunk, values)
+            for chunk, values in solved_in_order(job, targets_file.chunks(), to_base, targets_file.rows):
+                if isinstance(values, UnreachableError):
+                    if not values.indices:
+                        raise values
+                    raise _unreachable(values, chunk, targets_file, _frame_hint(args, frames)) from values
+                out.write_encoded(values, len(chunk))
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {args.controller}")
@@ -130,11 +125,10 @@ def _program(args: argparse.Namespace) -> int:
     _warn_rigid_route(args, calibration.geometry.compliance)
     controller = load_controller(args.controller)
 
-    def correct(points: np.ndarray) -> np.ndarray:
-        return corrected_targets(calibration.geometry, controller, points, payload=args.payload).commands
-
+    job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
+    lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
     segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
-    with Progress("compensate") as progress:
+    with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
                      lambda fraction, _: progress.update(fraction, "program"))
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "

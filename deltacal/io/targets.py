@@ -236,13 +236,22 @@ class JointsWriter:
 
     def write(self, chunk: TargetChunk, q: np.ndarray) -> None:
         """Rows of the chunk's targets (as written where possible) and readings q [rad] in degrees."""
-        text = chunk.text
-        if text is None:
-            text = np.array([",".join(map(repr, row)).encode() for row in chunk.targets.tolist()])
-        self._file.write(joint_rows(text, self._shown(q), self.DECIMALS))
-        self.rows += len(chunk)
+        self.write_encoded(self.encode(chunk.text, chunk.targets, q), len(chunk))
 
-    def _shown(self, values: np.ndarray) -> np.ndarray:
+    def write_encoded(self, rows: bytes, count: int) -> None:
+        """Rows already laid out by :meth:`encode` (``count`` of them)."""
+        self._file.write(rows)
+        self.rows += count
+
+    @classmethod
+    def encode(cls, text: np.ndarray | None, targets: np.ndarray, values: np.ndarray) -> bytes:
+        """The rows of a chunk: its targets' text (``None``: from the targets) then the values."""
+        if text is None:
+            text = np.array([",".join(map(repr, row)).encode() for row in targets.tolist()])
+        return joint_rows(text, cls._shown(values), cls.DECIMALS)
+
+    @staticmethod
+    def _shown(values: np.ndarray) -> np.ndarray:
         """The values in the file's unit (readings [rad] in degrees)."""
         return np.degrees(values)
 
@@ -258,7 +267,8 @@ class CommandsWriter(JointsWriter):
     COLUMNS = COMMAND_COLUMNS
     DECIMALS = COMMAND_DECIMALS
 
-    def _shown(self, values: np.ndarray) -> np.ndarray:
+    @staticmethod
+    def _shown(values: np.ndarray) -> np.ndarray:
         return values  # mm already
 
 
