@@ -27,6 +27,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errormodels import ErrorModel, get_model
+from ..exceptions import AssemblyError
 from ..geometry import DeltaGeometry
 from ..kinematics import exact
 from ..observations import POSITION, SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows
@@ -189,7 +190,10 @@ def _rows_to_choose_at(problem: Problem, rows: Rows) -> Rows:
     if opt.distances or opt.method != "iterated" or not np.any(rows.kind == POSITION):
         return rows
     free = bool(problem.columns.stations)
-    found = encoder_offsets(problem.start, problem.measurements, free)
+    try:
+        found = encoder_offsets(problem.start, problem.measurements, free)
+    except AssemblyError:  # an offset that does not assemble on the way: the start as it is
+        return rows
     if np.max(np.abs(found)) < OFFSETS_FIRST["free" if free else "base"]:
         return rows
     at = replace(problem.start, encoder_offset=problem.start.encoder_offset + found)
