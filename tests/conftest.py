@@ -52,3 +52,20 @@ def read_joints(path) -> np.ndarray:
     with open(path) as f:
         rows = list(csv.DictReader(f))
     return np.radians([[float(r[f"q{i}_deg"]) for i in (1, 2, 3)] for r in rows])
+
+
+def complete_fit(nominal: NominalDelta, seed: int):
+    """A complete-model fit of a perturbed robot at Bai's 2n + 1 poses (n = 9), 6-DoF pose measurements."""
+    from deltacal import Tolerances
+    from deltacal.identification import identify
+    from deltacal.kinematics import exact
+    from deltacal.observations import Measurements
+    from deltacal.planning import bai_poses
+
+    rng = np.random.default_rng(seed)
+    g0 = nominal.geometry()
+    truth = g0.perturbed(Tolerances.bai2015(), rng)
+    q = bai_poses(nominal, 9).q
+    pose = exact.forward(truth, q)
+    position = pose.point(truth.tool) + rng.normal(0.0, 0.005, (len(q), 3))
+    return identify(g0, Measurements(q, position, rotation_vector=pose.rotation_vector()), "complete")

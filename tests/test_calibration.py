@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, complete_fit
 from numpy.testing import assert_allclose
 
 from deltacal import Tolerances, identify
@@ -20,13 +20,7 @@ NOMINAL = MODELS / "bai2015.toml"
 
 @pytest.fixture(scope="module")
 def fitted(bai):
-    rng = np.random.default_rng(31)
-    g0 = bai.geometry()
-    truth = g0.perturbed(Tolerances.bai2015(), rng)
-    q = bai_poses(bai, 9).q
-    pose = exact.forward(truth, q)
-    position = pose.point(truth.tool) + rng.normal(0.0, 0.005, (len(q), 3))
-    return identify(g0, Measurements(q, position, rotation_vector=pose.rotation_vector()), "complete")
+    return complete_fit(bai, 31)
 
 
 def _same(a, b) -> None:

@@ -12,11 +12,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from conftest import MODELS
+from conftest import MODELS, complete_fit
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from deltacal import Tolerances, identify
 from deltacal.calibration import FrameRecord
 from deltacal.cli import main
 from deltacal.exceptions import InputError
@@ -32,9 +31,7 @@ from deltacal.io import (
     toml_dumps,
     write_measurements,
 )
-from deltacal.kinematics import exact
 from deltacal.observations import Measurements
-from deltacal.planning import bai_poses
 
 NAMES = settings(max_examples=60, deadline=None, derandomize=True)
 
@@ -48,13 +45,7 @@ HOSTILE = ["süd", "ταυ", "smr_ö", "a,b", 'say "x"', "a.b", "[x]", "東京",
 
 @pytest.fixture(scope="module")
 def fitted(bai):
-    rng = np.random.default_rng(5)
-    g0 = bai.geometry()
-    truth = g0.perturbed(Tolerances.bai2015(), rng)
-    q = bai_poses(bai, 9).q
-    pose = exact.forward(truth, q)
-    position = pose.point(truth.tool) + rng.normal(0.0, 0.005, (len(q), 3))
-    return identify(g0, Measurements(q, position, rotation_vector=pose.rotation_vector()), "complete")
+    return complete_fit(bai, 5)
 
 
 def _measurements(points: list[str], stations: list[str]) -> Measurements:
