@@ -169,6 +169,7 @@ def base_parameters(
     prefer: Sequence[str] | None = None,
     tie_rtol: float = TIE_RTOL,
     exclude: Sequence[str] = (),
+    rank: int | None = None,
 ) -> BaseParameters:
     """Find the base parameters of a regressor.
 
@@ -185,6 +186,8 @@ def base_parameters(
         tie_rtol: Tie tolerance of the pivoted QR (:func:`pivoted_qr`).
         exclude: Parameters never kept (held at their start value, folded into the others
             where the regressor allows, like any dependent parameter).
+        rank: The number of base parameters, when a criterion other than ``rtol`` decides it
+            (at most the numerical rank).
 
     Returns:
         The base parameters.
@@ -206,7 +209,8 @@ def base_parameters(
     diag, perm = pivoted_qr(Ws[:, allowed], tie_rtol)
     perm = np.concatenate([allowed[perm], np.asarray(excluded, dtype=int)])
     top = diag[0] if diag.size else 0.0
-    rank = int(np.sum(diag > rtol * top)) if top > 0 else 0
+    numerical = int(np.sum(diag > rtol * top)) if top > 0 else 0
+    rank = numerical if rank is None else min(int(rank), numerical)
     pivots = diag
     if prefer is None:
         kept = [int(k) for k in perm[:rank]]

@@ -12,7 +12,7 @@ from numpy.testing import assert_allclose
 
 from deltacal import DeltaGeometry, NominalDelta, Tolerances, VirtualDelta
 from deltacal.errormodels import MODEL_NAMES, ClassicalModel, ErrorModel, SubModel, get_model
-from deltacal.errormodels.base import elementary_jacobian
+from deltacal.errormodels.base import N_ELEMENTARY, elementary_jacobian
 from deltacal.geometry import vector_from_rotation
 from deltacal.kinematics import exact
 
@@ -235,6 +235,6 @@ def test_elementary_jacobian_times_moves_is_the_product(bai):
     g = bai.geometry().perturbed(Tolerances.bai2015(), rng)
     q = np.radians(rng.uniform(-10.0, 40.0, (20, 3)))
     pose = exact.forward(g, q)
-    e = rng.standard_normal(60)
+    e = rng.standard_normal(N_ELEMENTARY)
     full = np.einsum("nke,e->nk", elementary_jacobian(g, q, pose), e)
     assert np.max(np.abs(elementary_jacobian(g, q, pose, moves=e) - full)) < 1e-12 * np.max(np.abs(full))

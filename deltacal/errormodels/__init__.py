@@ -4,6 +4,8 @@
 * ``bai42``: Bai's model 42 (Eq. 6-9); ``bai18``, ``bai36``, ``bai32``: its reductions for
   distance measurements (Eq. 11, §3.2); ``bai24``: model 24 with Bai's names.
 * ``complete``: Savoure's complete model, 51 parameters (Eq. 12-22).
+* ``printer``: the complete model of a linear Delta printer (54); ``klipper``: the values the
+  firmware holds, as deviations of the printer's full geometry (13).
 """
 
 from __future__ import annotations
@@ -12,8 +14,11 @@ from .bai import DISTANCE_GAUGE, MODEL32_REMOVED, BaiModel
 from .base import ErrorModel, SubModel
 from .classical import ClassicalModel
 from .complete import CompleteModel
+from .printer import FirmwareModel, PrinterModel
 
 MODEL_NAMES = ("classical", "bai42", "complete", "bai24", "bai18", "bai36", "bai32")
+#: The models of a linear Delta printer (a prismatic chain).
+PRINTER_MODEL_NAMES = ("printer", "klipper")
 
 
 def get_model(name: str) -> ErrorModel:
@@ -22,6 +27,10 @@ def get_model(name: str) -> ErrorModel:
         return ClassicalModel()
     if name == "complete":
         return CompleteModel()
+    if name == "printer":
+        return PrinterModel()
+    if name == "klipper":
+        return FirmwareModel()
     if name == "bai42":
         return BaiModel(orientation=True)
     if name == "bai24":
@@ -34,13 +43,17 @@ def get_model(name: str) -> ErrorModel:
     elif name == "bai32":
         model = BaiModel(orientation=True).without(DISTANCE_GAUGE + MODEL32_REMOVED, "bai32")
     else:
-        raise ValueError(f"unknown model {name!r}; choose one of {', '.join(MODEL_NAMES)}")
+        known = ", ".join(MODEL_NAMES + PRINTER_MODEL_NAMES)
+        raise ValueError(f"unknown model {name!r}; choose one of {known}")
     model.rigid_motion_free = True  # Bai's Eq. 11 gauge
     return model
 
 
 __all__ = [
     "MODEL_NAMES",
+    "PRINTER_MODEL_NAMES",
+    "FirmwareModel",
+    "PrinterModel",
     "BaiModel",
     "ClassicalModel",
     "CompleteModel",

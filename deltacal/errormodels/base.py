@@ -11,7 +11,7 @@ DeltaGeometry. It states:
 * the map from a parameter vector back to a DeltaGeometry (:meth:`ErrorModel.apply`),
   so that an identified model feeds the exact kinematics and exact compensation.
 
-Every model here is a linear combination ``e = M(g) dk`` of 60 *elementary moves*
+Every model here is a linear combination ``e = M(g) dk`` of 63 *elementary moves*
 of a geometry g, in this order:
 
 ====================  =====  ==============================================
@@ -24,7 +24,16 @@ axis points           9      axis_point[i] moved in {O} [mm]
 actuator rotations    9      rigid rotation of actuator frame i about its axis
                              point, components along its own axes (x0, w, z0)
                              [rad]; the w component is the encoder offset
+joint scales          3      joint_scale[i]: true joint coordinate per unit
+                             reading (a printer's step distance) [-]; a
+                             rotary Delta's stay 1 (their columns are 0)
 ====================  =====  ==============================================
+
+A linear Delta (a prismatic chain, :mod:`deltacal.chains`) has the same moves: its "arm" balls
+are its carriage's, held in the carriage frame; the actuator rotation's two tilts lean its tower
+about the carriage frame's origin at the endstop (P_i); and, as for a revolute chain, the w
+component is the joint's offset: the endstop's error [mm] (a carriage turned about its tower is
+its balls moved, already there). The joint scales are a printer's; a rotary Delta's stay at 1.
 
 The rod equations ``|A_ij(q) - (p + R B_ij)| = l_ij`` (Savoure Eq. 2), differentiated,
 give ``J_X dX + J_k e = 0`` (Savoure Eq. 12, 17), so ``S = -J_X^-1 J_k M``
@@ -41,18 +50,19 @@ from dataclasses import replace
 import numpy as np
 
 from ..exceptions import GeometryError
-from ..geometry import DeltaGeometry, arm_frame_circle
+from ..geometry import DeltaGeometry, Tolerances, arm_frame_circle
 from ..kinematics import batch3 as b3
 from ..kinematics import exact
 from ..kinematics.exact import PlatePose, pose_jacobian
 from ..rotations import rotation_from_vector
 
-N_ELEMENTARY = 60
+N_ELEMENTARY = 63
 PLATE_BALLS = slice(0, 18)
 ARM_BALLS = slice(18, 36)
 RODS = slice(36, 42)
 AXIS_POINTS = slice(42, 51)
 ACTUATOR_ROTATIONS = slice(51, 60)
+JOINT_SCALES = slice(60, 63)
 
 
 def plate_ball_index(i: int, j: int, k: int) -> int:
@@ -76,8 +86,16 @@ def axis_point_index(i: int, k: int) -> int:
 
 
 def actuator_rotation_index(i: int, k: int) -> int:
-    """Elementary index of the rotation of actuator i about its axis k (0: x0, 1: w, 2: z0)."""
+    """Elementary index of the rotation of actuator i about its axis k (0: x0, 1: w, 2: z0).
+
+    k = 1 is the joint's offset: a revolute encoder offset [rad], a prismatic endstop [mm].
+    """
     return ACTUATOR_ROTATIONS.start + 3 * i + k
+
+
+def joint_scale_index(i: int) -> int:
+    """Elementary index of the joint scale of limb i (a printer's step distance, relative)."""
+    return JOINT_SCALES.start + i
 
 
 def elementary_jacobian(
@@ -101,11 +119,11 @@ def elementary_jacobian(
     """
     q = np.atleast_2d(q)
     N = q.shape[0]
-    if geometry.joint != "revolute":  # the elementary moves are a rotary Delta's, so far
-        raise GeometryError(f"the error models serve rotary Delta robots; "
-                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
     if moves is not None:
-        return _moved_rods(geometry, q, pose, np.asarray(moves, dtype=float))
+        moves = np.asarray(moves, dtype=float)
+        if geometry.joint == "prismatic":
+            return _moved_rods_along_lines(geometry, q, pose, moves)
+        return _moved_rods(geometry, q, pose, moves)
     A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)
     Rt = np.swapaxes(pose.rotation, 1, 2)
     B = pose.position[:, None, None, :] + (geometry.plate_ball.reshape(6, 3) @ Rt).reshape(N, 3, 2, 3)
@@ -116,6 +134,9 @@ def elementary_jacobian(
     J = np.zeros((N, 3, 2, N_ELEMENTARY))
     lever = A - geometry.axis_point[None, :, None, :]
     torque = np.cross(lever, n)  # d|d|/d(rotation) = -(lever x n) . omega
+    slope = geometry.arm_ball_velocity(q) / geometry.joint_scale[None, :, None, None]  # dA/dθ
+    along = np.sum(n * slope, axis=-1)  # (N, 3, 2): n . dA/dθ
+    prismatic = geometry.joint == "prismatic"
     for i in range(3):
         for j in range(2):
             s = plate_ball_index(i, j, 0)
@@ -127,6 +148,9 @@ def elementary_jacobian(
             J[:, i, j, s : s + 3] = -n[:, i, j]
             s = actuator_rotation_index(i, 0)
             J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
+            if prismatic:  # the w component: the endstop, a shift along the line of travel
+                J[:, i, j, s + 1] = -along[:, i, j]
+                J[:, i, j, joint_scale_index(i)] = -along[:, i, j] * q[:, i]
     return J.reshape(N, 6, N_ELEMENTARY)
 
 
@@ -157,6 +181,30 @@ def _moved_rods(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose, e: np.n
     return np.ascontiguousarray(change.T)
 
 
+def _moved_rods_along_lines(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose,
+                            e: np.ndarray) -> np.ndarray:
+    """``J_k e`` (N, 6) of a prismatic chain: each carriage ball's move, then each rod's change.
+
+    ``δA = δP_i + R0_i δa + ω_i × (A − P_i) + (δo_i + q_i δs_i) dA/dθ`` with ω_i the tower's lean
+    (the tilts of its actuator rotation), δo_i the endstop (its w component) and δs_i the scale.
+    """
+    R0 = geometry.actuator_rotation()
+    rot = e[ACTUATOR_ROTATIONS].reshape(3, 3)
+    omega = np.einsum("ikl,il->ik", R0, rot * np.array([1.0, 0.0, 1.0]))  # (3, 3) in {O}
+    A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)
+    slope = geometry.arm_ball_velocity(q) / geometry.joint_scale[None, :, None, None]
+    travel = rot[:, 1][None, :] + q * e[JOINT_SCALES][None, :]  # (N, 3)
+    dA = (e[AXIS_POINTS].reshape(3, 1, 3) + np.einsum("ikl,ijl->ijk", R0, e[ARM_BALLS].reshape(3, 2, 3))
+          + np.cross(omega[None, :, None, :], A - geometry.axis_point[None, :, None, :])
+          + travel[:, :, None, None] * slope)
+    B = pose.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", pose.rotation, geometry.plate_ball)
+    d = B - A
+    n = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    dB = np.einsum("nkl,ijl->nijk", pose.rotation, e[PLATE_BALLS].reshape(3, 2, 3))
+    change = np.sum(n * (dB - dA), axis=-1) - e[RODS].reshape(3, 2)
+    return change.reshape(-1, 6)
+
+
 def elementary_sensitivity(
     geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose | None = None
 ) -> np.ndarray:
@@ -170,10 +218,11 @@ def elementary_sensitivity(
 
 
 def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
-    """The geometry moved by the elementary moves e (60,).
+    """The geometry moved by the elementary moves e (63,).
 
     Actuator rotations are applied as exact rigid rotations of the actuator frame
-    (the encoder offset is adjusted so that the arm frames turn rigidly).
+    (the encoder offset is adjusted so that the arm frames turn rigidly; a prismatic chain's
+    carriage balls turn instead, and its w component is added to the endstop [mm]).
     """
     e = np.asarray(e, dtype=float)
     plate_ball = geometry.plate_ball + e[PLATE_BALLS].reshape(3, 2, 3)
@@ -197,7 +246,14 @@ def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
         # the zero direction the geometry derives differs from the rigidly turned one by a
         # rotation about the new axis: fold it into the encoder offset
         rel = np.einsum("ilk,ilm->ikm", R0_derived, R0_new)  # R0_derived^T R0_new, a rotation about y
-        encoder_offset = encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]) + rot[:, 1]
+        if geometry.joint == "prismatic":  # a carriage turned about its tower: its balls turn with it
+            arm_ball = np.einsum("ikl,ijl->ijk", rel, arm_ball)
+            encoder_offset = encoder_offset + rot[:, 1]
+        else:
+            encoder_offset = encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]) + rot[:, 1]
+    joint_scale = np.array(geometry.joint_scale)
+    if np.any(e[JOINT_SCALES]):
+        joint_scale = joint_scale + e[JOINT_SCALES]
     return replace(
         geometry,
         plate_ball=plate_ball,
@@ -206,6 +262,7 @@ def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
         axis_point=axis_point,
         axis_direction=axis_direction,
         encoder_offset=encoder_offset,
+        joint_scale=joint_scale,
     )
 
 
@@ -219,6 +276,8 @@ class ErrorModel(ABC):
 
     #: Short name used on the command line.
     name: str = ""
+    #: The actuated chain the model is written for (:mod:`deltacal.chains`).
+    joint: str = "revolute"
     #: Whether the model moves the plate orientation (False: perfect parallelograms).
     tilts_plate: bool = True
     #: Preference order of the parameters kept when some must be regrouped (None: pivoted QR's).
@@ -262,7 +321,23 @@ class ErrorModel(ABC):
             q: Readings [rad], shape (N, 3).
             pose: Exact poses of ``geometry`` at q, if already known.
         """
+        self.check_fits(geometry)
         return elementary_sensitivity(geometry, q, pose) @ self.moves(geometry)
+
+    def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
+        """σ of each parameter before any measurement, from build tolerances (the printer models').
+
+        Raises:
+            NotImplementedError: a model that states none.
+        """
+        raise NotImplementedError(f"the {self.name!r} error model states no prior from tolerances")
+
+    def check_fits(self, geometry: DeltaGeometry) -> None:
+        """GeometryError unless the model is written for the geometry's chain (rotary or linear Delta)."""
+        if geometry.joint != self.joint:
+            what = {"revolute": "rotary Delta robots", "prismatic": "linear Delta printers"}[self.joint]
+            raise GeometryError(f"the {self.name!r} error model serves {what}; "
+                                f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
 
     def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray | None:
         """Rotations of ball pairs about their midpoints per parameter, (18, n), or None.
@@ -280,6 +355,7 @@ class ErrorModel(ABC):
         dk = np.asarray(dk, dtype=float)
         if dk.shape != (self.size,):
             raise ValueError(f"{self.name}: expected {self.size} parameters, got shape {dk.shape}")
+        self.check_fits(geometry)
         e = self.moves(geometry) @ dk
         P = self.pair_rotations(geometry)
         if P is None:
@@ -304,6 +380,7 @@ class SubModel(ErrorModel):
         self._index = [parent.names.index(k) for k in keep]
         self.name = name
         self.tilts_plate = parent.tilts_plate
+        self.joint = parent.joint
         self.preferred = parent.preferred
         self.frame_held_first = tuple(n for n in parent.frame_held_first if n in keep)
 
@@ -395,5 +472,6 @@ __all__ = [
     "apply_elementary",
     "elementary_jacobian",
     "elementary_sensitivity",
+    "joint_scale_index",
     "pose_jacobian",
 ]

@@ -18,7 +18,7 @@ from .outliers import OUTLIER_THRESHOLD
 
 @dataclass(frozen=True)
 class ResidualStats:
-    """RMS and max of residuals by kind: positions and distances [mm], orientations [rad]."""
+    """RMS and max of residuals by kind: positions, distances and probe heights [mm], orientations [rad]."""
 
     position_rms: float = float("nan")
     position_max: float = float("nan")
@@ -26,6 +26,8 @@ class ResidualStats:
     orientation_max: float = float("nan")
     distance_rms: float = float("nan")
     distance_max: float = float("nan")
+    height_rms: float = float("nan")
+    height_max: float = float("nan")
 
     @classmethod
     def from_rows(cls, rows: Rows) -> ResidualStats:
@@ -208,20 +210,7 @@ class IdentificationResult:
             lines.append("  " + ", ".join(self.base.names[k] for k in absent))
         lines += [f"hint: {h}" for h in self.hints]
         lines.append("")
-        lines.append("residuals             before        after")
-        for key, unit, scale in (
-            ("position", "mm", 1.0),
-            ("distance", "mm", 1.0),
-            ("orientation", "deg", math.degrees(1.0)),
-        ):
-            b_rms = getattr(self.before, f"{key}_rms")
-            if not math.isfinite(b_rms):
-                continue
-            a_rms = getattr(self.after, f"{key}_rms")
-            b_max = getattr(self.before, f"{key}_max")
-            a_max = getattr(self.after, f"{key}_max")
-            lines.append(f"  {key} RMS [{unit}]  {b_rms * scale:12.6f} {a_rms * scale:12.6f}")
-            lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
+        lines += self._residual_lines()
         lines += self._frame_lines()
         lines.append(f"variance factor s0² = {self.variance_factor:.3g} (1 if the σ given are right)")
         lines += [f"warning: {w}" for w in self.warnings]
@@ -239,6 +228,25 @@ class IdentificationResult:
         else:
             lines.append("outliers: none")
         return "\n".join(lines)
+
+    def _residual_lines(self) -> list[str]:
+        """The residuals' RMS and max before and after, by kind."""
+        lines = ["residuals             before        after"]
+        for key, unit, scale in (
+            ("position", "mm", 1.0),
+            ("distance", "mm", 1.0),
+            ("height", "mm", 1.0),
+            ("orientation", "deg", math.degrees(1.0)),
+        ):
+            b_rms = getattr(self.before, f"{key}_rms")
+            if not math.isfinite(b_rms):
+                continue
+            a_rms = getattr(self.after, f"{key}_rms")
+            b_max = getattr(self.before, f"{key}_max")
+            a_max = getattr(self.after, f"{key}_max")
+            lines.append(f"  {key} RMS [{unit}]  {b_rms * scale:12.6f} {a_rms * scale:12.6f}")
+            lines.append(f"  {key} max [{unit}]  {b_max * scale:12.6f} {a_max * scale:12.6f}")
+        return lines
 
     def _frame_lines(self) -> list[str]:
         if not self.frames:

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..chains import JOINTS
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry, Masses
 from .atomic import atomic_write_text
@@ -23,32 +24,34 @@ CALIBRATION_FORMAT = "deltacal-calibration-1"
 def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     """The TOML tables of a DeltaGeometry (mm, deg), as written by :func:`save_geometry`.
 
-    Raises:
-        GeometryError: a linear Delta's geometry (a prismatic chain), which this format (of
-            rotary Deltas: encoder offsets in degrees) cannot carry yet.
+    A linear Delta (a prismatic chain) has ``joint = "prismatic"`` at the top and, per limb, its
+    endstop's error ``endstop_offset_mm`` (the encoder offset of a carriage) and ``joint_scale``
+    (true over nominal step distance) in place of ``encoder_offset_deg``; a rotary robot's file
+    is unchanged.
     """
-    if geometry.joint != "revolute":
-        raise GeometryError(f"the {GEOMETRY_FORMAT!r} format holds rotary Delta robots; "
-                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
+    prismatic = geometry.joint == "prismatic"
     limbs = []
     for i in range(3):
-        limbs.append(
-            {
-                "azimuth_deg": exact_degrees(float(geometry.limb_azimuth[i])),
-                "axis_point_mm": geometry.axis_point[i].tolist(),
-                "axis_direction": geometry.axis_direction[i].tolist(),
-                "encoder_offset_deg": exact_degrees(float(geometry.encoder_offset[i])),
-                "arm_ball_mm": geometry.arm_ball[i].tolist(),
-                "plate_ball_mm": geometry.plate_ball[i].tolist(),
-                "rod_length_mm": geometry.rod_length[i].tolist(),
-            }
-        )
-    out: dict[str, Any] = {
-        "format": GEOMETRY_FORMAT,
-        "name": geometry.name,
-        "tool_mm": geometry.tool.tolist(),
-        "limb": limbs,
-    }
+        limb: dict[str, Any] = {
+            "azimuth_deg": exact_degrees(float(geometry.limb_azimuth[i])),
+            "axis_point_mm": geometry.axis_point[i].tolist(),
+            "axis_direction": geometry.axis_direction[i].tolist(),
+        }
+        if prismatic:
+            limb["endstop_offset_mm"] = float(geometry.encoder_offset[i])
+            limb["joint_scale"] = float(geometry.joint_scale[i])
+        else:
+            limb["encoder_offset_deg"] = exact_degrees(float(geometry.encoder_offset[i]))
+        limb |= {
+            "arm_ball_mm": geometry.arm_ball[i].tolist(),
+            "plate_ball_mm": geometry.plate_ball[i].tolist(),
+            "rod_length_mm": geometry.rod_length[i].tolist(),
+        }
+        limbs.append(limb)
+    out: dict[str, Any] = {"format": GEOMETRY_FORMAT, "name": geometry.name}
+    if prismatic:
+        out["joint"] = geometry.joint
+    out |= {"tool_mm": geometry.tool.tolist(), "limb": limbs}
     if geometry.points:
         out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
     if not geometry.masses.is_zero:
@@ -88,7 +91,7 @@ def _compliance_from_table(table: _Table) -> np.ndarray:
 def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -> DeltaGeometry:
     """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
     top = _Table(data, source, prefix)
-    top.check_unknown(["format", "name", "tool_mm", "limb", "points", "masses", "compliance"])
+    top.check_unknown(["format", "name", "joint", "tool_mm", "limb", "points", "masses", "compliance"])
     fmt = top.string("format")
     if fmt != GEOMETRY_FORMAT:
         raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
@@ -96,25 +99,36 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     problem = control_character(name)
     if problem is not None:
         raise top.error("name", f"robot name {name!r} {problem}")
+    joint = top.string("joint", default="revolute")
+    if joint not in JOINTS:
+        raise top.error("joint", f"must be one of {', '.join(JOINTS)}, got {joint!r}")
     tool = top.vector("tool_mm", (3,))
     limbs = top.raw("limb")
     if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):
         raise top.error("limb", "must be an array of exactly 3 tables [[limb]]")
     fields: dict[str, list[Any]] = {k: [] for k in (
         "limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
-        "rod_length")}
+        "rod_length", "joint_scale")}
+    joint_keys = ["endstop_offset_mm", "joint_scale"] if joint == "prismatic" else ["encoder_offset_deg"]
     for i, limb_data in enumerate(limbs):
         t = _Table(limb_data, source, f"{prefix}limb[{i + 1}].")
-        t.check_unknown([
-            "azimuth_deg", "axis_point_mm", "axis_direction", "encoder_offset_deg", "arm_ball_mm",
-            "plate_ball_mm", "rod_length_mm"])
+        t.check_unknown(["azimuth_deg", "axis_point_mm", "axis_direction", *joint_keys, "arm_ball_mm",
+                         "plate_ball_mm", "rod_length_mm"])
         fields["limb_azimuth"].append(t.angle("azimuth_deg"))
         fields["axis_point"].append(t.vector("axis_point_mm", (3,)))
         w = t.vector("axis_direction", (3,))
         if abs(float(np.linalg.norm(w)) - 1.0) > 1e-9:
             raise t.error("axis_direction", f"must be a unit vector, got {w.tolist()}")
         fields["axis_direction"].append(w)
-        fields["encoder_offset"].append(t.angle("encoder_offset_deg"))
+        if joint == "prismatic":
+            fields["encoder_offset"].append(t.number("endstop_offset_mm"))
+            scale = t.number("joint_scale")
+            if scale <= 0.0:
+                raise t.error("joint_scale", f"must be positive, got {scale!r}")
+            fields["joint_scale"].append(scale)
+        else:
+            fields["encoder_offset"].append(t.angle("encoder_offset_deg"))
+            fields["joint_scale"].append(1.0)
         fields["arm_ball"].append(t.vector("arm_ball_mm", (2, 3)))
         fields["plate_ball"].append(t.vector("plate_ball_mm", (2, 3)))
         rods = t.vector("rod_length_mm", (2,))
@@ -134,7 +148,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     try:
         arrays: dict[str, Any] = {k: np.array(v) for k, v in fields.items()}
         return DeltaGeometry(**arrays, tool=tool, points=points, name=name, masses=masses,
-                             compliance=compliance)
+                             compliance=compliance, joint=joint)
     except GeometryError as exc:
         raise InputError(str(exc), source) from None
 

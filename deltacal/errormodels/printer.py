@@ -1,0 +1,172 @@
+"""Error models of a linear Delta printer: the complete one (54) and the firmware's own (Klipper, 13).
+
+``printer``: Savoure's complete model carried over to a prismatic chain (Savoure 2006, Eq. 12-22,
+written for the whole family of parallelogram robots): per rod (i, j), in the order (1,1), (1,2),
+..., (3,2),
+
+* ``b{i}{j}x, b{i}{j}y, b{i}{j}z`` [mm]: effector ball B_ij in the effector frame; as in Eq. 13 it
+  also stands for the opposite move of the tower (its carriage frame's origin P_i);
+* ``a{i}{j}x, a{i}{j}y, a{i}{j}z`` [mm]: carriage ball A_ij in the carriage frame (x radial, y up
+  the tower, z = −t_i);
+* ``l{i}{j}`` [mm]: rod length;
+
+then per tower i: ``lean{i}r``, ``lean{i}t`` [rad], its rotation about r_i and about t_i through
+P_i (a positive ``lean{i}t`` moves its top outward); ``endstop{i}`` [mm], the height of its carriage
+at the endstop (the carriage frame moved up the tower); and ``scale{i}`` [mm per 100 mm], the
+carriage's travel per 100 mm counted in the nominal step distance, minus 100 (a step distance
+0.3 % long is 0.3). 7 × 6 + 4 × 3 = 54.
+
+``klipper``: the values Klipper holds (``[printer] delta_radius``; per ``[stepper_*]`` ``angle``,
+``arm_length``, ``position_endstop``, and the step distance through ``rotation_distance``), as
+moves of the full geometry: the radius moves every tower out along r_i, an angle moves its tower
+along t_i by ρ δα, an arm length moves both rods of the tower, an endstop the carriage up. What a
+firmware calibration can reach; the rest of the complete model is what it leaves.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import DeltaGeometry, Tolerances
+from .base import (
+    N_ELEMENTARY,
+    ErrorModel,
+    actuator_rotation_index,
+    arm_ball_index,
+    axis_point_index,
+    joint_scale_index,
+    plate_ball_index,
+    rod_index,
+)
+
+#: The travel a ``scale{i}`` parameter is given per [mm]: its value is the error over this travel.
+SCALE_TRAVEL_MM = 100.0
+
+_TOWERS = "abc"
+
+#: How far the bed may sit from the nominal one, for the prior of a fit: its tilt [rad] and
+#: height [mm]. The identified printer is expressed on its true bed, so the bed's tilt is in the
+#: towers' leans and its height in the endstops.
+BED_TILT = float(np.radians(0.5))
+BED_HEIGHT = 10.0
+
+
+class PrinterModel(ErrorModel):
+    """The complete model of a linear Delta printer (54 parameters)."""
+
+    name = "printer"
+    joint = "prismatic"
+    tilts_plate = True
+
+    def __init__(self) -> None:
+        names: list[str] = []
+        units: list[str] = []
+        kinds: list[str] = []  # what bounds each before a measurement (prior_sigma)
+        rows: list[list[tuple[int, float]]] = []
+        for i in range(3):
+            for j in range(2):
+                for prefix, index in (("b", plate_ball_index), ("a", arm_ball_index)):
+                    for k, axis in enumerate("xyz"):
+                        names.append(f"{prefix}{i + 1}{j + 1}{axis}")
+                        rows.append([(index(i, j, k), 1.0)])
+                        kinds.append("tower" if prefix == "b" and k < 2 else "ball")
+                names.append(f"l{i + 1}{j + 1}")
+                rows.append([(rod_index(i, j), 1.0)])
+                units += ["mm"] * 7
+                kinds.append("rod")
+        for i in range(3):
+            names += [f"lean{i + 1}r", f"lean{i + 1}t", f"endstop{i + 1}", f"scale{i + 1}"]
+            units += ["rad", "rad", "mm", "mm"]
+            kinds += ["lean", "lean", "endstop", "scale"]
+            # the carriage frame is [r_i, z, −t_i]: a rotation about t_i is minus one about its z0
+            rows += [[(actuator_rotation_index(i, 0), 1.0)], [(actuator_rotation_index(i, 2), -1.0)],
+                     [(actuator_rotation_index(i, 1), -1.0)],  # up the tower: less travel below it
+                     [(joint_scale_index(i), 1.0 / SCALE_TRAVEL_MM)]]
+        M = np.zeros((N_ELEMENTARY, len(names)))
+        for col, row in enumerate(rows):
+            for move, value in row:
+                M[move, col] = value
+        self._names, self._units, self._kinds, self._moves = names, units, kinds, M
+        # regroupings keep what a printer's user adjusts: endstops, scales, leans, rods, then balls
+        self.preferred = (
+            [f"endstop{i}" for i in range(1, 4)] + [f"scale{i}" for i in range(1, 4)]
+            + [f"lean{i}{a}" for a in "rt" for i in range(1, 4)]
+            + [f"l{i}{j}" for i in range(1, 4) for j in (1, 2)]
+            + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
+            + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
+        )
+
+    @property
+    def names(self) -> list[str]:
+        """The 54 parameter names."""
+        return list(self._names)
+
+    @property
+    def units(self) -> list[str]:
+        """Units of the parameters."""
+        return list(self._units)
+
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """Each parameter is one elementary move (a constant matrix)."""
+        return self._moves
+
+    def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
+        """σ of each parameter before any measurement, from the build tolerances (n,).
+
+        An effector ball's x and y also carry its tower's position (Eq. 13); a lean and an endstop
+        also carry the bed's tilt and height (:data:`BED_TILT`, :data:`BED_HEIGHT`).
+        """
+        tower = float(np.hypot(tolerances.ball_centre, tolerances.axis_position))
+        lean = float(np.hypot(tolerances.axis_direction, BED_TILT))
+        sigma = {"tower": tower, "ball": tolerances.ball_centre, "rod": tolerances.rod_length, "lean": lean,
+                 "endstop": float(np.hypot(tolerances.encoder_offset, BED_HEIGHT)),
+                 "scale": SCALE_TRAVEL_MM * tolerances.joint_scale}
+        return np.array([sigma[kind] for kind in self._kinds])
+
+
+class FirmwareModel(ErrorModel):
+    """Klipper's values as deviations of a printer's full geometry (13 parameters)."""
+
+    name = "klipper"
+    joint = "prismatic"
+    tilts_plate = False
+
+    def __init__(self) -> None:
+        self._names = (["delta_radius"] + [f"angle_{t}" for t in _TOWERS]
+                       + [f"arm_length_{t}" for t in _TOWERS]
+                       + [f"endstop_{t}" for t in _TOWERS] + [f"scale_{t}" for t in _TOWERS])
+        self._units = ["mm", "rad", "rad", "rad"] + ["mm"] * 9
+
+    @property
+    def names(self) -> list[str]:
+        """``delta_radius``, ``angle_a..c``, ``arm_length_a..c``, ``endstop_a..c``, ``scale_a..c``."""
+        return list(self._names)
+
+    @property
+    def units(self) -> list[str]:
+        """Units of the parameters."""
+        return list(self._units)
+
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """M(g): the towers moved out and along, the rods of a tower together, endstops, scales."""
+        M = np.zeros((N_ELEMENTARY, len(self._names)))
+        r, t = geometry.radial, geometry.tangent
+        centre = geometry.axis_point[:, :2].mean(axis=0)
+        reach = np.linalg.norm(geometry.axis_point[:, :2] - centre, axis=1) - np.linalg.norm(
+            geometry.plate_ball.mean(axis=1)[:, :2], axis=1)  # ρ: tower minus effector radius
+        for i in range(3):
+            for k in range(3):
+                M[axis_point_index(i, k), 0] = r[i, k]
+                M[axis_point_index(i, k), 1 + i] = reach[i] * t[i, k]
+            M[rod_index(i, 0), 4 + i] = M[rod_index(i, 1), 4 + i] = 1.0
+            M[actuator_rotation_index(i, 1), 7 + i] = -1.0
+            M[joint_scale_index(i), 10 + i] = 1.0 / SCALE_TRAVEL_MM
+        return M
+
+    def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
+        """σ of each value before any measurement, from the build tolerances (n,)."""
+        radius = float(np.hypot(tolerances.ball_centre, tolerances.axis_position))
+        angle = radius / 100.0  # a tower's tangential place over a delta radius of about 100 mm
+        return np.array([radius] + [angle] * 3 + [tolerances.rod_length] * 3
+                        + [float(np.hypot(tolerances.encoder_offset, BED_HEIGHT))] * 3
+                        + [SCALE_TRAVEL_MM * tolerances.joint_scale] * 3)

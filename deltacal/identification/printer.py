@@ -1,0 +1,231 @@
+"""Identification of a linear Delta printer from probe heights and printed distances.
+
+A printer measures itself: its probe triggers on the bed, and an object it printed is measured
+with calipers (conventions, "Linear Delta printers"). Both are made at readings the firmware
+commanded (the caller turns commanded positions into readings through the firmware's inverse
+model); here they are equations of the printer's full geometry:
+
+* a probe height: the probe point (the nozzle, or the nozzle plus ``probe_offset`` in the
+  effector frame) touches the bed, ``z(q) = 0``, σ ``height_sigma``;
+* a distance between two printed features: ``|p(q1) − p(q2)| = d``, σ ``distance_sigma``, with
+  p the nozzle.
+
+The gauge: {O} is the true bed, z = 0 (the bed's height and tilt relative to the nominal towers,
+the free plane of a probing, are carried by the towers' endstops and leans: a printer is judged
+against the bed it prints on). What no probe height and no distance sees (the printer moved along
+the bed and turned about its normal: 3 rigid motions, and what the data leave out) is held at its
+start value by the base parameters (Savoure 2006, Eq. 23-26): the pivoted QR keeps one parameter
+per identifiable combination, preferring endstops, step scales, leans and rods
+(:class:`~deltacal.errormodels.printer.PrinterModel`). Gauss-Newton then iterates the kept
+parameters to convergence, linearised at the exact kinematics of each estimate. Vectorised over
+measurements. Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errormodels import ErrorModel, get_model
+from ..geometry import DeltaGeometry, Tolerances
+from ..identifiability import BaseParameters, base_parameters
+from ..kinematics import exact
+from ..rotations import skew
+from .columns import build_columns
+from .result import IdentificationResult, ResidualStats
+from .solver import solve_wls
+
+#: Probe trigger repeatability [mm] (a typical inductive or switch probe).
+HEIGHT_SIGMA = 0.01
+#: Caliper reading [mm].
+DISTANCE_SIGMA = 0.02
+#: Rank tolerance of the scaled pivoted QR.
+RANK_RTOL = 1e-6
+#: Gauss-Newton stops when no kept parameter moved by more than this [mm or rad].
+STEP_TOLERANCE = 1e-9
+MAX_ITERATIONS = 20
+
+
+@dataclass(frozen=True)
+class PrinterMeasurements:
+    """What a printer measured, at the readings the firmware commanded.
+
+    Attributes:
+        probe: Readings at which the probe triggered on the bed [mm], (N, 3).
+        pairs: Readings at which the two features of each measured distance were printed
+            [mm], (M, 2, 3).
+        distance: The distances measured between them [mm], (M,).
+        probe_offset: The probe's trigger point relative to the nozzle, in the effector frame [mm].
+        height_sigma: σ of a probe height [mm].
+        distance_sigma: σ of a distance [mm].
+    """
+
+    probe: np.ndarray
+    pairs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
+    distance: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    probe_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    height_sigma: float = HEIGHT_SIGMA
+    distance_sigma: float = DISTANCE_SIGMA
+
+    def __post_init__(self) -> None:
+        probe = np.asarray(self.probe, dtype=float).reshape(-1, 3)
+        pairs = np.asarray(self.pairs, dtype=float).reshape(-1, 2, 3)
+        distance = np.asarray(self.distance, dtype=float).reshape(-1)
+        if distance.shape[0] != pairs.shape[0]:
+            raise ValueError(f"{distance.shape[0]} distances for {pairs.shape[0]} pairs")
+        if not (self.height_sigma > 0.0 and self.distance_sigma > 0.0):
+            raise ValueError("the σ of probe heights and distances must be positive")
+        object.__setattr__(self, "probe", probe)
+        object.__setattr__(self, "pairs", pairs)
+        object.__setattr__(self, "distance", distance)
+        object.__setattr__(self, "probe_offset", np.asarray(self.probe_offset, dtype=float).reshape(3))
+
+    @property
+    def rows(self) -> int:
+        """Number of equations."""
+        return self.probe.shape[0] + self.distance.shape[0]
+
+
+def _point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local: np.ndarray):
+    """A plate point in {O} at readings q and its sensitivity to the model's parameters, (N, 3, n)."""
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose)
+    arm = pose.rotation @ local  # (N, 3)
+    point = pose.position + arm
+    return point, S[:, :3] - np.einsum("nkl,nlp->nkp", skew(arm), S[:, 3:])
+
+
+def residuals_and_regressor(
+    geometry: DeltaGeometry, model: ErrorModel, data: PrinterMeasurements
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Whitened residuals (measured − model) and regressor at ``geometry``, and the kind of each row.
+
+    Returns:
+        r (m,), W (m, n) (both divided by each row's σ) and kind (m,): 0 probe height, 1 distance.
+    """
+    tool = geometry.tool
+    z, Jz = _point_rows(geometry, model, data.probe, tool + data.probe_offset)
+    rows = [(-z[:, 2] / data.height_sigma, Jz[:, 2] / data.height_sigma)]
+    if data.distance.size:
+        M = data.distance.shape[0]
+        p, J = _point_rows(geometry, model, data.pairs.reshape(-1, 3), tool)
+        p, J = p.reshape(M, 2, 3), J.reshape(M, 2, 3, -1)
+        d = p[:, 0] - p[:, 1]
+        norm = np.linalg.norm(d, axis=1)
+        u = d / norm[:, None]
+        Jd = np.einsum("mk,mkp->mp", u, J[:, 0] - J[:, 1])
+        rows.append(((data.distance - norm) / data.distance_sigma, Jd / data.distance_sigma))
+    kind = np.concatenate([np.zeros(data.probe.shape[0], int), np.ones(data.distance.shape[0], int)])
+    return np.concatenate([r for r, _ in rows]), np.concatenate([w for _, w in rows]), kind
+
+
+def _stats(r: np.ndarray, kind: np.ndarray, data: PrinterMeasurements) -> ResidualStats:
+    """RMS and max of the probe heights' and the distances' residuals [mm]."""
+    out = {}
+    for k, key, sigma in ((0, "height", data.height_sigma), (1, "distance", data.distance_sigma)):
+        if np.any(kind == k):
+            v = r[kind == k] * sigma
+            out[f"{key}_rms"], out[f"{key}_max"] = float(np.sqrt(np.mean(v**2))), float(np.max(np.abs(v)))
+    return ResidualStats(**out)
+
+
+def measured_combinations(start: DeltaGeometry, data: PrinterMeasurements,
+                          model: str | ErrorModel = "printer",
+                          tolerances: Tolerances | None = None) -> BaseParameters:
+    """What the measurements identify: the combinations they determine better than the tolerances do.
+
+    With each parameter in units of its tolerance (``model.prior_sigma``), a combination whose
+    singular value in the whitened regressor exceeds 1 is known to better than its tolerance
+    from the measurements; their number is the rank, and the base parameters (Savoure 2006,
+    Eq. 23-26) keep endstops, scales, leans and rods first. The ``unidentifiable`` are what only
+    the build tolerances bound.
+    """
+    error_model = get_model(model) if isinstance(model, str) else model
+    _, W, _ = residuals_and_regressor(start, error_model, data)
+    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
+    determined = int(np.sum(np.linalg.svd(W * prior, compute_uv=False) > 1.0))
+    return base_parameters(W, error_model.names, rtol=RANK_RTOL, prefer=error_model.preferred,
+                           rank=determined)
+
+
+def posterior_sigma(start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
+                    tolerances: Tolerances | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """How well the measurements would know each parameter: its σ before and after them (n,), (n,).
+
+    The prior σ is the build tolerance (``model.prior_sigma``); after, the marginal σ of the
+    linearised fit at ``start`` (the measurements' σ and the priors together). A parameter whose
+    σ after is close to before is one the measurements do not see.
+    """
+    error_model = get_model(model) if isinstance(model, str) else model
+    _, W, _ = residuals_and_regressor(start, error_model, data)
+    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
+    _, _, Rinv = solve_wls(np.vstack([W * prior, np.eye(prior.size)]), np.zeros(W.shape[0] + prior.size))
+    return prior, np.sqrt(np.sum(Rinv**2, axis=1)) * prior
+
+
+def identify_printer(
+    start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
+    method: str = "iterated", tolerances: Tolerances | None = None,
+) -> IdentificationResult:
+    """Identify a printer's geometry from probe heights and printed distances.
+
+    A printer's measurements (at most 49 heights and 40 distances) identify about half of the
+    complete model's combinations (:func:`measured_combinations`); the build tolerances bound the
+    rest: each parameter has a prior, zero ± its tolerance (``model.prior_sigma``), and the fit is
+    the most probable geometry (weighted least squares on the measurements and the priors
+    together, Gauss-Newton at the exact kinematics). A combination the measurements determine
+    is theirs, one they do not see stays within its tolerance, and the gauge along the bed (a
+    shift and a turn no probe and no caliper sees) is the one of the smallest deviations.
+
+    Args:
+        start: The nominal printer (a prismatic DeltaGeometry, {O} on the nominal bed).
+        data: The measurements, at the readings the firmware commanded.
+        model: ``"printer"`` (the complete model) or ``"klipper"`` (the firmware's values).
+        method: ``"linear"`` (one step at the start) or ``"iterated"`` (to convergence).
+        tolerances: The build tolerances (default: :meth:`Tolerances.printer_kit`).
+
+    Returns:
+        The result: the identified geometry on the true bed (z = 0), every parameter with its
+        posterior σ; its hints say what only the tolerances bound.
+    """
+    error_model = get_model(model) if isinstance(model, str) else model
+    error_model.check_fits(start)
+    if method not in ("linear", "iterated"):
+        raise ValueError(f"method must be 'linear' or 'iterated', got {method!r}")
+    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
+    measured = measured_combinations(start, data, error_model, tolerances)
+    r0, W0, kind = residuals_and_regressor(start, error_model, data)
+    total = np.zeros(error_model.size)
+    geometry, r, W = start, r0, W0
+    iterations = 0
+    while iterations < (1 if method == "linear" else MAX_ITERATIONS):
+        iterations += 1
+        whitened = np.vstack([W * prior, np.eye(prior.size)])  # in units of each tolerance
+        step, _, _ = solve_wls(whitened, np.concatenate([r, -total / prior]))
+        step = step * prior
+        total = total + step
+        geometry = error_model.apply(start, total)
+        r, W, _ = residuals_and_regressor(geometry, error_model, data)
+        if np.max(np.abs(step)) < STEP_TOLERANCE:
+            break
+    augmented = np.vstack([W, np.diag(1.0 / prior)])
+    _, _, Rinv = solve_wls(augmented * prior, np.zeros(augmented.shape[0]))
+    cov = (Rinv @ Rinv.T) * np.outer(prior, prior)
+    sigma = np.sqrt(np.diag(cov))
+    chi2 = float(r @ r + np.sum((total / prior) ** 2))
+    held = measured.unidentifiable_names
+    return IdentificationResult(
+        model=error_model.name, method=method, geometry=geometry, start=start,
+        # with the priors every parameter is kept, in the model's order
+        base=base_parameters(augmented, error_model.names, rtol=RANK_RTOL, prefer=error_model.names),
+        values=total, sigma=sigma,
+        correlation=cov / np.outer(sigma, sigma), before=_stats(r0, kind, data), after=_stats(r, kind, data),
+        outliers=[], iterations=iterations, variance_factor=chi2 / max(r.size, 1),
+        units=list(error_model.units), n_rows=r.size,
+        residual_after=r * np.where(kind == 0, data.height_sigma, data.distance_sigma),
+        independent_rows=r.size, columns=build_columns(error_model).columns,
+        hints=(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
+               f"combinations; the build tolerances bound the other {len(held)} "
+               f"({', '.join(held)})",) if held else (),
+    )
