@@ -1,4 +1,4 @@
-"""Error models of a linear Delta printer: sensitivities against finite differences of the exact kinematics."""
+"""Error models of a linear Delta printer: sensitivities against finite differences of exact kinematics."""
 
 from __future__ import annotations
 
