@@ -8,7 +8,7 @@ import numpy as np
 
 from ..exceptions import InputError
 from ..identification.quality import implausible_deviations
-from ..io import load_calibration, load_geometry, load_nominal
+from ..io import load_calibration, load_geometry, load_robot
 from ..report import write_report
 from .common import check_input, check_output, non_negative_float, three_numbers, warn
 
@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, inputs)
     nominal = load_calibration(args.calibration).nominal
     truth = load_geometry(args.truth) if args.truth is not None else None
-    robot = load_nominal(args.robot) if args.robot is not None else None
+    robot = load_robot(args.robot) if args.robot is not None else None
     for path, geometry, what in ((args.truth, truth, "true robot"),
                                  (args.robot, robot.geometry() if robot else None, "robot file")):
         odd = implausible_deviations(nominal, geometry) if geometry is not None else []

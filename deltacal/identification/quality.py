@@ -61,10 +61,13 @@ def implausible_deviations(start: DeltaGeometry, geometry: DeltaGeometry) -> lis
     """Elements of the identified geometry that no manufacturing error explains.
 
     Ball centres, rod lengths and axis points that moved by more than
-    :data:`PLAUSIBLE_LENGTH` of the arm length, and actuator axes tilted by more than
-    :data:`PLAUSIBLE_TILT`.
+    :data:`PLAUSIBLE_LENGTH` of the arm length (a printer's: of its rod length; its carriage
+    balls are on its tower), and actuator axes tilted by more than :data:`PLAUSIBLE_TILT`.
     """
-    arm = float(np.mean(np.linalg.norm(start.arm_ball.mean(axis=1), axis=1)))
+    if start.joint == "prismatic":
+        arm = float(np.mean(start.rod_length))
+    else:
+        arm = float(np.mean(np.linalg.norm(start.arm_ball.mean(axis=1), axis=1)))
     limit = PLAUSIBLE_LENGTH * arm
     found = []
     for label, a, b in (

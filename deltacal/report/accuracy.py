@@ -87,7 +87,40 @@ def tcp_jacobian(
         A = gauge_sensitivity(model, geometry, columns)
         A = np.concatenate([A, np.zeros((6, len(compliance)))], axis=1)
         J = J + skew(pose.point(tool)) @ A[:3] - A[3:]
+    if geometry.joint == "prismatic" and not compliance:
+        J = J - bed_motion(pose.point(tool)) @ _bed_gauge(geometry, calibration, tool)
     return J
+
+
+def bed_motion(points: np.ndarray) -> np.ndarray:
+    """TCP displacement per unit shift along the bed (x, y) and turn about its normal (z) [rad], (N, 3, 3)."""
+    points = np.atleast_2d(points)
+    A = np.zeros((points.shape[0], 3, 3))
+    A[:, 0, 0] = A[:, 1, 1] = 1.0
+    A[:, 0, 2], A[:, 1, 2] = -points[:, 1], points[:, 0]
+    return A
+
+
+def _bed_gauge(geometry: DeltaGeometry, calibration: Calibration, tool: np.ndarray) -> np.ndarray:
+    """A printer's gauge along its bed: the bed motion each parameter moves the printed volume by, (3, r).
+
+    No probe height and no distance sees the printer shifted along its bed or turned about its
+    normal: such a change of the parameters moves every printed point rigidly and is no error of
+    a part. It is the least-squares bed motion of the TCP displacements over reference points of
+    the volume (two rings, on the bed and a tower's reach above it).
+    """
+    reach = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
+    angle = np.linspace(0.0, 2.0 * np.pi, 12, endpoint=False)
+    ring = 0.4 * reach * np.column_stack([np.cos(angle), np.sin(angle), np.zeros(12)])
+    reference = np.concatenate([ring, ring + [0.0, 0.0, 0.5 * reach]])
+    q = reachable_readings(geometry.with_tool(tool), reference)
+    ok = np.all(np.isfinite(q), axis=1)
+    columns = [calibration.model.names.index(name) for name in calibration.robot_names]
+    pose = exact.forward(geometry, q[ok])
+    S = calibration.model.sensitivity(geometry, q[ok], pose)[:, :, columns]
+    J = S[:, :3] - skew(pose.rotation @ tool) @ S[:, 3:]
+    A = bed_motion(pose.point(tool))
+    return np.linalg.lstsq(A.reshape(-1, 3), J.reshape(-1, J.shape[-1]), rcond=None)[0]
 
 
 def predicted_tcp_covariance(
@@ -178,6 +211,8 @@ class AccuracyMap:
         worst_axes: σ_x, σ_y, σ_z there [mm].
         shift: With a true geometry and free instrument frames, the common shift removed from the
             actual errors [mm], (3,); else None (see :func:`accuracy_map`).
+        bed_motion: With a true printer, the shift along the bed [mm] and turn about its normal
+            [rad] removed from the actual errors, ``(x, y, angle)``; else None.
     """
 
     slices: list[Slice]
@@ -188,6 +223,7 @@ class AccuracyMap:
     worst_point: np.ndarray
     worst_axes: np.ndarray
     shift: np.ndarray | None = None
+    bed_motion: np.ndarray | None = None
 
 
 def actual_tcp_error(
@@ -241,7 +277,7 @@ def accuracy_map(
     sizes = np.cumsum([0] + [s.points.shape[0] * s.points.shape[1] for s in slices])
     shapes = [s.points.shape[:2] for s in slices]
     sigma = [total[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]
-    error, shift = None, None
+    error, shift, moved = None, None, None
     if truth is not None:
         if calibration.frames:
             # the truth is in the simulator's {O}; the calibration in its axes gauge: compare there
@@ -252,9 +288,19 @@ def accuracy_map(
             # of its axes and plate balls); the gauge holds it at nominal, the truth has its own
             shift = np.nanmean(vectors, axis=0)
             vectors = vectors - shift
+        if calibration.geometry.joint == "prismatic":
+            vectors, moved = _less_bed_motion(flat, vectors)
         err = np.linalg.norm(vectors, axis=1)
         error = [err[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]
     if not np.any(np.isfinite(total)):
         raise UnreachableError("no point of the workspace slices is within reach of the identified robot")
     k = int(np.nanargmax(total))
-    return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k], shift)
+    return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k], shift, moved)
+
+
+def _less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A printer's errors less the bed motion that fits them best (no measurement sees it), and that motion."""
+    ok = np.all(np.isfinite(errors), axis=1)
+    A = bed_motion(points)
+    motion = np.linalg.lstsq(A[ok].reshape(-1, 3), errors[ok].reshape(-1), rcond=None)[0]
+    return errors - A @ motion, motion

@@ -266,6 +266,16 @@ def _gauge_note(shift: np.ndarray | None) -> str:
             "(targets given in a station's frame do not depend on it).</p>")
 
 
+def _bed_note(motion: np.ndarray | None) -> str:
+    if motion is None:
+        return ""
+    return ("<p id=\"truth-bed\">Compared on the bed: no probe height and no printed distance sees the "
+            "printer shifted along its bed or turned about its normal (a printed part is the same part), so "
+            f"the shift of {esc(num(float(motion[0]) * 1000.0, 4))}, {esc(num(float(motion[1]) * 1000.0, 4))} µm "
+            f"in x, y and the turn of {esc(num(math.degrees(float(motion[2])), 4))}° that fit the actual errors "
+            "best are removed from them.</p>")
+
+
 def _truth(page: Page) -> str:
     a = page.accuracy
     assert a.error is not None
@@ -282,7 +292,7 @@ def _truth(page: Page) -> str:
            f"RMS {esc(num(float(np.sqrt(np.mean(e[ok] ** 2))) * 1000.0, 4))} µm; RMS of error / predicted σ "
            f"{esc(num(ratio, 3))} (about 1 expected, one draw of correlated errors); error below 2σ at "
            f"{esc(num(100.0 * within, 3))} % of the points.</p>")
-    out += _gauge_note(a.shift)
+    out += _gauge_note(a.shift) + _bed_note(a.bed_motion)
     out += figure(page.figures["error"], "Actual TCP error of the calibrated robot on the same slices.",
                   "fig-error")
     out += figure(page.figures["error_vs_sigma"], "Actual error against predicted σ at every slice point.",
