@@ -299,7 +299,7 @@ def accuracy_map(
 
 
 def _less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A printer's errors less the bed motion that fits them best (no measurement sees it), and that motion."""
+    """A printer's errors less the bed motion that fits them best (nothing measured sees it), and it."""
     ok = np.all(np.isfinite(errors), axis=1)
     A = bed_motion(points)
     motion = np.linalg.lstsq(A[ok].reshape(-1, 3), errors[ok].reshape(-1), rcond=None)[0]

@@ -271,8 +271,9 @@ def _bed_note(motion: np.ndarray | None) -> str:
         return ""
     return ("<p id=\"truth-bed\">Compared on the bed: no probe height and no printed distance sees the "
             "printer shifted along its bed or turned about its normal (a printed part is the same part), so "
-            f"the shift of {esc(num(float(motion[0]) * 1000.0, 4))}, {esc(num(float(motion[1]) * 1000.0, 4))} µm "
-            f"in x, y and the turn of {esc(num(math.degrees(float(motion[2])), 4))}° that fit the actual errors "
+            f"the shift of {esc(num(float(motion[0]) * 1000.0, 4))}, "
+            f"{esc(num(float(motion[1]) * 1000.0, 4))} µm in x, y and the turn of "
+            f"{esc(num(math.degrees(float(motion[2])), 4))}° that fit the actual errors "
             "best are removed from them.</p>")
 
 

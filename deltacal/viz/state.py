@@ -147,7 +147,8 @@ def default_workspace(geometry: DeltaGeometry) -> Workspace:
     if geometry.joint == "prismatic":
         reach = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)
                               - np.linalg.norm(geometry.plate_ball.mean(axis=1)[:, :2], axis=1)))
-        top = float(VirtualDelta.from_geometry(geometry).forward(np.zeros(3))[0, 2] + geometry.tool[2]) - reach
+        nozzle = VirtualDelta.from_geometry(geometry).forward(np.zeros(3))[0, 2] + geometry.tool[2]
+        top = float(nozzle) - reach
         return Workspace(radius=0.7 * reach, height=top, top_z=top)
     b = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
     a = float(np.mean(np.linalg.norm(geometry.plate_ball.mean(axis=1)[:, :2], axis=1)))
