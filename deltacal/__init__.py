@@ -64,6 +64,10 @@ _LAZY = {
     "FitOptions": "identification",
     "IdentificationResult": "identification",
     "identify": "identification",
+    "PrinterMeasurements": "identification.printer",
+    "identify_printer": "identification.printer",
+    "measured_combinations": "identification.printer",
+    "posterior_sigma": "identification.printer",
     "Calibration": "calibration",
     # compensation, planning, simulation, validation
     "LinearCalibration": "compensation",

@@ -157,3 +157,22 @@ def test_printer_calibration_file_round_trips(nominal, tmp_path):
     assert calibration.model.name == "printer" and calibration.geometry.joint == "prismatic"
     assert np.array_equal(calibration.geometry.axis_point, result.geometry.axis_point)
     assert np.array_equal(calibration.geometry.joint_scale, result.geometry.joint_scale)
+
+
+def test_positions_an_instrument_measured_in_its_own_frame(nominal):
+    """Nozzle positions measured by an instrument whose frame is unknown (free, fitted in closed form)."""
+    truth = _printer(nominal, 61)
+    rng = np.random.default_rng(4)
+    volume = _volume(60, seed=8)
+    readings = exact.inverse(truth, volume)
+    turn = np.radians(25.0) * np.array([0.2, -0.3, 0.93])
+    c, s, k = np.cos(np.linalg.norm(turn)), np.sin(np.linalg.norm(turn)), turn / np.linalg.norm(turn)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    R = np.eye(3) + s * K + (1 - c) * K @ K
+    measured = volume @ R.T + np.array([1500.0, -200.0, 40.0]) + rng.normal(size=volume.shape) * 0.01
+    probe = _measure(truth, rng, distances=False)
+    data = PrinterMeasurements(probe.probe, positions=readings, measured=measured)
+    result = identify_printer(nominal, data)
+    assert result.after.position_rms < 0.02 < result.before.position_rms
+    assert 0.5 < result.variance_factor < 2.0
+    assert _shape_error(truth, result.geometry, _volume()) < 0.05

@@ -8,7 +8,10 @@ model); here they are equations of the printer's full geometry:
 * a probe height: the probe point (the nozzle, or the nozzle plus ``probe_offset`` in the
   effector frame) touches the bed, ``z(q) = 0``, σ ``height_sigma``;
 * a distance between two printed features: ``|p(q1) − p(q2)| = d``, σ ``distance_sigma``, with
-  p the nozzle.
+  p the nozzle;
+* a nozzle position an instrument measured in its own frame (a tracker's, a CMM's), σ
+  ``position_sigma`` per coordinate: the instrument's frame is free, so each step fits it in closed
+  form (Kabsch) and its six motions are projected out of the rows (variable projection).
 
 The gauge: {O} is the true bed, z = 0 (the bed's height and tilt relative to the nominal towers,
 the free plane of a probing, are carried by the towers' endstops and leans: a printer is judged
@@ -31,6 +34,7 @@ from ..errormodels import ErrorModel, get_model
 from ..geometry import DeltaGeometry, Tolerances
 from ..identifiability import BaseParameters, base_parameters
 from ..kinematics import exact
+from ..observations import rigid_alignment
 from ..rotations import skew
 from .columns import build_columns
 from .result import IdentificationResult, ResidualStats
@@ -40,6 +44,8 @@ from .solver import solve_wls
 HEIGHT_SIGMA = 0.01
 #: Caliper reading [mm].
 DISTANCE_SIGMA = 0.02
+#: A measured coordinate of the nozzle [mm].
+POSITION_SIGMA = 0.01
 #: Rank tolerance of the scaled pivoted QR.
 RANK_RTOL = 1e-6
 #: Gauss-Newton stops when no kept parameter moved by more than this [mm or rad].
@@ -59,6 +65,9 @@ class PrinterMeasurements:
         probe_offset: The probe's trigger point relative to the nozzle, in the effector frame [mm].
         height_sigma: σ of a probe height [mm].
         distance_sigma: σ of a distance [mm].
+        positions: Readings at which an instrument measured the nozzle [mm], (K, 3).
+        measured: The nozzle positions it measured, in its own frame [mm], (K, 3).
+        position_sigma: σ of each measured coordinate [mm].
     """
 
     probe: np.ndarray
@@ -67,6 +76,9 @@ class PrinterMeasurements:
     probe_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     height_sigma: float = HEIGHT_SIGMA
     distance_sigma: float = DISTANCE_SIGMA
+    positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    measured: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    position_sigma: float = POSITION_SIGMA
 
     def __post_init__(self) -> None:
         probe = np.asarray(self.probe, dtype=float).reshape(-1, 3)
@@ -74,8 +86,15 @@ class PrinterMeasurements:
         distance = np.asarray(self.distance, dtype=float).reshape(-1)
         if distance.shape[0] != pairs.shape[0]:
             raise ValueError(f"{distance.shape[0]} distances for {pairs.shape[0]} pairs")
-        if not (self.height_sigma > 0.0 and self.distance_sigma > 0.0):
-            raise ValueError("the σ of probe heights and distances must be positive")
+        positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+        measured = np.asarray(self.measured, dtype=float).reshape(-1, 3)
+        if positions.shape != measured.shape or 0 < positions.shape[0] < 3:
+            raise ValueError(f"{measured.shape[0]} measured positions for {positions.shape[0]} readings "
+                             "(an instrument's frame needs 3 positions at least)")
+        if not (self.height_sigma > 0.0 and self.distance_sigma > 0.0 and self.position_sigma > 0.0):
+            raise ValueError("the σ of probe heights, distances and positions must be positive")
+        object.__setattr__(self, "positions", positions)
+        object.__setattr__(self, "measured", measured)
         object.__setattr__(self, "probe", probe)
         object.__setattr__(self, "pairs", pairs)
         object.__setattr__(self, "distance", distance)
@@ -84,7 +103,12 @@ class PrinterMeasurements:
     @property
     def rows(self) -> int:
         """Number of equations."""
-        return self.probe.shape[0] + self.distance.shape[0]
+        return self.probe.shape[0] + self.distance.shape[0] + 3 * self.positions.shape[0]
+
+    @property
+    def sigma(self) -> tuple[float, float, float]:
+        """σ of a row of each kind (probe height, distance, position coordinate) [mm]."""
+        return self.height_sigma, self.distance_sigma, self.position_sigma
 
 
 def _point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local: np.ndarray):
@@ -102,7 +126,8 @@ def residuals_and_regressor(
     """Whitened residuals (measured − model) and regressor at ``geometry``, and the kind of each row.
 
     Returns:
-        r (m,), W (m, n) (both divided by each row's σ) and kind (m,): 0 probe height, 1 distance.
+        r (m,), W (m, n) (both divided by each row's σ) and kind (m,): 0 probe height, 1 distance,
+        2 a coordinate of a measured position.
     """
     tool = geometry.tool
     z, Jz = _point_rows(geometry, model, data.probe, tool + data.probe_offset)
@@ -116,16 +141,26 @@ def residuals_and_regressor(
         u = d / norm[:, None]
         Jd = np.einsum("mk,mkp->mp", u, J[:, 0] - J[:, 1])
         rows.append(((data.distance - norm) / data.distance_sigma, Jd / data.distance_sigma))
-    kind = np.concatenate([np.zeros(data.probe.shape[0], int), np.ones(data.distance.shape[0], int)])
+    if data.positions.size:
+        p, J = _point_rows(geometry, model, data.positions, tool)
+        frame = np.zeros((p.shape[0], 3, 6))  # the instrument frame's small motions: shift, turn
+        frame[:, :, :3] = np.eye(3)
+        frame[:, :, 3:] = -skew(p)
+        F, Jp = frame.reshape(-1, 6), J.reshape(-1, J.shape[-1])
+        Jp = Jp - F @ np.linalg.lstsq(F, Jp, rcond=None)[0]
+        r = (rigid_alignment(data.measured, p) - p).reshape(-1)
+        rows.append((r / data.position_sigma, Jp / data.position_sigma))
+    kind = np.repeat([0, 1, 2], [data.probe.shape[0], data.distance.shape[0], 3 * data.positions.shape[0]])
     return np.concatenate([r for r, _ in rows]), np.concatenate([w for _, w in rows]), kind
 
 
 def _stats(r: np.ndarray, kind: np.ndarray, data: PrinterMeasurements) -> ResidualStats:
     """RMS and max of the probe heights' and the distances' residuals [mm]."""
     out = {}
-    for k, key, sigma in ((0, "height", data.height_sigma), (1, "distance", data.distance_sigma)):
+    for k, key in enumerate(("height", "distance", "position")):
         if np.any(kind == k):
-            v = r[kind == k] * sigma
+            v = r[kind == k] * data.sigma[k]
+            v = np.linalg.norm(v.reshape(-1, 3), axis=1) if key == "position" else v
             out[f"{key}_rms"], out[f"{key}_max"] = float(np.sqrt(np.mean(v**2))), float(np.max(np.abs(v)))
     return ResidualStats(**out)
 
@@ -221,9 +256,10 @@ def identify_printer(
         base=base_parameters(augmented, error_model.names, rtol=RANK_RTOL, prefer=error_model.names),
         values=total, sigma=sigma,
         correlation=cov / np.outer(sigma, sigma), before=_stats(r0, kind, data), after=_stats(r, kind, data),
-        outliers=[], iterations=iterations, variance_factor=chi2 / max(r.size, 1),
+        outliers=[], iterations=iterations,
+        variance_factor=chi2 / max(r.size - (6 if data.positions.size else 0), 1),  # the frame's 6
         units=list(error_model.units), n_rows=r.size,
-        residual_after=r * np.where(kind == 0, data.height_sigma, data.distance_sigma),
+        residual_after=r * np.asarray(data.sigma)[kind],
         independent_rows=r.size, columns=build_columns(error_model).columns,
         hints=(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
                f"combinations; the build tolerances bound the other {len(held)} "
