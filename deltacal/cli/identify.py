@@ -10,13 +10,28 @@ import numpy as np
 from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
 from ..identification import FitOptions, PoorFitError, identify
-from ..io import lines_text, load_nominal, read_measurement_file, save_calibration, unassembled_rows
+from ..io import lines_text, read_measurement_file, save_calibration, unassembled_rows
+from ..io.robot import load_robot
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
+from ..printer import NominalLinearDelta
 from .common import check_input, check_output, sigma, warn
+from .identify_printer import PRINTER_MODELS, add_arguments, run_printer
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal identify``; returns the exit status."""
+    check_input(args.nominal)
+    robot = load_robot(args.nominal)
+    if isinstance(robot, NominalLinearDelta):
+        return run_printer(args, robot)
+    if len(args.measurements) != 1:
+        raise UsageError(f"a rotary Delta's measurements are one CSV file, got {len(args.measurements)}")
+    if args.controller is not None:
+        raise UsageError("--controller applies to a printer's measurements (of commanded positions)")
+    args.measurements = args.measurements[0]
+    args.model = args.model or "complete"
+    if args.model not in MODEL_NAMES:
+        raise UsageError(f"--model {args.model}: a rotary Delta's models are {', '.join(MODEL_NAMES)}")
     if args.pairs is not None and not args.distances:
         raise UsageError("--pairs applies to --distances only")
     try:  # every option is checked once, by FitOptions
@@ -36,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     for path in (args.nominal, args.measurements):
         check_input(path)
     check_output(args.output, (args.nominal, args.measurements))
-    nominal = load_nominal(args.nominal)
+    nominal = robot
     start = nominal.geometry()
     for name in args.free_points:
         if name not in start.point_names:
@@ -79,9 +94,11 @@ def run(args: argparse.Namespace) -> int:
 def add_parser(sub) -> None:
     """Register ``identify``."""
     p = sub.add_parser("identify", help="identify the geometry from measurements")
-    p.add_argument("nominal", help="nominal robot file (TOML)")
-    p.add_argument("measurements", help="measurements (CSV)")
-    p.add_argument("--model", choices=MODEL_NAMES, default="complete", help="error model (default complete)")
+    p.add_argument("nominal", help="nominal robot file (TOML): a rotary Delta or a printer (kind = 'linear')")
+    p.add_argument("measurements", nargs="+",
+                   help="measurements (CSV); a printer: its probe heights, then distances files")
+    p.add_argument("--model", choices=MODEL_NAMES + PRINTER_MODELS, default=None,
+                   help="error model (default complete; a printer's: printer)")
     p.add_argument("-o", "--output", required=True, help="calibration file to write (TOML)")
     p.add_argument("--sigma-position", type=sigma, default=SIGMA_POSITION, metavar="MM",
                    help=f"σ of each measured coordinate [mm] (default {SIGMA_POSITION:g})")
@@ -105,4 +122,5 @@ def add_parser(sub) -> None:
                    help="identify the actuators' compliances c1..c3 too [rad/N m] (the robot file's [masses] "
                         "and the measurements' payload_kg give the gravity torques; measure at 0 and a "
                         "heavy payload)")
+    add_arguments(p)
     p.set_defaults(func=run)

@@ -1,0 +1,93 @@
+"""``deltacal identify`` for a printer: its probe heights and printed distances, through its firmware.
+
+The measurements are of commanded positions: each is turned into the readings the firmware
+commanded (steps below the endstops, counted in the printer's nominal step distance) through
+the firmware's own inverse model (the Klipper configuration they were made with), then
+:func:`~deltacal.identification.printer.identify_printer` finds the full geometry on the true bed.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..controller.klipper import KlipperDelta
+from ..exceptions import InputError, UsageError
+from ..geometry import Tolerances
+from ..identification.printer import PrinterMeasurements, identify_printer
+from ..io import load_klipper, save_calibration
+from ..io.printer_measurements import read_printed_distances, read_probe_heights
+from ..printer import NominalLinearDelta
+from .common import check_input, check_output, sigma, three_numbers
+
+#: The error models of a printer.
+PRINTER_MODELS = ("printer", "klipper")
+
+
+def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
+    """Run ``deltacal identify`` for a printer robot file; returns the exit status."""
+    if args.controller is None:
+        raise UsageError(f"{args.nominal}: a printer's measurements are of commanded positions: give "
+                         "--controller printer.cfg (the Klipper configuration they were made with)")
+    model = args.model or "printer"
+    if model not in PRINTER_MODELS:
+        raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODELS)}")
+    for flag in ("distances", "compliance", "free_points", "pairs"):
+        if getattr(args, flag):
+            raise UsageError(f"--{flag.replace('_', '-')} applies to a rotary Delta's measurements")
+    files = list(args.measurements)
+    inputs = [args.nominal, args.controller, *files]
+    for path in inputs:
+        check_input(path)
+    check_output(args.output, inputs)
+    firmware = load_klipper(args.controller)
+    probe, pairs, distance = _read(files[0], files[1:], firmware, printer.step_distance)
+    data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
+                               height_sigma=args.sigma_height, distance_sigma=args.sigma_distance)
+    result = identify_printer(printer.geometry(), data, model, "linear" if args.linear else "iterated",
+                              Tolerances.printer_kit())
+    save_calibration(result, args.output)
+    print(result.report())
+    print(f"\nwrote {args.output}")
+    return 0
+
+
+def _read(probe_file: str, distance_files: list[str], firmware: KlipperDelta,
+          step_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Readings of the probe heights and of the printed pairs, and the distances measured."""
+    heights = read_probe_heights(probe_file)
+    probe = _readings(firmware, heights.commanded, step_distance, probe_file)
+    pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
+    for path in distance_files:
+        printed = read_printed_distances(path)
+        both = _readings(firmware, printed.pairs.reshape(-1, 3), step_distance, path)
+        pairs.append(both.reshape(-1, 2, 3))
+        distance.append(printed.distance)
+    return probe, np.concatenate(pairs), np.concatenate(distance)
+
+
+def _readings(firmware: KlipperDelta, commanded: np.ndarray, step_distance: float, source: str) -> np.ndarray:
+    """The readings the firmware commanded for positions; a position it cannot reach is named by row."""
+    readings = firmware.inverse(commanded, step_distance, check=False)
+    bad = np.flatnonzero(~np.all(np.isfinite(readings), axis=1))
+    if bad.size:
+        row = int(bad[0])
+        raise InputError(f"row {row + 1}: the firmware cannot reach the commanded position "
+                         f"{commanded[row].tolist()} mm (another printer's file?)", source)
+    return readings
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``identify`` that serve printers."""
+    p.add_argument("--controller", metavar="PRINTER.cfg",
+                   help="a printer: the Klipper configuration the measurements were made with")
+    p.add_argument("--probe-offset", type=lambda t: np.asarray(three_numbers(t, "X,Y,Z in mm")),
+                   default=np.zeros(3), metavar="X,Y,Z",
+                   help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "
+                        "(default 0,0,0: the nozzle is the probe)")
+    p.add_argument("--sigma-height", type=sigma, default=0.01, metavar="MM",
+                   help="a printer: σ of a probe height [mm] (default 0.01)")
+    p.add_argument("--sigma-distance", type=sigma, default=0.02, metavar="MM",
+                   help="a printer: σ of a caliper distance [mm] (default 0.02)")
+
