@@ -151,3 +151,28 @@ def test_writer_without_source_says_what_it_assumed(kossel, tmp_path):
     steppers = "".join(f"[stepper_{t}]\nmicrosteps: 16\n" for t in "abc")
     cfg.write_text("[printer]\nkinematics: delta\n" + steppers + text)
     assert_allclose(load_klipper(cfg).step_distance, fitted.step_distance, rtol=1e-6, atol=0)
+
+
+def test_error_budget_removed(kossel):
+    made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
+    k0 = KlipperDelta.from_printer(kossel)
+    budget = error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+                          kossel.step_distance, WORKSPACE, mode="removed")
+    whole = fit_klipper(made.geometry, k0, kossel.step_distance, WORKSPACE).after
+    # without the endstops' errors (Klipper's own values) the fit leaves what it leaves on the whole
+    # printer, to first order in the tilts (the errors were read back with deviation_from)
+    assert abs(budget["endstops"].rms_3d - whole.rms_3d) < 1e-3 * whole.rms_3d
+    assert budget["tower lean"].rms_3d < whole.rms_3d
+    with pytest.raises(ValueError, match="mode"):
+        error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+                     kossel.step_distance, WORKSPACE, mode="other")
+
+
+def test_first_layer_weight_buys_flatness(kossel):
+    truth = random_true_printer(kossel, np.random.default_rng(21), typical_kit()).geometry
+    k0 = KlipperDelta.from_printer(kossel)
+    plain = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE)
+    weighted = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE, first_layer_weight=10.0)
+    assert weighted.after.flatness < plain.after.flatness
+    assert plain.after.rms_3d <= weighted.after.rms_3d  # the plain fit is the volume's least squares
+    assert weighted.points == plain.points

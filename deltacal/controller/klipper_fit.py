@@ -13,18 +13,21 @@ closed form. The printer's frame is fixed by its bed, so no value is a gauge (th
 rotation is not: it turns the printed part on the bed); the scaled pivoted QR and the singular
 values of the Jacobian say what the grid cannot tell apart, and those values are held.
 
-What the values leave per error source (:func:`error_budget`): the printer rebuilt from its nominal
-geometry with ONE group of its errors (tower positions, tower lean, endstops, step distances, balls,
-rods' common length, rods of a pair that differ, bed tilt) and the others removed, refitted: what
-the firmware cannot absorb of that source alone. Cheap (one small fit per group, warm started) and
-honest about interactions by stating them: the groups' leftovers do not add up to the whole.
+What the values leave per error source (:func:`error_budget`), for a simulated printer whose errors
+are known by name: the printer rebuilt from its nominal geometry with ONE group of its errors (tower
+positions, tower lean, endstops, step distances, balls, rods' common length, rods of a pair that
+differ, bed tilt) and Klipper's values refitted: what the firmware cannot absorb of that source
+alone (``mode="alone"``); or with every error but that group (``mode="removed"``): what the whole
+printer's leftover would be without it. One small fit per group (about 0.1 s each). The groups
+interact (a lean and a bed tilt can partly cancel): the leftovers alone do not add up to the
+whole's, and that is said rather than hidden.
 
 Units: mm and rad (the dataclass's angles), degrees only in reports.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -97,7 +100,6 @@ class KlipperFit:
     after: ErrorStats
     iterations: int
     points: int
-    budget: dict[str, ErrorStats] = field(default_factory=dict)
 
 
 def printable_grid(workspace: Workspace, per_radius: int = 6, layers: int = 5, ring: int = 24,
@@ -194,8 +196,13 @@ def fit_klipper(
     hold_step_distance: bool = False,
     grid: np.ndarray | None = None,
     max_iter: int = 30,
+    first_layer_weight: float = 0.0,
 ) -> KlipperFit:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
+
+    With ``first_layer_weight`` w > 0 the sum also has the z errors over the first layer's disc
+    (:func:`first_layer`) times w: the first layer's flatness bought with some of the volume's
+    error.
 
     Args:
         geometry: The printer (a prismatic chain; the true bed is z = 0).
@@ -205,14 +212,25 @@ def fit_klipper(
         hold_step_distance: Keep the configuration's step distances (``rotation_distance``).
         grid: Targets [mm], (N, 3) (default :func:`printable_grid`).
         max_iter: Gauss-Newton iterations at most.
+        first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
         UnreachableError: a target out of Klipper's reach.
     """
-    targets = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
+    grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
+    targets, weights = grid, np.ones(grid.size)
+    if first_layer_weight > 0.0:
+        disc = first_layer(workspace)
+        targets = np.vstack([grid, disc])
+        weights = np.concatenate([weights, np.tile([0.0, 0.0, first_layer_weight], len(disc))])
+
+    def residuals(klipper: KlipperDelta, columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        r, J = _residuals(geometry, klipper, step_distance, targets, columns)
+        return weights * r, weights[:, None] * J
+
     wanted = list(range(10 if hold_step_distance else 13))
-    residual, W = _residuals(geometry, start, step_distance, targets, wanted)
+    residual, W = residuals(start, wanted)
     scale = np.linalg.norm(W, axis=0)
     singular = np.linalg.svd(W / np.where(scale > 0.0, scale, 1.0), compute_uv=False)
     base = base_parameters(W, [KLIPPER_NAMES[c] for c in wanted])
@@ -227,7 +245,7 @@ def fit_klipper(
         values[columns] += step
         klipper = with_values(klipper, values)
         moved = float(np.max(np.abs(W @ step)))
-        residual, W = _residuals(geometry, klipper, step_distance, targets, columns)
+        residual, W = residuals(klipper, columns)
         if moved < TOLERANCE:
             break
         if iteration == max_iter:
@@ -239,10 +257,10 @@ def fit_klipper(
         held=[n for n in KLIPPER_NAMES if n not in {KLIPPER_NAMES[c] for c in columns}],
         unidentifiable=unidentifiable,
         singular_values=singular,
-        before=error_stats(geometry, start, step_distance, workspace, targets),
-        after=error_stats(geometry, klipper, step_distance, workspace, targets),
+        before=error_stats(geometry, start, step_distance, workspace, grid),
+        after=error_stats(geometry, klipper, step_distance, workspace, grid),
         iterations=iteration,
-        points=targets.shape[0],
+        points=grid.shape[0],
     )
 
 
@@ -277,13 +295,15 @@ def error_budget(
     step_distance: float,
     workspace: Workspace,
     hold_step_distance: bool = False,
+    mode: str = "alone",
 ) -> dict[str, ErrorStats]:
-    """What Klipper's best values leave of each error source alone [mm].
+    """What Klipper's best values leave of each error source [mm].
 
-    The printer is rebuilt from its nominal geometry with one group of its errors (and the bed's
-    rigid motion only for "bed tilt"), Klipper's values refitted (:func:`fit_klipper`), and the
-    leftover reported. Rods are split into each pair's common length ("rod lengths") and the
-    pair's difference ("rods of a pair that differ", which tilts the effector).
+    The printer is rebuilt from its nominal geometry with one group of its errors (``"alone"``;
+    the bed's rigid motion only for "bed tilt") or with all of them but that group
+    (``"removed"``), Klipper's values refitted (:func:`fit_klipper`), and the leftover reported.
+    Rods are split into each pair's common length ("rod lengths") and the pair's difference
+    ("rods of a pair that differ", which tilts the effector).
 
     Args:
         nominal: The nominal geometry.
@@ -294,10 +314,16 @@ def error_budget(
         step_distance: The nominal step distance [mm].
         workspace: The printable cylinder.
         hold_step_distance: As :func:`fit_klipper`.
+        mode: ``"alone"`` or ``"removed"``.
 
     Returns:
-        Group label -> the fitted values' errors with only that group.
+        Group label -> the fitted values' errors with only that group (without it).
+
+    Raises:
+        ValueError: an unknown mode.
     """
+    if mode not in ("alone", "removed"):
+        raise ValueError(f"mode must be 'alone' or 'removed', got {mode!r}")
     rods = {n: v for n, v in errors.items() if n.endswith(".length")}
     common, differ = _rod_split(rods)
     groups: dict[str, dict[str, float]] = {
@@ -305,11 +331,17 @@ def error_budget(
         if label != "rod lengths"}
     groups["rod lengths"] = common
     groups["rods of a pair that differ"] = differ
+    groups["bed tilt"] = {}
     grid = printable_grid(workspace)
     out = {}
     for label, group in groups.items():
-        printer = nominal.with_errors(group)
+        if mode == "alone":
+            printer = nominal.with_errors(group)
+            bed = label == "bed tilt"
+        else:
+            printer = nominal.with_errors({n: v - group.get(n, 0.0) for n, v in errors.items()})
+            bed = label != "bed tilt"
+        if bed:
+            printer = printer.moved_rigidly(bed_rotation, bed_translation)
         out[label] = fit_klipper(printer, start, step_distance, workspace, hold_step_distance, grid).after
-    tilted = nominal.moved_rigidly(bed_rotation, bed_translation)
-    out["bed tilt"] = fit_klipper(tilted, start, step_distance, workspace, hold_step_distance, grid).after
     return out
