@@ -72,7 +72,8 @@ class TruePrinter:
 
     Attributes:
         geometry: The true printer, the true bed as z = 0.
-        errors: The manufacturing errors added to the nominal geometry, by name.
+        errors: The manufacturing errors added to the nominal geometry, by name (read back with
+            :meth:`DeltaGeometry.deviation_from`: the axis tilts to first order).
         bed_rotation: The rigid motion that put the true bed at z = 0, (3, 3).
         bed_translation: Its translation [mm], (3,).
     """

@@ -31,6 +31,7 @@ Units: mm; the configuration's angles in rad, Klipper's internal ones in deg.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -140,7 +141,8 @@ def stable_positions(v: np.ndarray, step_distance: np.ndarray, steps: np.ndarray
     return c[:, 0] + ex * x[:, None] + ey * y[:, None] + ez * h[:, None]
 
 
-def coordinate_descent(error, values: np.ndarray, adjust: tuple[int, ...]) -> np.ndarray:
+def coordinate_descent(error: Callable[[np.ndarray], float], values: np.ndarray,
+                       adjust: tuple[int, ...]) -> np.ndarray:
     """Klipper's coordinate descent of ``error(values)`` over the values at indices ``adjust``.
 
     Args:
@@ -174,6 +176,7 @@ def coordinate_descent(error, values: np.ndarray, adjust: tuple[int, ...]) -> np
 
 def _calibrate(config: KlipperDelta, probe_commanded: np.ndarray, z_offset: float, adjust: tuple[int, ...],
                pairs: np.ndarray | None = None, distances: np.ndarray | None = None) -> KlipperDelta:
+    """Klipper's objective over stable positions (steps through ``config``), minimised by its descent."""
     probe = np.atleast_2d(np.asarray(probe_commanded, dtype=float))
     heights = config.steps(probe)
     step = np.asarray(config.step_distance)
