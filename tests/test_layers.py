@@ -28,6 +28,7 @@ LAYERS = {
     "planar": 45,  # a paper's example: uses the core, nothing uses it
     "planning": 40,
     "simulation": 40,
+    "printer_simulation": 40,
     "validation": 40,
     "controller": 38,
     "calibration": 36,

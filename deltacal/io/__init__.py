@@ -29,7 +29,13 @@ from .geometry_file import (
     load_geometry,
     save_geometry,
 )
-from .klipper import KlipperConfig, load_klipper, read_klipper_config
+from .klipper import (
+    KlipperConfig,
+    klipper_config_text,
+    load_klipper,
+    read_klipper_config,
+    save_klipper_config,
+)
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
@@ -101,6 +107,8 @@ __all__ = [
     "load_robot",
     "load_klipper",
     "read_klipper_config",
+    "klipper_config_text",
+    "save_klipper_config",
     "KlipperConfig",
     "name_problem",
     "radians_from_text",

@@ -34,6 +34,7 @@ import numpy as np
 
 from ..controller.klipper import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
 from ..exceptions import GeometryError, InputError, InputWarning
+from .atomic import atomic_write_text
 
 #: The line that opens Klipper's SAVE_CONFIG block.
 AUTOSAVE_MARK = "#*# <---------------------- SAVE_CONFIG ---------------------->"
@@ -286,3 +287,63 @@ def _gear_ratio(config: KlipperConfig, stepper: str) -> float:
                                f"value {text!r} is not a list of ratios such as '57:11, 2:1'")
         ratio *= first / second
     return ratio
+
+
+#: Decimals written: lengths [mm] and angles [deg].
+MM_DECIMALS = 6
+DEG_DECIMALS = 4
+#: The microstepping assumed when no source configuration gives one.
+DEFAULT_MICROSTEPS = 16
+
+
+def _rotation_factor(config: KlipperConfig | None, stepper: str) -> tuple[float, bool]:
+    """Steps per ``rotation_distance`` (full steps × microsteps × gear ratio), and whether it was assumed."""
+    if config is None or not config.has(stepper, "microsteps"):
+        return float(DEFAULT_FULL_STEPS * DEFAULT_MICROSTEPS), True
+    microsteps = config.number(stepper, "microsteps", integer=True, above=0.0)
+    full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True,
+                         above=0.0)
+    return full * microsteps * _gear_ratio(config, stepper), False
+
+
+def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | KlipperConfig | None = None,
+                        title: str = "") -> str:
+    """Klipper's values as ``printer.cfg`` text: ``[printer]`` and ``[stepper_a..c]``, ready to replace those.
+
+    Writes ``delta_radius`` and each tower's ``angle`` [deg, 4 decimals], ``arm_length``,
+    ``position_endstop`` and ``rotation_distance`` [mm, 6 decimals]. ``rotation_distance`` is the
+    step distance times the source configuration's ``full_steps_per_rotation × microsteps × gear
+    ratio``; without a source (or without ``microsteps`` in it), 200 full steps × 16 microsteps,
+    said in a comment. Only keys Klipper knows; read back by :func:`load_klipper` they give the
+    same values to the written decimals.
+
+    Args:
+        klipper: The values.
+        source_config: The configuration the printer runs (a path or one already read), for its
+            steppers' microstepping and gears.
+        title: A first comment line (what the values are).
+    """
+    config = read_klipper_config(source_config) if isinstance(source_config, (str, Path)) else source_config
+    lines = [f"# {title}" if title else "# Klipper delta values written by deltacal",
+             "# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, if any)."]
+    assumed = []
+    body = ["", "[printer]", f"delta_radius: {klipper.delta_radius:.{MM_DECIMALS}f}"]
+    for i, stepper in enumerate(STEPPERS):
+        factor, guess = _rotation_factor(config, stepper)
+        if guess:
+            assumed.append(stepper)
+        body += ["", f"[{stepper}]",
+                 f"angle: {math.degrees(klipper.angle[i]):.{DEG_DECIMALS}f}",
+                 f"arm_length: {klipper.arm_length[i]:.{MM_DECIMALS}f}",
+                 f"position_endstop: {klipper.position_endstop[i]:.{MM_DECIMALS}f}",
+                 f"rotation_distance: {klipper.step_distance[i] * factor:.{MM_DECIMALS}f}"]
+    if assumed:
+        lines.append(f"# rotation_distance of {', '.join(assumed)} assumes {DEFAULT_FULL_STEPS} full steps x "
+                     f"{DEFAULT_MICROSTEPS} microsteps (no source configuration gave its microsteps)")
+    return "\n".join(lines + body) + "\n"
+
+
+def save_klipper_config(path: str | Path, klipper: KlipperDelta,
+                        source_config: str | Path | KlipperConfig | None = None, title: str = "") -> Path:
+    """Write :func:`klipper_config_text` to ``path`` atomically; returns the path."""
+    return atomic_write_text(path, klipper_config_text(klipper, source_config, title))

@@ -1,0 +1,178 @@
+"""Klipper's values fitted to a printer (issue 24): recovery on a Klipper-shaped printer, no worse than
+Klipper's own calibration, what they leave per error source, and the printer.cfg writer's round trip."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from deltacal.controller.klipper import KlipperDelta
+from deltacal.controller.klipper_calibrate import klipper_basic, probe_points
+from deltacal.controller.klipper_fit import (
+    KLIPPER_NAMES,
+    error_budget,
+    error_stats,
+    fit_klipper,
+    nozzle_errors,
+    values_of,
+)
+from deltacal.geometry import DeltaGeometry, Workspace
+from deltacal.io.klipper import klipper_config_text, load_klipper, save_klipper_config
+from deltacal.io.robot import load_printer
+from deltacal.printer import NominalLinearDelta
+from deltacal.printer_simulation import probe_heights, random_true_printer, typical_kit
+
+MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
+WORKSPACE = Workspace(radius=92.0, height=100.0, top_z=100.0)
+EFFECTOR = 30.0
+
+
+@pytest.fixture(scope="module")
+def kossel() -> NominalLinearDelta:
+    return load_printer(MODELS / "kossel.toml")
+
+
+def klipper_shaped(klipper: KlipperDelta, step_distance: float) -> DeltaGeometry:
+    """A printer Klipper's model describes exactly: vertical towers, parallelograms, nozzle at the effector.
+
+    Tower radius ρ + a with an effector radius a (each parallelogram keeps the effector level, so its
+    centre follows Klipper's point effector), both rods of tower i of length ℓ_i, carriage at E_i at
+    the endstop, true step distance d_i (joint_scale d_i / d).
+    """
+    height = float(np.mean(klipper.carriage_top))
+    nominal = NominalLinearDelta("klipper-shaped", klipper.delta_radius + EFFECTOR, EFFECTOR, 269.0,
+                                 50.0, np.array(klipper.angle), height, step_distance)
+    errors = {}
+    for i in range(3):
+        errors[f"limb{i + 1}.axis_point.z"] = float(klipper.carriage_top[i] - height)
+        for rod in ("rod1", "rod2"):
+            errors[f"limb{i + 1}.{rod}.length"] = float(klipper.arm_length[i] - 269.0)
+        errors[f"limb{i + 1}.joint_scale"] = float(klipper.step_distance[i] / step_distance - 1.0)
+    return nominal.geometry().with_errors(errors)
+
+
+def odd_klipper(kossel: NominalLinearDelta) -> KlipperDelta:
+    """Klipper's values a little away from the nominal printer's, each differently."""
+    k0 = KlipperDelta.from_printer(kossel)
+    return KlipperDelta(k0.delta_radius + 0.7, k0.angle + np.radians([0.3, -0.2, 0.25]),
+                        k0.arm_length + np.array([0.4, -0.3, 0.2]),
+                        k0.position_endstop + np.array([0.5, -0.8, 0.3]),
+                        k0.step_distance * np.array([1.002, 0.999, 1.0015]))
+
+
+def test_klipper_shaped_printer_follows_klipper(kossel):
+    # the test printer is what it claims: Klipper's values put its nozzle on every target
+    truth = odd_klipper(kossel)
+    printer = klipper_shaped(truth, kossel.step_distance)
+    grid = np.array([[0.0, 0.0, 0.2], [60.0, -40.0, 50.0], [-80.0, 30.0, 100.0]])
+    assert np.max(np.abs(nozzle_errors(printer, truth, kossel.step_distance, grid))) < 1e-9
+
+
+def test_fit_recovers_klipper_shaped_values(kossel):
+    truth = odd_klipper(kossel)
+    printer = klipper_shaped(truth, kossel.step_distance)
+    fit = fit_klipper(printer, KlipperDelta.from_printer(kossel), kossel.step_distance, WORKSPACE)
+    assert fit.fitted == list(KLIPPER_NAMES) and fit.unidentifiable == []
+    found, want = values_of(fit.klipper), values_of(truth)
+    assert_allclose(found[:10], want[:10], atol=1e-6, rtol=0)  # mm and rad
+    assert_allclose(found[10:], want[10:], rtol=1e-6, atol=0)  # step distances, relative
+    assert fit.after.max_3d < 1e-6 < 0.5 < fit.before.max_3d
+
+
+def test_fit_with_step_distances_held_keeps_them(kossel):
+    truth = odd_klipper(kossel)
+    printer = klipper_shaped(truth, kossel.step_distance)
+    start = KlipperDelta.from_printer(kossel)
+    fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, hold_step_distance=True)
+    assert_allclose(fit.klipper.step_distance, start.step_distance, rtol=0, atol=0)
+    assert fit.held == list(KLIPPER_NAMES[10:])
+    free = fit_klipper(printer, start, kossel.step_distance, WORKSPACE)
+    assert free.after.rms_3d < fit.after.rms_3d < fit.before.rms_3d
+
+
+@pytest.mark.parametrize("seed", [11, 12])
+def test_fit_no_worse_than_klipper_basic(kossel, seed):
+    rng = np.random.default_rng(seed)
+    truth = random_true_printer(kossel, rng, typical_kit()).geometry
+    k0 = KlipperDelta.from_printer(kossel)
+    probes = probe_heights(truth, k0, kossel.step_distance, probe_points(115.0), 0.0, rng)
+    basic = error_stats(truth, klipper_basic(k0, probes), kossel.step_distance, WORKSPACE)
+    fit = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE)
+    assert fit.after.rms_3d <= basic.rms_3d
+    assert fit.after.max_3d <= basic.max_3d
+    # the Jacobian's scaled singular values: all 13 values identifiable, none a gauge
+    assert fit.singular_values.shape == (13,) and fit.singular_values[-1] > 1e-6 * fit.singular_values[0]
+
+
+def test_error_budget_groups(kossel):
+    made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
+    k0 = KlipperDelta.from_printer(kossel)
+    budget = error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+                          kossel.step_distance, WORKSPACE)
+    assert set(budget) == {"tower position", "tower lean", "endstops", "step distances", "ball positions",
+                           "rod lengths", "rods of a pair that differ", "bed tilt"}
+    # endstops and the rods' common lengths are Klipper's own values: nothing is left of them
+    assert budget["endstops"].max_3d < 1e-6
+    assert budget["rod lengths"].max_3d < 1e-6
+    # a lean, or rods of a pair that differ, Klipper's model cannot hold
+    assert budget["tower lean"].max_3d > 1e-3
+    assert budget["rods of a pair that differ"].max_3d > 1e-4
+
+
+def test_writer_round_trip(kossel, tmp_path):
+    fitted = odd_klipper(kossel)
+    source = tmp_path / "printer.cfg"
+    source.write_text("[printer]\nkinematics: delta\ndelta_radius: 130\n"
+                      + "".join(f"[stepper_{t}]\nmicrosteps: 16\nrotation_distance: 40\n"
+                                f"position_endstop: 290\narm_length: 260\n" for t in "abc")
+                      + "[stepper_b]\ngear_ratio: 2:1\nfull_steps_per_rotation: 400\n")
+    text = klipper_config_text(fitted, source)
+    assert "assumes" not in text
+    merged = tmp_path / "merged.cfg"
+    save_klipper_config(merged, fitted, source)
+    merged.write_text(source.read_text() + merged.read_text())  # a later value of an option wins
+    back = load_klipper(merged)
+    assert_allclose(back.delta_radius, fitted.delta_radius, atol=5e-7, rtol=0)
+    assert_allclose(np.degrees(back.angle), np.degrees(fitted.angle), atol=5e-5, rtol=0)
+    assert_allclose(back.arm_length, fitted.arm_length, atol=5e-7, rtol=0)
+    assert_allclose(back.position_endstop, fitted.position_endstop, atol=5e-7, rtol=0)
+    assert_allclose(back.step_distance, fitted.step_distance, rtol=5e-7 / 10.0, atol=0)
+    assert "rotation_distance: " in text and "[stepper_c]" in text and "kinematics" not in text
+
+
+def test_writer_without_source_says_what_it_assumed(kossel, tmp_path):
+    fitted = odd_klipper(kossel)
+    text = klipper_config_text(fitted)
+    assert "200 full steps x 16 microsteps" in text
+    cfg = tmp_path / "printer.cfg"
+    steppers = "".join(f"[stepper_{t}]\nmicrosteps: 16\n" for t in "abc")
+    cfg.write_text("[printer]\nkinematics: delta\n" + steppers + text)
+    assert_allclose(load_klipper(cfg).step_distance, fitted.step_distance, rtol=1e-6, atol=0)
+
+
+def test_error_budget_removed(kossel):
+    made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
+    k0 = KlipperDelta.from_printer(kossel)
+    budget = error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+                          kossel.step_distance, WORKSPACE, mode="removed")
+    whole = fit_klipper(made.geometry, k0, kossel.step_distance, WORKSPACE).after
+    # without the endstops' errors (Klipper's own values) the fit leaves what it leaves on the whole
+    # printer, to first order in the tilts (the errors were read back with deviation_from)
+    assert abs(budget["endstops"].rms_3d - whole.rms_3d) < 1e-3 * whole.rms_3d
+    assert budget["tower lean"].rms_3d < whole.rms_3d
+    with pytest.raises(ValueError, match="mode"):
+        error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+                     kossel.step_distance, WORKSPACE, mode="other")
+
+
+def test_first_layer_weight_buys_flatness(kossel):
+    truth = random_true_printer(kossel, np.random.default_rng(21), typical_kit()).geometry
+    k0 = KlipperDelta.from_printer(kossel)
+    plain = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE)
+    weighted = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE, first_layer_weight=10.0)
+    assert weighted.after.flatness < plain.after.flatness
+    assert plain.after.rms_3d <= weighted.after.rms_3d  # the plain fit is the volume's least squares
+    assert weighted.points == plain.points
