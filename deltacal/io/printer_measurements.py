@@ -98,7 +98,7 @@ def read_printed_distances(path: str | Path) -> PrintedDistances:
     bad = np.flatnonzero(distance <= 0.0)
     if bad.size:
         k = int(bad[0])
-        raise InputError(f"a distance must be above 0 mm, got {distance[k]!r}", source,
+        raise InputError(f"a distance must be above 0 mm, got {float(distance[k]):g}", source,
                          f"{data_row(lines[k], k + 1)}, column distance_mm")
     same = np.flatnonzero(np.all(pairs[:, :3] == pairs[:, 3:], axis=1))
     if same.size:
