@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..exceptions import UsageError
 from ..io import load_klipper, load_robot, write_printed_distances, write_probe_heights, write_stl
-from ..planning.printer_object import CALIPER_RANGE, MAX_DISTANCES
+from ..planning.printer_object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..planning.printer_plan import ObjectPlan, plan_object
 from ..printer import NominalLinearDelta
 from .common import check_input, check_output, int_at_most, positive_float
@@ -117,7 +117,7 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh) -> str:
     lines = [
         f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); probe each and "
         "write the commanded z at which the probe triggered in probe.csv",
-        f"object: {len(plan.features)} balls of 10 mm on posts, centres at heights "
+        f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
         f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
         f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
         "the bed's centre: the slicer must not move it)",
