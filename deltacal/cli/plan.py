@@ -10,7 +10,7 @@ import numpy as np
 
 from ..exceptions import PlanningError, UsageError
 from ..identifiability import base_parameters
-from ..io import load_nominal, write_poses
+from ..io import load_nominal, load_robot, write_poses
 from ..planning import (
     MEASUREMENTS,
     PLAN_MODELS,
@@ -29,7 +29,9 @@ from ..planning import (
     rough_poses,
 )
 from ..planning.regressor import _RTOL
+from ..printer import NominalLinearDelta
 from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
+from .plan_object import add_object_arguments, refuse_object_options, run_object
 
 #: Pools from this size on are told what they cost before the selection starts.
 LARGE_POOL = 20_000
@@ -64,13 +66,14 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML) with a [workspace]")
-    p.add_argument("--model", default="complete", choices=PLAN_MODELS,
+    add_object_arguments(p)
+    p.add_argument("--model", choices=PLAN_MODELS,
                    help="error model (default: complete; 'rough': encoder offsets only)")
     group = p.add_mutually_exclusive_group()
     group.add_argument("--n", type=positive_int, help="poses per circle (strategy bai)")
     group.add_argument("--epsilon", type=parse_epsilon,
                        help="ε0 of the κ(n) rule, fraction or percentage (default: 1%%)")
-    p.add_argument("--strategy", default="bai", choices=("bai", "doptimal"),
+    p.add_argument("--strategy", choices=("bai", "doptimal"),
                    help="Bai's circles (default) or D-optimal selection from a random pool")
     p.add_argument("--measure", choices=MEASUREMENTS,
                    help="measurement kind for κ and D-optimality (default: distance for Bai's "
@@ -78,19 +81,20 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--points", help="comma-separated plate points measured (default: by model)")
     p.add_argument("--count", type=positive_int, help="poses to select (strategy doptimal; "
                    "default: twice the number of base parameters, divided by the rows per pose)")
-    p.add_argument("--pool", type=positive_int, default=1000, metavar="N",
+    p.add_argument("--pool", type=positive_int, metavar="N",
                    help="candidate pool size (doptimal; default 1000). Memory and time grow linearly with "
                         "it: each candidate keeps its scaled regressor (about 2 KB for the complete model "
                         "and pose measurements) and each selection step scores every candidate; 200,000 "
                         "take about 0.6 GB and one to a few minutes. From 20,000 on, plan says the "
                         "estimate before it starts")
-    p.add_argument("--seed", type=seed, default=0, help="seed of the candidate pool (doptimal)")
+    p.add_argument("--seed", type=seed, help="seed of the candidate pool (doptimal; default 0)")
     p.add_argument("--payload", type=non_negative_list, metavar="KG[,KG...]",
                    help="doptimal: plan for the actuators' compliances too, every pose measured at each "
                         "payload [kg] (simulate --payload with the same list; the robot file's [masses])")
     p.add_argument("--n-max", type=int_at_most(N_MAX_LIMIT, "each n is a pose set to condition"),
-                   default=20, help="largest n of the κ(n) curve")
-    p.add_argument("-o", "--output", required=True, metavar="POSES.csv", help="output file")
+                   help="largest n of the κ(n) curve (default 20)")
+    p.add_argument("-o", "--output", required=True, metavar="POSES.csv",
+                   help="output file (with --object: the folder of object.stl, probe.csv, distances.csv)")
     p.set_defaults(func=run)
     return p
 
@@ -102,8 +106,19 @@ def _default_measurement(model: str) -> str:
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal plan``: print what was chosen, write the POSES file, return 0."""
     check_input(args.nominal)
+    if args.object:
+        return run_object(args)
+    refuse_object_options(args)
     check_output(args.output, (args.nominal,))
+    if isinstance(load_robot(args.nominal), NominalLinearDelta):
+        raise UsageError(f"{args.nominal}: a printer's plan is the object it prints and measures: use "
+                         "--object --controller printer.cfg -o DIR")
     nominal = load_nominal(args.nominal)
+    args.model = args.model or "complete"
+    args.strategy = args.strategy or "bai"
+    args.pool = 1000 if args.pool is None else args.pool
+    args.seed = 0 if args.seed is None else args.seed
+    args.n_max = 20 if args.n_max is None else args.n_max
     model = planning_model(args.model)
     measurement = args.measure or _default_measurement(args.model)
     geometry = nominal.geometry()

@@ -39,7 +39,16 @@ from .klipper import (
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
+from .printer_measurements import (
+    PrintedDistances,
+    ProbeHeights,
+    read_printed_distances,
+    read_probe_heights,
+    write_printed_distances,
+    write_probe_heights,
+)
 from .robot import load_nominal, load_printer, load_robot
+from .stl import write_stl
 from .tables import (
     JOINT_COLUMNS,
     MEASUREMENT_COLUMNS,
@@ -64,6 +73,13 @@ from .targets import (
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [
+    "PrintedDistances",
+    "ProbeHeights",
+    "read_printed_distances",
+    "read_probe_heights",
+    "write_printed_distances",
+    "write_probe_heights",
+    "write_stl",
     "CALIBRATION_FORMAT",
     "CONTROLLER_FORMAT",
     "controller_to_dict",

@@ -1,0 +1,137 @@
+"""``deltacal plan PRINTER.toml --object --controller printer.cfg -o DIR``: the printed calibration object.
+
+Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe
+grid, ``z_mm`` to fill in) and ``DIR/distances.csv`` (the pairs of features to measure,
+``distance_mm`` to fill in), and prints what was planned: what the probe heights alone identify of
+the complete model and what the object's distances add.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..exceptions import UsageError
+from ..io import load_klipper, load_robot, write_printed_distances, write_probe_heights, write_stl
+from ..planning.printer_object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
+from ..planning.printer_plan import ObjectPlan, plan_object
+from ..printer import NominalLinearDelta
+from .common import check_input, check_output, int_at_most, positive_float
+
+#: The files ``plan --object`` writes in its folder.
+OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv")
+#: Largest probe grid: 7 × 7 (the issue's budget, at most 49 probe heights).
+MAX_PROBE_GRID = 7
+
+#: ``plan`` options of pose planning, which ``--object`` does not take.
+POSE_OPTIONS = ("model", "n", "epsilon", "strategy", "measure", "points", "count", "pool", "seed", "payload",
+                "n_max")
+#: ``plan --object`` options, which pose planning does not take (with their defaults).
+OBJECT_OPTIONS = {"controller": None, "distances": None, "probe_grid": None, "caliper": None}
+
+
+def probe_grid_size(text: str) -> int:
+    """Argparse type: an odd number of probe points across the bed, 3 to :data:`MAX_PROBE_GRID`."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 3 or value > MAX_PROBE_GRID or value % 2 == 0:
+        raise argparse.ArgumentTypeError(f"must be odd, 3 to {MAX_PROBE_GRID} (Klipper's round_probe_count; "
+                                         f"at most 7 x 7 = 49 probe heights), got {value}")
+    return value
+
+
+def add_object_arguments(p: argparse.ArgumentParser) -> None:
+    """The ``--object`` options of ``plan``."""
+    p.add_argument("--object", action="store_true",
+                   help="a linear Delta printer: plan the probe grid and the object to print and measure "
+                        "(-o DIR gets object.stl, probe.csv and distances.csv)")
+    p.add_argument("--controller", metavar="printer.cfg",
+                   help="--object: the firmware's configuration (Klipper) the probing and the print are "
+                        "commanded with")
+    p.add_argument("--distances", type=int_at_most(MAX_DISTANCES, "caliper distances of the object"),
+                   metavar="N", help=f"--object: distances to measure (default and most: {MAX_DISTANCES})")
+    p.add_argument("--probe-grid", type=probe_grid_size, metavar="N",
+                   help="--object: probe points across the bed, odd (default 7: Klipper's round 7 x 7 mesh)")
+    p.add_argument("--caliper", type=positive_float, metavar="MM",
+                   help=f"--object: the caliper's longest outside reading (default {CALIPER_RANGE:g} mm)")
+
+
+def refuse_object_options(args: argparse.Namespace) -> None:
+    """Pose planning was asked: refuse the options of ``--object``."""
+    given = [name for name in OBJECT_OPTIONS if getattr(args, name) is not None]
+    if given:
+        option = given[0].replace("_", "-")
+        raise UsageError(f"--{option} applies to --object (a printer's calibration object)")
+
+
+def run_object(args: argparse.Namespace) -> int:
+    """Run ``deltacal plan --object``: write the three files, print what was planned, return 0."""
+    given = [name for name in POSE_OPTIONS if getattr(args, name) is not None]
+    if given:
+        raise UsageError(f"--{given[0].replace('_', '-')} applies to pose planning, not to --object")
+    if args.controller is None:
+        raise UsageError("--object needs --controller printer.cfg: the firmware the object is printed with")
+    check_input(args.controller)
+    folder = Path(args.output)
+    outputs = _outputs(folder, (args.nominal, args.controller))
+    printer = load_robot(args.nominal)
+    if not isinstance(printer, NominalLinearDelta):
+        raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "
+                         "is a rotary Delta's (kind = 'linear' for a printer)")
+    firmware = load_klipper(args.controller)
+    plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
+                       probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=args.caliper or CALIPER_RANGE)
+    mesh = plan.mesh()
+    if not folder.exists():
+        folder.mkdir()
+    write_stl(outputs[0], mesh)
+    write_probe_heights(outputs[1], plan.probe)
+    write_printed_distances(outputs[2], plan.pair_positions)
+    print(_report(plan, printer, mesh))
+    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points) and {outputs[2]} "
+          f"({len(plan.pairs)} distances)")
+    return 0
+
+
+def _outputs(folder: Path, inputs: tuple[str, ...]) -> list[Path]:
+    """The three output paths in ``folder``, checked (the folder is made later if its parent exists)."""
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{folder}: --object writes three files in a folder; this is a file")
+    outputs = [folder / name for name in OBJECT_FILES]
+    if folder.exists():
+        for path in outputs:
+            check_output(path, inputs)
+        return outputs
+    parent = folder.parent if str(folder.parent) else Path(".")
+    if not parent.is_dir():
+        raise UsageError(f"{folder}: the output folder's parent folder does not exist")
+    return outputs
+
+
+def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh) -> str:
+    radius = float(abs(plan.probe[:, :2]).max())
+    heights = sorted({float(z) for z in plan.features[:, 2]})
+    lengths = plan.lengths
+    lines = [
+        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); probe each and "
+        "write the commanded z at which the probe triggered in probe.csv",
+        f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
+        f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
+        f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
+        "the bed's centre: the slicer must not move it)",
+        f"distances: {len(plan.pairs)} pairs of ball centres, {lengths.min():.1f} to {lengths.max():.1f} mm: "
+        "outside jaws across both balls, rocked to the largest reading, minus the balls' mean diameter; "
+        "write each in distances.csv",
+        f"D-optimal (complete model, in units of the build tolerances): log det {plan.log_det_probe:.4g} "
+        f"with the probe heights alone, {plan.log_det:.4g} with the distances",
+    ]
+    if plan.probe_only is not None and plan.with_distances is not None:
+        alone, both = plan.probe_only, plan.with_distances
+        lines.append(f"probe heights alone identify {alone.rank} of the {len(alone.names)} complete-model "
+                     f"combinations better than the build tolerances: {', '.join(alone.base_names)}")
+        added = ", ".join(plan.added_names()) or "none"
+        lines.append(f"the distances add {both.rank - alone.rank}: {added}; "
+                     f"{len(both.names) - both.rank} stay within their tolerances only")
+    return "\n".join(lines)

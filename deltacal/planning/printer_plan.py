@@ -1,0 +1,242 @@
+"""``plan --object`` for a linear Delta printer: which distances of the printed object to measure.
+
+The distances are chosen among the object's candidate pairs (:mod:`.printer_object`) to maximise
+what the probe heights and they together tell about the printer: a greedy D-optimal selection
+(Bayesian: ``log det(I + Σ w wᵀ)``, each row ``w`` a measurement's sensitivity in units of each
+parameter's build tolerance and of the measurement's σ, so that the criterion is defined whatever
+the rank, as the identification's priors are, :func:`deltacal.identification.printer.identify_printer`).
+The probe heights' rows start the information; each step adds the pair that increases the log
+determinant most (``log(1 + wᵀ A⁻¹ w)``) among the pairs still possible: one feature per site
+(a pair fixes the level of its sites), and no printed feature in the way of a chosen pair.
+
+The rows come from a callable (:data:`RowsFunction`): by default the complete model of the
+printer (54 parameters, :func:`model_rows`), read through the firmware's inverse model of the
+commanded positions; :func:`geometric_rows` is a model-free stand-in (an affine distortion of the
+volume and its change with height) that prefers long pairs in several directions and heights.
+Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..controller.klipper import KlipperDelta
+from ..errormodels import get_model
+from ..exceptions import PlanningError
+from ..geometry import Tolerances
+from ..identifiability import BaseParameters
+from ..identification.printer import PrinterMeasurements, measured_combinations, residuals_and_regressor
+from ..printer import NominalLinearDelta
+from .printer_object import (
+    CALIPER_RANGE,
+    MAX_DISTANCES,
+    ObjectLayout,
+    blocking,
+    candidate_pairs,
+    object_layout,
+    object_mesh,
+    probe_grid,
+)
+
+#: Rows of the probe heights and of candidate pairs: ``rows(probe (N, 3), pairs (P, 2, 3))`` ->
+#: ``(probe rows (N, n), pair rows (P, n))``, each in units of the parameters' prior σ and of the
+#: measurement's σ (commanded positions in, [mm]).
+RowsFunction = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class ObjectPlan:
+    """What to probe, print and measure on a printer.
+
+    Attributes:
+        probe: Commanded probe points (z = 0) [mm], (N, 3).
+        features: Commanded centres of the printed features [mm], (F, 3).
+        pairs: The features of each distance to measure, indices into ``features``, (M, 2).
+        log_det: ``log det(I + Σ w wᵀ)`` of the probe heights and the chosen distances.
+        log_det_probe: The same for the probe heights alone.
+        probe_only: What the probe heights alone identify (``None`` with model-free rows).
+        with_distances: What the probe heights and the distances identify (``None`` likewise).
+    """
+
+    probe: np.ndarray
+    features: np.ndarray
+    pairs: np.ndarray
+    log_det: float
+    log_det_probe: float
+    probe_only: BaseParameters | None = None
+    with_distances: BaseParameters | None = None
+
+    @property
+    def pair_positions(self) -> np.ndarray:
+        """Commanded centres of each pair's features ``x1, y1, z1, x2, y2, z2`` [mm], (M, 6)."""
+        return np.hstack([self.features[self.pairs[:, 0]], self.features[self.pairs[:, 1]]])
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Commanded centre distance of each pair [mm], (M,)."""
+        return np.linalg.norm(self.features[self.pairs[:, 0]] - self.features[self.pairs[:, 1]], axis=1)
+
+    def mesh(self):
+        """The object to print (a ``trimesh.Trimesh``, mm, in the printer's coordinates)."""
+        return object_mesh(self.features)
+
+    def added_names(self) -> list[str]:
+        """Parameters the distances add to what the probe heights identify (their base parameters)."""
+        if self.probe_only is None or self.with_distances is None:
+            return []
+        before = set(self.probe_only.base_names)
+        return [n for n in self.with_distances.base_names if n not in before]
+
+
+def model_rows(printer: NominalLinearDelta, firmware: KlipperDelta, model: str = "printer",
+               tolerances: Tolerances | None = None) -> RowsFunction:
+    """Rows of the complete model (or ``model``) at the nominal printer, read through the firmware.
+
+    The commanded positions become readings through the firmware's inverse model (what the
+    printer does when told to go there); the rows are the identification's
+    (:func:`~deltacal.identification.printer.residuals_and_regressor`), scaled by each
+    parameter's build tolerance (``model.prior_sigma``).
+    """
+    geometry = printer.geometry()
+    error_model = get_model(model)
+    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
+    step = printer.step_distance
+
+    def rows(probe: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        readings = firmware.inverse(probe, step)
+        ends = firmware.inverse(pairs.reshape(-1, 3), step).reshape(-1, 2, 3)
+        data = PrinterMeasurements(readings, ends, np.linalg.norm(pairs[:, 0] - pairs[:, 1], axis=1))
+        _, W, kind = residuals_and_regressor(geometry, error_model, data)
+        W = W * prior
+        return W[kind == 0], W[kind == 1]
+
+    return rows
+
+
+def geometric_rows(probe: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Model-free rows: a distance's change under an affine distortion of the volume, varying with height.
+
+    ``δp = (A + z B) p / L`` with 18 unknowns (A, B) and L = 100 mm: a pair's row is
+    ``uᵀ δ(p1 − p2)`` with u their direction, so long pairs in many directions, at several heights
+    and slanted weigh most. Probe heights give no row (they see no distortion of this kind's
+    shape, only the bed).
+    """
+    scale = 100.0
+    a, b = pairs[:, 0] / scale, pairs[:, 1] / scale
+    u = (pairs[:, 0] - pairs[:, 1]) / np.linalg.norm(pairs[:, 0] - pairs[:, 1], axis=1)[:, None]
+    dA = np.einsum("pk,pl->pkl", u, a - b).reshape(len(pairs), 9)
+    dB = np.einsum("pk,pl->pkl", u, a * a[:, 2:3] - b * b[:, 2:3]).reshape(len(pairs), 9)
+    return np.zeros((len(probe), 18)), np.hstack([dA, dB]) / 0.02
+
+
+def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: ObjectLayout,
+                 pairs: np.ndarray, blocks: np.ndarray) -> np.ndarray:
+    """Greedy D-optimal choice of ``count`` candidate pairs (indices into ``pairs``).
+
+    Args:
+        rows: Each candidate's row, (P, n).
+        information: The information before any distance (``I + Σ`` probe rows' products), (n, n).
+        count: Pairs to choose.
+        layout: The object's sites and levels (one feature per site).
+        pairs: The candidates' features, indices into ``layout.centres``, (P, 2).
+        blocks: Which features stand in each candidate's way (:func:`blocking`), (P, F).
+
+    Raises:
+        PlanningError: fewer than ``count`` pairs can be measured together.
+    """
+    inverse = np.linalg.inv(information)
+    site = layout.site_of
+    level = np.full(len(layout.sites), -1)  # the level printed on each site, -1: none yet
+    printed = np.zeros(len(site), dtype=bool)
+    chosen: list[int] = []
+    for _ in range(count):
+        s1, s2 = site[pairs[:, 0]], site[pairs[:, 1]]
+        f_level = layout.level_of
+        fits = (((level[s1] < 0) | (level[s1] == f_level[pairs[:, 0]]))
+                & ((level[s2] < 0) | (level[s2] == f_level[pairs[:, 1]])))
+        clear = ~np.any(blocks & printed[None, :], axis=1)
+        if chosen:  # a new feature must not stand in a chosen pair's way
+            in_way = np.any(blocks[chosen], axis=0)
+            new_ok = ~in_way[pairs[:, 0]] & ~in_way[pairs[:, 1]]
+            clear &= new_ok | (printed[pairs[:, 0]] & printed[pairs[:, 1]])
+        possible = fits & clear
+        possible[chosen] = False
+        if not np.any(possible):
+            raise PlanningError(f"the object offers only {len(chosen)} distances that can be measured "
+                                f"together; {count} asked")
+        gain = np.einsum("pk,kl,pl->p", rows, inverse, rows)
+        gain = np.where(possible, gain, -np.inf)
+        best = int(np.argmax(gain))
+        w = rows[best]
+        v = inverse @ w
+        inverse = inverse - np.outer(v, v) / (1.0 + w @ v)
+        chosen.append(best)
+        for f in pairs[best]:
+            level[site[f]] = layout.level_of[f]
+            printed[f] = True
+    return np.array(chosen, dtype=int)
+
+
+def plan_object(
+    printer: NominalLinearDelta,
+    firmware: KlipperDelta,
+    count: int = MAX_DISTANCES,
+    probe_count: int = 7,
+    caliper: float = CALIPER_RANGE,
+    rows: RowsFunction | None = None,
+) -> ObjectPlan:
+    """Plan the probe grid, the printed object and the distances to measure on it.
+
+    Args:
+        printer: The nominal printer (its robot file, with a ``[workspace]``).
+        firmware: The firmware's model (printer.cfg) the probing and the print are commanded with.
+        count: Distances to measure (at most :data:`MAX_DISTANCES`).
+        probe_count: Probe points across the bed (odd; 7: Klipper's 7 × 7 round mesh).
+        caliper: The caliper's longest outside reading [mm].
+        rows: The rows of the selection (default: the complete model, :func:`model_rows`).
+
+    Raises:
+        PlanningError: no workspace, too many distances, a feature out of the firmware's reach.
+    """
+    if printer.workspace is None:
+        raise PlanningError("the printer's robot file has no [workspace]: the printable cylinder is needed")
+    if not 1 <= count <= MAX_DISTANCES:
+        raise PlanningError(f"distances to measure must be 1 to {MAX_DISTANCES}, got {count}")
+    layout = object_layout(printer.workspace, printer.tower_azimuth)
+    probe = probe_grid(printer.workspace.radius, probe_count)
+    pairs = candidate_pairs(layout, caliper)
+    if len(pairs) < count:
+        raise PlanningError(f"a caliper of {caliper:g} mm reaches {len(pairs)} pairs of the object's "
+                            f"features; {count} asked")
+    centres = layout.centres
+    complete = rows is None
+    rows_of = model_rows(printer, firmware) if rows is None else rows
+    probe_rows, pair_rows = rows_of(probe, centres[pairs])
+    information = np.eye(pair_rows.shape[1]) + probe_rows.T @ probe_rows
+    chosen = select_pairs(pair_rows, information, count, layout, pairs, blocking(layout, pairs))
+    used = np.unique(pairs[chosen].reshape(-1))
+    index = np.full(len(centres), -1)
+    index[used] = np.arange(len(used))
+    rows_chosen = pair_rows[chosen]
+    log_det_probe = float(np.linalg.slogdet(information)[1])
+    log_det = float(np.linalg.slogdet(information + rows_chosen.T @ rows_chosen)[1])
+    plan = ObjectPlan(probe=probe, features=centres[used], pairs=index[pairs[chosen]], log_det=log_det,
+                      log_det_probe=log_det_probe)
+    if complete:
+        plan = _with_identifiability(plan, printer, firmware)
+    return plan
+
+
+def _with_identifiability(plan: ObjectPlan, printer: NominalLinearDelta,
+                          firmware: KlipperDelta) -> ObjectPlan:
+    """The plan with what the probe heights alone, and with the distances, identify (complete model)."""
+    geometry = printer.geometry()
+    step = printer.step_distance
+    probe = firmware.inverse(plan.probe, step)
+    ends = firmware.inverse(plan.pair_positions.reshape(-1, 3), step).reshape(-1, 2, 3)
+    alone = measured_combinations(geometry, PrinterMeasurements(probe))
+    both = measured_combinations(geometry, PrinterMeasurements(probe, ends, plan.lengths))
+    return ObjectPlan(plan.probe, plan.features, plan.pairs, plan.log_det, plan.log_det_probe, alone, both)
