@@ -11,9 +11,9 @@
 """
 
 from .fit import FIT_KINDS, ControllerFit, fit_controller
-from .model import Controller
 from .klipper import KlipperController, KlipperDelta
+from .model import Controller
 from .targets import CommandModel, CorrectedTargets, corrected_targets
 
-__all__ = ["FIT_KINDS", "CommandModel", "Controller", "ControllerFit", "CorrectedTargets", "KlipperController",
-           "KlipperDelta", "corrected_targets", "fit_controller"]
+__all__ = ["FIT_KINDS", "CommandModel", "Controller", "ControllerFit", "CorrectedTargets",
+           "KlipperController", "KlipperDelta", "corrected_targets", "fit_controller"]

@@ -4,8 +4,8 @@ A robot file given where a controller is expected is read as the controller of i
 (all limbs alike, offsets zero). A Klipper configuration (``printer.cfg``: a name ending in ``.cfg``,
 or a ``[printer]`` section) is a printer's firmware: :func:`load_controller` reads it
 (:func:`~deltacal.io.klipper.load_klipper`) into a
-:class:`~deltacal.controller.klipper.KlipperController`. ``[fit]`` is informative: written by ``deltacal export
---controller``, read by no command. Files are in mm and degrees.
+:class:`~deltacal.controller.klipper.KlipperController`. ``[fit]`` is informative: written by
+``deltacal export --controller``, read by no command. Files are in mm and degrees.
 """
 
 from __future__ import annotations
@@ -94,7 +94,7 @@ def load_controller(path: str | Path, step_distance: float | None = None) -> Con
 
 
 def is_klipper_config(path: str | Path) -> bool:
-    """Whether a controller file is a Klipper configuration: named ``*.cfg`` or with a ``[printer]`` section."""
+    """Whether a controller file is a Klipper configuration: named ``*.cfg``, or with a ``[printer]``."""
     if Path(path).suffix.lower() == ".cfg":
         return True
     try:

@@ -44,8 +44,9 @@ homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the 
 stands; except after G28 when ``home`` gives where the controller's homing leaves the TCP (a
 printer's firmware, every carriage at its endstop: Klipper's delta homes its three towers on any
 G28), where the next move starts (absolute: the controller stands at its own home, not at a
-corrected point, so a relative move right after it is refused). A move before all three are known is refused by its line, except an absolute (G90) move
-that gives all three: it goes straight to its corrected end, unsplit (its start is unknown).
+corrected point, so a relative move right after it is refused). A move before all three are
+known is refused by its line, except an absolute (G90) move that gives all three: it goes
+straight to its corrected end, unsplit (its start is unknown).
 
 Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the file and line): G20
 (inches: convert the program to millimetres); G92 with X, Y or Z, or with no axis (they move the

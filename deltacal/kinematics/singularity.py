@@ -88,8 +88,9 @@ def singularity_measures(
     """Least transmission angle over the limbs [rad] and rod conditioning at readings q, each (N,).
 
     Computed coordinate by coordinate on (N, 3) arrays (limbs along the last axis), with each
-    elbow of a revolute chain on its circle (a prismatic chain's carriage on its line of travel) (:attr:`VirtualDelta.elbow_circle`) and the arm's direction of
-    motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``.
+    elbow of a revolute chain on its circle (:attr:`VirtualDelta.elbow_circle`) and the arm's
+    direction of motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``; a prismatic chain's
+    carriage moves along its tower (:func:`_prismatic_measures`).
 
     Args:
         virtual: The virtual model.
