@@ -90,6 +90,7 @@ _LAZY = {
     "corrected_targets": "controller",
     "fit_controller": "controller",
     "KlipperDelta": "controller.klipper",
+    "KlipperController": "controller.klipper",
     # files
     "load_controller": "io",
     "save_controller": "io",

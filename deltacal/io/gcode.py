@@ -105,7 +105,8 @@ SUFFIXES = (".gcode", ".gco", ".g", ".nc")
 #: Longest segment sent to the controller [mm]. The bend of a segment grows as its length squared:
 #: on the two demo robots with Bai's errors, the real path strays from the intended line by at most
 #: 0.09-0.15 µm at 5 mm (of which 0.07 µm is the output's rounding), 0.3-0.4 µm at 10 mm, 1.2-1.5 µm
-#: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most.
+#: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most. Kit printers
+#: through Klipper (Tolerances.printer_kit, 3 seeds): 0.3-1.3 µm at 5 mm, 5-15 µm at 20 mm.
 DEFAULT_SEGMENT_MM = 5.0
 #: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
 ARC_TOLERANCE_RATIO = 1e-3
