@@ -97,6 +97,7 @@ _LAZY = {
     "probe_heights": "printer_simulation",
     "printed_distances": "printer_simulation",
     "random_printer": "printer_simulation",
+    "KlipperController": "controller.klipper",
     # files
     "load_controller": "io",
     "save_controller": "io",

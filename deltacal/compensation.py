@@ -120,6 +120,10 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
 
 #: Readings a real arm can take [rad]: from straight up (-90 deg) to folded under (135 deg).
 ARM_RANGE = (np.radians(-90.0), np.radians(135.0))
+#: Readings a printer's carriage can take [mm]: travel below its endstop, which it cannot pass.
+TRAVEL_RANGE = (0.0, np.inf)
+#: The range of the readings of each actuated chain.
+READING_RANGE = {"revolute": ARM_RANGE, "prismatic": TRAVEL_RANGE}
 #: How far from the target the identified robot may put the TCP at the readings a method
 #: gives [mm]: exact solves the closed loops (Newton to 1e-9 mm); Savoure's linear scheme
 #: leaves the products of deviations (micrometres for real robots); Bai's ignores the tilt's
@@ -128,7 +132,10 @@ CHECK_TOLERANCE = {"exact": 1e-6, "savoure": 0.1, "bai": 5.0}
 
 
 def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str) -> np.ndarray:
-    """Targets whose readings are not finite, out of the arm's range, or miss the target, (N,) bool.
+    """Targets whose readings are not finite, out of range, or miss the target, (N,) bool.
+
+    The range is an arm's (:data:`ARM_RANGE`) or a carriage's (:data:`TRAVEL_RANGE`: not above
+    its endstop).
 
     Missing is judged through the exact forward kinematics of ``geometry`` (the identified
     robot) started from its working assembly (the virtual model's pose, plate parallel: where
@@ -138,8 +145,9 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     millimetres away); those targets are refused.
     """
     bad = ~np.all(np.isfinite(q), axis=1)
+    low, high = READING_RANGE[geometry.joint]
     with np.errstate(invalid="ignore"):
-        bad |= np.any((q < ARM_RANGE[0]) | (q > ARM_RANGE[1]), axis=1)
+        bad |= np.any((q < low) | (q > high), axis=1)
     ok = np.flatnonzero(~bad)
     while ok.size:
         try:
@@ -196,15 +204,17 @@ def compensate(
         payload: Mass carried at the TCP [kg] (exact method only).
 
     Returns:
-        Readings to command [rad], shape (N, 3).
+        Readings to command [rad; a printer's: carriage travels, mm], shape (N, 3).
 
     Raises:
         UnreachableError: naming the targets out of reach or too close to a singularity.
+        GeometryError: a linear method asked of a printer (a prismatic chain).
     """
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
-    if geometry.joint != "revolute":  # its margins and checks are a rotary Delta's, so far
-        raise GeometryError(f"compensation serves rotary Delta robots; {geometry.name or 'this geometry'!r} "
-                            f"is a {geometry.joint} chain")
+    if geometry.joint != "revolute" and method != "exact":  # their error models are a rotary Delta's
+        raise GeometryError(f"the {method} compensation serves rotary Delta robots; "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain: use the "
+                            "exact method")
     if payload and method != "exact":
         raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
     if method == "exact":

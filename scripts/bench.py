@@ -502,14 +502,17 @@ def bench_cli_distances(setup: Setup) -> list[Row]:
     return rows
 
 
-def _write_gcode(path: Path, n: int, rng: np.random.Generator) -> None:
+def _write_gcode(path: Path, n: int, rng: np.random.Generator,
+                 start: str = "G28\nG1 X0 Y0 Z-800 F3000\n") -> None:
     """A printing-like program of about n lines: short extrusions, travels, comments, M codes.
+
+    ``start``: its first lines after the modes (homing, the first move: a rotary robot's by default).
 
     Of each 1,000 lines: 850 extrusion moves of 0.5-3 mm (``G1 X Y E``, absolute E), 50 travels
     of 5-100 mm (``G0 X Y F``, cut in 1-20 segments at the default 5 mm), 50 comments, 50 M codes.
     """
     with open(path, "w") as f:
-        f.write("G21\nG90\nM82\nG92 E0\nG28\nG1 X0 Y0 Z-800 F3000\n")
+        f.write("G21\nG90\nM82\nG92 E0\n" + start)
         x, y, e = 0.0, 0.0, 0.0
         for _ in range(max(1, n // 1000)):
             kind = rng.random(1000)
@@ -562,6 +565,57 @@ def bench_gcode_filter(setup: Setup) -> list[Row]:
             label = "1e5" if n == 100_000 else "1e6"
             rows += spread_rows(f"gcode_filter_{label}", [timed_run(args) for _ in range(repeat)],
                                 "<= 20" if n == 1_000_000 else None, "<= 300")
+    return rows
+
+
+def _klipper_cfg(firmware) -> str:
+    """A printer.cfg for Klipper's model ``firmware`` (equal towers: 40 mm per turn, 16 microsteps)."""
+    steppers = "".join(
+        f"[stepper_{t}]\nmicrosteps: 16\nrotation_distance: 40\nangle: {float(np.degrees(a))!r}\n"
+        f"arm_length: {float(arm)!r}\nposition_endstop: {float(endstop)!r}\n\n"
+        for t, a, arm, endstop in zip("abc", firmware.angle, firmware.arm_length, firmware.position_endstop,
+                                      strict=True))
+    return f"[printer]\nkinematics: delta\ndelta_radius: {firmware.delta_radius!r}\n\n" + steppers
+
+
+def bench_klipper(setup: Setup) -> list[Row]:
+    """Corrected targets and G-code through Klipper for a kit printer (issue 24 item 4).
+
+    The Kossel model perturbed with a kit's tolerances, Klipper's model of the nominal printer:
+    the library on 10^5 targets; ``compensate --controller printer.cfg`` on 10^5 targets and on a
+    printing-like program of 10^5 lines (wall time, peak RSS).
+    """
+    from deltacal.controller import KlipperController, KlipperDelta, corrected_targets
+    from deltacal.io import load_printer, save_geometry
+
+    printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
+    truth = printer.geometry().perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))
+    firmware = KlipperDelta.from_printer(printer)
+    controller = KlipperController(firmware, printer.step_distance)
+    rng = setup.rng()
+    n = 100_000
+    r, a = 115.0 * np.sqrt(rng.random(n)), rng.uniform(0.0, 2.0 * np.pi, n)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(0.0, 200.0, n)])
+    repeat = max(1, min(setup.repeat, 3)) if not setup.quick else 1
+    t_lib = median_time(lambda: corrected_targets(truth, controller, targets), repeat)
+    rows = [Row("klipper_corrected_targets", n / t_lib, "targets/s", ">= 100000")]
+    command = _command()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        cal, cfg, path, program = (folder / name for name in ("true.toml", "printer.cfg", "t.csv", "p.gcode"))
+        save_geometry(truth, cal)
+        cfg.write_text(_klipper_cfg(firmware))
+        _write_targets(path, targets)
+        args = command + ["compensate", str(cal), str(path), "--controller", str(cfg), "-o",
+                          str(folder / "c.csv")]
+        rows += spread_rows("compensate_klipper_1e5", [timed_run(args) for _ in range(repeat)], None)
+        _write_gcode(program, n, rng, "G28\nG1 X0 Y0 Z0.3 F3000\n")
+        args = command + ["compensate", str(cal), str(program), "--controller", str(cfg), "-o",
+                          str(folder / "out.gcode")]
+        rows += spread_rows("compensate_klipper_gcode_1e5", [timed_run(args) for _ in range(repeat)], None)
+    return rows
+
+
 def bench_cli_doptimal_pool(setup: Setup) -> list[Row]:
     """``deltacal plan --strategy doptimal --pool N`` (complete model, pose measurements).
 
@@ -594,6 +648,7 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_controller,
     bench_identify_compliance,
     bench_gcode_filter,
+    bench_klipper,
     bench_cli_doptimal_pool,
 ]
 

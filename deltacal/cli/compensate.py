@@ -22,6 +22,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..compensation import METHODS, screen
+from ..controller import CommandModel
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..io import (
     CommandsWriter,
@@ -54,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--segment-mm and --start apply to a G-code program (.gcode, .gco, .g, .nc)")
     calibration = load_calibration(args.calibration)  # read and checked once
     _warn_rigid_route(args, calibration.geometry.compliance)
-    controller = load_controller(args.controller) if args.controller is not None else None
+    controller = _controller(args, calibration.geometry) if args.controller is not None else None
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(args.targets)
     linear = None if args.method == "exact" else _linear(calibration, args.calibration)
@@ -117,23 +118,38 @@ def _program(args: argparse.Namespace) -> int:
     """``compensate CAL PROGRAM.gcode --controller C -o OUT.gcode``: every move corrected, streamed."""
     if args.controller is None:
         raise UsageError(f"{args.targets}: a G-code program goes to a controller: give --controller (a "
-                         "controller file, or the robot file for its nominal controller)")
+                         "controller file, the robot file for its nominal controller, or a printer's "
+                         "Klipper printer.cfg)")
     if args.frame != "base":
         raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
                          "instrument applies to a targets CSV")
     calibration = load_calibration(args.calibration)
     _warn_rigid_route(args, calibration.geometry.compliance)
-    controller = load_controller(args.controller)
+    controller = _controller(args, calibration.geometry)
+    if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes
+        raise UsageError(f"--controller {args.controller}: a controller interpolating in "
+                         f"{controller.interpolation} space cannot be sent a corrected G-code program")
 
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
     segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
-                     lambda fraction, _: progress.update(fraction, "program"))
+                     lambda fraction, _: progress.update(fraction, "program"), home=controller.home)
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
           f"(moves split every {segment:g} mm at most)")
     return 0
+
+
+def _controller(args: argparse.Namespace, geometry) -> CommandModel:
+    """``--controller``'s model, refused if it is not of the robot's kind (rotary, or a printer's)."""
+    controller = load_controller(args.controller)
+    joint = controller.virtual.joint
+    if joint != geometry.joint:
+        kinds = {"revolute": "a rotary Delta", "prismatic": "a linear Delta printer"}
+        raise UsageError(f"--controller {args.controller} is {kinds[joint]}'s, but the calibration "
+                         f"{args.calibration} is of {kinds[geometry.joint]}")
+    return controller
 
 
 def _to_base(args: argparse.Namespace, frames: dict) -> Callable[[np.ndarray], np.ndarray] | None:
@@ -208,8 +224,9 @@ def add_parser(sub) -> None:
     p.add_argument("--station", help="with --frame instrument: the station whose frame the targets are in")
     p.add_argument("--controller", metavar="CONTROLLER",
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
-                        "send a controller running this model (a controller file, or a robot file: its "
-                        "nominal controller) instead of joint readings")
+                        "send a controller running this model (a controller file, a robot file: its "
+                        "nominal controller, or a printer's Klipper configuration printer.cfg) instead of "
+                        "joint readings")
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
                         "actuators' compliances, the readings (or a controller's corrected targets) put "

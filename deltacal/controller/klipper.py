@@ -26,7 +26,8 @@ horizontal nozzle offset.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -166,3 +167,59 @@ class KlipperDelta:
     def forward(self, readings: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
         """Nozzle positions at deltacal's readings (travels in the printer's ``step_distance``) [mm]."""
         return self.positions(np.atleast_2d(np.asarray(readings, dtype=float)) / step_distance, check)
+
+
+@dataclass(frozen=True, eq=False)
+class KlipperController:
+    """Klipper as a controller of a printer whose readings count steps in ``step_distance``.
+
+    The firmware (:class:`KlipperDelta`) commands steps; deltacal's readings of a printer are
+    travels below the endstops counted in the printer's nominal step distance
+    (:mod:`deltacal.printer`), reading = steps × ``step_distance``. This pairs the two, so that
+    Klipper serves :func:`~deltacal.controller.corrected_targets` and the G-code route as a
+    rotary :class:`~deltacal.controller.Controller` does.
+
+    Attributes:
+        firmware: Klipper's model, from its configuration.
+        step_distance: The step distance the readings count in [mm] (the printer's nominal one:
+            ``NominalLinearDelta.step_distance``, the one its identification read measurements in).
+    """
+
+    firmware: KlipperDelta
+    step_distance: float
+
+    #: How the controller moves between two targets: Klipper plans each move as a straight line
+    #: in its Cartesian frame and its kinematics maps every step on the way (delta.py).
+    interpolation = "cartesian"
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.step_distance) and self.step_distance > 0.0):
+            raise GeometryError(f"step_distance must be a positive length, got {self.step_distance!r}")
+
+    @property
+    def name(self) -> str:
+        """The configuration's name."""
+        return self.firmware.name
+
+    @property
+    def tool(self) -> np.ndarray:
+        """Klipper's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
+        return np.zeros(3)
+
+    @cached_property
+    def virtual(self) -> VirtualDelta:
+        """Klipper's model as a prismatic :class:`VirtualDelta` whose readings are deltacal's [mm]."""
+        return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
+
+    @cached_property
+    def home(self) -> np.ndarray:
+        """Where Klipper puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
+        return self.firmware.positions(np.zeros((1, 3)))[0]
+
+    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """The readings Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
+        return self.firmware.inverse(targets, self.step_distance, check)
+
+    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
+        """The nozzle position Klipper's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
+        return self.firmware.forward(readings, self.step_distance, check)

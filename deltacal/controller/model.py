@@ -62,6 +62,12 @@ class Controller:
     tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
     name: str = ""
 
+    #: How the controller moves between two targets: a straight line of its model's TCP (the
+    #: Cartesian interpolation of industrial controllers, as the G-code route assumes).
+    interpolation = "cartesian"
+    #: Where a homing puts the TCP: not known for a rotary Delta (its controller's own routine).
+    home = None
+
     def __post_init__(self) -> None:
         for key in (*LIMB_VALUES, "tool"):
             value = np.array(getattr(self, key), dtype=float)

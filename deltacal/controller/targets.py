@@ -1,31 +1,69 @@
 """Corrected targets: what to send a controller so that the real robot's TCP lands on the targets.
 
-A controller takes Cartesian targets and commands the readings its own model's inverse gives
-(:class:`~deltacal.controller.model.Controller`). The readings that put the identified robot's TCP
-on a target are those of exact compensation (:func:`deltacal.compensation.compensate`, which refuses
-what the real robot cannot reach or reaches near a singularity, and checks the working assembly).
-The target to send is the controller's forward model of those readings: its inverse then returns
-them exactly (checked here to :data:`ROUND_TRIP_TOLERANCE`), whatever the controller's values.
-Vectorised over targets. Units: mm and rad.
+A controller takes Cartesian targets and commands the readings its own model's inverse gives: a
+rotary Delta's :class:`~deltacal.controller.model.Controller`, or a printer's firmware
+(:class:`~deltacal.controller.klipper.KlipperController`, Klipper's delta kinematics), both a
+:class:`CommandModel`. The readings that put the identified robot's TCP on a target are those of
+exact compensation (:func:`deltacal.compensation.compensate`, which refuses what the real robot
+cannot reach or reaches near a singularity, and checks the working assembly). The target to send
+is the controller's forward model of those readings: its inverse then returns them exactly
+(checked here to :data:`ROUND_TRIP_TOLERANCE`), whatever the controller's values. Vectorised over
+targets. Units: mm and rad (a printer's readings: mm).
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
 from ..calibration import Calibration
 from ..compensation import compensate
-from ..exceptions import UnreachableError
+from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
+from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import COMMAND_MARGIN
-from .model import Controller
 
 #: Largest difference between the readings wanted and those the controller's inverse gives for the
-#: corrected target [rad]: a round trip through its closed-form forward and inverse models (1e-15
-#: rad measured); beyond, the readings are on the model's other (knee-in) branch.
-ROUND_TRIP_TOLERANCE = 1e-9
+#: corrected target, by actuated chain [rad, mm]: a round trip through its closed-form forward and
+#: inverse models (1e-15 rad measured; a printer's, 1e-13 mm); beyond, the readings are on the
+#: model's other branch (knee in; a carriage below the nozzle).
+ROUND_TRIP_TOLERANCE = {"revolute": 1e-9, "prismatic": 1e-9}
+
+
+class CommandModel(Protocol):
+    """What corrected targets need of a controller: its model, forward and inverse, in readings.
+
+    Attributes:
+        name: The controller's name.
+        tool: Its TCP in its model's plate frame [mm], (3,).
+        virtual: Its model as a :class:`VirtualDelta` whose readings are deltacal's and whose
+            plate point plus ``tool`` is the TCP (its singularities are judged on it).
+        interpolation: How it moves between two targets (``"cartesian"``: a straight line in its
+            own Cartesian frame, what the G-code route corrects for).
+        home: The TCP position a homing (G28) leaves it at [mm], (3,), or None if not known.
+    """
+
+    @property
+    def name(self) -> str: ...  # noqa: D102
+
+    @property
+    def tool(self) -> np.ndarray: ...  # noqa: D102
+
+    @property
+    def virtual(self) -> VirtualDelta: ...  # noqa: D102
+
+    @property
+    def interpolation(self) -> str: ...  # noqa: D102
+
+    @property
+    def home(self) -> np.ndarray | None: ...  # noqa: D102
+
+    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
+        """The TCP target whose inverse is ``readings``, (N, 3) -> (N, 3) [mm] (NaN rows unchecked)."""
+
+    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """The readings commanded for TCP targets, (N, 3) [mm] -> (N, 3) (NaN rows unchecked)."""
 
 
 class CorrectedTargets(NamedTuple):
@@ -34,7 +72,7 @@ class CorrectedTargets(NamedTuple):
     Attributes:
         commands: Targets to send the controller, in its frame (the base frame {O}) [mm], (N, 3).
         readings: The readings its inverse gives for them, which put the real TCP on the
-            targets [rad], (N, 3).
+            targets [rad; a printer's, mm], (N, 3).
     """
 
     commands: np.ndarray
@@ -43,7 +81,7 @@ class CorrectedTargets(NamedTuple):
 
 def corrected_targets(
     calibration: Calibration | DeltaGeometry,
-    controller: Controller,
+    controller: CommandModel,
     targets: np.ndarray,
     min_margin: float = 1.0,
     payload: float = 0.0,
@@ -52,7 +90,8 @@ def corrected_targets(
 
     Args:
         calibration: The calibration (or the identified geometry itself).
-        controller: The controller's model.
+        controller: The controller's model (a rotary :class:`~deltacal.controller.Controller`, or
+            a printer's firmware, :class:`~deltacal.controller.klipper.KlipperController`).
         targets: Desired TCP positions in the base frame {O} [mm], (N, 3).
         min_margin: Singularity margin required of both the real robot (as
             :func:`~deltacal.compensation.compensate`) and the controller's model at the readings.
@@ -60,29 +99,35 @@ def corrected_targets(
             (the readings are exact compensation's with this payload).
 
     Returns:
-        The commands [mm] and readings [rad], each (N, 3).
+        The commands [mm] and readings [rad; a printer's, mm], each (N, 3).
 
     Raises:
+        GeometryError: the controller is not of the robot's kind (a rotary Delta's for a printer).
         UnreachableError: naming the targets by index: out of the real robot's reach or near its
             singularities (compensate's reasons), or not commandable through the controller's
             model (``controller_out_of_reach``: no assembly of its model at those readings, or only
-            on its knee-in branch) or near its singularities (``controller_singular``).
+            on its other branch) or near its singularities (``controller_singular``).
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
+    virtual = controller.virtual
+    if virtual.joint != geometry.joint:
+        raise GeometryError(f"the controller {controller.name or ''!r} runs a {virtual.joint} Delta's model, "
+                            f"the robot {geometry.name or ''!r} is a {geometry.joint} one")
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     q = compensate(geometry, targets, "exact", min_margin=min_margin, payload=payload)
-    virtual = controller.virtual
-    plate = virtual.forward(q, check=False)
-    unassembled = ~np.all(np.isfinite(plate), axis=1)
+    commands = controller.forward(q, check=False)
+    unassembled = ~np.all(np.isfinite(commands), axis=1)
     if np.any(unassembled):
         raise UnreachableError.from_mask(unassembled, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
     # the margin before the round trip: near a singularity the inverse loses digits (arccos near ±1)
-    near = ~(COMMAND_MARGIN.margin(virtual, q, plate) >= min_margin)
+    near = ~(COMMAND_MARGIN.margin(virtual, q, commands - controller.tool) >= min_margin)
     if np.any(near):
         raise UnreachableError.from_mask(near, targets, UnreachableError.CONTROLLER_SINGULAR)
     with np.errstate(invalid="ignore"):
-        apart = np.abs((virtual.inverse(plate, check=False) - q + np.pi) % (2.0 * np.pi) - np.pi)
-    other_branch = ~np.all(apart <= ROUND_TRIP_TOLERANCE, axis=1)
+        apart = controller.inverse(commands, check=False) - q
+        if virtual.joint == "revolute":
+            apart = (apart + np.pi) % (2.0 * np.pi) - np.pi
+    other_branch = ~np.all(np.abs(apart) <= ROUND_TRIP_TOLERANCE[virtual.joint], axis=1)
     if np.any(other_branch):
         raise UnreachableError.from_mask(other_branch, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
-    return CorrectedTargets(plate + controller.tool, q)
+    return CorrectedTargets(commands, q)

@@ -41,8 +41,12 @@ What is rewritten, and how:
 
 Position: X, Y and Z are unknown at the start unless ``start`` gives them, and again after a
 homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the real robot then
-stands. A move before all three are known is refused by its line, except an absolute (G90) move
-that gives all three: it goes straight to its corrected end, unsplit (its start is unknown).
+stands; except after G28 when ``home`` gives where the controller's homing leaves the TCP (a
+printer's firmware, every carriage at its endstop: Klipper's delta homes its three towers on any
+G28), where the next move starts (absolute: the controller stands at its own home, not at a
+corrected point, so a relative move right after it is refused). A move before all three are
+known is refused by its line, except an absolute (G90) move that gives all three: it goes
+straight to its corrected end, unsplit (its start is unknown).
 
 Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the file and line): G20
 (inches: convert the program to millimetres); G92 with X, Y or Z, or with no axis (they move the
@@ -101,7 +105,8 @@ SUFFIXES = (".gcode", ".gco", ".g", ".nc")
 #: Longest segment sent to the controller [mm]. The bend of a segment grows as its length squared:
 #: on the two demo robots with Bai's errors, the real path strays from the intended line by at most
 #: 0.09-0.15 µm at 5 mm (of which 0.07 µm is the output's rounding), 0.3-0.4 µm at 10 mm, 1.2-1.5 µm
-#: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most.
+#: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most. Kit printers
+#: through Klipper (Tolerances.printer_kit, 3 seeds): 0.3-1.3 µm at 5 mm, 5-15 µm at 20 mm.
 DEFAULT_SEGMENT_MM = 5.0
 #: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
 ARC_TOLERANCE_RATIO = 1e-3
@@ -161,7 +166,7 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 class _State:
     """The modal state of the program as read so far (positions in mm)."""
 
-    __slots__ = ("pos", "relative", "m83", "m83_ended", "e_pos", "motion", "plane", "unknown_since")
+    __slots__ = ("pos", "relative", "m83", "m83_ended", "e_pos", "motion", "plane", "unknown_since", "homed")
 
     def __init__(self, start) -> None:
         self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
@@ -172,6 +177,7 @@ class _State:
         self.motion: float | None = None
         self.plane = 17.0
         self.unknown_since = 0  # line of the homing that made the position unknown (0: the start)
+        self.homed = 0  # line of a homing that left the TCP at the controller's home, until a move
 
     def e_mode(self) -> str:
         """``absolute``, ``relative`` or ``ambiguous``: how E words are read here."""
@@ -183,7 +189,7 @@ class _State:
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
-                 start=None, source: str = "G-code") -> Iterator[str]:
+                 start=None, source: str = "G-code", home=None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -193,6 +199,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         segment_mm: Longest segment sent [mm].
         start: TCP position [mm] at the program's start, or None (unknown).
         source: Name of the program in messages.
+        home: Where a homing (G28) leaves the TCP [mm] (a printer's firmware: every carriage at
+            its endstop), or None: unknown after it.
 
     Yields:
         The output text, a chunk at a time.
@@ -206,7 +214,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start = tuple(float(v) for v in start)
         if len(start) != 3 or not all(math.isfinite(v) for v in start):
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
-    reader = _Reader(source, float(segment_mm), start)
+    reader = _Reader(source, float(segment_mm), start, home)
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source)
     if start is not None:
@@ -238,7 +246,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
 
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
-                 progress: Progress | None = None) -> None:
+                 progress: Progress | None = None, home=None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -248,6 +256,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         segment_mm: Longest segment sent [mm] (default :data:`DEFAULT_SEGMENT_MM`).
         start: TCP position [mm] at the program's start (X, Y, Z), or None.
         progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
+        home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -255,7 +264,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     opened: list = []
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
-    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source))
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
@@ -277,10 +286,11 @@ def _split(line: str) -> tuple[str, str, str]:
 class _Reader:
     """Reads the program line by line: the state, and the plan of each move."""
 
-    def __init__(self, source: str, segment_mm: float, start) -> None:
+    def __init__(self, source: str, segment_mm: float, start, home=None) -> None:
         self.source = source
         self.segment_mm = segment_mm
         self.state = _State(start)
+        self.home = None if home is None else tuple(float(v) for v in home)
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
     def fail(self, number: int, detail: str) -> InputError:
@@ -341,6 +351,7 @@ class _Reader:
             return None
         st.motion = 1.0 if g[-1] == "1" else 0.0
         st.pos = end
+        st.homed = 0
         if ending:
             self.newline = ending
         f = f1 if f2 is None else f2
@@ -376,7 +387,10 @@ class _Reader:
             raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
                                     "put it on a line of its own")
         if any(g in _HOMING for g in gs):
-            st.pos, st.unknown_since = (None, None, None), number
+            if self.home is not None and all(g == 28.0 for g in gs if g in _HOMING):
+                st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
+            else:
+                st.pos, st.unknown_since = (None, None, None), number
             return None
         if not gs and not any(w[0] in "XYZIJRE" for w in words):
             return None  # a numbered line without motion, F alone ...
@@ -491,6 +505,7 @@ class _Reader:
             x, y, z = given.get("X"), given.get("Y"), given.get("Z")
             end = st.pos = (start[0] if x is None else float(x), start[1] if y is None else float(y),
                             start[2] if z is None else float(z))
+        st.homed = 0
         if e_text is not None:
             self.track_e(float(e_text), e_mode)
         tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
@@ -520,6 +535,9 @@ class _Reader:
         """The move's end [mm]; the position becomes it."""
         st = self.state
         pos = st.pos
+        if st.relative and st.homed:  # the controller stands at its own home, not at a corrected point
+            raise self.fail(number, f"relative move (G91) right after the homing on line {st.homed}: give an "
+                                    "absolute move (G90) first")
         if st.relative:
             end = [None if p is None else p + float(given.get(a, 0.0))
                    for p, a in zip(pos, "XYZ", strict=True)]

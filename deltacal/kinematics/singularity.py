@@ -88,8 +88,9 @@ def singularity_measures(
     """Least transmission angle over the limbs [rad] and rod conditioning at readings q, each (N,).
 
     Computed coordinate by coordinate on (N, 3) arrays (limbs along the last axis), with each
-    elbow on its circle (:attr:`VirtualDelta.elbow_circle`) and the arm's direction of
-    motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``.
+    elbow of a revolute chain on its circle (:attr:`VirtualDelta.elbow_circle`) and the arm's
+    direction of motion ``w × û = (cos θ w × U + sin θ w × V) / |e|``; a prismatic chain's
+    carriage moves along its tower (:func:`_prismatic_measures`).
 
     Args:
         virtual: The virtual model.
@@ -100,6 +101,8 @@ def singularity_measures(
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if x is None:
         x = virtual.forward(q, check=False)
+    if virtual.joint == "prismatic":
+        return _prismatic_measures(virtual, q, x)
     w = virtual.actuator_rotation[:, :, 1]  # (limb, coordinate)
     e = virtual.elbow
     centre, u, v = virtual.elbow_circle
@@ -116,6 +119,21 @@ def singularity_measures(
     angle = np.arcsin(np.clip(sin_t, 0.0, 1.0))
     unit = np.stack([(r / length).T for r in rod], axis=1)  # (limb, coordinate, N)
     return angle, _inverse_condition(unit[0], unit[1], unit[2])
+
+
+def _prismatic_measures(virtual: VirtualDelta, q: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`singularity_measures` of a prismatic chain: each carriage moves along its tower.
+
+    The transmission angle is ``asin |n̂ · ŵ|`` between the rod n̂ and the carriage's line of
+    travel ŵ (0 when the rod lies square to its tower: a rod horizontal on a printer).
+    """
+    rod = x[:, None, :] + virtual.plate_attachment[None] - virtual.elbows(q)  # (N, limb, coordinate)
+    unit = rod / np.linalg.norm(rod, axis=2, keepdims=True)
+    w = virtual.actuator_rotation[:, :, 1]  # the tower's direction, (limb, coordinate)
+    sin_t = np.abs(np.sum(unit * w[None], axis=2)).min(axis=1)
+    angle = np.arcsin(np.clip(sin_t, 0.0, 1.0))
+    rows = np.ascontiguousarray(unit.transpose(1, 2, 0))  # (limb, coordinate, N)
+    return angle, _inverse_condition(rows[0], rows[1], rows[2])
 
 
 def jacobian_condition(virtual: VirtualDelta, q: np.ndarray) -> np.ndarray:
