@@ -34,7 +34,7 @@ from .state import (
     nice_number,
     workspace_grid,
 )
-from .writer import _plate_polygon, _SceneWriter
+from .writer import _plate_polygon, _reach, _SceneWriter, _tower_ends
 
 
 @dataclass(frozen=True)
@@ -134,16 +134,13 @@ def build_scene(
     polygon = _plate_polygon(nominal_geometry)
     writer.robot("true", true_geometry, true_state, ghost=False, plate_shape=polygon)
     writer.robot("nominal", nominal_geometry, ghost_state, ghost=True, plate_shape=polygon)
-    L = float(np.mean(np.linalg.norm(nominal_geometry.arm_ball.mean(axis=1), axis=1)))
-    writer.object("frame", writer.g.triad(0.4 * L))
-    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
-    ang = np.linspace(0.0, 2.0 * np.pi, 37)
+    writer.object("frame", writer.g.triad(0.4 * _reach(nominal_geometry)))
     points = [
         true_state.arm_balls[0].reshape(-1, 3),
         true_state.plate_balls[0].reshape(-1, 3),
         ghost_state.plate_balls[0].reshape(-1, 3),
         true_state.tcp,
-        np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)]),
+        _fixed_parts(writer, nominal_geometry, true_geometry),
         _draw_workspace(writer, ws),
     ]
     arrow_scale, max_error, n_arrows = 0.0, 0.0, 0
@@ -162,7 +159,9 @@ def build_scene(
         writer, layout, true_geometry, nominal_geometry, true_state, ghost_state, exaggerate
     )
     name = title if title is not None else (true_geometry.name or nominal_geometry.name or "Delta robot")
-    legend = _draw_legend(writer, layout, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius)
+    legend = _draw_legend(
+        writer, layout, nominal_geometry, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius
+    )
     label_points = [callout.points, legend]
 
     frames_done, max_path_tilt = 0, 0.0
@@ -199,6 +198,23 @@ def build_scene(
         camera=camera_view,
         paths=list(writer.paths),
     )
+
+
+def _fixed_parts(
+    writer: _SceneWriter, nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry
+) -> np.ndarray:
+    """Points of what stands still, for the framing [mm].
+
+    Round a rotary Delta's base; a printer's bed (drawn here: it is the plane z = 0 of both
+    printers) and both printers' towers and frame tops.
+    """
+    if nominal_geometry.joint == "prismatic":
+        ends = [np.concatenate(_tower_ends(g)) for g in (nominal_geometry, true_geometry)]
+        top = np.max(np.concatenate(ends)[:, 2]) + 16.0 * _reach(nominal_geometry) / 375.0
+        return np.concatenate([writer.bed(nominal_geometry), *ends, [[0.0, 0.0, top]]])
+    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
+    ang = np.linspace(0.0, 2.0 * np.pi, 37)
+    return np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)])
 
 
 def _draw_workspace(writer: _SceneWriter, ws: Workspace) -> np.ndarray:
