@@ -374,6 +374,11 @@ def test_printer_state_slides_the_carriages_down_their_towers(printer):
     rotary = load_nominal(MODELS / "bai2015.toml").geometry()
     arms = viz.RobotState.compute(rotary, np.radians([[10.0, 20.0, 30.0]]))
     assert np.array_equal(arms.arm_origin[0], rotary.axis_point) and arms.joint == "revolute"
+    # a scene draws two robots of one kind
+    from deltacal.exceptions import GeometryError
+
+    with pytest.raises(GeometryError, match="prismatic chain and the nominal one a revolute chain"):
+        viz.build_scene(viz.recording_visualizer(), rotary, true_geometry)
 
 
 def test_printer_html_holds_towers_carriages_effector_and_bed(tmp_path, printer):

@@ -100,14 +100,15 @@ def _firmware_routes(nominal: DeltaGeometry, geometry: DeltaGeometry, truth: Del
     if not np.any(ok):
         return ControllerRoutes([], points.shape[0], "not computed: no slice point within the nominal reach")
     q, points = q[ok], points[ok]
-    sizes = []
-    for robot in (geometry, truth):
-        if robot is None:
-            sizes.append(math.nan * np.ones(1))
-            continue
-        error, _ = less_bed_motion(points, exact.forward(robot, q).point(robot.tool) - points)
-        sizes.append(np.linalg.norm(error, axis=1))
-    (identified, real) = ((float(v.max()), float(np.sqrt(np.mean(v**2)))) for v in sizes)
-    route = Route("nominal", *identified, *real)
+    route = Route("nominal", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points))
     return ControllerRoutes([route], points.shape[0], "Errors less the shift along the bed and the turn "
                             "about its normal that fit them best (no measurement sees them).")
+
+
+def _nozzle_error(printer: DeltaGeometry | None, q: np.ndarray, points: np.ndarray) -> tuple[float, float]:
+    """Max and RMS nozzle error [mm] of a printer at readings q, less the best bed motion (NaN: none)."""
+    if printer is None:
+        return math.nan, math.nan
+    error, _ = less_bed_motion(points, exact.forward(printer, q).point(printer.tool) - points)
+    size = np.linalg.norm(error, axis=1)
+    return float(size.max()), float(np.sqrt(np.mean(size**2)))

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import UnreachableError
+from ..exceptions import GeometryError, UnreachableError
 from ..geometry import (
     DeltaGeometry,
     Workspace,
@@ -66,6 +66,15 @@ class SceneSummary:
     paths: list[str] = field(default_factory=list)
 
 
+def _check_scene(nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry, exaggerate: float) -> None:
+    """Two robots of one kind, and a positive finite exaggeration (ValueError, GeometryError)."""
+    if not (math.isfinite(exaggerate) and exaggerate > 0.0):
+        raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
+    if true_geometry.joint != nominal_geometry.joint:
+        raise GeometryError(f"the true robot is a {true_geometry.joint} chain and the nominal one a "
+                            f"{nominal_geometry.joint} chain: draw two robots of the same kind")
+
+
 def _scene_readings(nominal_geometry: DeltaGeometry, ws: Workspace, q: np.ndarray | None) -> np.ndarray:
     """The readings to draw [rad], (3,): those given, or the nominal ones at the workspace centre."""
     if q is None:
@@ -95,6 +104,10 @@ def build_scene(
 ) -> SceneSummary:
     """Draw the true robot over its nominal ghost into a meshcat visualizer.
 
+    A rotary Delta is drawn as its base, actuators, arms, rods and plate; a printer (a prismatic
+    chain, :attr:`DeltaGeometry.joint`) as its towers from the bed up past the endstops, the
+    carriages where their travel puts them, the rods, the effector and nozzle, and the bed.
+
     Args:
         vis: A ``meshcat.Visualizer`` (live, or from :func:`recording_visualizer`).
         nominal_geometry: The nominal robot (the ghost, and the model of the
@@ -119,10 +132,10 @@ def build_scene(
     Raises:
         UnreachableError: The workspace centre (default readings) is out of reach.
         AssemblyError: The true robot cannot be assembled at the readings.
+        GeometryError: The two robots are not of the same kind (rotary Delta, printer).
     """
     meshcat = _meshcat()
-    if not (math.isfinite(exaggerate) and exaggerate > 0.0):
-        raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
+    _check_scene(nominal_geometry, true_geometry, exaggerate)
     ws = workspace if workspace is not None else default_workspace(nominal_geometry)
     q = _scene_readings(nominal_geometry, ws, q)
     true_state = RobotState.compute(true_geometry, q, exaggerate)
