@@ -553,6 +553,16 @@ def test_masses_of_the_geometry_are_used_for_both_kinds():
                                rtol=0.0, atol=1e-12)
 
 
+def test_a_point_named_like_a_printer_element_is_refused():
+    geometry = load_robot(KOSSEL).geometry()
+    clash = replace(geometry, points={"carriage2_link": np.array([0.0, 0.0, -10.0])})
+    with pytest.raises(GeometryError, match="carriage2_link"):
+        mjcf_model(clash)
+    # a rotary robot has no carriages: the name is free there
+    rotary = load_nominal(BAI).geometry()
+    assert mujoco.MjModel.from_xml_string(mjcf_model(replace(rotary, points=clash.points))).nsite > 0
+
+
 def test_printer_masses_are_plausible():
     m = mujoco.MjModel.from_xml_string(mjcf_model(load_robot(KOSSEL).geometry()))
     assert 0.05 < m.body("carriage1_link").mass[0] < 0.5

@@ -450,6 +450,15 @@ def test_view_command_shows_a_printer_file(tmp_path, capsys):
     assert "effector tilt" in capsys.readouterr().out
     paths = {c["path"] for c in decode_commands(out.read_text(encoding="utf-8"))}
     assert "/meshcat/deltacal/true/limb2/carriage/body" in paths and "/meshcat/deltacal/bed" in paths
+    # a true printer from a geometry file
+    from deltacal.io import load_robot
+
+    printer_truth = tmp_path / "printer_truth.toml"
+    kossel = load_robot(MODELS / "kossel.toml").geometry()
+    save_geometry(kossel.perturbed(Tolerances.printer_kit(), np.random.default_rng(5)), printer_truth)
+    out = tmp_path / "printer_truth.html"
+    assert main(["view", str(MODELS / "kossel.toml"), "--truth", str(printer_truth), "--html", str(out)]) == 0
+    assert "largest nozzle error" in capsys.readouterr().out and out.exists()
     # a true robot of the other kind is refused in one line, nothing written
     truth = tmp_path / "rotary.toml"
     save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), truth)
