@@ -21,7 +21,8 @@ from deltacal.compensation import compensate
 from deltacal.exceptions import GeometryError
 from deltacal.export import HOME_KEY, mjcf_model
 from deltacal.export.mjcf import home_configuration
-from deltacal.io import load_geometry, load_instrument, load_nominal, save_geometry
+from deltacal.geometry import Masses, Tolerances
+from deltacal.io import load_geometry, load_instrument, load_nominal, load_robot, save_geometry
 from deltacal.kinematics import exact
 from deltacal.kinematics.multibody import DeltaMultibody
 
@@ -58,52 +59,66 @@ def compensated(folder, robot: str, targets: np.ndarray, tag: str) -> np.ndarray
     return read_joints(jfile)
 
 
-def mujoco_solve(m, readings: np.ndarray) -> tuple[np.ndarray, float]:
-    """Arms at the readings, closures solved from ``home`` by Newton on MuJoCo's equality rows.
+ARMS = ("arm1", "arm2", "arm3")
 
+
+def mujoco_solve(
+    m, readings: np.ndarray, actuated: tuple[str, ...] = ARMS, stages: int = 1
+) -> tuple[np.ndarray, float]:
+    """Actuated joints at the values given, closures solved from ``home`` by Newton on MuJoCo's equality rows.
+
+    With ``stages`` > 1 the actuated joints get there in equal steps, each solved in turn (a
+    continuation: a carriage's travel of 300 mm from its endstop is too far for one Newton solve).
     Returns the data after the solve and the largest closure residual reached [m].
     """
     d = mujoco.MjData(m)
     mujoco.mj_resetDataKeyframe(m, d, m.key(HOME_KEY).id)
-    arms = [m.joint(f"arm{i}").id for i in (1, 2, 3)]
-    d.qpos[m.jnt_qposadr[arms]] = readings
+    arms = [m.joint(name).id for name in actuated]
+    start = np.array(d.qpos[m.jnt_qposadr[arms]])
     passive = np.setdiff1d(np.arange(m.nv), m.jnt_dofadr[arms])
-    best = np.inf
-    for _ in range(30):
-        mujoco.mj_fwdPosition(m, d)  # kinematics, then the constraint rows efc_pos, efc_J
-        rows = d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
-        assert rows.sum() == 18
-        e = np.array(d.efc_pos[rows])
-        if mujoco.mj_isSparse(m):
-            J = np.zeros((d.nefc, m.nv))
-            mujoco.mju_sparse2dense(J, d.efc_J, d.efc_J_rownnz, d.efc_J_rowadr, d.efc_J_colind)
-        else:
-            J = np.array(d.efc_J).reshape(d.nefc, m.nv)
-        J = J[rows][:, passive]
-        res = float(np.max(np.abs(e)))
-        if res >= 0.5 * best and res < 1e-14:  # on the floating-point floor
-            break
-        best = min(best, res)
-        v = np.zeros(m.nv)
-        v[passive] = -J.T @ np.linalg.solve(J @ J.T, e)  # minimum norm: the rod spins stay put
-        mujoco.mj_integratePos(m, d.qpos, v, 1.0)
+    for stage in range(1, stages + 1):
+        values = readings if stage == stages else start + stage / stages * (readings - start)
+        d.qpos[m.jnt_qposadr[arms]] = values
+        best = np.inf
+        for _ in range(30):
+            mujoco.mj_fwdPosition(m, d)  # kinematics, then the constraint rows efc_pos, efc_J
+            rows = d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+            assert rows.sum() == 18
+            e = np.array(d.efc_pos[rows])
+            if mujoco.mj_isSparse(m):
+                J = np.zeros((d.nefc, m.nv))
+                mujoco.mju_sparse2dense(J, d.efc_J, d.efc_J_rownnz, d.efc_J_rowadr, d.efc_J_colind)
+            else:
+                J = np.array(d.efc_J).reshape(d.nefc, m.nv)
+            J = J[rows][:, passive]
+            res = float(np.max(np.abs(e)))
+            if res >= 0.5 * best and res < 1e-14:  # on the floating-point floor
+                break
+            best = min(best, res)
+            v = np.zeros(m.nv)
+            v[passive] = -J.T @ np.linalg.solve(J @ J.T, e)  # minimum norm: the rod spins stay put
+            mujoco.mj_integratePos(m, d.qpos, v, 1.0)
     mujoco.mj_kinematics(m, d)
     return d, res
 
 
-def mujoco_sites(path, readings: np.ndarray, names: list[str]) -> tuple[np.ndarray, float]:
-    """Site positions [mm], shape (N, k, 3), at each reading, and the largest closure residual [m]."""
+def mujoco_sites(
+    path, readings: np.ndarray, names: list[str], actuated: tuple[str, ...] = ARMS, stages: int = 1
+) -> tuple[np.ndarray, float]:
+    """Site positions [mm], shape (N, k, 3), at each joint value, and the largest closure residual [m]."""
     m = mujoco.MjModel.from_xml_path(str(path))
     out, worst = [], 0.0
     for q in readings:
-        d, res = mujoco_solve(m, q)
+        d, res = mujoco_solve(m, q, actuated, stages)
         out.append([np.array(d.site(n).xpos) * 1000.0 for n in names])
         worst = max(worst, res)
     return np.array(out), worst
 
 
-def pinocchio_frames(path, readings: np.ndarray, names: list[str]) -> tuple[np.ndarray, float]:
-    """Frame positions [mm], (N, k, 3), after Newton on Pinocchio's closures from ``home``."""
+def pinocchio_frames(
+    path, readings: np.ndarray, names: list[str], actuated: tuple[str, ...] = ARMS, stages: int = 1
+) -> tuple[np.ndarray, float]:
+    """Frame positions [mm], (N, k, 3), after Newton on Pinocchio's closures from ``home`` (in stages)."""
     model, points, frames = pin.buildModelAndConstraintsFromMJCF(str(path))
     assert len(points) == 6 and len(frames) == 0
     data = model.createData()
@@ -113,27 +128,29 @@ def pinocchio_frames(path, readings: np.ndarray, names: list[str]) -> tuple[np.n
     datas = pin.StdVec_ConstraintData()
     for c in models:
         datas.append(c.createData())
-    arms = [model.joints[model.getJointId(f"arm{i}")] for i in (1, 2, 3)]
+    arms = [model.joints[model.getJointId(name)] for name in actuated]
     passive = np.setdiff1d(np.arange(model.nv), [j.idx_v for j in arms])
     ids = [model.getFrameId(n) for n in names]
     out, worst = [], 0.0
     for q in readings:
         x = np.array(model.referenceConfigurations[HOME_KEY])
-        x[[j.idx_q for j in arms]] = q
-        best = np.inf
-        for _ in range(30):
-            pin.computeJointJacobians(model, data, x)
-            for c, cd in zip(models, datas, strict=True):
-                c.calc(model, data, cd)
-            e = np.concatenate([cd.extract().constraint_position_error for cd in datas])
-            J = pin.getConstraintsJacobian(model, data, models, datas)[:, passive]
-            res = float(np.max(np.abs(e)))
-            if res >= 0.5 * best and res < 1e-14:
-                break
-            best = min(best, res)
-            v = np.zeros(model.nv)
-            v[passive] = -J.T @ np.linalg.solve(J @ J.T, e)
-            x = pin.integrate(model, x, v)
+        start = x[[j.idx_q for j in arms]]
+        for stage in range(1, stages + 1):
+            x[[j.idx_q for j in arms]] = q if stage == stages else start + stage / stages * (q - start)
+            best = np.inf
+            for _ in range(30):
+                pin.computeJointJacobians(model, data, x)
+                for c, cd in zip(models, datas, strict=True):
+                    c.calc(model, data, cd)
+                e = np.concatenate([cd.extract().constraint_position_error for cd in datas])
+                J = pin.getConstraintsJacobian(model, data, models, datas)[:, passive]
+                res = float(np.max(np.abs(e)))
+                if res >= 0.5 * best and res < 1e-14:
+                    break
+                best = min(best, res)
+                v = np.zeros(model.nv)
+                v[passive] = -J.T @ np.linalg.solve(J @ J.T, e)
+                x = pin.integrate(model, x, v)
         worst = max(worst, res)
         pin.framesForwardKinematics(model, data, x)
         out.append([np.array(data.oMf[k].translation) * 1000.0 for k in ids])
@@ -389,3 +406,194 @@ def test_station_names_with_runs_of_dashes_stay_well_formed_xml(station):
     ET.fromstring(text)
     assert mujoco.MjModel.from_xml_string(text).nsite > 0
 
+
+
+# --------------------------------------------------------------------- (d) a linear Delta printer
+KOSSEL = str(MODELS / "kossel.toml")
+CARRIAGES = ("carriage1", "carriage2", "carriage3")
+#: Steps from the endstops (home) to the travels, each solved by Newton: at most about 40 mm each.
+STAGES = 8
+
+
+@pytest.fixture(scope="module")
+def printers(tmp_path_factory):
+    """{name: (geometry, MJCF path)}: the Kossel robot file and a perturbed printer's geometry file."""
+    folder = tmp_path_factory.mktemp("printers")
+    nominal = load_robot(KOSSEL).geometry()
+    true = nominal.perturbed(Tolerances.printer_kit(), np.random.default_rng(24))
+    true = replace(true, points={"probe": np.array([25.0, -10.0, -34.0])})
+    save_geometry(true, folder / "true.toml")
+    out = {}
+    cases = (("kossel", KOSSEL, nominal), ("perturbed", str(folder / "true.toml"), true))
+    for name, source, geometry in cases:
+        xml = folder / f"{name}.xml"
+        assert main(["export", source, "--mjcf", str(xml)]) == 0
+        out[name] = (geometry, xml)
+    return out
+
+
+def printer_readings(geometry, seed: int) -> np.ndarray:
+    """Carriage travels [mm] that put the nozzle on 8 random points of a Kossel's printable volume."""
+    rng = np.random.default_rng(seed)
+    r = 100.0 * np.sqrt(rng.uniform(0.0, 1.0, 8))
+    a = rng.uniform(0.0, 2.0 * np.pi, 8)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(0.0, 200.0, 8)])
+    return exact.inverse(geometry, targets)
+
+
+def slide_values(geometry, q: np.ndarray) -> np.ndarray:
+    """The carriages' slide values [m] at readings q [mm] (the module docstring: ``-joint_scale q``)."""
+    return -geometry.joint_scale * q / 1000.0
+
+
+@pytest.mark.parametrize("name", ["kossel", "perturbed"])
+def test_printer_nozzle_in_mujoco_follows_the_exact_kinematics(printers, name):
+    geometry, xml = printers[name]
+    q = printer_readings(geometry, seed=len(name))
+    names = geometry.point_names
+    sites, residual = mujoco_sites(xml, slide_values(geometry, q), names, CARRIAGES, STAGES)
+    error = np.max(np.abs(sites - exact_points(geometry, q, names)))
+    print(f"MuJoCo nozzle vs exact FK, {name}: max {error:.3g} mm (closure residual {residual:.3g} m)")
+    assert residual < 1e-13
+    assert error < MUJOCO_TOL_MM
+
+
+@pytest.mark.parametrize("name", ["kossel", "perturbed"])
+def test_printer_in_pinocchio_agrees_with_the_exact_forward_kinematics(printers, name):
+    geometry, xml = printers[name]
+    q = printer_readings(geometry, seed=10 + len(name))
+    names = geometry.point_names
+    frames, residual = pinocchio_frames(xml, slide_values(geometry, q), names, CARRIAGES, STAGES)
+    error = np.max(np.abs(frames - exact_points(geometry, q, names)))
+    print(f"Pinocchio vs exact FK, {name}: max {error:.3g} mm (closure residual {residual:.3g} m)")
+    assert residual < 1e-13
+    assert error < PINOCCHIO_TOL_MM
+
+
+def test_printer_model_mirrors_deltacal_multibody(printers):
+    """Carriage placements as in DeltaMultibody (endstop error along the tower); prismatic joints along y."""
+    geometry, xml = printers["perturbed"]
+    model, _, _ = pin.buildModelAndConstraintsFromMJCF(str(xml))
+    ours = DeltaMultibody(geometry).model
+    for name in (*CARRIAGES, "rod11", "rod12", "rod21", "rod22", "rod31", "rod32"):
+        a = model.jointPlacements[model.getJointId(name)]
+        b = ours.jointPlacements[ours.getJointId(name)]
+        assert np.max(np.abs(a.rotation - b.rotation)) < 1e-15
+        assert np.max(np.abs(a.translation * 1000.0 - b.translation)) < 1e-12
+        kind = model.joints[model.getJointId(name)].shortname()
+        assert kind == ours.joints[ours.getJointId(name)].shortname()
+    assert model.joints[model.getJointId("carriage1")].shortname() == "JointModelPY"
+
+
+def test_printer_home_is_an_assembly_and_the_servo_controls_are_readings(printers, tmp_path):
+    geometry, xml = printers["perturbed"]
+    home = np.array([180.0, 240.0, 210.0])  # [mm] below the endstops
+    out = tmp_path / "home.xml"
+    assert main(["export", str(xml.parent / "true.toml"), "--mjcf", str(out), "--home", "180,240,210"]) == 0
+    m = mujoco.MjModel.from_xml_path(str(out))
+    assert (m.nq, m.nv, m.neq, m.nu, m.nkey) == (34, 27, 6, 3, 1)
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key(HOME_KEY).id)
+    mujoco.mj_fwdPosition(m, d)
+    rows = d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    assert rows.sum() == 18 and np.max(np.abs(d.efc_pos[rows])) < 1e-13  # [m]
+    nozzle = exact.forward(geometry, home[None]).point(geometry.tool)[0]
+    assert np.max(np.abs(d.site("tcp").xpos * 1000.0 - nozzle)) < 1e-9
+    # the geared servos' lengths are the readings [mm], and the keyframe's controls hold them
+    np.testing.assert_allclose(d.actuator_length, home, rtol=0.0, atol=1e-9)
+    assert np.array_equal(m.key(HOME_KEY).ctrl, home)
+    np.testing.assert_array_equal(m.actuator_gear[:, 0], -1000.0 / geometry.joint_scale)
+
+
+def test_printer_file_holds_slides_towers_and_the_bed(printers):
+    geometry, xml = printers["perturbed"]
+    root = ET.parse(xml).getroot()
+    assert [b.get("name") for b in root.find("worldbody").findall("body")] == ["base"]
+    for i in range(3):
+        carriage = root.find(f".//body[@name='carriage{i + 1}_link']")
+        pos = np.array([float(v) for v in carriage.get("pos").split()])
+        w = geometry.axis_direction[i]
+        np.testing.assert_allclose(pos, (geometry.axis_point[i] - geometry.encoder_offset[i] * w) / 1000.0,
+                                   rtol=0.0, atol=1e-15)
+        joint = carriage.find("joint")
+        kind = (joint.get("name"), joint.get("type"), joint.get("axis"))
+        assert kind == (f"carriage{i + 1}", "slide", "0 1 0")
+        assert [r.find("joint").get("type") for r in carriage.findall("body")] == ["ball", "ball"]
+    base = root.find(".//body[@name='base']")
+    towers = [g for g in base.findall("geom") if g.get("type") == "capsule"]
+    assert len(towers) == 3
+    for i, tower in enumerate(towers):  # along the axis lines, from the bed up past the endstops
+        ends = np.array([float(v) for v in tower.get("fromto").split()]).reshape(2, 3) * 1000.0
+        assert abs(ends[0, 2]) < 1e-9 and ends[1, 2] > geometry.axis_point[i, 2]
+        w = geometry.axis_direction[i]
+        for end in ends:
+            off = end - geometry.axis_point[i]
+            assert np.linalg.norm(off - (off @ w) * w) < 1e-9
+    text = xml.read_text()
+    assert "linear Delta printer" in text and "control = reading [mm]" in text
+    assert not root.findall(".//joint[@type='hinge']")
+
+
+def test_masses_of_the_geometry_are_used_for_both_kinds():
+    """Issue 23 left 'MJCF ignores [masses]': a geometry's masses are the model's, each part at its place."""
+    given = Masses(arm=0.35, rod=0.04, plate=0.0)
+    for robot, moving in ((BAI, "arm1_link"), (KOSSEL, "carriage1_link")):
+        geometry = replace(load_robot(robot).geometry(), masses=given)
+        text = mjcf_model(geometry)
+        m = mujoco.MjModel.from_xml_string(text)
+        assert m.body(moving).mass[0] == 0.35
+        assert m.body("rod11_link").mass[0] == 0.04
+        assert m.body("plate").mass[0] == 1e-6  # 0 kg given; MuJoCo needs some: said in the file
+        assert "Masses: the geometry's" in text and "weighs 1e-06 kg" in text
+        assert np.all(m.body_inertia[1:] > 0.0)
+    # the conventions' arm: its centre of mass half-way from the axis to the elbow balls' midpoint
+    geometry = replace(load_robot(BAI).geometry(), masses=given)
+    m = mujoco.MjModel.from_xml_string(mjcf_model(geometry))
+    np.testing.assert_allclose(m.body("arm1_link").ipos * 1000.0, 0.5 * geometry.arm_ball[0].mean(axis=0),
+                               rtol=0.0, atol=1e-12)
+
+
+def test_a_point_named_like_a_printer_element_is_refused():
+    geometry = load_robot(KOSSEL).geometry()
+    clash = replace(geometry, points={"carriage2_link": np.array([0.0, 0.0, -10.0])})
+    with pytest.raises(GeometryError, match="carriage2_link"):
+        mjcf_model(clash)
+    # a rotary robot has no carriages: the name is free there
+    rotary = load_nominal(BAI).geometry()
+    assert mujoco.MjModel.from_xml_string(mjcf_model(replace(rotary, points=clash.points))).nsite > 0
+
+
+def test_printer_masses_are_plausible():
+    m = mujoco.MjModel.from_xml_string(mjcf_model(load_robot(KOSSEL).geometry()))
+    assert 0.05 < m.body("carriage1_link").mass[0] < 0.5
+    assert 0.001 < m.body("rod11_link").mass[0] < 0.02  # carbon tube of 269 mm
+    assert 0.03 < m.body("plate").mass[0] < 0.5
+    assert np.all(m.body_inertia[1:] > 0.0)
+
+
+def test_mujoco_drives_the_carriages_to_their_readings():
+    """A dynamic smoke test: the geared servos take the carriages to readings [mm], the loops stay closed.
+
+    The servos are proportional only and the closures soft (their sag under gravity is about
+    g τ² = 0.16 mm for the time constant τ = 4 ms), so the nozzle lands a fraction of a millimetre off.
+    """
+    geometry = load_robot(KOSSEL).geometry()
+    m = mujoco.MjModel.from_xml_string(mjcf_model(geometry))
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, m.key(HOME_KEY).id)
+    target = np.array([40.0, -30.0, 50.0])
+    q = exact.inverse(geometry, target[None])[0]
+    d.ctrl[:] = q
+    for _ in range(3000):
+        mujoco.mj_step(m, d)
+    assert np.max(np.abs(d.actuator_length - q)) < 0.05  # [mm]
+    assert np.max(np.abs(d.efc_pos[d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY])) < 2e-4  # [m]
+    assert np.linalg.norm(d.site("tcp").xpos * 1000.0 - target) < 0.5
+    assert np.max(np.abs(d.qvel)) < 1e-3
+
+
+def test_printer_home_must_not_rise_above_the_endstops(tmp_path, capsys):
+    out = tmp_path / "x.xml"
+    assert main(["export", KOSSEL, "--mjcf", str(out), "--home", "-1,100,100"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "below the endstops" in err[0] and not out.exists()

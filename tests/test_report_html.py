@@ -322,3 +322,57 @@ def test_bad_input_is_one_line(simulated, tmp_path, capsys):
         assert main(args) == 2
         assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert not out.exists()
+
+
+def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
+    """A printer's report: the firmware's route (the targets sent as they are: Klipper's model with the
+    nominal values), the nozzle in the effector frame, and the 3-D view of towers and bed."""
+    from deltacal import Tolerances
+    from deltacal.controller.klipper import KlipperDelta
+    from deltacal.identification.printer import PrinterMeasurements, identify_printer
+    from deltacal.io import load_printer
+    from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
+    from deltacal.kinematics import exact
+    from deltacal.report import accuracy_map, controller_routes, write_report
+    from deltacal.report.accuracy import less_bed_motion
+
+    kossel = load_printer(MODELS / "kossel.toml")
+    nominal = kossel.geometry()
+    rng = np.random.default_rng(2406)
+    truth = nominal.perturbed(Tolerances.printer_kit(), rng)
+    u = np.linspace(-115.0, 115.0, 7)
+    bed = np.stack(np.meshgrid(u, u), axis=-1).reshape(-1, 2)
+    bed = bed[np.hypot(*bed.T) <= 115.0 + 1e-9]
+    probe = exact.inverse(truth, np.column_stack([bed, np.zeros(len(bed))]))
+    result = identify_printer(nominal, PrinterMeasurements(probe + rng.normal(size=probe.shape) * 0.01))
+    save_calibration(calibration_from_result(result), tmp_path / "cal.toml")
+    out = tmp_path / "report.html"
+    write_report(tmp_path / "cal.toml", out, truth=truth, workspace=kossel.workspace, grid=11)
+    text = out.read_text(encoding="utf-8")
+    phrases = ("for the nozzle (0, 0, -30) mm in the effector frame", "deltacal plan PRINTER.toml --object",
+               "controller is its firmware (Klipper)", "targets sent as they are (nominal firmware)",
+               "The identified printer (solid)", "effector tilt exaggerated", "nozzle goes")
+    for phrase in phrases:
+        assert phrase in text, phrase
+    assert "not computed" not in text and "arm_length" not in text
+    # the firmware's row is Klipper's own model with the nominal values, on the true printer
+    calibration = load_calibration(tmp_path / "cal.toml")
+    amap = accuracy_map(calibration, kossel.workspace, None, truth, 11)
+    routes = controller_routes(calibration, amap, truth)
+    (route,) = routes.routes
+    points = np.concatenate([s.points.reshape(-1, 3) for s in amap.slices])
+    sigma = np.concatenate([v.ravel() for v in amap.sigma])
+    points = points[np.all(np.isfinite(points), axis=1) & np.isfinite(sigma)]
+    assert routes.points == len(points)
+    firmware = KlipperDelta.from_printer(kossel)
+    q = firmware.inverse(points, kossel.step_distance)
+    error, _ = less_bed_motion(points, exact.forward(truth, q).point(truth.tool) - points)
+    size = np.linalg.norm(error, axis=1)
+    rms = float(np.sqrt(np.mean(size**2)))
+    print(f"nominal firmware on the true printer: max {size.max():.4f} mm, RMS {rms:.4f} mm; on the "
+          f"identified one: max {route.max_error:.4f} mm")
+    assert route.true_max_error == pytest.approx(size.max(), abs=1e-9)
+    assert route.true_rms_error == pytest.approx(rms, abs=1e-9)
+    assert size.max() > 0.3  # an uncalibrated kit
+    # the identified printer sees nearly the same error (to what the calibration leaves)
+    assert abs(route.max_error - route.true_max_error) < 0.2 * route.true_max_error

@@ -346,3 +346,167 @@ def test_render_shows_the_robot_and_its_plate_apart_from_the_ghost(tmp_path, nom
     print(f"plate pixels {masks['true'].sum()}, true vs ghost differ on {apart:.0%}, control on {same:.1%}")
     assert apart > 0.25, f"true and ghost plates differ on only {apart:.0%} of their pixels"
     assert same < 0.05, f"a perfect robot's plate should cover the ghost's ({same:.1%} differ)"
+
+
+# ------------------------------------------------------------------ a linear Delta printer
+@pytest.fixture(scope="module")
+def printer():
+    """The Kossel printer file and a true printer around it (a typical kit's errors)."""
+    from deltacal.io import load_robot
+
+    kossel = load_robot(MODELS / "kossel.toml")
+    geometry = kossel.geometry()
+    return kossel, geometry, geometry.perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))
+
+
+def test_printer_state_slides_the_carriages_down_their_towers(printer):
+    kossel, nominal_geometry, true_geometry = printer
+    q = np.array([[150.0, 210.0, 180.0]])  # travels below the endstops [mm]
+    state = viz.RobotState.compute(true_geometry, q, 1.0)
+    travel = true_geometry.joint_scale * q[0] + true_geometry.encoder_offset
+    expected = true_geometry.axis_point - travel[:, None] * true_geometry.axis_direction
+    np.testing.assert_allclose(state.arm_origin[0], expected, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(state.arm_rotation[0], true_geometry.actuator_rotation(), atol=0.0)
+    np.testing.assert_allclose(state.arm_balls, true_geometry.arm_balls_in_base(q), atol=1e-12)
+    lengths = np.linalg.norm(state.plate_balls - state.arm_balls, axis=-1)[0]
+    np.testing.assert_allclose(lengths, true_geometry.rod_length, atol=1e-8)
+    # a rotary robot's arm frames stay on their axes
+    rotary = load_nominal(MODELS / "bai2015.toml").geometry()
+    arms = viz.RobotState.compute(rotary, np.radians([[10.0, 20.0, 30.0]]))
+    assert np.array_equal(arms.arm_origin[0], rotary.axis_point) and arms.joint == "revolute"
+    # a scene draws two robots of one kind
+    from deltacal.exceptions import GeometryError
+
+    with pytest.raises(GeometryError, match="prismatic chain and the nominal one a revolute chain"):
+        viz.build_scene(viz.recording_visualizer(), rotary, true_geometry)
+
+
+def test_printer_html_holds_towers_carriages_effector_and_bed(tmp_path, printer):
+    kossel, nominal_geometry, true_geometry = printer
+    out = tmp_path / "printer.html"
+    summary = viz.export_html(nominal_geometry, true_geometry, out, workspace=kossel.workspace, animate=True)
+    commands = decode_commands(out.read_text(encoding="utf-8"))
+    paths = {c["path"] for c in commands}
+    expected = ["bed", "frame", "workspace", "arrows", "inset/true/body", "inset/nominal/body"]
+    for robot in ("true", "nominal"):
+        expected.append(f"{robot}/top")
+        for i in (1, 2, 3):
+            expected += [f"{robot}/limb{i}/tower", f"{robot}/limb{i}/carriage/body"]
+            expected += [f"{robot}/limb{i}/carriage/ball{j}" for j in (1, 2)]
+            expected += [f"{robot}/limb{i}/rod{j}" for j in (1, 2)]
+            expected += [f"{robot}/plate/ball{i}{j}" for j in (1, 2)]
+        expected += [f"{robot}/plate/{part}" for part in ("body", "axis", "tool", "tcp")]
+    for path in expected:
+        assert f"/meshcat/deltacal/{path}" in paths, path
+        assert path in summary.paths
+    assert not [p for p in summary.paths if "/arm/" in p or p.endswith("/base") or "actuator" in p]
+    objects = [c for c in commands if c["type"] == "set_object"]
+    assert sum(c["path"].startswith("/meshcat/deltacal/true/") for c in objects) == 1 + 3 * 6 + 10
+    # the printer's words, the real tilt and the largest error
+    texts = [t["text"] for c in objects for t in c["object"].get("textures", []) if t.get("type") == "_text"]
+    assert f"effector tilt {math.degrees(summary.tilt):.3f}\u00b0" in texts
+    assert "nozzle error arrows" in texts and "effectors \u00d73, tilt side-on" in texts
+    assert not [t for t in texts if "plate" in t or "TCP" in t]
+    assert 0.01 < math.degrees(summary.tilt) < 1.0 and 0.5 < summary.max_error < 20.0
+    assert summary.arrows > 30
+    # each carriage sits on its tower where the true travel puts it
+    transform = {c["path"]: np.array(c["matrix"]).reshape(4, 4).T
+                 for c in commands if c["type"] == "set_transform"}
+    state = viz.RobotState.compute(true_geometry, summary_readings(nominal_geometry, kossel))
+    for i in range(3):
+        carriage = transform[f"/meshcat/deltacal/true/limb{i + 1}/carriage"]
+        np.testing.assert_allclose(carriage[:3, 3], state.arm_origin[0, i], atol=1e-9)
+    # the towers run along the axis lines from the bed up past the endstops
+    for i in range(3):
+        T = transform[f"/meshcat/deltacal/true/limb{i + 1}/tower"]
+        axis = T[:3, 1]  # the unit cylinder along y, scaled to the tower's length
+        w = true_geometry.axis_direction[i]
+        np.testing.assert_allclose(axis / np.linalg.norm(axis), w, atol=1e-9)
+        foot, top = T[:3, 3] - 0.5 * axis, T[:3, 3] + 0.5 * axis
+        assert abs(foot[2]) < 1e-6 and top[2] > true_geometry.axis_point[i, 2]
+        off = foot - true_geometry.axis_point[i]
+        assert np.linalg.norm(off - (off @ w) * w) < 1e-6
+    # the animation slides both printers' carriages
+    animation = next(c for c in commands if c["type"] == "set_animation")
+    animated = {a["path"] for a in animation["animations"]}
+    for robot in ("true", "nominal"):
+        for path in (f"{robot}/limb1/carriage", f"{robot}/limb3/rod2", f"{robot}/plate"):
+            assert f"/meshcat/deltacal/{path}" in animated, path
+    assert summary.animation_frames == 100
+
+
+def summary_readings(nominal_geometry, kossel) -> np.ndarray:
+    """The readings a scene draws by default: the nominal inverse kinematics of the workspace centre."""
+    from deltacal.kinematics import exact
+
+    return exact.inverse(nominal_geometry, kossel.workspace.centre[None])
+
+
+def test_view_command_shows_a_printer_file(tmp_path, capsys):
+    from deltacal.cli import main
+
+    out = tmp_path / "printer.html"
+    assert main(["view", str(MODELS / "kossel.toml"), "--perturb", "4", "--html", str(out)]) == 0
+    assert "effector tilt" in capsys.readouterr().out
+    paths = {c["path"] for c in decode_commands(out.read_text(encoding="utf-8"))}
+    assert "/meshcat/deltacal/true/limb2/carriage/body" in paths and "/meshcat/deltacal/bed" in paths
+    # a true printer from a geometry file
+    from deltacal.io import load_robot
+
+    printer_truth = tmp_path / "printer_truth.toml"
+    kossel = load_robot(MODELS / "kossel.toml").geometry()
+    save_geometry(kossel.perturbed(Tolerances.printer_kit(), np.random.default_rng(5)), printer_truth)
+    out = tmp_path / "printer_truth.html"
+    assert main(["view", str(MODELS / "kossel.toml"), "--truth", str(printer_truth), "--html", str(out)]) == 0
+    assert "largest nozzle error" in capsys.readouterr().out and out.exists()
+    # a true robot of the other kind is refused in one line, nothing written
+    truth = tmp_path / "rotary.toml"
+    save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), truth)
+    refused = tmp_path / "refused.html"
+    assert main(["view", str(MODELS / "kossel.toml"), "--truth", str(truth), "--html", str(refused)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rotary.toml" in err[0] and "printer" in err[0] and not refused.exists()
+
+
+@needs_chromium
+def test_render_shows_the_printer_and_its_effector_apart_from_the_ghost(tmp_path, printer):
+    kossel, nominal_geometry, true_geometry = printer
+    from PIL import Image
+
+    views = viz.export_views(
+        nominal_geometry, true_geometry, tmp_path / "printer.html", tmp_path / "printer.png", kossel.workspace
+    )
+    with Image.open(views["png"]) as image:
+        full = np.asarray(image.convert("RGB"), dtype=np.int16)
+    options = {"workspace": kossel.workspace}
+    vis = viz.recording_visualizer()
+    summary = viz.build_scene(vis, nominal_geometry, true_geometry, **options)
+    vis["deltacal"].set_property("visible", False)
+    changed = np.max(np.abs(full - render(vis, tmp_path, "empty")), axis=2) > 24
+    rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+    width, height = np.ptp(cols) / full.shape[1], np.ptp(rows) / full.shape[0]
+    print(f"printer pixels {changed.mean():.1%}, spanning {width:.0%} x {height:.0%} of the window")
+    assert changed.mean() > 0.05 and width > 0.6 and height > 0.6
+
+    masks = {}
+    for name, truth, keep in (
+        ("true", true_geometry, "true/plate/body"),
+        ("ghost", true_geometry, "nominal/plate/body"),
+        ("control", nominal_geometry, "true/plate/body"),  # a perfect printer: its effector is the ghost's
+        ("bed", true_geometry, "bed"),
+    ):
+        vis = viz.recording_visualizer()
+        s = viz.build_scene(vis, nominal_geometry, truth, camera_view=summary.camera, **options)
+        isolate(vis, s, keep)
+        masks[name] = red_mask(render(vis, tmp_path, name))
+    for name, mask in masks.items():
+        assert mask.sum() > 300, f"{name} not visible ({mask.sum()} px)"
+    assert masks["bed"].sum() > 20 * masks["true"].sum()  # the bed is the largest part in view
+
+    def differ(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.logical_xor(a, b).sum() / np.logical_or(a, b).sum())
+
+    apart, same = differ(masks["true"], masks["ghost"]), differ(masks["control"], masks["ghost"])
+    print(f"effector pixels {masks['true'].sum()}, true vs ghost differ on {apart:.0%}, control {same:.1%}")
+    assert apart > 0.25, f"true and ghost effectors differ on only {apart:.0%} of their pixels"
+    assert same < 0.05, f"a perfect printer's effector should cover the ghost's ({same:.1%} differ)"

@@ -18,30 +18,49 @@ from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableEr
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
 from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
+from ..io import load_robot as load_robot_file
 from ..report.accuracy import GRID, workspace_slices
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
-    """The geometry of a calibration, geometry or nominal robot file, and the calibration's stations.
+    """The geometry of a calibration, geometry or robot file (either kind), and the calibration's stations.
 
     Raises:
         InputError: naming the file, key and value of the first problem found.
     """
     data = read_toml(path)
     geometry = data.get("geometry")
-    if "format" not in data and isinstance(geometry, Mapping) and "base_radius_mm" in geometry:
-        return load_nominal(path).geometry(), []  # a nominal robot file (it has no format key)
+    if "format" not in data and (data.get("kind") is not None or (
+            isinstance(geometry, Mapping) and "base_radius_mm" in geometry)):
+        return load_robot_file(path).geometry(), []  # a nominal robot file (it has no format key)
     calibration = load_calibration(path)  # a calibration or geometry file, checked as every command does
     return calibration.geometry, list(calibration.frames)
 
 
-def _readings_deg(text: str) -> np.ndarray:
-    """Argparse type: ``Q1,Q2,Q3`` in degrees, each within ±180 (one turn of an arm) -> readings [rad]."""
-    values = three_numbers(text, "Q1,Q2,Q3 (deg)")
+def _home_readings(text: str) -> str:
+    """Argparse type of ``--home``: ``Q1,Q2,Q3``, three numbers (their unit is the robot's: :func:`_home`)."""
+    three_numbers(text, "Q1,Q2,Q3 (deg; a printer's in mm)")
+    return text
+
+
+def _home(text: str | None, joint: str) -> np.ndarray | None:
+    """``--home`` as readings, checked for the robot's kind.
+
+    Arm angles in degrees within ±180 (one turn) -> [rad]; carriage travels below the endstops [mm],
+    not negative (a carriage does not rise above its endstop).
+    """
+    if text is None:
+        return None
+    values = np.array(three_numbers(text, "Q1,Q2,Q3"))
+    if joint == "prismatic":
+        if np.any(values < 0.0):
+            raise UsageError(f"argument --home: a printer's readings are carriage travels below the "
+                             f"endstops [mm], not negative, got {text!r}")
+        return values
     if np.any(np.abs(values) > 180.0):
-        raise argparse.ArgumentTypeError(f"readings must lie within ±180 deg, got {text!r}")
+        raise UsageError(f"argument --home: readings must lie within ±180 deg, got {text!r}")
     return np.radians(values)
 
 
@@ -55,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     check_input(args.calibration)
     check_output(args.mjcf, (args.calibration,))
     geometry, stations = load_robot(args.calibration)
-    write_mjcf(args.mjcf, geometry, name=args.name, home=args.home, stations=stations,
+    write_mjcf(args.mjcf, geometry, name=args.name, home=_home(args.home, geometry.joint), stations=stations,
                source=str(args.calibration))
     frame = " (robot base frame {O}; the instrument frames are not exported)" if stations else ""
     print(f"wrote the MJCF model of {args.name or geometry.name or 'delta'} to {args.mjcf}{frame}")
@@ -133,7 +152,8 @@ def add_parser(sub) -> None:
         description=(
             "Write the identified robot (a calibration file from identify, a geometry file or a nominal "
             "robot file) as an MJCF model in SI units: hinge joints arm1..arm3 whose values are the "
-            "encoder readings [rad], ball-jointed rods closed on the plate by <connect> constraints, "
+            "encoder readings [rad] (a printer's: slides carriage1..carriage3, their servos' controls the "
+            "readings [mm]), ball-jointed rods closed on the plate by <connect> constraints, "
             "sites tcp and the named points, and a keyframe 'home' holding an assembly. With --controller "
             "offsets|limbs: the controller file (deltacal-controller-1) of the joint offsets alone, or of "
             "the per-limb values, that leave the least TCP error over the workspace; its [fit] and the "
@@ -153,8 +173,9 @@ def add_parser(sub) -> None:
                         "what the fit cannot identify; its [workspace] is the fit's; default: the "
                         "calibration's nominal and the report's default workspace)")
     p.add_argument("--name", type=_model_name, help="model (or controller) name (default: the robot's name)")
-    p.add_argument("--home", type=_readings_deg, metavar="Q1,Q2,Q3",
-                   help="readings of the 'home' keyframe [deg] (default 0,0,0)")
+    p.add_argument("--home", type=_home_readings, metavar="Q1,Q2,Q3",
+                   help="readings of the 'home' keyframe [deg]; a printer's: carriage travels below the "
+                        "endstops [mm] (default 0,0,0)")
     p.set_defaults(func=run)
 
 

@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import UsageError
+from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
-from ..io import load_geometry, load_nominal
-from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server
+from ..io import load_geometry, load_robot
+from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server, words
 from .common import check_input, check_output, positive_float, seed
 
 
@@ -26,18 +26,22 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="show a robot in 3-D (meshcat): true robot over its nominal ghost, TCP errors",
         description=(
             "Show the true robot over its nominal ghost at the workspace centre, the plate "
-            "tilt exaggerated, TCP error arrows over the workspace and an animation along a path. "
-            "Without --html, serve the scene with meshcat until Ctrl-C."
+            "tilt exaggerated, TCP error arrows over the workspace and an animation along a path; "
+            "a printer (robot file of kind 'linear'): its towers, carriages, rods, effector and nozzle "
+            "over the bed. Without --html, serve the scene with meshcat until Ctrl-C."
         ),
     )
-    p.add_argument("nominal", metavar="NOMINAL", type=Path, help="nominal robot file (TOML)")
+    p.add_argument("nominal", metavar="NOMINAL", type=Path, help="nominal robot file (TOML; either kind)")
     source = p.add_mutually_exclusive_group()
     source.add_argument("--truth", metavar="TRUE.toml", type=Path, help="geometry file of the true robot")
     source.add_argument(
         "--calibration", metavar="CAL", type=Path, help="calibration file: show its identified geometry"
     )
     source.add_argument(
-        "--perturb", metavar="SEED", type=seed, help="a random robot around the nominal (Bai 2015 tolerances)"
+        "--perturb",
+        metavar="SEED",
+        type=seed,
+        help="a random robot around the nominal (Bai 2015 tolerances; a printer: a typical kit's)",
     )
     p.add_argument(
         "--exaggerate",
@@ -61,22 +65,30 @@ def run(args: argparse.Namespace) -> int:
         check_output(args.html, inputs)
     if not (math.isfinite(args.exaggerate) and args.exaggerate > 0.0):
         raise UsageError(f"--exaggerate must be a positive number, got {args.exaggerate!r}")
-    nominal = load_nominal(args.nominal)
+    nominal = load_robot(args.nominal)
     nominal_geometry = nominal.geometry()
-    if args.truth is not None:
-        true_geometry = load_geometry(args.truth)
-    elif args.calibration is not None:
-        true_geometry = load_geometry(args.calibration)
+    source = args.truth if args.truth is not None else args.calibration
+    if source is not None:
+        true_geometry = load_geometry(source)
+        if true_geometry.joint != nominal_geometry.joint:
+            kinds = {"revolute": "a rotary Delta (revolute chain)",
+                     "prismatic": "a printer (prismatic chain)"}
+            raise InputError(f"{kinds[true_geometry.joint]}, while {args.nominal} is "
+                             f"{kinds[nominal_geometry.joint]}: give a robot file of the same kind",
+                             str(source), "key joint")
     elif args.perturb is not None:
-        true_geometry = nominal_geometry.perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
+        printer = nominal_geometry.joint == "prismatic"
+        tolerances = Tolerances.printer_kit() if printer else Tolerances.bai2015()
+        true_geometry = nominal_geometry.perturbed(tolerances, np.random.default_rng(args.perturb))
     else:
         true_geometry = nominal_geometry
     options: dict[str, Any] = {"exaggerate": args.exaggerate, "workspace": nominal.workspace}
     if args.html is not None:
         summary = export_html(nominal_geometry, true_geometry, args.html, animate=True, **options)
+        plate, tcp = words(nominal_geometry)
         print(
-            f"wrote {args.html}: plate tilt {math.degrees(summary.tilt):.4f} deg "
-            f"(drawn x{summary.exaggerate:g}), largest TCP error {summary.max_error:.3f} mm"
+            f"wrote {args.html}: {plate} tilt {math.degrees(summary.tilt):.4f} deg "
+            f"(drawn x{summary.exaggerate:g}), largest {tcp} error {summary.max_error:.3f} mm"
         )
         return 0
     try:

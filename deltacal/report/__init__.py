@@ -19,7 +19,7 @@ from ..calibration import Calibration
 from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
-from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer
+from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
     AccuracyMap,
@@ -63,9 +63,12 @@ def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, 
                               arrows=True, animate=False, title=f"{calibration.robot} (identified)")
     except (DeltacalError, ImportError) as exc:
         return None, f"No 3-D view: {exc}"
-    note = (f"The identified robot (solid) over the nominal one (ghost), plate tilt exaggerated "
+    plate, tcp = words(calibration.geometry)
+    robot = "printer" if calibration.geometry.joint == "prismatic" else "robot"
+    bed = " above the bed (the plane z = 0)" if robot == "printer" else ""
+    note = (f"The identified {robot} (solid) over the nominal one (ghost){bed}, {plate} tilt exaggerated "
             f"{DEFAULT_EXAGGERATION:g} times (real tilt {np.degrees(summary.tilt):.4f}° at the drawn pose); "
-            "arrows: where the identified robot's TCP goes when commanded with the nominal model (the "
+            f"arrows: where the identified {robot}'s {tcp} goes when commanded with the nominal model (the "
             "correction the calibration makes). Drag to turn, scroll to zoom.")
     return vis.static_html(), note
 

@@ -289,7 +289,7 @@ def accuracy_map(
             shift = np.nanmean(vectors, axis=0)
             vectors = vectors - shift
         if calibration.geometry.joint == "prismatic":
-            vectors, moved = _less_bed_motion(flat, vectors)
+            vectors, moved = less_bed_motion(flat, vectors)
         err = np.linalg.norm(vectors, axis=1)
         error = [err[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]
     if not np.any(np.isfinite(total)):
@@ -298,7 +298,7 @@ def accuracy_map(
     return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k], shift, moved)
 
 
-def _less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A printer's errors less the bed motion that fits them best (nothing measured sees it), and it."""
     ok = np.all(np.isfinite(errors), axis=1)
     A = bed_motion(points)

@@ -19,7 +19,8 @@ from ..controller import FIT_KINDS, Controller, fit_controller
 from ..controller.fit import tcp_errors
 from ..exceptions import DeltacalError
 from ..geometry import DeltaGeometry
-from .accuracy import AccuracyMap
+from ..kinematics import exact
+from .accuracy import AccuracyMap, less_bed_motion, reachable_readings
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,8 @@ def controller_routes(calibration: Calibration, amap: AccuracyMap,
     points = points[np.all(np.isfinite(points), axis=1) & np.isfinite(sigma)]
     geometry = calibration.geometry.with_tool(amap.tool)
     true_tool = truth.with_tool(amap.tool) if truth is not None else None
+    if geometry.joint == "prismatic":
+        return _firmware_routes(calibration.nominal.with_tool(amap.tool), geometry, true_tool, points)
     try:
         start = Controller.from_geometry(calibration.nominal).replace(tool=amap.tool)
         routes = []
@@ -81,3 +84,31 @@ def _on(truth: DeltaGeometry | None, controller: Controller, points: np.ndarray)
         return math.nan, math.nan
     error = np.linalg.norm(tcp_errors(truth, controller, points), axis=1)
     return float(error.max()), float(np.sqrt(np.mean(error**2)))
+
+
+def _firmware_routes(nominal: DeltaGeometry, geometry: DeltaGeometry, truth: DeltaGeometry | None,
+                     points: np.ndarray) -> ControllerRoutes:
+    """A printer's firmware with its nominal values: the nozzle error of the targets sent as they are.
+
+    The firmware's model with the nominal values is the perfect printer's (Klipper's, the nozzle
+    the TCP). Each error is less the shift along the bed and turn about its normal that fit it best:
+    no probe height or printed distance sees them, a printed part is the same part (as the map's
+    actual errors).
+    """
+    q = reachable_readings(nominal, points)
+    ok = np.all(np.isfinite(q), axis=1)
+    if not np.any(ok):
+        return ControllerRoutes([], points.shape[0], "not computed: no slice point within the nominal reach")
+    q, points = q[ok], points[ok]
+    route = Route("nominal", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points))
+    return ControllerRoutes([route], points.shape[0], "Errors less the shift along the bed and the turn "
+                            "about its normal that fit them best (no measurement sees them).")
+
+
+def _nozzle_error(printer: DeltaGeometry | None, q: np.ndarray, points: np.ndarray) -> tuple[float, float]:
+    """Max and RMS nozzle error [mm] of a printer at readings q, less the best bed motion (NaN: none)."""
+    if printer is None:
+        return math.nan, math.nan
+    error, _ = less_bed_motion(points, exact.forward(printer, q).point(printer.tool) - points)
+    size = np.linalg.norm(error, axis=1)
+    return float(size.max()), float(np.sqrt(np.mean(size**2)))

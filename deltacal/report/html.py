@@ -222,10 +222,12 @@ def _residuals(page: Page) -> str:
 def _accuracy(page: Page) -> str:
     a = page.accuracy
     w = a.worst_point
+    printer = page.calibration.geometry.joint == "prismatic"
     out = (
         "<p>The predicted accuracy map is the standard deviation of the TCP position the calibration leaves, "
-        "at each place of the workspace, for the tool "
-        f"({esc(', '.join(num(v, 6) for v in a.tool))}) mm in the plate frame: the uncertainty of the "
+        f"at each place of the workspace, for the {'nozzle' if printer else 'tool'} "
+        f"({esc(', '.join(num(v, 6) for v in a.tool))}) mm in the {'effector' if printer else 'plate'} "
+        "frame: the uncertainty of the "
         "identified base parameters (their σ and correlations) carried through the error model to the TCP. "
         "It is the 3-D RMS, √(σx² + σy² + σz²). It covers what the measurement noise leaves in the "
         "identified "
@@ -243,6 +245,14 @@ def _accuracy(page: Page) -> str:
     rows = [[td(s.label), cell(float(np.nanmin(v)) * 1000.0, 4), cell(float(np.nanmax(v)) * 1000.0, 4)]
             for s, v in zip(a.slices, a.sigma, strict=True)]
     out += table(["slice", "smallest σ [µm]", "largest σ [µm]"], rows, "accuracy-slices")
+    if printer:
+        out += ("<p><b>How to use it.</b> Where σ is large, the probe heights and printed distances say "
+                "little about the printer there: probe the bed there, or print and measure features at those "
+                "heights and directions (<code>deltacal plan PRINTER.toml --object</code> designs an object "
+                "whose distances identify the complete model), then identify again. Where σ is already below "
+                "what the prints need, more measurements there do not help. If s0² is well above 1, the map "
+                "is too optimistic by about √s0².</p>")
+        return out
     out += ("<p><b>How to use it.</b> Where σ is large, the measurements say little about the robot "
         "there: add "
             "measurement poses in that region (around the star first, and at the edges of the "
@@ -301,7 +311,41 @@ def _truth(page: Page) -> str:
     return out
 
 
+def _firmware(page: Page) -> str:
+    """A printer's controller section: its firmware with the nominal values, fitted, and corrected targets."""
+    routes = page.controllers
+    assert routes is not None
+    truth = page.accuracy.error is not None
+    out = ("<p>A printer's controller is its firmware (Klipper), which runs its own model: vertical towers, "
+           "one rod per tower, a point effector. Over the same slices as the map, the nozzle error each way "
+           "of handing it this calibration leaves: the targets sent as they are (the firmware with the "
+           "nominal values); the firmware's values that fit the calibration best (<code>deltacal export CAL "
+           "--controller klipper</code>); corrected targets and G-code through the firmware "
+           "(<code>deltacal compensate CAL TARGETS.csv|PART.gcode --controller printer.cfg</code>), which "
+           "leave what the calibration itself leaves: the predicted σ above"
+           + (" and the actual errors against the true geometry" if truth else "") + ".</p>")
+    if not routes.routes:
+        return out + f"<p class=\"muted\">{esc(routes.note)}</p>"
+    names = {"nominal": "targets sent as they are (nominal firmware)", "klipper": "firmware values fitted"}
+    rows = []
+    for r in routes.routes:
+        row = [td(names.get(r.name, r.name)), cell(r.max_error, 4), cell(r.rms_error, 4)]
+        rows.append(row + ([cell(r.true_max_error, 4), cell(r.true_rms_error, 4)] if truth else []))
+    a = page.accuracy
+    rows.append([td("corrected targets"), cell(a.worst, 4), td("as the map")]
+                + ([cell(float(np.nanmax(np.concatenate([e.ravel() for e in a.error]))), 4), td("")]
+                   if truth and a.error is not None else []))
+    header = ["route", "max [mm]", "RMS [mm]"] + (["true max [mm]", "true RMS [mm]"] if truth else [])
+    out += table(header, rows, "controller-routes")
+    note = f" {esc(routes.note)}" if routes.note else ""
+    out += (f"<p class=\"muted\">{routes.points} points. Errors on the identified printer; corrected "
+            f"targets' row: the largest predicted σ (and actual error).{note}</p>")
+    return out
+
+
 def _controllers(page: Page) -> str:
+    if page.calibration.geometry.joint == "prismatic":
+        return _firmware(page)
     routes = page.controllers
     assert routes is not None
     out = ("<p>A controller that takes Cartesian targets runs its own classical (perfect-parallelogram) "

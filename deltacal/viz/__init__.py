@@ -1,7 +1,8 @@
 """meshcat views of a robot, as a scene served live, a standalone page or a screenshot.
 
 The true robot over its nominal ghost, the plate tilt exaggerated, TCP errors over the
-workspace, an animation; standalone HTML pages and Chromium screenshots.
+workspace, an animation; standalone HTML pages and Chromium screenshots. A printer (a prismatic
+chain) is drawn as its towers, carriages, rods, effector and nozzle over the bed.
 
 meshcat is imported by :mod:`._meshcat` only, and only when a scene is drawn or served.
 """
@@ -14,6 +15,7 @@ from .layout import (
     DEFAULT_WINDOW,
     INSET_MAGNIFICATION,
     CameraView,
+    words,
 )
 from .meshes import ARROW_RADIUS
 from .recorder import (
@@ -62,6 +64,7 @@ __all__ = [
     "recording_visualizer",
     "render_png",
     "stop_server",
+    "words",
     "workspace_grid",
     "write_html",
 ]

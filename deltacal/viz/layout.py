@@ -37,6 +37,11 @@ CAMERA_AZIMUTH = -55.0
 CAMERA_ELEVATION = 18.0
 
 
+def words(geometry: DeltaGeometry) -> tuple[str, str]:
+    """What the scene calls the plate and the TCP: a rotary Delta's, or a printer's effector and nozzle."""
+    return ("effector", "nozzle") if geometry.joint == "prismatic" else ("plate", "TCP")
+
+
 # ==================================================================================== the scene
 @dataclass(frozen=True)
 class CameraView:
@@ -182,13 +187,14 @@ def _draw_plate_callout(
     g = writer.g
     camera, line = layout.camera, layout.line
     polygon = _plate_polygon(nominal_geometry)
+    plate, tcp = words(nominal_geometry)
     plate_pos = true_state.plate.position[0]
     plate_r = float(np.max(np.linalg.norm(polygon, axis=1)))
     tcp_error = true_state.tcp[0] - ghost_state.tcp[0]
     tilt_lines = [
-        f"plate tilt {math.degrees(float(true_state.plate.tilt()[0])):.3f}\u00b0",
+        f"{plate} tilt {math.degrees(float(true_state.plate.tilt()[0])):.3f}\u00b0",
         f"(drawn \u00d7{exaggerate:g})",
-        f"TCP error {np.linalg.norm(tcp_error):.2f} mm",
+        f"{tcp} error {np.linalg.norm(tcp_error):.2f} mm",
     ]
     half_w = 0.27 * line * max(len(t) for t in tilt_lines)
     m = INSET_MAGNIFICATION
@@ -219,7 +225,7 @@ def _draw_plate_callout(
     for sign in (-1.0, 1.0):
         out.append(inset_origin + m * (content + sign * ball_r * camera.right))
     title_at = inset_origin + (content_top + 1.5 * line) * camera.up
-    out.append(_text_block(writer, "inset", [f"plates \u00d7{m:g}, tilt side-on"], title_at, camera, line))
+    out.append(_text_block(writer, "inset", [f"{plate}s \u00d7{m:g}, tilt side-on"], title_at, camera, line))
     leader = np.stack(
         [
             plate_pos + 1.3 * plate_r * camera.right,
@@ -235,15 +241,22 @@ def _draw_plate_callout(
 
 
 def _draw_legend(
-    writer: _SceneWriter, layout: _Layout, name: str, arrow_scale: float, max_error: float, radius: float
+    writer: _SceneWriter,
+    layout: _Layout,
+    geometry: DeltaGeometry,
+    name: str,
+    arrow_scale: float,
+    max_error: float,
+    radius: float,
 ) -> np.ndarray:
     """Left of the robot: its name, the ghost, the arrows' scale and colour bar; returns corners [mm]."""
     g = writer.g
     camera, line = layout.camera, layout.line
     legend = [name, "blue ghost: nominal"]
+    tcp = words(geometry)[1]
     half = 0.27 * line * max(len(t) for t in legend)
     if arrow_scale > 0.0:
-        legend += ["TCP error arrows", f"(true - commanded) \u00d7{arrow_scale:g}"]
+        legend += [f"{tcp} error arrows", f"(true - commanded) \u00d7{arrow_scale:g}"]
         half = max(0.27 * line * max(len(t) for t in legend), 4.5 * line + 0.27 * line * 8)
     anchor = (layout.left - 2.0 * line - half) * camera.right + layout.top * camera.up + layout.depth
     out = [_text_block(writer, "legend", legend, anchor, camera, line)]

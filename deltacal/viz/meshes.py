@@ -27,6 +27,7 @@ _TRUE_COLOURS = {
     "plate": 0x3C9E5A,
     "axis": 0x1F6B38,
     "tool": 0xC0392B,
+    "bed": 0x8C8F94,
 }
 
 

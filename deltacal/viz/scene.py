@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import UnreachableError
+from ..exceptions import GeometryError, UnreachableError
 from ..geometry import (
     DeltaGeometry,
     Workspace,
@@ -34,7 +34,7 @@ from .state import (
     nice_number,
     workspace_grid,
 )
-from .writer import _plate_polygon, _SceneWriter
+from .writer import _plate_polygon, _reach, _SceneWriter, _tower_ends
 
 
 @dataclass(frozen=True)
@@ -66,6 +66,15 @@ class SceneSummary:
     paths: list[str] = field(default_factory=list)
 
 
+def _check_scene(nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry, exaggerate: float) -> None:
+    """Two robots of one kind, and a positive finite exaggeration (ValueError, GeometryError)."""
+    if not (math.isfinite(exaggerate) and exaggerate > 0.0):
+        raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
+    if true_geometry.joint != nominal_geometry.joint:
+        raise GeometryError(f"the true robot is a {true_geometry.joint} chain and the nominal one a "
+                            f"{nominal_geometry.joint} chain: draw two robots of the same kind")
+
+
 def _scene_readings(nominal_geometry: DeltaGeometry, ws: Workspace, q: np.ndarray | None) -> np.ndarray:
     """The readings to draw [rad], (3,): those given, or the nominal ones at the workspace centre."""
     if q is None:
@@ -95,6 +104,10 @@ def build_scene(
 ) -> SceneSummary:
     """Draw the true robot over its nominal ghost into a meshcat visualizer.
 
+    A rotary Delta is drawn as its base, actuators, arms, rods and plate; a printer (a prismatic
+    chain, :attr:`DeltaGeometry.joint`) as its towers from the bed up past the endstops, the
+    carriages where their travel puts them, the rods, the effector and nozzle, and the bed.
+
     Args:
         vis: A ``meshcat.Visualizer`` (live, or from :func:`recording_visualizer`).
         nominal_geometry: The nominal robot (the ghost, and the model of the
@@ -119,10 +132,10 @@ def build_scene(
     Raises:
         UnreachableError: The workspace centre (default readings) is out of reach.
         AssemblyError: The true robot cannot be assembled at the readings.
+        GeometryError: The two robots are not of the same kind (rotary Delta, printer).
     """
     meshcat = _meshcat()
-    if not (math.isfinite(exaggerate) and exaggerate > 0.0):
-        raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
+    _check_scene(nominal_geometry, true_geometry, exaggerate)
     ws = workspace if workspace is not None else default_workspace(nominal_geometry)
     q = _scene_readings(nominal_geometry, ws, q)
     true_state = RobotState.compute(true_geometry, q, exaggerate)
@@ -134,16 +147,13 @@ def build_scene(
     polygon = _plate_polygon(nominal_geometry)
     writer.robot("true", true_geometry, true_state, ghost=False, plate_shape=polygon)
     writer.robot("nominal", nominal_geometry, ghost_state, ghost=True, plate_shape=polygon)
-    L = float(np.mean(np.linalg.norm(nominal_geometry.arm_ball.mean(axis=1), axis=1)))
-    writer.object("frame", writer.g.triad(0.4 * L))
-    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
-    ang = np.linspace(0.0, 2.0 * np.pi, 37)
+    writer.object("frame", writer.g.triad(0.4 * _reach(nominal_geometry)))
     points = [
         true_state.arm_balls[0].reshape(-1, 3),
         true_state.plate_balls[0].reshape(-1, 3),
         ghost_state.plate_balls[0].reshape(-1, 3),
         true_state.tcp,
-        np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)]),
+        _fixed_parts(writer, nominal_geometry, true_geometry),
         _draw_workspace(writer, ws),
     ]
     arrow_scale, max_error, n_arrows = 0.0, 0.0, 0
@@ -162,7 +172,9 @@ def build_scene(
         writer, layout, true_geometry, nominal_geometry, true_state, ghost_state, exaggerate
     )
     name = title if title is not None else (true_geometry.name or nominal_geometry.name or "Delta robot")
-    legend = _draw_legend(writer, layout, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius)
+    legend = _draw_legend(
+        writer, layout, nominal_geometry, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius
+    )
     label_points = [callout.points, legend]
 
     frames_done, max_path_tilt = 0, 0.0
@@ -199,6 +211,23 @@ def build_scene(
         camera=camera_view,
         paths=list(writer.paths),
     )
+
+
+def _fixed_parts(
+    writer: _SceneWriter, nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry
+) -> np.ndarray:
+    """Points of what stands still, for the framing [mm].
+
+    Round a rotary Delta's base; a printer's bed (drawn here: it is the plane z = 0 of both
+    printers) and both printers' towers and frame tops.
+    """
+    if nominal_geometry.joint == "prismatic":
+        ends = [np.concatenate(_tower_ends(g)) for g in (nominal_geometry, true_geometry)]
+        top = np.max(np.concatenate(ends)[:, 2]) + 16.0 * _reach(nominal_geometry) / 375.0
+        return np.concatenate([writer.bed(nominal_geometry), *ends, [[0.0, 0.0, top]]])
+    b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
+    ang = np.linspace(0.0, 2.0 * np.pi, 37)
+    return np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)])
 
 
 def _draw_workspace(writer: _SceneWriter, ws: Workspace) -> np.ndarray:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..chains import carried_points, path_terms
 from ..exceptions import UnreachableError
 from ..geometry import (
     DeltaGeometry,
@@ -47,6 +48,9 @@ class RobotState:
         plate_balls: Plate ball centres as drawn, in {O} [mm], (N, 3, 2, 3).
         tcp: True TCP in {O} [mm], (N, 3).
         axis_point: Actuator axis points in {O} [mm], (3, 3).
+        arm_origin: Origins of the arm frames in {O} [mm], (N, 3, 3): the axis points of a
+            rotary Delta's arms; a printer's carriages where they are on their towers.
+        joint: The actuated chain, ``"revolute"`` (arms) or ``"prismatic"`` (carriages).
     """
 
     q: np.ndarray
@@ -57,6 +61,8 @@ class RobotState:
     plate_balls: np.ndarray
     tcp: np.ndarray
     axis_point: np.ndarray
+    arm_origin: np.ndarray
+    joint: str = "revolute"
 
     @classmethod
     def compute(cls, geometry: DeltaGeometry, q: np.ndarray, exaggerate: float = 1.0) -> RobotState:
@@ -65,6 +71,12 @@ class RobotState:
         plate = exact.forward(geometry, q)
         shown = rotation_from_vector(exaggerate * vector_from_rotation(plate.rotation))
         balls = plate.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", shown, geometry.plate_ball)
+        # the arm frames' origins carried as points of the arms (chains.carried_points)
+        centre, along_f, along_g = carried_points(
+            geometry.joint, geometry.axis_point, geometry.actuator_rotation(), np.zeros((3, 1, 3))
+        )
+        f, g = path_terms(geometry.joint, geometry.joint_coordinate(q)[:, :, None, None])
+        origin = (centre + f * along_f + g * along_g)[:, :, 0]
         return cls(
             q=q,
             arm_rotation=geometry.arm_rotation(q),
@@ -74,6 +86,8 @@ class RobotState:
             plate_balls=balls,
             tcp=plate.point(geometry.tool),
             axis_point=np.array(geometry.axis_point),
+            arm_origin=origin,
+            joint=geometry.joint,
         )
 
 

@@ -45,7 +45,16 @@ class _SceneWriter:
     def robot(
         self, name: str, geometry: DeltaGeometry, state: RobotState, ghost: bool, plate_shape: np.ndarray
     ) -> None:
-        """Draw one robot at the first pose of ``state``."""
+        """Draw one robot (a rotary Delta, or a printer: towers, carriages) at the first pose of ``state``."""
+        if geometry.joint == "prismatic":
+            self._towers(name, geometry, ghost)
+        else:
+            self._arms(name, geometry, ghost)
+        self.plate(f"{name}/plate", geometry, ghost, plate_shape)
+        self.pose(name, state, 0)
+
+    def _arms(self, name: str, geometry: DeltaGeometry, ghost: bool) -> None:
+        """A rotary Delta's base, actuators, arms with their balls, and rods (posed by :meth:`pose`)."""
         g = self.g
         C = _TRUE_COLOURS
         b = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
@@ -85,8 +94,63 @@ class _SceneWriter:
                     _transform(np.eye(3), geometry.arm_ball[i, j]),
                 )
                 self.object(f"{limb}/rod{j + 1}", g.Cylinder(1.0, rod_r), mat["rod"])
-        self.plate(f"{name}/plate", geometry, ghost, plate_shape)
-        self.pose(name, state, 0)
+
+    def _towers(self, name: str, geometry: DeltaGeometry, ghost: bool) -> None:
+        """A printer's frame top, towers, carriages with their balls, and rods (posed by :meth:`pose`).
+
+        The towers run along the axis lines, from the bed up past the endstops.
+        """
+        g = self.g
+        s, fat = _sizes(geometry, ghost)
+        mat = {k: _material(v, ghost) for k, v in _TRUE_COLOURS.items()}
+        feet, tops = _tower_ends(geometry)
+        top_z = float(np.max(tops[:, 2]))
+        corners = tops[:, :2] + 30.0 * s * geometry.radial[:, :2]  # the frame's corners round the towers
+        vertices, faces = _prism_mesh(corners[np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))], 16.0 * s)
+        self.object(
+            f"{name}/top",
+            g.TriangularMeshGeometry(vertices, faces),
+            mat["base"],
+            _transform(np.eye(3), [0.0, 0.0, top_z + 8.0 * s]),
+        )
+        for i in range(3):
+            limb = f"{name}/limb{i + 1}"
+            R, mid, length = _segment(feet[i], tops[i])
+            self.object(
+                f"{limb}/tower",
+                g.Cylinder(1.0, 9.0 * s * fat),
+                mat["actuator"],
+                _transform(R, mid, (1, length, 1)),
+            )
+            balls = geometry.arm_ball[i]
+            depth = float(np.max(np.abs(balls[:, 2] - balls[:, 2].mean())))
+            self.object(
+                f"{limb}/carriage/body",
+                g.Box([26.0 * s * fat, 60.0 * s * fat, 2.0 * depth]),
+                mat["arm"],
+                _transform(np.eye(3), balls.mean(axis=0)),
+            )
+            for j in range(2):
+                self.object(
+                    f"{limb}/carriage/ball{j + 1}",
+                    g.Sphere(11.0 * s * fat),
+                    mat["ball"],
+                    _transform(np.eye(3), balls[j]),
+                )
+                self.object(f"{limb}/rod{j + 1}", g.Cylinder(1.0, 4.5 * s * fat), mat["rod"])
+
+    def bed(self, geometry: DeltaGeometry) -> np.ndarray:
+        """A printer's bed: a thin disc whose top is the plane z = 0; returns points of its rim [mm]."""
+        s, _ = _sizes(geometry, False)
+        radius = float(np.max(np.linalg.norm(geometry.axis_point[:, :2], axis=1))) + 30.0 * s
+        thickness = 6.0 * s
+        material = self.g.MeshPhongMaterial(
+            color=_TRUE_COLOURS["bed"], opacity=0.55, transparent=True, depthWrite=False, shininess=10
+        )
+        cylinder_T = _transform(_rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, -0.5 * thickness])
+        self.object("bed", self.g.Cylinder(thickness, radius), material, cylinder_T)
+        ang = np.linspace(0.0, 2.0 * np.pi, 13)
+        return np.column_stack([radius * np.cos(ang), radius * np.sin(ang), np.full_like(ang, -thickness)])
 
     def plate(self, prefix: str, geometry: DeltaGeometry, ghost: bool, plate_shape: np.ndarray) -> None:
         """Draw the plate and what it carries, in the plate frame, under ``prefix``."""
@@ -123,10 +187,11 @@ class _SceneWriter:
     def pose(self, name: str, state: RobotState, k: int, frame: Any = None) -> None:
         """Set the moving parts of a robot to pose k (into an animation frame when given)."""
         target = self.root if frame is None else frame["deltacal"]
+        part = "carriage" if state.joint == "prismatic" else "arm"
         for i in range(3):
             limb = f"{name}/limb{i + 1}"
-            arm_T = _transform(state.arm_rotation[k, i], state.axis_point[i])
-            target[f"{limb}/arm"].set_transform(arm_T)
+            arm_T = _transform(state.arm_rotation[k, i], state.arm_origin[k, i])
+            target[f"{limb}/{part}"].set_transform(arm_T)
             for j in range(2):
                 R, mid, length = _segment(state.arm_balls[k, i, j], state.plate_balls[k, i, j])
                 if frame is None:
@@ -144,9 +209,27 @@ class _SceneWriter:
 
 
 def _sizes(geometry: DeltaGeometry, ghost: bool) -> tuple[float, float]:
-    """Size unit of the drawn parts (1 for a 375 mm arm) and the ghost's fattening."""
-    L = float(np.mean(np.linalg.norm(geometry.arm_ball.mean(axis=1), axis=1)))
-    return L / 375.0, (1.35 if ghost else 1.0)  # the ghost's round parts sheathe the true ones
+    """Size unit of the drawn parts (1: a 375 mm arm, or a printer's 600 mm rods), the ghost's fattening."""
+    return _reach(geometry) / 375.0, (1.35 if ghost else 1.0)  # the ghost's round parts sheathe the true ones
+
+
+def _reach(geometry: DeltaGeometry) -> float:
+    """A robot's size [mm]: its arm length, or (a printer) 375/600 of its rod length."""
+    if geometry.joint == "prismatic":
+        return 375.0 / 600.0 * float(np.mean(geometry.rod_length))
+    return float(np.mean(np.linalg.norm(geometry.arm_ball.mean(axis=1), axis=1)))
+
+
+def _tower_ends(geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """A printer's towers: where each axis line meets the bed (z = 0) and its top above the endstop [mm].
+
+    Returns:
+        Feet and tops, each (3, 3).
+    """
+    w = geometry.axis_direction
+    feet = geometry.axis_point - (geometry.axis_point[:, 2] / w[:, 2])[:, None] * w
+    above = 0.15 * float(np.mean(geometry.rod_length))
+    return feet, geometry.axis_point + above * w
 
 
 def _plate_polygon(geometry: DeltaGeometry) -> np.ndarray:
