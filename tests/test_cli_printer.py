@@ -1,0 +1,76 @@
+"""``deltacal identify`` of a printer: planned templates filled by a simulated printer, through its firmware."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from deltacal.cli.main import main
+from deltacal.controller.klipper import KlipperDelta
+from deltacal.io import load_calibration, load_klipper
+from deltacal.io.printer_measurements import write_printed_distances, write_probe_heights
+from deltacal.io.robot import load_printer
+from deltacal.kinematics import exact
+from deltacal.printer_simulation import printed_distances, probe_heights, random_printer, typical_kit
+
+KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
+
+
+def _config(path: Path) -> Path:
+    fw = KlipperDelta.from_printer(load_printer(KOSSEL))
+    text = f"[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\ndelta_radius: {fw.delta_radius}\n"
+    for k, tower in enumerate("abc"):
+        text += (f"\n[stepper_{tower}]\nstep_pin: PF0\ndir_pin: PF1\nenable_pin: !PD7\nmicrosteps: 16\n"
+                 f"rotation_distance: 40\nendstop_pin: ^PE4\narm_length: {fw.arm_length[k]}\n"
+                 f"position_endstop: {fw.position_endstop[k]}\n")
+    path.write_text(text)
+    return path
+
+
+def _column(path: Path, keys: tuple[str, ...]) -> np.ndarray:
+    with open(path) as f:
+        return np.array([[float(row[k]) for k in keys] for row in csv.DictReader(f)])
+
+
+def test_plan_simulate_identify_a_printer(tmp_path, capsys):
+    cfg = _config(tmp_path / "printer.cfg")
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(tmp_path / "plan")]) == 0
+    printer, firmware = load_printer(KOSSEL), load_klipper(cfg)
+    rng = np.random.default_rng(24)
+    truth = random_printer(printer, rng, typical_kit())
+    xy = _column(tmp_path / "plan" / "probe.csv", ("x_mm", "y_mm"))
+    probe = probe_heights(truth, firmware, printer.step_distance, xy, 0.01, rng)
+    write_probe_heights(tmp_path / "probe.csv", probe[:, :2], probe[:, 2])
+    pairs = _column(tmp_path / "plan" / "distances.csv", ("x1_mm", "y1_mm", "z1_mm", "x2_mm", "y2_mm", "z2_mm"))
+    write_printed_distances(tmp_path / "d.csv", pairs, printed_distances(truth, firmware, printer.step_distance,
+                                                                          pairs, 0.02, rng))
+    out = tmp_path / "cal.toml"
+    assert main(["identify", str(KOSSEL), str(tmp_path / "probe.csv"), str(tmp_path / "d.csv"),
+                 "--controller", str(cfg), "-o", str(out)]) == 0
+    calibration = load_calibration(out)
+    assert calibration.model.name == "printer" and calibration.geometry.joint == "prismatic"
+    # the identified printer's first layer is flat on the true bed
+    layer = np.column_stack([xy * 0.8, np.full(len(xy), 0.2)])
+    landed = exact.forward(truth, exact.inverse(calibration.geometry, layer)).point(truth.tool)
+    assert np.ptp(landed[:, 2]) < 0.05
+
+
+def test_a_printers_measurements_need_the_firmware(tmp_path, capsys):
+    probe = tmp_path / "probe.csv"
+    write_probe_heights(probe, np.zeros((3, 2)), np.zeros(3))
+    assert main(["identify", str(KOSSEL), str(probe), "-o", str(tmp_path / "c.toml")]) == 2
+    assert "give --controller printer.cfg" in capsys.readouterr().err
+    assert not (tmp_path / "c.toml").exists()
+
+
+@pytest.mark.parametrize("flag", [["--distances"], ["--compliance"]])
+def test_rotary_options_are_refused_for_a_printer(tmp_path, capsys, flag):
+    cfg = _config(tmp_path / "printer.cfg")
+    probe = tmp_path / "probe.csv"
+    write_probe_heights(probe, np.zeros((3, 2)), np.zeros(3))
+    code = main(["identify", str(KOSSEL), str(probe), "--controller", str(cfg), "-o", str(tmp_path / "c.toml"),
+                 *flag])
+    assert code == 2 and "applies to a rotary Delta" in capsys.readouterr().err
