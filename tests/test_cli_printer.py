@@ -1,4 +1,4 @@
-"""``deltacal identify`` of a printer: planned templates filled by a simulated printer, through its firmware."""
+"""``deltacal identify`` of a printer: plan's templates filled by a simulated printer, through its firmware."""
 
 from __future__ import annotations
 
@@ -21,7 +21,8 @@ KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.t
 
 def _config(path: Path) -> Path:
     fw = KlipperDelta.from_printer(load_printer(KOSSEL))
-    text = f"[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\ndelta_radius: {fw.delta_radius}\n"
+    text = "[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n"
+    text += f"delta_radius: {fw.delta_radius}\n"
     for k, tower in enumerate("abc"):
         text += (f"\n[stepper_{tower}]\nstep_pin: PF0\ndir_pin: PF1\nenable_pin: !PD7\nmicrosteps: 16\n"
                  f"rotation_distance: 40\nendstop_pin: ^PE4\narm_length: {fw.arm_length[k]}\n"
@@ -37,16 +38,18 @@ def _column(path: Path, keys: tuple[str, ...]) -> np.ndarray:
 
 def test_plan_simulate_identify_a_printer(tmp_path, capsys):
     cfg = _config(tmp_path / "printer.cfg")
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(tmp_path / "plan")]) == 0
+    plan = ["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(tmp_path / "plan")]
+    assert main(plan) == 0
     printer, firmware = load_printer(KOSSEL), load_klipper(cfg)
     rng = np.random.default_rng(24)
     truth = random_printer(printer, rng, typical_kit())
     xy = _column(tmp_path / "plan" / "probe.csv", ("x_mm", "y_mm"))
     probe = probe_heights(truth, firmware, printer.step_distance, xy, 0.01, rng)
     write_probe_heights(tmp_path / "probe.csv", probe[:, :2], probe[:, 2])
-    pairs = _column(tmp_path / "plan" / "distances.csv", ("x1_mm", "y1_mm", "z1_mm", "x2_mm", "y2_mm", "z2_mm"))
-    write_printed_distances(tmp_path / "d.csv", pairs, printed_distances(truth, firmware, printer.step_distance,
-                                                                          pairs, 0.02, rng))
+    keys = ("x1_mm", "y1_mm", "z1_mm", "x2_mm", "y2_mm", "z2_mm")
+    pairs = _column(tmp_path / "plan" / "distances.csv", keys)
+    measured = printed_distances(truth, firmware, printer.step_distance, pairs, 0.02, rng)
+    write_printed_distances(tmp_path / "d.csv", pairs, measured)
     out = tmp_path / "cal.toml"
     assert main(["identify", str(KOSSEL), str(tmp_path / "probe.csv"), str(tmp_path / "d.csv"),
                  "--controller", str(cfg), "-o", str(out)]) == 0
@@ -71,6 +74,6 @@ def test_rotary_options_are_refused_for_a_printer(tmp_path, capsys, flag):
     cfg = _config(tmp_path / "printer.cfg")
     probe = tmp_path / "probe.csv"
     write_probe_heights(probe, np.zeros((3, 2)), np.zeros(3))
-    code = main(["identify", str(KOSSEL), str(probe), "--controller", str(cfg), "-o", str(tmp_path / "c.toml"),
-                 *flag])
+    code = main(["identify", str(KOSSEL), str(probe), "--controller", str(cfg),
+                 "-o", str(tmp_path / "c.toml"), *flag])
     assert code == 2 and "applies to a rotary Delta" in capsys.readouterr().err
