@@ -1,4 +1,4 @@
-"""``deltacal identify`` of a printer: plan's templates filled by a simulated printer, through its firmware."""
+"""``deltacal identify`` of a printer: plan's templates filled by a simulated printer."""
 
 from __future__ import annotations
 
