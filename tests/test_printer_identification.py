@@ -19,8 +19,11 @@ from deltacal.io.calibration import calibration_from_result, load_calibration, s
 from deltacal.io.geometry_file import load_geometry, save_geometry
 from deltacal.io.robot import load_printer
 from deltacal.kinematics import exact
+from deltacal.printer_simulation import random_printer
+from deltacal.report.accuracy import less_bed_motion
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
+PRINTER = load_printer(MODELS / "kossel.toml")
 
 
 @pytest.fixture(scope="module")
@@ -29,14 +32,8 @@ def nominal():
 
 
 def _printer(nominal, seed):
-    """A printer no test was tuned on: kit tolerances, on a bed tilted by up to a few tenths of a degree."""
-    rng = np.random.default_rng(seed)
-    truth = nominal.perturbed(Tolerances.printer_kit(), rng)
-    tilt = np.radians(0.2) * np.append(rng.normal(size=2), 0.0) / np.sqrt(2.0)
-    c, s = np.cos(np.linalg.norm(tilt)), np.sin(np.linalg.norm(tilt))
-    k = tilt / max(np.linalg.norm(tilt), 1e-300)
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return truth.moved_rigidly(np.eye(3) + s * K + (1 - c) * K @ K, np.array([0.0, 0.0, rng.normal()]))
+    """A printer no test was tuned on: kit tolerances, on a tilted bed (the simulation's)."""
+    return random_printer(PRINTER, np.random.default_rng(seed), Tolerances.printer_kit())
 
 
 def _bed_grid(radius=115.0):
@@ -79,12 +76,8 @@ def _volume(count=1500, seed=7):
 def _shape_error(truth, identified, points):
     """Largest TCP error over points, less the shift along the bed and turn about it nothing measures."""
     pose = exact.forward(truth, exact.inverse(identified, points))
-    error = pose.position + pose.rotation @ truth.tool - points
-    A = np.zeros((len(points), 3, 3))
-    A[:, 0, 0] = A[:, 1, 1] = 1.0
-    A[:, 0, 2], A[:, 1, 2] = -points[:, 1], points[:, 0]
-    motion = np.linalg.lstsq(A.reshape(-1, 3), error.reshape(-1), rcond=None)[0]
-    return float(np.max(np.linalg.norm(error - A @ motion, axis=1)))
+    error, _ = less_bed_motion(points, pose.position + pose.rotation @ truth.tool - points)
+    return float(np.max(np.linalg.norm(error, axis=1)))
 
 
 def test_printer_geometry_file_round_trips_bit_for_bit(nominal, tmp_path):
