@@ -231,6 +231,12 @@ class Calibration:
         Raises:
             InputError: naming both keys (see docs/errors.md).
         """
+        if self.geometry.step_distance != self.nominal.step_distance:
+            raise InputError(
+                f"[geometry] and [nominal] disagree: key geometry.step_distance_mm = "
+                f"{self.geometry.step_distance}, but key nominal.step_distance_mm = "
+                f"{self.nominal.step_distance} "
+                "(the readings of both count steps in one step distance; edit both)", self.source)
         predicted = self.predicted_geometry()
         for name, key, unit in _SECTION_KEYS:
             got = np.asarray(getattr(self.geometry, name), dtype=float)

@@ -331,9 +331,10 @@ class DeltaGeometry:
         joint_scale: True joint coordinate per unit reading, shape (3,): a prismatic chain's
             true over nominal step distance; 1 for a revolute chain.
         masses: Masses of the moving bodies (all zero: a kinematic robot).
-        compliance: Compliance c_i of each actuator [rad/N m], shape (3,): the true arm angle
-            is ``reading + encoder_offset + c_i tau_i`` with tau_i the gravity torque
-            (:mod:`deltacal.kinematics.statics`). Zeros: rigid actuators.
+        compliance: Compliance c_i of each actuator [rad/N m], (3,): the true arm angle is ``reading +
+            encoder_offset + c_i tau_i``, tau_i the gravity torque (:mod:`~.kinematics.statics`); 0: rigid.
+        step_distance: A prismatic chain's nominal step distance [mm]: a reading is the steps below the
+            endstop times it (None: not known; always None for a revolute chain).
     """
 
     limb_azimuth: np.ndarray
@@ -350,6 +351,7 @@ class DeltaGeometry:
     joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     masses: Masses = field(default_factory=Masses)
     compliance: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    step_distance: float | None = None
 
     def __post_init__(self) -> None:
         if self.joint not in JOINTS:
@@ -393,6 +395,11 @@ class DeltaGeometry:
             raise GeometryError(f"a revolute chain's joint_scale must be 1, got {self.joint_scale.tolist()}")
         if np.any(self.joint_scale <= 0.0):
             raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
+        if self.step_distance is not None:
+            if self.joint == "revolute" or not (math.isfinite(self.step_distance) and self.step_distance > 0.0):
+                raise GeometryError(f"step_distance must be a prismatic chain's positive length, got "
+                                    f"{self.step_distance!r} ({self.joint})")
+            object.__setattr__(self, "step_distance", float(self.step_distance))
 
     # ------------------------------------------------------------------ frames
     @property

@@ -110,4 +110,29 @@ class NominalLinearDelta:
             points={k: v.copy() for k, v in self.points.items()},
             name=self.name,
             joint="prismatic",
+            step_distance=self.step_distance,
         )
+
+
+def in_plane_motion(points: np.ndarray) -> np.ndarray:
+    """Nozzle displacement per unit shift along the bed (x, y) and turn about its normal (z) [rad], (N, 3, 3).
+
+    No probe height and no printed distance sees a printer shifted along its bed or turned about
+    its normal, and a part printed so is the same part: the gauge of a printer's errors.
+    """
+    points = np.atleast_2d(points)
+    A = np.zeros((points.shape[0], 3, 3))
+    A[:, 0, 0] = A[:, 1, 1] = 1.0
+    A[:, 0, 2], A[:, 1, 2] = -points[:, 1], points[:, 0]
+    return A
+
+
+def less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A printer's errors [mm], (N, 3), less the in-plane motion that fits them best, and that motion.
+
+    Rows with a non-finite error are left out of the fit (and stay non-finite).
+    """
+    ok = np.all(np.isfinite(errors), axis=1)
+    A = in_plane_motion(points)
+    motion = np.linalg.lstsq(A[ok].reshape(-1, 3), errors[ok].reshape(-1), rcond=None)[0]
+    return errors - A @ motion, motion

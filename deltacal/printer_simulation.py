@@ -170,7 +170,8 @@ def probe_heights(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: f
     h0, h1 = height(z0), height(z1)
     for _ in range(max_iter):
         slope = np.where(z1 != z0, (h1 - h0) / np.where(z1 != z0, z1 - z0, 1.0), 1.0)
-        z2 = z1 - h1 / slope
+        # a point already on the bed has h1 = h0: it stays (no 0 / 0)
+        z2 = z1 - np.divide(h1, slope, out=np.zeros_like(h1), where=slope != 0.0)
         if np.max(np.abs(z2 - z1)) < PROBE_TOLERANCE:
             z1 = z2
             break

@@ -63,15 +63,16 @@ def one_printer(seed: int, tolerances, tilt: float) -> dict[str, dict[str, float
     probes = probe_heights(truth, firmware, step, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
     pairs = object_pairs()
     distances = printed_distances(truth, firmware, step, pairs, DISTANCE_SIGMA, rng)
+    absolute = {"part_frame": False}  # the errors judged raw, as the anchor
     configs = {
         "uncalibrated": firmware,
         "basic": klipper_basic(firmware, probes),
         "enhanced": klipper_enhanced(firmware, probes, pairs, distances),
-        "best firmware values": fit_klipper(truth, firmware, step, WORKSPACE).klipper,
+        "best firmware values": fit_klipper(truth, firmware, step, WORKSPACE, **absolute).klipper,
         "best firmware values, step distances held": fit_klipper(truth, firmware, step, WORKSPACE,
-                                                                 hold_step_distance=True).klipper,
+                                                                 hold_step_distance=True, **absolute).klipper,
         "best firmware values, first layer weighted 10": fit_klipper(
-            truth, firmware, step, WORKSPACE, first_layer_weight=FIRST_LAYER_WEIGHT).klipper,
+            truth, firmware, step, WORKSPACE, first_layer_weight=FIRST_LAYER_WEIGHT, **absolute).klipper,
     }
     out = {name: error_stats(truth, config, step, WORKSPACE).as_dict() for name, config in configs.items()}
     budget = error_budget(nominal.geometry(), made.errors, made.bed_rotation, made.bed_translation, firmware,

@@ -74,7 +74,8 @@ def test_klipper_shaped_printer_follows_klipper(kossel):
 def test_fit_recovers_klipper_shaped_values(kossel):
     truth = odd_klipper(kossel)
     printer = klipper_shaped(truth, kossel.step_distance)
-    fit = fit_klipper(printer, KlipperDelta.from_printer(kossel), kossel.step_distance, WORKSPACE)
+    fit = fit_klipper(printer, KlipperDelta.from_printer(kossel), kossel.step_distance, WORKSPACE,
+                      part_frame=False)
     assert fit.fitted == list(KLIPPER_NAMES) and fit.unidentifiable == []
     found, want = values_of(fit.klipper), values_of(truth)
     assert_allclose(found[:10], want[:10], atol=1e-6, rtol=0)  # mm and rad
@@ -86,10 +87,11 @@ def test_fit_with_step_distances_held_keeps_them(kossel):
     truth = odd_klipper(kossel)
     printer = klipper_shaped(truth, kossel.step_distance)
     start = KlipperDelta.from_printer(kossel)
-    fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, hold_step_distance=True)
+    fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, hold_step_distance=True,
+                      part_frame=False)
     assert_allclose(fit.klipper.step_distance, start.step_distance, rtol=0, atol=0)
     assert fit.held == list(KLIPPER_NAMES[10:])
-    free = fit_klipper(printer, start, kossel.step_distance, WORKSPACE)
+    free = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, part_frame=False)
     assert free.after.rms_3d < fit.after.rms_3d < fit.before.rms_3d
 
 
@@ -100,11 +102,31 @@ def test_fit_no_worse_than_klipper_basic(kossel, seed):
     k0 = KlipperDelta.from_printer(kossel)
     probes = probe_heights(truth, k0, kossel.step_distance, probe_points(115.0), 0.0, rng)
     basic = error_stats(truth, klipper_basic(k0, probes), kossel.step_distance, WORKSPACE)
-    fit = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE)
+    fit = fit_klipper(truth, k0, kossel.step_distance, WORKSPACE, part_frame=False)
     assert fit.after.rms_3d <= basic.rms_3d
     assert fit.after.max_3d <= basic.max_3d
     # the Jacobian's scaled singular values: all 13 values identifiable, none a gauge
     assert fit.singular_values.shape == (13,) and fit.singular_values[-1] > 1e-6 * fit.singular_values[0]
+
+
+def test_in_the_parts_frame_a_printer_turned_and_shifted_on_its_bed_is_klippers(kossel):
+    """A Klipper-shaped printer turned about the bed's normal and shifted along it prints the same parts:
+    in the part's frame its values are found with angle_c held (the towers' common turn is the part's).
+
+    The turn brings tower C back to Klipper's 90 deg: the in-plane motion removed is linear in the
+    turn, so a turn of the whole would leave its second order (R θ² / 2, 0.01 mm at 0.65 deg)."""
+    truth = odd_klipper(kossel)
+    turn = -(truth.angle[2] - np.radians(90.0))
+    c, s = np.cos(turn), np.sin(turn)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    printer = klipper_shaped(truth, kossel.step_distance).moved_rigidly(rotation, np.array([0.8, -0.5, 0.0]))
+    start = KlipperDelta.from_printer(kossel)
+    absolute = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, part_frame=False)
+    fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE)
+    assert fit.held == ["angle_c"] and "angle_c" not in fit.unidentifiable
+    assert fit.after.max_3d < 1e-6 < 0.1 < error_stats(printer, absolute.klipper, kossel.step_distance,
+                                                        WORKSPACE).max_3d
+    assert error_stats(printer, fit.klipper, kossel.step_distance, WORKSPACE, part_frame=True).max_3d < 1e-6
 
 
 def test_error_budget_groups(kossel):

@@ -149,8 +149,10 @@ def _blocking_of_printed(features, pairs):
     return out
 
 
-def test_distances_add_what_probe_heights_cannot_identify(plan):
-    """Probe heights alone: endstops, scales, leans; the distances add the rods (and more)."""
+def test_distances_add_what_probe_heights_cannot_identify(printer, firmware):
+    """Probe heights alone (Klipper's round 7 x 7 mesh, 29 points): endstops, scales, leans; the distances
+    add the rods (and more)."""
+    plan = plan_object(printer, firmware, probe_count=7)
     alone, both = plan.probe_only, plan.with_distances
     assert alone is not None and both is not None
     assert both.rank > alone.rank
@@ -196,7 +198,7 @@ def test_templates_round_trip(tmp_path, plan):
     write_probe_heights(probe, plan.probe)
     write_printed_distances(pairs, plan.pair_positions)
     with pytest.raises(InputError, match=r"probe.csv: line 2 \(data row 1\), column z_mm: fill in z_mm: .* "
-                                         r"empty on 29 of 29 rows \(a template"):
+                                         r"empty on 49 of 49 rows \(a template"):
         read_probe_heights(probe)
     with pytest.raises(InputError, match=r"distances.csv: line 2 \(data row 1\), column distance_mm: fill in "
                                          r"distance_mm"):
@@ -253,7 +255,7 @@ def test_cli_writes_the_object_probe_grid_and_distances(tmp_path, firmware, caps
     mesh = trimesh.load(out / "object.stl", force="mesh")
     probe = np.loadtxt(out / "probe.csv", delimiter=",", skiprows=1, usecols=(0, 1))
     pairs = np.loadtxt(out / "distances.csv", delimiter=",", skiprows=1, usecols=range(6))
-    assert probe.shape == (29, 2) and pairs.shape == (30, 6)
+    assert probe.shape == (49, 2) and pairs.shape == (30, 6)
     assert mesh.bounds[0, 2] >= -1e-6  # STL stores float32
     # every distance's feature is a ball of the STL: its top within float32 precision
     tops = {tuple(np.round(part.vertices[np.argmax(part.vertices[:, 2])], 3))
@@ -269,8 +271,8 @@ def test_cli_writes_the_object_probe_grid_and_distances(tmp_path, firmware, caps
     ([], "--object needs --controller"),
     (["--controller", "CFG", "--n", "3"], "--n applies to pose planning"),
     (["--controller", "CFG", "--distances", "41"], "must be at most 40"),
-    (["--controller", "CFG", "--probe-grid", "6"], "must be odd, 3 to 7"),
-    (["--controller", "CFG", "--probe-grid", "9"], "must be odd, 3 to 7"),
+    (["--controller", "CFG", "--probe-grid", "6"], "must be odd, 3 to 9"),
+    (["--controller", "CFG", "--probe-grid", "11"], "must be odd, 3 to 9"),
     (["--controller", "missing.cfg"], "missing.cfg: file not found"),
 ])
 def test_cli_refuses_bad_object_options(tmp_path, firmware, capsys, extra, message):

@@ -142,8 +142,12 @@ def _program(args: argparse.Namespace) -> int:
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:
-    """``--controller``'s model, refused if it is not of the robot's kind (rotary, or a printer's)."""
-    controller = load_controller(args.controller)
+    """``--controller``'s model, refused if it is not of the robot's kind (rotary, or a printer's).
+
+    A printer's readings count steps in its nominal step distance, the calibration's (a Klipper
+    configuration's own ``rotation_distance`` may have been refitted per tower since).
+    """
+    controller = load_controller(args.controller, step_distance=geometry.step_distance)
     joint = controller.virtual.joint
     if joint != geometry.joint:
         kinds = {"revolute": "a rotary Delta", "prismatic": "a linear Delta printer"}

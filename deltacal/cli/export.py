@@ -22,6 +22,7 @@ from ..io import load_robot as load_robot_file
 from ..report.accuracy import GRID, workspace_slices
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
+from .export_klipper import run_klipper
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
@@ -66,8 +67,12 @@ def _home(text: str | None, joint: str) -> np.ndarray | None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal export``; returns the exit status."""
+    if args.controller == "klipper":
+        return run_klipper(args)
     if args.controller is not None:
         return run_controller(args)
+    if args.config is not None or args.keep_rotation_distance:
+        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper")
     if args.output is not None or args.robot is not None:
         raise UsageError(f"{'-o' if args.output is not None else '--robot'} applies to --controller; "
                          "--mjcf names its own output")
@@ -87,11 +92,16 @@ def run_controller(args: argparse.Namespace) -> int:
         raise UsageError("--controller needs -o CONTROLLER.toml, the controller file to write")
     if args.home is not None:
         raise UsageError("--home applies to --mjcf")
+    if args.config is not None or args.keep_rotation_distance:
+        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper")
     inputs = [p for p in (args.calibration, args.robot) if p is not None]
     for path in inputs:
         check_input(path)
     check_output(args.output, inputs)
     calibration = load_calibration(args.calibration)
+    if calibration.geometry.joint == "prismatic":
+        raise UsageError(f"--controller {args.controller}: {args.calibration} is a printer's calibration; "
+                         "its firmware's values: --controller klipper")
     start, workspace, shift, sized = _start(calibration, args)
     points = np.concatenate([s.points.reshape(-1, 3) for s in workspace_slices(workspace, GRID)]) + shift
     points = points[np.all(np.isfinite(points), axis=1)]
@@ -164,14 +174,24 @@ def add_parser(sub) -> None:
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
-    what.add_argument("--controller", choices=FIT_KINDS,
+    what.add_argument("--controller", choices=(*FIT_KINDS, "klipper"),
                       help="write a controller file (-o) with the joint offsets alone, or the per-limb "
-                           "values, that best fit the calibration over the workspace")
-    p.add_argument("-o", "--output", metavar="CONTROLLER.toml", help="with --controller: the controller file")
+                           "values, that best fit the calibration over the workspace; klipper: a printer's "
+                           "[printer] and [stepper_a..c] values (-o CALIBRATED.cfg)")
+    p.add_argument("-o", "--output", metavar="CONTROLLER.toml|CALIBRATED.cfg",
+                   help="with --controller: the controller file (klipper: the Klipper values)")
+    p.add_argument("--config", metavar="PRINTER.cfg",
+                   help="with --controller klipper: the Klipper configuration the printer runs (its values "
+                        "start the fit; its microsteps and gears turn step distances into rotation_distance; "
+                        "default: the nominal printer's values, 200 full steps x 16 microsteps)")
+    p.add_argument("--keep-rotation-distance", action="store_true",
+                   help="with --controller klipper: hold each tower's rotation_distance (the --config's, "
+                        "else the nominal step distance's)")
     p.add_argument("--robot", metavar="ROBOT.toml",
                    help="with --controller: the robot file (its nominal values start the fit and hold "
                         "what the fit cannot identify; its [workspace] is the fit's; default: the "
-                        "calibration's nominal and the report's default workspace)")
+                        "calibration's nominal and the report's default workspace; klipper: the printer's "
+                        "robot file, for its [workspace])")
     p.add_argument("--name", type=_model_name, help="model (or controller) name (default: the robot's name)")
     p.add_argument("--home", type=_home_readings, metavar="Q1,Q2,Q3",
                    help="readings of the 'home' keyframe [deg]; a printer's: carriage travels below the "

@@ -20,8 +20,8 @@ from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.
 OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv")
-#: Largest probe grid: 7 × 7 (the issue's budget, at most 49 probe heights).
-MAX_PROBE_GRID = 7
+#: Largest probe grid: 9 across the bed, whose round mesh keeps 49 points (the budget: at most 49 heights).
+MAX_PROBE_GRID = 9
 
 #: ``plan`` options of pose planning, which ``--object`` does not take.
 POSE_OPTIONS = ("model", "n", "epsilon", "strategy", "measure", "points", "count", "pool", "seed", "payload",
@@ -38,7 +38,7 @@ def probe_grid_size(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if value < 3 or value > MAX_PROBE_GRID or value % 2 == 0:
         raise argparse.ArgumentTypeError(f"must be odd, 3 to {MAX_PROBE_GRID} (Klipper's round_probe_count; "
-                                         f"at most 7 x 7 = 49 probe heights), got {value}")
+                                         f"9 keeps 49 points within the radius), got {value}")
     return value
 
 

@@ -33,7 +33,7 @@ from functools import cached_property
 import numpy as np
 
 from ..exceptions import GeometryError, UnreachableError
-from ..geometry import radial_vectors
+from ..geometry import DeltaGeometry, radial_vectors
 from ..kinematics.closed_form import VirtualDelta
 from ..printer import NominalLinearDelta
 
@@ -94,6 +94,35 @@ class KlipperDelta:
         endstop = carriage_top - np.sqrt(printer.rod_length**2 - radius**2)
         return cls(radius, np.array(printer.tower_azimuth), np.full(3, printer.rod_length),
                    np.full(3, endstop), np.full(3, printer.step_distance), name or printer.name)
+
+    @classmethod
+    def from_geometry(cls, geometry: DeltaGeometry, name: str = "") -> KlipperDelta:
+        """Klipper's values of a printer's geometry at its tolerances' centre (a fit's start).
+
+        Each tower's carriage point is its ball-pair midpoint less the effector's, plus the
+        nozzle: the radius and angle of its horizontal part, its height at the endstop ``E_i``
+        (``position_endstop = E_i − sqrt(ℓ_i² − ρ²)``); ℓ_i the mean of the pair's rods; the
+        geometry's nominal step distance. Exact for a perfect printer (as :meth:`from_printer`);
+        for a real one a start that :func:`~deltacal.controller.klipper_fit.fit_klipper` refines.
+
+        Raises:
+            GeometryError: not a printer (a prismatic chain), no step distance, or a nozzle off
+                the effector's axis.
+        """
+        if geometry.joint != "prismatic" or geometry.step_distance is None:
+            raise GeometryError("Klipper's values need a printer's geometry (a prismatic chain) with its "
+                                "step distance")
+        if np.any(geometry.tool[:2] != 0.0):
+            raise GeometryError(f"Klipper's model has no horizontal nozzle offset; the nozzle is at "
+                                f"{geometry.tool.tolist()} mm in the effector frame")
+        rotation = geometry.actuator_rotation()
+        carriage = geometry.axis_point + np.einsum("ikl,il->ik", rotation, geometry.arm_ball.mean(axis=1))
+        point = carriage - geometry.plate_ball.mean(axis=1) + geometry.tool
+        radius = float(np.mean(np.linalg.norm(point[:, :2], axis=1)))
+        arm = geometry.rod_length.mean(axis=1)
+        return cls(radius, np.mod(np.arctan2(point[:, 1], point[:, 0]), 2.0 * np.pi), arm,
+                   point[:, 2] - np.sqrt(arm**2 - radius**2), np.full(3, geometry.step_distance),
+                   name or geometry.name)
 
     @cached_property
     def towers(self) -> np.ndarray:

@@ -35,6 +35,7 @@ from ..exceptions import ConvergenceError
 from ..geometry import DeltaGeometry, Workspace
 from ..identifiability import base_parameters
 from ..kinematics import exact
+from ..printer import in_plane_motion, less_bed_motion
 from ..rotations import skew
 from .klipper import KlipperDelta
 
@@ -47,6 +48,8 @@ KLIPPER_NAMES = (
 #: Central-difference steps of Klipper's closed form per value [mm, rad, relative for step distances].
 _STEP = {"delta_radius": 1e-4, "angle": 1e-7, "arm_length": 1e-4, "position_endstop": 1e-4,
          "step_distance": 1e-7}
+#: The index of ``angle_c`` in :data:`KLIPPER_NAMES`.
+_ANGLE_C = 3
 #: Gauss-Newton stops when a step moves no nozzle by more than this [mm].
 TOLERANCE = 1e-8
 #: The height of the first layer, where flatness is judged [mm].
@@ -141,10 +144,15 @@ def nozzle_errors(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance:
 
 
 def error_stats(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: float,
-                workspace: Workspace, grid: np.ndarray | None = None) -> ErrorStats:
-    """3-D errors over the printable volume and the first layer's flatness of Klipper's values [mm]."""
+                workspace: Workspace, grid: np.ndarray | None = None, part_frame: bool = False) -> ErrorStats:
+    """3-D errors over the printable volume and the first layer's flatness of Klipper's values [mm].
+
+    With ``part_frame`` the 3-D errors are less the in-plane motion that fits them best
+    (:func:`~deltacal.printer.less_bed_motion`); the first layer's z errors are the same either way.
+    """
     grid = printable_grid(workspace) if grid is None else grid
-    error = np.linalg.norm(nozzle_errors(geometry, klipper, step_distance, grid), axis=1)
+    errors = nozzle_errors(geometry, klipper, step_distance, grid)
+    error = np.linalg.norm(less_bed_motion(grid, errors)[0] if part_frame else errors, axis=1)
     z = nozzle_errors(geometry, klipper, step_distance, first_layer(workspace))[:, 2]
     return ErrorStats(float(error.max()), float(np.sqrt(np.mean(error**2))), float(np.max(np.abs(z))),
                       float(z.max() - z.min()))
@@ -197,12 +205,17 @@ def fit_klipper(
     grid: np.ndarray | None = None,
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
+    part_frame: bool = True,
 ) -> KlipperFit:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
 
     With ``first_layer_weight`` w > 0 the sum also has the z errors over the first layer's disc
     (:func:`first_layer`) times w: the first layer's flatness bought with some of the volume's
-    error.
+    error. With ``part_frame`` the volume's errors are those of the printed part: less the shift
+    along the bed and the turn about its normal that fit them best (:func:`~deltacal.printer.less_bed_motion`:
+    no measurement sees them and a part printed so is the same part), fitted with the values;
+    the towers' common turn is then (to first order) the part's turn, so ``angle_c`` is held, as
+    Klipper's own calibration holds it.
 
     Args:
         geometry: The printer (a prismatic chain; the true bed is z = 0).
@@ -213,6 +226,7 @@ def fit_klipper(
         grid: Targets [mm], (N, 3) (default :func:`printable_grid`).
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        part_frame: Judge the volume's errors in the printed part's frame (see above).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -224,41 +238,50 @@ def fit_klipper(
         disc = first_layer(workspace)
         targets = np.vstack([grid, disc])
         weights = np.concatenate([weights, np.tile([0.0, 0.0, first_layer_weight], len(disc))])
+    motion = np.zeros((targets.size, 3 if part_frame else 0))  # d residual / d in-plane motion
+    motion[:grid.size] = -in_plane_motion(grid).reshape(-1, 3)[:, :motion.shape[1]]
 
-    def residuals(klipper: KlipperDelta, columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    def residuals(klipper: KlipperDelta, columns: list[int],
+                  moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r, J = _residuals(geometry, klipper, step_distance, targets, columns)
-        return weights * r, weights[:, None] * J
+        return weights * (r + motion @ moved), weights[:, None] * np.hstack([J, motion])
 
-    wanted = list(range(10 if hold_step_distance else 13))
-    residual, W = residuals(start, wanted)
+    wanted = [c for c in range(10 if hold_step_distance else 13) if not (part_frame and c == _ANGLE_C)]
+    moved = np.zeros(motion.shape[1])
+    residual, W = residuals(start, wanted, moved)
+    W, B = W[:, :len(wanted)], W[:, len(wanted):]
+    if part_frame:  # the values as they change the part, not where it stands
+        W = W - B @ np.linalg.lstsq(B, W, rcond=None)[0]
     scale = np.linalg.norm(W, axis=0)
     singular = np.linalg.svd(W / np.where(scale > 0.0, scale, 1.0), compute_uv=False)
-    base = base_parameters(W, [KLIPPER_NAMES[c] for c in wanted])
+    names = [KLIPPER_NAMES[c] for c in wanted]
+    base = base_parameters(W, names, prefer=names)
     columns = [wanted[k] for k in sorted(base.base)]
     unidentifiable = [KLIPPER_NAMES[wanted[k]] for k in base.unidentifiable]
-    W = W[:, sorted(base.base)]
+    residual, W = residuals(start, columns, moved)
     klipper, iteration = start, 0
     while True:
         iteration += 1
         step = np.linalg.lstsq(W, -residual, rcond=None)[0]
         values = values_of(klipper)
-        values[columns] += step
+        values[columns] += step[:len(columns)]
+        moved = moved + step[len(columns):]
         klipper = with_values(klipper, values)
-        moved = float(np.max(np.abs(W @ step)))
-        residual, W = residuals(klipper, columns)
-        if moved < TOLERANCE:
+        change = float(np.max(np.abs(W @ step))) / max(1.0, first_layer_weight)  # [mm], unweighted
+        residual, W = residuals(klipper, columns, moved)
+        if change < TOLERANCE:
             break
         if iteration == max_iter:
             raise ConvergenceError(f"the Klipper fit did not converge in {max_iter} iterations (last step "
-                                   f"moved the nozzle by {moved:.3g} mm)", moved)
+                                   f"moved the nozzle by {change:.3g} mm)", change)
     return KlipperFit(
         klipper=klipper,
         fitted=[KLIPPER_NAMES[c] for c in columns],
         held=[n for n in KLIPPER_NAMES if n not in {KLIPPER_NAMES[c] for c in columns}],
         unidentifiable=unidentifiable,
         singular_values=singular,
-        before=error_stats(geometry, start, step_distance, workspace, grid),
-        after=error_stats(geometry, klipper, step_distance, workspace, grid),
+        before=error_stats(geometry, start, step_distance, workspace, grid, part_frame),
+        after=error_stats(geometry, klipper, step_distance, workspace, grid, part_frame),
         iterations=iteration,
         points=grid.shape[0],
     )

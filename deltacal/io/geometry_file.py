@@ -26,8 +26,9 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
 
     A linear Delta (a prismatic chain) has ``joint = "prismatic"`` at the top and, per limb, its
     endstop's error ``endstop_offset_mm`` (the encoder offset of a carriage) and ``joint_scale``
-    (true over nominal step distance) in place of ``encoder_offset_deg``; a rotary robot's file
-    is unchanged.
+    (true over nominal step distance) in place of ``encoder_offset_deg``, and ``step_distance_mm``
+    at the top when known: the nominal step distance its readings count steps in (what the
+    firmware's steps are converted with); a rotary robot's file is unchanged.
     """
     prismatic = geometry.joint == "prismatic"
     limbs = []
@@ -51,6 +52,8 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     out: dict[str, Any] = {"format": GEOMETRY_FORMAT, "name": geometry.name}
     if prismatic:
         out["joint"] = geometry.joint
+        if geometry.step_distance is not None:
+            out["step_distance_mm"] = geometry.step_distance
     out |= {"tool_mm": geometry.tool.tolist(), "limb": limbs}
     if geometry.points:
         out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
@@ -91,7 +94,8 @@ def _compliance_from_table(table: _Table) -> np.ndarray:
 def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -> DeltaGeometry:
     """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
     top = _Table(data, source, prefix)
-    top.check_unknown(["format", "name", "joint", "tool_mm", "limb", "points", "masses", "compliance"])
+    top.check_unknown(["format", "name", "joint", "step_distance_mm", "tool_mm", "limb", "points", "masses",
+                       "compliance"])
     fmt = top.string("format")
     if fmt != GEOMETRY_FORMAT:
         raise top.error("format", f"expected {GEOMETRY_FORMAT!r}, got {fmt!r}")
@@ -102,6 +106,12 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     joint = top.string("joint", default="revolute")
     if joint not in JOINTS:
         raise top.error("joint", f"must be one of {', '.join(JOINTS)}, got {joint!r}")
+    step_distance = None
+    if "step_distance_mm" in data:
+        if joint != "prismatic":
+            raise top.error("step_distance_mm", "a rotary robot's file (no joint = \"prismatic\") has no "
+                            "step distance")
+        step_distance = top.number("step_distance_mm", positive=True)
     tool = top.vector("tool_mm", (3,))
     limbs = top.raw("limb")
     if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):
@@ -148,7 +158,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     try:
         arrays: dict[str, Any] = {k: np.array(v) for k, v in fields.items()}
         return DeltaGeometry(**arrays, tool=tool, points=points, name=name, masses=masses,
-                             compliance=compliance, joint=joint)
+                             compliance=compliance, joint=joint, step_distance=step_distance)
     except GeometryError as exc:
         raise InputError(str(exc), source) from None
 

@@ -307,7 +307,7 @@ def _rotation_factor(config: KlipperConfig | None, stepper: str) -> tuple[float,
 
 
 def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | KlipperConfig | None = None,
-                        title: str = "") -> str:
+                        title: str = "", notes: list[str] | tuple[str, ...] = ()) -> str:
     """Klipper's values as ``printer.cfg`` text: ``[printer]`` and ``[stepper_a..c]``, ready to replace those.
 
     Writes ``delta_radius`` and each tower's ``angle`` [deg, 4 decimals], ``arm_length``,
@@ -322,10 +322,12 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
         source_config: The configuration the printer runs (a path or one already read), for its
             steppers' microstepping and gears.
         title: A first comment line (what the values are).
+        notes: More comment lines (what the values leave), each written after ``# ``.
     """
     config = read_klipper_config(source_config) if isinstance(source_config, (str, Path)) else source_config
     lines = [f"# {title}" if title else "# Klipper delta values written by deltacal",
              "# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, if any)."]
+    lines += [f"# {note}".rstrip() for note in notes]
     assumed = []
     body = ["", "[printer]", f"delta_radius: {klipper.delta_radius:.{MM_DECIMALS}f}"]
     for i, stepper in enumerate(STEPPERS):
@@ -344,6 +346,7 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
 
 
 def save_klipper_config(path: str | Path, klipper: KlipperDelta,
-                        source_config: str | Path | KlipperConfig | None = None, title: str = "") -> Path:
+                        source_config: str | Path | KlipperConfig | None = None, title: str = "",
+                        notes: list[str] | tuple[str, ...] = ()) -> Path:
     """Write :func:`klipper_config_text` to ``path`` atomically; returns the path."""
-    return atomic_write_text(path, klipper_config_text(klipper, source_config, title))
+    return atomic_write_text(path, klipper_config_text(klipper, source_config, title, notes))

@@ -184,7 +184,7 @@ def plan_object(
     printer: NominalLinearDelta,
     firmware: KlipperDelta,
     count: int = MAX_DISTANCES,
-    probe_count: int = 7,
+    probe_count: int = 9,
     caliper: float = CALIPER_RANGE,
     rows: RowsFunction | None = None,
 ) -> ObjectPlan:
@@ -194,7 +194,8 @@ def plan_object(
         printer: The nominal printer (its robot file, with a ``[workspace]``).
         firmware: The firmware's model (printer.cfg) the probing and the print are commanded with.
         count: Distances to measure (at most :data:`MAX_DISTANCES`).
-        probe_count: Probe points across the bed (odd; 7: Klipper's 7 × 7 round mesh).
+        probe_count: Probe points across the bed (odd; Klipper's ``round_probe_count``: 7 keeps 29
+            points of its 7 × 7 grid within the radius, 9 keeps 49).
         caliper: The caliper's longest outside reading [mm].
         rows: The rows of the selection (default: the complete model, :func:`model_rows`).
 

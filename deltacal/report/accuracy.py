@@ -36,6 +36,7 @@ from ..geometry import DeltaGeometry, Workspace
 from ..identification.columns import COMPLIANCE_NAMES
 from ..identification.frames import gauge_sensitivity, to_axes_gauge
 from ..kinematics import exact, statics
+from ..printer import in_plane_motion, less_bed_motion
 from ..rotations import skew
 
 #: Grid points along a side of a horizontal slice (and along x and z of the vertical one).
@@ -88,17 +89,8 @@ def tcp_jacobian(
         A = np.concatenate([A, np.zeros((6, len(compliance)))], axis=1)
         J = J + skew(pose.point(tool)) @ A[:3] - A[3:]
     if geometry.joint == "prismatic" and not compliance:
-        J = J - bed_motion(pose.point(tool)) @ _bed_gauge(geometry, calibration, tool)
+        J = J - in_plane_motion(pose.point(tool)) @ _bed_gauge(geometry, calibration, tool)
     return J
-
-
-def bed_motion(points: np.ndarray) -> np.ndarray:
-    """TCP displacement per unit shift along the bed (x, y) and turn about its normal (z) [rad], (N, 3, 3)."""
-    points = np.atleast_2d(points)
-    A = np.zeros((points.shape[0], 3, 3))
-    A[:, 0, 0] = A[:, 1, 1] = 1.0
-    A[:, 0, 2], A[:, 1, 2] = -points[:, 1], points[:, 0]
-    return A
 
 
 def _bed_gauge(geometry: DeltaGeometry, calibration: Calibration, tool: np.ndarray) -> np.ndarray:
@@ -119,7 +111,7 @@ def _bed_gauge(geometry: DeltaGeometry, calibration: Calibration, tool: np.ndarr
     pose = exact.forward(geometry, q[ok])
     S = calibration.model.sensitivity(geometry, q[ok], pose)[:, :, columns]
     J = S[:, :3] - skew(pose.rotation @ tool) @ S[:, 3:]
-    A = bed_motion(pose.point(tool))
+    A = in_plane_motion(pose.point(tool))
     return np.linalg.lstsq(A.reshape(-1, 3), J.reshape(-1, J.shape[-1]), rcond=None)[0]
 
 
@@ -296,11 +288,3 @@ def accuracy_map(
         raise UnreachableError("no point of the workspace slices is within reach of the identified robot")
     k = int(np.nanargmax(total))
     return AccuracyMap(slices, sigma, error, tool, float(total[k]), flat[k], axes[k], shift, moved)
-
-
-def less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A printer's errors less the bed motion that fits them best (nothing measured sees it), and it."""
-    ok = np.all(np.isfinite(errors), axis=1)
-    A = bed_motion(points)
-    motion = np.linalg.lstsq(A[ok].reshape(-1, 3), errors[ok].reshape(-1), rcond=None)[0]
-    return errors - A @ motion, motion

@@ -1,0 +1,125 @@
+"""``deltacal export CAL --controller klipper -o CALIBRATED.cfg``: the firmware values that fit best.
+
+Klipper's model (vertical towers, one rod per tower, a point effector) cannot hold a real printer:
+:func:`~deltacal.controller.klipper_fit.fit_klipper` finds its ``delta_radius``, tower ``angle``,
+``arm_length``, ``position_endstop`` and ``rotation_distance`` that leave the least nozzle error
+over the printable volume of the identified printer (its true bed as z = 0), with the first
+layer's height errors weighted (:data:`FIRST_LAYER_WEIGHT`) so that its flatness is not traded for
+the volume's. The file written holds only the keys Klipper knows, ready to replace those in
+``printer.cfg``; what the values leave is printed (and kept as comments in the file), with what
+each error source alone would leave (:func:`~deltacal.controller.klipper_fit.error_budget`):
+what ``compensate`` corrects through the firmware.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+
+import numpy as np
+
+from ..controller.klipper import KlipperDelta
+from ..controller.klipper_fit import ErrorStats, error_budget, fit_klipper
+from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
+from ..geometry import Workspace
+from ..io import load_calibration, load_klipper, save_klipper_config
+from ..io import load_robot as load_robot_file
+from ..viz import default_workspace
+from .common import check_input, check_output
+
+#: The weight of the first layer's height errors in the fit (:func:`fit_klipper`).
+FIRST_LAYER_WEIGHT = 30.0
+
+
+def run_klipper(args: argparse.Namespace) -> int:
+    """Run ``export --controller klipper``; returns the exit status."""
+    if args.output is None:
+        raise UsageError("--controller klipper needs -o CALIBRATED.cfg, the Klipper values to write")
+    if args.home is not None:
+        raise UsageError("--home applies to --mjcf")
+    inputs = [p for p in (args.calibration, args.robot, args.config) if p is not None]
+    for path in inputs:
+        check_input(path)
+    check_output(args.output, inputs)
+    calibration = load_calibration(args.calibration)
+    if calibration.geometry.joint != "prismatic":
+        raise UsageError(f"--controller klipper: {args.calibration} is a rotary Delta's calibration; "
+                         "Klipper's values are a printer's (--controller offsets|limbs serve a rotary Delta)")
+    config = load_klipper(args.config) if args.config is not None else None
+    step = _step_distance(calibration.geometry.step_distance, config, args,
+                          "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
+    geometry, nominal = calibration.geometry, calibration.nominal
+    try:
+        start = config if config is not None else KlipperDelta.from_geometry(
+            replace(nominal, step_distance=step))
+    except GeometryError as exc:
+        raise InputError(str(exc), str(args.calibration), "key nominal") from None
+    workspace, where = _workspace(args, calibration.nominal)
+    try:
+        fit = fit_klipper(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
+                          first_layer_weight=FIRST_LAYER_WEIGHT)
+        budget = error_budget(nominal, geometry.deviation_from(nominal), np.eye(3), np.zeros(3), start, step,
+                              workspace, args.keep_rotation_distance)
+    except UnreachableError as exc:
+        k = exc.indices[0] if exc.indices else 0
+        raise InputError(f"a target of the printable volume ({_text(workspace)}{where}) is out of Klipper's "
+                         f"reach (row {k + 1} of the fit's grid): give --robot with a [workspace] it reaches",
+                         str(args.robot or args.calibration), "key workspace") from None
+    except ConvergenceError as exc:
+        raise InputError(f"Klipper's values could not be fitted: {exc}", str(args.calibration)) from None
+    lines = _summary(fit.before, fit.after, budget, workspace, where, fit.held, args.config is not None)
+    save_klipper_config(args.output, fit.klipper, args.config,
+                        title=f"Klipper delta values fitted by deltacal to {args.calibration}",
+                        notes=lines)
+    print(f"wrote the Klipper values that best fit {args.calibration} to {args.output}")
+    print("\n".join(lines))
+    return 0
+
+
+def _step_distance(known: float | None, config: KlipperDelta | None, args: argparse.Namespace,
+                   key: str) -> float:
+    """The printer's nominal step distance: the calibration's, else the configuration's (equal towers)."""
+    if known is not None:
+        return known
+    if config is not None and np.all(config.step_distance == config.step_distance[0]):
+        return float(config.step_distance[0])
+    raise InputError("no step_distance_mm: the step distance the printer's readings count in is not known "
+                     "(identify the printer again, or give --config printer.cfg with one rotation_distance "
+                     "on its three towers)", str(args.calibration), f"key {key}")
+
+
+def _workspace(args: argparse.Namespace, nominal) -> tuple[Workspace, str]:
+    """The printable volume: the robot file's ``[workspace]``, else the default for the nominal printer."""
+    if args.robot is not None:
+        robot = load_robot_file(args.robot)
+        if getattr(robot, "kind", "rotary") != "linear":
+            raise UsageError(f"--robot {args.robot}: a rotary Delta's robot file; give the printer's")
+        if robot.workspace is not None:
+            return robot.workspace, f" of {args.robot}"
+    return default_workspace(nominal), " (the default; --robot gives the printer's own)"
+
+
+def _text(workspace: Workspace) -> str:
+    return f"radius {workspace.radius:g} mm, z from 0.2 to {workspace.top_z:g} mm"
+
+
+def _summary(before: ErrorStats, after: ErrorStats, budget: dict[str, ErrorStats], workspace: Workspace,
+             where: str, held: list[str], from_config: bool) -> list[str]:
+    """What the values leave, line by line [mm]: the whole, and each error source alone."""
+    start = "the --config values" if from_config else "the nominal values"
+    lines = [f"nozzle error over the printable volume ({_text(workspace)}{where}), of the printed part "
+             "(less the shift along the bed and turn about its normal, which no measurement sees):",
+             f"  these values: 3-D max {after.max_3d:.3f} mm, RMS {after.rms_3d:.3f} mm; first layer "
+             f"(z 0.2 mm) max |dz| {after.flatness:.3f} mm, peak to valley {after.flatness_pv:.3f} mm",
+             f"  {start}: 3-D max {before.max_3d:.3f} mm, RMS {before.rms_3d:.3f} mm; first layer "
+             f"max |dz| {before.flatness:.3f} mm, peak to valley {before.flatness_pv:.3f} mm"]
+    if held:
+        lines.append(f"  held (not fitted): {', '.join(held)}")
+    lines.append("what Klipper's values cannot hold of each error source alone (3-D max / first layer "
+                 "max |dz|; deltacal compensate corrects them):")
+    width = max(len(label) for label in budget)
+    lines += [f"  {label:{width}s}  {stats.max_3d:.3f} / {stats.flatness:.3f} mm"
+              for label, stats in budget.items() if label != "bed tilt"]
+    lines.append("  (the bed's tilt is in the towers' lean and positions: the printer is expressed on its "
+                 "bed)")
+    return lines
