@@ -396,7 +396,7 @@ class DeltaGeometry:
         if np.any(self.joint_scale <= 0.0):
             raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
         if self.step_distance is not None:
-            if self.joint == "revolute" or not (math.isfinite(self.step_distance) and self.step_distance > 0.0):
+            if self.joint == "revolute" or not (math.isfinite(self.step_distance) and self.step_distance > 0):
                 raise GeometryError(f"step_distance must be a prismatic chain's positive length, got "
                                     f"{self.step_distance!r} ({self.joint})")
             object.__setattr__(self, "step_distance", float(self.step_distance))

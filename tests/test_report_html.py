@@ -325,8 +325,9 @@ def test_bad_input_is_one_line(simulated, tmp_path, capsys):
 
 
 def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
-    """A printer's report: the firmware's route (the targets sent as they are: Klipper's model with the
-    nominal values), the nozzle in the effector frame, and the 3-D view of towers and bed."""
+    """A printer's report: the firmware's routes (the targets sent as they are: Klipper's model with the
+    nominal values; its values fitted), the nozzle in the effector frame, and the 3-D view of towers
+    and bed."""
     from deltacal import Tolerances
     from deltacal.controller.klipper import KlipperDelta
     from deltacal.identification.printer import PrinterMeasurements, identify_printer
@@ -359,7 +360,7 @@ def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     calibration = load_calibration(tmp_path / "cal.toml")
     amap = accuracy_map(calibration, kossel.workspace, None, truth, 11)
     routes = controller_routes(calibration, amap, truth)
-    (route,) = routes.routes
+    route, fitted = routes.routes
     points = np.concatenate([s.points.reshape(-1, 3) for s in amap.slices])
     sigma = np.concatenate([v.ravel() for v in amap.sigma])
     points = points[np.all(np.isfinite(points), axis=1) & np.isfinite(sigma)]
@@ -376,3 +377,7 @@ def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     assert size.max() > 0.3  # an uncalibrated kit
     # the identified printer sees nearly the same error (to what the calibration leaves)
     assert abs(route.max_error - route.true_max_error) < 0.2 * route.true_max_error
+    # the firmware's values fitted (export --controller klipper) hold a part of it, angle_c held
+    assert fitted.name == "klipper" and fitted.held == ["angle_c"]
+    assert fitted.max_error < 0.5 * route.max_error and fitted.true_max_error < 0.5 * route.true_max_error
+    assert "firmware values fitted" in text

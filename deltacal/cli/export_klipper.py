@@ -3,9 +3,10 @@
 Klipper's model (vertical towers, one rod per tower, a point effector) cannot hold a real printer:
 :func:`~deltacal.controller.klipper_fit.fit_klipper` finds its ``delta_radius``, tower ``angle``,
 ``arm_length``, ``position_endstop`` and ``rotation_distance`` that leave the least nozzle error
-over the printable volume of the identified printer (its true bed as z = 0), with the first
-layer's height errors weighted (:data:`FIRST_LAYER_WEIGHT`) so that its flatness is not traded for
-the volume's. The file written holds only the keys Klipper knows, ready to replace those in
+over the printable volume of the identified printer (its true bed as z = 0), judged in the printed
+part's frame, with the first layer's height errors weighted
+(:data:`~deltacal.controller.klipper_fit.EXPORT_FIRST_LAYER_WEIGHT`) so that its flatness is not
+traded for the volume's. The file written holds only the keys Klipper knows, ready to replace those in
 ``printer.cfg``; what the values leave is printed (and kept as comments in the file), with what
 each error source alone would leave (:func:`~deltacal.controller.klipper_fit.error_budget`):
 what ``compensate`` corrects through the firmware.
@@ -19,16 +20,13 @@ from dataclasses import replace
 import numpy as np
 
 from ..controller.klipper import KlipperDelta
-from ..controller.klipper_fit import ErrorStats, error_budget, fit_klipper
+from ..controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget, fit_klipper
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import Workspace
 from ..io import load_calibration, load_klipper, save_klipper_config
 from ..io import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
-
-#: The weight of the first layer's height errors in the fit (:func:`fit_klipper`).
-FIRST_LAYER_WEIGHT = 30.0
 
 
 def run_klipper(args: argparse.Namespace) -> int:
@@ -57,7 +55,7 @@ def run_klipper(args: argparse.Namespace) -> int:
     workspace, where = _workspace(args, calibration.nominal)
     try:
         fit = fit_klipper(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
-                          first_layer_weight=FIRST_LAYER_WEIGHT)
+                          first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
         budget = error_budget(nominal, geometry.deviation_from(nominal), np.eye(3), np.zeros(3), start, step,
                               workspace, args.keep_rotation_distance)
     except UnreachableError as exc:

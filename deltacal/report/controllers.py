@@ -17,8 +17,10 @@ import numpy as np
 from ..calibration import Calibration
 from ..controller import FIT_KINDS, Controller, fit_controller
 from ..controller.fit import tcp_errors
+from ..controller.klipper import KlipperDelta
+from ..controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
 from ..exceptions import DeltacalError
-from ..geometry import DeltaGeometry
+from ..geometry import DeltaGeometry, Workspace
 from ..kinematics import exact
 from .accuracy import AccuracyMap, less_bed_motion, reachable_readings
 
@@ -100,9 +102,34 @@ def _firmware_routes(nominal: DeltaGeometry, geometry: DeltaGeometry, truth: Del
     if not np.any(ok):
         return ControllerRoutes([], points.shape[0], "not computed: no slice point within the nominal reach")
     q, points = q[ok], points[ok]
-    route = Route("nominal", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points))
-    return ControllerRoutes([route], points.shape[0], "Errors less the shift along the bed and the turn "
-                            "about its normal that fit them best (no measurement sees them).")
+    routes = [Route("nominal", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points))]
+    note = "Errors less the shift along the bed and the turn about its normal that fit them best (no " \
+           "measurement sees them)."
+    try:
+        routes.append(_klipper_route(nominal, geometry, truth, points))
+    except DeltacalError as exc:
+        note += f" Firmware values fitted: not computed: {exc}"
+    return ControllerRoutes(routes, points.shape[0], note)
+
+
+def _klipper_route(nominal: DeltaGeometry, geometry: DeltaGeometry, truth: DeltaGeometry | None,
+                   points: np.ndarray) -> Route:
+    """Klipper's values fitted to the calibration over the slice points, as ``export --controller klipper``.
+
+    Raises:
+        GeometryError: no step distance in the calibration (an older file), or a nozzle off axis.
+        UnreachableError: a point out of the firmware's reach.
+    """
+    step = nominal.step_distance
+    start = KlipperDelta.from_geometry(nominal)  # refuses a nominal without its step distance
+    assert step is not None
+    radius = float(np.max(np.hypot(points[:, 0], points[:, 1])))
+    top = float(np.max(points[:, 2]))
+    fit = fit_klipper(geometry, start, step, Workspace(radius, top, top), grid=points,
+                      first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+    q = fit.klipper.inverse(points, step)
+    return Route("klipper", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points),
+                 held=fit.held)
 
 
 def _nozzle_error(printer: DeltaGeometry | None, q: np.ndarray, points: np.ndarray) -> tuple[float, float]:
