@@ -116,6 +116,7 @@ _LAZY = {
     "write_measurements": "io",
     # the whole job
     "run_demo": "demo",
+    "run_printer_demo": "printer_demo",
 }
 
 __all__ = [

@@ -29,6 +29,8 @@ LAYERS = {
     "planning": 40,
     "simulation": 40,
     "printer_simulation": 40,
+    "printer_comparison": 80,
+    "printer_demo": 80,
     "validation": 40,
     "controller": 38,
     "calibration": 36,

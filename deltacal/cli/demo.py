@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from ..demo import controller_table, run_demo, text_table
+from ..printer_demo import SEED, printer_table, run_printer_demo
 from .common import seed
 
 
@@ -18,15 +19,26 @@ def run(args: argparse.Namespace) -> int:
     def progress(text: str) -> None:
         print(f"[{time.perf_counter() - start:5.1f} s] {text}", file=sys.stderr, flush=True)
 
-    summary = run_demo(out_dir=Path(args.out), seed=args.seed, quick=args.quick, progress=progress)
+    if args.printer:
+        summary = run_printer_demo(out_dir=Path(args.out or "printer_demo"),
+                                   seed=SEED if args.seed is None else args.seed, quick=args.quick,
+                                   progress=progress)
+        print(printer_table(summary))
+        return 0
+    summary = run_demo(out_dir=Path(args.out or "results"), seed=2015 if args.seed is None else args.seed,
+                       quick=args.quick, progress=progress)
     print(text_table(summary) + controller_table(summary))
     return 0
 
 
 def add_parser(sub) -> None:
     """Register ``demo``."""
-    p = sub.add_parser("demo", help="the whole job on a simulated robot (bai2015)")
-    p.add_argument("--out", default="results", help="folder for demo.json and plots (default results)")
-    p.add_argument("--seed", type=seed, default=2015, help="seed of the simulated robot (default 2015)")
-    p.add_argument("--quick", action="store_true", help="fewer poses, for a fast check")
+    p = sub.add_parser("demo", help="the whole job on a simulated robot (bai2015; --printer: a printer)")
+    p.add_argument("--out", help="folder for demo.json and plots (default results; --printer: printer_demo)")
+    p.add_argument("--seed", type=seed, help=f"seed of the simulated robot (default 2015; --printer {SEED})")
+    p.add_argument("--quick", action="store_true", help="fewer poses (--printer: a shorter part)")
+    p.add_argument("--printer", action="store_true",
+                   help="a linear Delta printer (models/kossel.toml) through Klipper, beside Klipper's own "
+                        "calibration: printer.cfg, the object's files, printer_calibration.toml, "
+                        "printer_calibrated.cfg, part_corrected.gcode and printer_demo.json")
     p.set_defaults(func=run)

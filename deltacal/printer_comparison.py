@@ -1,0 +1,192 @@
+"""deltacal's whole path on a simulated printer, beside Klipper's own calibration (issue 24, "Done when").
+
+One seeded true printer (:func:`~deltacal.printer_simulation.random_true_printer`) runs Klipper's
+nominal configuration. It is measured twice, with measurements of the same kind (commanded
+probe triggers, σ :data:`PROBE_SIGMA`; caliper distances of a printed object, σ
+:data:`DISTANCE_SIGMA`):
+
+* Klipper's way: its 7 probe points (radius :data:`PROBE_RADIUS`) and its object's 12 distances,
+  for its basic and enhanced calibration
+  (:func:`~deltacal.controller.klipper_calibrate.klipper_basic`, ``klipper_enhanced``);
+* deltacal's way: the planned object (:func:`~deltacal.planning.printer_plan.plan_object`: 29
+  probe heights on Klipper's round 7 × 7 mesh and 40 distances), read through the firmware's
+  inverse into readings and identified (:func:`~deltacal.identification.printer.identify_printer`,
+  complete model, iterated, kit tolerances as priors).
+
+Each method is judged on the TRUE printer over the printable volume (:data:`WORKSPACE`, the
+anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.controller.klipper_fit.printable_grid`)
+and over the first layer (z = 0.2 mm, :func:`~deltacal.controller.klipper_fit.first_layer`):
+
+* Klipper's values (nominal, basic, enhanced) and deltacal's exported values (Klipper's values
+  fitted to the identified printer, :func:`~deltacal.controller.klipper_fit.fit_klipper`, for each
+  first-layer weight asked): the nozzle where the true printer puts it when Klipper commands the
+  target with those values;
+* the G-code route: the corrected targets that make the identified printer land on the targets
+  (:func:`~deltacal.controller.corrected_targets`), sent through Klipper's NOMINAL configuration to
+  the true printer.
+
+Figures (:class:`~deltacal.controller.klipper_fit.ErrorStats`): 3-D max and RMS over the volume,
+first-layer flatness (max |z| and peak to valley), raw and less the bed motion no probe or caliper
+measures (a shift along the bed and a turn about its normal,
+:func:`~deltacal.report.accuracy.less_bed_motion`, fitted to each method's volume errors the same
+way; it moves nothing vertically, so flatness is the same either way). Units: mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .controller import KlipperController, corrected_targets
+from .controller.klipper import KlipperDelta
+from .controller.klipper_calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
+from .controller.klipper_fit import ErrorStats, first_layer, fit_klipper, nozzle_errors, printable_grid
+from .geometry import Tolerances, Workspace
+from .identification.printer import PrinterMeasurements, identify_printer
+from .identification.result import IdentificationResult
+from .planning.printer_plan import ObjectPlan
+from .printer import NominalLinearDelta
+from .printer_simulation import (
+    KIT_BED_TILT_DEG,
+    WELL_BUILT_BED_TILT_DEG,
+    TruePrinter,
+    nozzle_positions,
+    printed_distances,
+    probe_heights,
+    random_true_printer,
+    typical_kit,
+    well_built,
+)
+from .report.accuracy import less_bed_motion
+
+#: The printable volume judged (the anchor's): radius 92 mm, z 0.2 to 100 mm.
+WORKSPACE = Workspace(radius=92.0, height=100.0, top_z=100.0)
+#: Klipper's probe radius ([delta_calibrate] radius) [mm].
+PROBE_RADIUS = 115.0
+#: σ of a probe trigger and of a caliper distance [mm].
+PROBE_SIGMA = 0.010
+DISTANCE_SIGMA = 0.020
+#: The tolerance classes: build tolerances and σ of the bed's tilts [deg].
+CLASSES: dict[str, tuple[Tolerances, float]] = {
+    "well built": (well_built(), WELL_BUILT_BED_TILT_DEG),
+    "typical kit": (typical_kit(), KIT_BED_TILT_DEG),
+}
+#: The methods' names (the exported values get their weight appended).
+UNCALIBRATED, BASIC, ENHANCED = "uncalibrated", "Klipper basic", "Klipper enhanced"
+EXPORTED, GCODE = "deltacal exported values", "deltacal G-code route"
+
+
+def exported_name(weight: float) -> str:
+    """The method name of the exported values fitted with this first-layer weight."""
+    return f"{EXPORTED} (w {weight:g})"
+
+
+@dataclass(frozen=True)
+class PrinterRun:
+    """One simulated printer, what it measured and what each method made of it.
+
+    Attributes:
+        truth: The true printer and how it was made.
+        firmware: Klipper's nominal configuration it runs.
+        step_distance: The printer's nominal step distance [mm].
+        probe: deltacal's commanded probe triggers (z as measured) [mm], (N, 3).
+        distances: The planned object's distances as measured [mm], (M,).
+        result: The identification.
+        configs: Klipper's values of each method by name (uncalibrated, basic, enhanced, exported).
+    """
+
+    truth: TruePrinter
+    firmware: KlipperDelta
+    step_distance: float
+    probe: np.ndarray
+    distances: np.ndarray
+    result: IdentificationResult
+    configs: dict[str, KlipperDelta] = field(default_factory=dict)
+
+
+def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: ObjectPlan, probe: np.ndarray,
+                      distances: np.ndarray) -> PrinterMeasurements:
+    """The planned object's measurements as the identification takes them: readings through the firmware.
+
+    Args:
+        firmware: The configuration the probing and the print were commanded with.
+        step_distance: The printer's nominal step distance [mm].
+        plan: The planned object.
+        probe: Commanded probe triggers [mm], (N, 3).
+        distances: The distances measured between the plan's pairs [mm], (M,).
+    """
+    readings = firmware.inverse(probe, step_distance)
+    ends = firmware.inverse(plan.pair_positions.reshape(-1, 3), step_distance).reshape(-1, 2, 3)
+    return PrinterMeasurements(readings, ends, np.asarray(distances, dtype=float),
+                               height_sigma=PROBE_SIGMA, distance_sigma=DISTANCE_SIGMA)
+
+
+def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolerances: Tolerances,
+                bed_tilt_deg: float, weights: tuple[float, ...] = (10.0,)) -> PrinterRun:
+    """Make a seeded printer, measure it both ways and calibrate it with each method.
+
+    Args:
+        printer: The nominal printer.
+        plan: deltacal's planned object for it (commanded through Klipper's nominal configuration).
+        seed: Seed of the printer and of its measurements' noise.
+        tolerances: Its build tolerances (a class of :data:`CLASSES`).
+        bed_tilt_deg: σ of each of its bed's tilts [deg].
+        weights: First-layer weights of the exported values to fit.
+    """
+    firmware = KlipperDelta.from_printer(printer)
+    step = printer.step_distance
+    rng = np.random.default_rng(seed)
+    made = random_true_printer(printer, rng, tolerances, bed_tilt_deg)
+    truth = made.geometry
+    klipper_probe = probe_heights(truth, firmware, step, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
+    pairs = object_pairs()
+    klipper_distances = printed_distances(truth, firmware, step, pairs, DISTANCE_SIGMA, rng)
+    probe = probe_heights(truth, firmware, step, plan.probe[:, :2], PROBE_SIGMA, rng)
+    distances = printed_distances(truth, firmware, step, plan.pair_positions, DISTANCE_SIGMA, rng)
+    data = plan_measurements(firmware, step, plan, probe, distances)
+    result = identify_printer(printer.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
+    configs = {UNCALIBRATED: firmware, BASIC: klipper_basic(firmware, klipper_probe),
+               ENHANCED: klipper_enhanced(firmware, klipper_probe, pairs, klipper_distances)}
+    for w in weights:
+        configs[exported_name(w)] = fit_klipper(result.geometry, firmware, step, WORKSPACE,
+                                                first_layer_weight=w).klipper
+    return PrinterRun(made, firmware, step, probe, distances, result, configs)
+
+
+def gcode_route_errors(run: PrinterRun, targets: np.ndarray) -> np.ndarray:
+    """The true nozzle's errors, the corrected targets sent through Klipper's nominal values [mm], (N, 3)."""
+    controller = KlipperController(run.firmware, run.step_distance)
+    commands = corrected_targets(run.result.geometry, controller, targets).commands
+    return nozzle_positions(run.truth.geometry, run.firmware, run.step_distance, commands) - targets
+
+
+def stats_of(volume: np.ndarray, errors: np.ndarray, layer_errors: np.ndarray,
+             bed_motion_removed: bool = False) -> ErrorStats:
+    """The figures of nozzle errors over the volume's grid and the first layer [mm].
+
+    Args:
+        volume: The volume's targets [mm], (N, 3).
+        errors: The nozzle's errors there [mm], (N, 3).
+        layer_errors: Its errors over the first layer [mm], (K, 3).
+        bed_motion_removed: Less the shift along the bed and the turn about its normal that fit
+            the volume's errors best (no vertical motion: the first layer's z is unchanged).
+    """
+    if bed_motion_removed:
+        errors = less_bed_motion(volume, errors)[0]
+    norm = np.linalg.norm(errors, axis=1)
+    z = layer_errors[:, 2]
+    return ErrorStats(float(norm.max()), float(np.sqrt(np.mean(norm**2))), float(np.max(np.abs(z))),
+                      float(z.max() - z.min()))
+
+
+def evaluate(run: PrinterRun) -> dict[str, dict[str, ErrorStats]]:
+    """Each method's figures on the true printer: ``{"raw" | "less bed motion": {method: ErrorStats}}``."""
+    volume, layer = printable_grid(WORKSPACE), first_layer(WORKSPACE)
+    truth = run.truth.geometry
+    errors = {name: (nozzle_errors(truth, config, run.step_distance, volume),
+                     nozzle_errors(truth, config, run.step_distance, layer))
+              for name, config in run.configs.items()}
+    errors[GCODE] = (gcode_route_errors(run, volume), gcode_route_errors(run, layer))
+    return {label: {name: stats_of(volume, e, z, removed) for name, (e, z) in errors.items()}
+            for label, removed in (("raw", False), ("less bed motion", True))}

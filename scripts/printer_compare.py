@@ -1,0 +1,145 @@
+"""Issue 24's "Done when": deltacal's whole path against Klipper's own calibration on fresh printers.
+
+For seeded printers of each tolerance class (:data:`deltacal.printer_comparison.CLASSES`; seeds
+24000 + k and 24100 + k, used by no test and not by ``klipper_anchor.py``), measured the same
+way for both sides (probe triggers σ 10 µm, caliper distances σ 20 µm): Klipper's basic (7
+probes) and enhanced (7 probes and its object's 12 distances) calibration; deltacal with the
+planned object (29 probe heights, 40 distances): the G-code route (exact compensation through
+Klipper's nominal configuration) and the exported firmware values alone (Klipper's values fitted
+to the identified printer, for each first-layer weight swept). Every method is judged on the TRUE
+printer (:func:`deltacal.printer_comparison.evaluate`): 3-D max and RMS over the printable volume
+(radius 92 mm, z 0.2 to 100 mm), first-layer flatness (max |z| and peak to valley), raw and less
+the bed motion nothing measures (the headline: a shift along the bed and a turn about its normal
+move the printed part on the bed, not its shape, and no probe and no caliper sees them, for
+Klipper or deltacal). Prints a table and whether each criterion holds; writes
+``results/printer_compare.json``. Fixed seeds, about 3 s a printer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from deltacal.controller.klipper import KlipperDelta
+from deltacal.io.atomic import atomic_write_text
+from deltacal.io.robot import load_printer
+from deltacal.planning.printer_plan import plan_object
+from deltacal.printer_comparison import (
+    BASIC,
+    CLASSES,
+    DISTANCE_SIGMA,
+    ENHANCED,
+    GCODE,
+    PROBE_RADIUS,
+    PROBE_SIGMA,
+    UNCALIBRATED,
+    WORKSPACE,
+    evaluate,
+    exported_name,
+    run_printer,
+)
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+#: First-layer weights of the exported values swept.
+WEIGHTS = (0.0, 3.0, 10.0, 30.0, 100.0)
+#: The first seed of each class.
+SEEDS = {"well built": 24000, "typical kit": 24100}
+HEADLINE = "less bed motion"
+FIGURES = ("max_3d_mm", "rms_3d_mm", "flatness_mm", "flatness_pv_mm")
+
+
+def summarise(runs: list[dict[str, dict[str, dict[str, float]]]]) -> dict:
+    """Mean and worst over printers of each figure, per view (raw, less bed motion) and method."""
+    out: dict = {}
+    for view in runs[0]:
+        out[view] = {}
+        for method in runs[0][view]:
+            values = {k: [r[view][method][k] for r in runs] for k in FIGURES}
+            out[view][method] = {"mean": {k: float(np.mean(v)) for k, v in values.items()},
+                                 "worst": {k: float(np.max(v)) for k, v in values.items()}}
+    return out
+
+
+def criteria(summary: dict, weight: float) -> dict[str, dict[str, float | bool]]:
+    """Issue 24's criteria on the class's means (headline view): each ratio, and whether it holds."""
+    head = summary[HEADLINE]
+    enhanced, basic = head[ENHANCED]["mean"], head[BASIC]["mean"]
+    gcode, exported = head[GCODE]["mean"], head[exported_name(weight)]["mean"]
+    best_flat = min(enhanced["flatness_mm"], basic["flatness_mm"])
+    checks = {
+        "G-code route 3-D max <= 1/3 Klipper enhanced": (gcode["max_3d_mm"] / enhanced["max_3d_mm"], 1 / 3),
+        "G-code route flatness <= Klipper enhanced": (gcode["flatness_mm"] / enhanced["flatness_mm"], 1.0),
+        "G-code route flatness <= Klipper's best (basic, enhanced)": (gcode["flatness_mm"] / best_flat, 1.0),
+        f"exported values (w {weight:g}) 3-D max <= Klipper enhanced":
+            (exported["max_3d_mm"] / enhanced["max_3d_mm"], 1.0),
+        f"exported values (w {weight:g}) flatness <= Klipper enhanced":
+            (exported["flatness_mm"] / enhanced["flatness_mm"], 1.0),
+    }
+    return {name: {"ratio": float(r), "limit": float(limit), "holds": bool(r <= limit)}
+            for name, (r, limit) in checks.items()}
+
+
+def print_class(label: str, summary: dict) -> None:
+    """The class's table: mean (worst) of each figure per method, both views."""
+    for view in (HEADLINE, "raw"):
+        print(f"\n{label}, {view}: mean (worst) over printers [mm]")
+        print(f"  {'method':36s} {'3-D max':>15s} {'3-D RMS':>15s} {'flatness':>15s} {'flat. p-v':>15s}")
+        for method, s in summary[view].items():
+            cells = " ".join(f"{s['mean'][k]:7.3f} ({s['worst'][k]:.3f})" for k in FIGURES)
+            print(f"  {method:36s} {cells}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the comparison, print the tables and the criteria, write the JSON."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-o", "--output", default=str(REPO_ROOT / "results" / "printer_compare.json"))
+    parser.add_argument("--printers", type=int, default=10, help="printers per class (default 10)")
+    parser.add_argument("--weight", type=float, default=30.0,
+                        help="the first-layer weight whose exported values the criteria judge (default 30)")
+    args = parser.parse_args(argv)
+    weights = tuple(sorted(set(WEIGHTS) | {args.weight}))
+    start = time.perf_counter()
+    printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
+    plan = plan_object(printer, KlipperDelta.from_printer(printer))
+    out: dict = {"workspace": {"radius_mm": WORKSPACE.radius, "z_mm": [0.2, WORKSPACE.top_z]},
+                 "klipper": {"probes": 7, "probe_radius_mm": PROBE_RADIUS, "distances": 12},
+                 "deltacal": {"probes": len(plan.probe), "distances": len(plan.pairs)},
+                 "sigma_mm": {"probe": PROBE_SIGMA, "distance": DISTANCE_SIGMA},
+                 "headline": HEADLINE, "weights": list(weights), "criteria_weight": args.weight,
+                 "classes": {}}
+    verdicts = []
+    for label, (tolerances, tilt) in CLASSES.items():
+        seeds = [SEEDS[label] + k for k in range(args.printers)]
+        runs = []
+        for seed in seeds:
+            figures = evaluate(run_printer(printer, plan, seed, tolerances, tilt, weights))
+            runs.append({view: {m: s.as_dict() for m, s in methods.items()}
+                         for view, methods in figures.items()})
+        summary = summarise(runs)
+        checks = criteria(summary, args.weight)
+        out["classes"][label] = {"seeds": seeds, "bed_tilt_deg": tilt, "summary": summary, "criteria": checks,
+                                 "printers": runs}
+        print_class(label, summary)
+        for name, c in checks.items():
+            verdicts.append(c["holds"])
+            verdict = "HOLDS" if c["holds"] else "FAILS"
+            print(f"  {verdict}  {name}: ratio {c['ratio']:.2f} (limit {c['limit']:.2f})")
+    for label in CLASSES:
+        order = [exported_name(w) for w in weights]
+        print(f"\n{label}: exported values by first-layer weight, mean 3-D max / flatness, {HEADLINE} [mm]")
+        head = out["classes"][label]["summary"][HEADLINE]
+        for name in [UNCALIBRATED, BASIC, ENHANCED, *order, GCODE]:
+            mean = head[name]["mean"]
+            print(f"  {name:36s} {mean['max_3d_mm']:.3f} / {mean['flatness_mm']:.3f}")
+    atomic_write_text(args.output, json.dumps(out, indent=1) + "\n")
+    print(f"\n{'every criterion holds' if all(verdicts) else 'a criterion FAILS'}; "
+          f"{time.perf_counter() - start:.0f} s; wrote {args.output}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
