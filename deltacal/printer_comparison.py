@@ -8,8 +8,8 @@ probe triggers, σ :data:`PROBE_SIGMA`; caliper distances of a printed object, �
 * Klipper's way: its 7 probe points (radius :data:`PROBE_RADIUS`) and its object's 12 distances,
   for its basic and enhanced calibration
   (:func:`~deltacal.controller.klipper_calibrate.klipper_basic`, ``klipper_enhanced``);
-* deltacal's way: the planned object (:func:`~deltacal.planning.printer_plan.plan_object`: 29
-  probe heights on Klipper's round 7 × 7 mesh and 40 distances), read through the firmware's
+* deltacal's way: the planned object (:func:`~deltacal.planning.printer_plan.plan_object`: 49
+  probe heights on Klipper's round mesh and 40 distances), read through the firmware's
   inverse into readings and identified (:func:`~deltacal.identification.printer.identify_printer`,
   complete model, iterated, kit tolerances as priors).
 
@@ -28,7 +28,7 @@ and over the first layer (z = 0.2 mm, :func:`~deltacal.controller.klipper_fit.fi
 Figures (:class:`~deltacal.controller.klipper_fit.ErrorStats`): 3-D max and RMS over the volume,
 first-layer flatness (max |z| and peak to valley), raw and less the bed motion no probe or caliper
 measures (a shift along the bed and a turn about its normal,
-:func:`~deltacal.report.accuracy.less_bed_motion`, fitted to each method's volume errors the same
+:func:`~deltacal.printer.less_bed_motion`, fitted to each method's volume errors the same
 way; it moves nothing vertically, so flatness is the same either way). Units: mm.
 """
 
@@ -46,7 +46,7 @@ from .geometry import Tolerances, Workspace
 from .identification.printer import PrinterMeasurements, identify_printer
 from .identification.result import IdentificationResult
 from .planning.printer_plan import ObjectPlan
-from .printer import NominalLinearDelta
+from .printer import NominalLinearDelta, less_bed_motion
 from .printer_simulation import (
     KIT_BED_TILT_DEG,
     WELL_BUILT_BED_TILT_DEG,
@@ -58,7 +58,6 @@ from .printer_simulation import (
     typical_kit,
     well_built,
 )
-from .report.accuracy import less_bed_motion
 
 #: The printable volume judged (the anchor's): radius 92 mm, z 0.2 to 100 mm.
 WORKSPACE = Workspace(radius=92.0, height=100.0, top_z=100.0)

@@ -29,7 +29,7 @@ import numpy as np
 
 from .controller import KlipperController, corrected_targets
 from .controller.klipper import KlipperDelta
-from .controller.klipper_fit import nozzle_errors
+from .controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
 from .io import (
     atomic_write_text,
     load_klipper,
@@ -42,6 +42,7 @@ from .io import (
 from .io.gcode import DEFAULT_SEGMENT_MM, filter_gcode
 from .io.robot import load_printer
 from .planning.printer_plan import plan_object
+from .printer import less_bed_motion
 from .printer_comparison import (
     BASIC,
     CLASSES,
@@ -55,11 +56,10 @@ from .printer_comparison import (
     run_printer,
 )
 from .printer_simulation import nozzle_positions
-from .report.accuracy import less_bed_motion
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"
-#: The first-layer weight of the exported values (Klipper's values fitted to the identified printer).
-FIRST_LAYER_WEIGHT = 30.0
+#: The first-layer weight of the exported values: ``export --controller klipper``'s.
+FIRST_LAYER_WEIGHT = EXPORT_FIRST_LAYER_WEIGHT
 #: The demo's default seed.
 SEED = 2400
 #: The rows of the table, in order.

@@ -43,7 +43,7 @@ def test_printer_demo_writes_the_whole_path(demo):
     for method in ROWS:
         assert method in table and method in proc.stdout
     # what a user hands over reads back: the measurements, the calibration, both configurations
-    assert len(read_probe_heights(out / "probe_measured.csv").commanded) == summary["probe_points"] == 29
+    assert len(read_probe_heights(out / "probe_measured.csv").commanded) == summary["probe_points"] == 49
     assert len(read_printed_distances(out / "distances_measured.csv").distance) == summary["distances"] == 40
     assert load_calibration(out / "printer_calibration.toml").geometry.joint == "prismatic"
     nominal = load_klipper(out / "printer.cfg")
