@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 import pytest
+from test_cli_printer import _config
 
 from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
@@ -15,8 +15,6 @@ from deltacal.io.printer_measurements import read_printed_distances, read_probe_
 from deltacal.io.robot import load_printer
 from deltacal.kinematics import exact
 from deltacal.printer_simulation import probe_heights, random_printer
-
-from test_cli_printer import _config
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 KOSSEL = MODELS / "kossel.toml"
@@ -32,7 +30,8 @@ def planned(tmp_path_factory) -> Path:
 
 
 def _simulate(folder: Path, *extra: str) -> int:
-    return main(["simulate", str(KOSSEL), str(folder / "plan" / "probe.csv"), str(folder / "plan" / "distances.csv"),
+    plan = folder / "plan"
+    return main(["simulate", str(KOSSEL), str(plan / "probe.csv"), str(plan / "distances.csv"),
                  "--controller", str(folder / "printer.cfg"), *extra])
 
 

@@ -119,9 +119,9 @@ def _rotary_options(args: argparse.Namespace) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal simulate``: write the measurements (and the true geometry), return 0."""
     check_input(args.nominal)
-    robot = load_robot(args.nominal)
-    if isinstance(robot, NominalLinearDelta):
-        return run_printer(args, robot)
+    nominal = load_robot(args.nominal)
+    if isinstance(nominal, NominalLinearDelta):
+        return run_printer(args, nominal)
     _rotary_options(args)
     inputs = (args.nominal, args.poses, args.truth)
     for path in inputs:
@@ -130,13 +130,13 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, inputs)
     if args.truth is None:
         check_output(truth_path(args.output), inputs)
-    read = read_poses_file(args.poses, robot)
+    read = read_poses_file(args.poses, nominal)
     poses = read.poses
     warn(read.warnings)
     if args.truth is not None:
         truth = load_geometry(args.truth)
     else:
-        truth = robot.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
+        truth = nominal.geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(args.perturb))
     if args.compliance is not None:
         truth = replace(truth, compliance=_compliance(args.compliance))
     payloads = args.payload

@@ -83,7 +83,8 @@ def refuse_printer_options(args: argparse.Namespace) -> None:
     """A rotary Delta's simulation: refuse the options of a printer's."""
     given = [name for name in PRINTER_OPTIONS if getattr(args, name) is not None]
     if given:
-        raise UsageError(f"--{given[0].replace('_', '-')} applies to a printer's simulation (kind = 'linear')")
+        option = given[0].replace("_", "-")
+        raise UsageError(f"--{option} applies to a printer's simulation (kind = 'linear')")
 
 
 def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
