@@ -634,6 +634,13 @@ def bench_cli_doptimal_pool(setup: Setup) -> list[Row]:
     return rows
 
 
+def bench_printer(setup: Setup) -> list[Row]:
+    """A printer's identification (49 heights, 40 distances) and Klipper's fit: scripts/bench_printer.py."""
+    from bench_printer import printer_rows
+
+    return [Row(*row) for row in printer_rows(setup.repeat, run_times, SEED)]
+
+
 BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_pinocchio_forward,
     bench_exact_batch,
@@ -649,6 +656,7 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_identify_compliance,
     bench_gcode_filter,
     bench_klipper,
+    bench_printer,
     bench_cli_doptimal_pool,
 ]
 

@@ -4,7 +4,7 @@ For seeded printers of each tolerance class (:data:`deltacal.printer_comparison.
 24000 + k and 24100 + k, used by no test and not by ``klipper_anchor.py``), measured the same
 way for both sides (probe triggers σ 10 µm, caliper distances σ 20 µm): Klipper's basic (7
 probes) and enhanced (7 probes and its object's 12 distances) calibration; deltacal with the
-planned object (29 probe heights, 40 distances): the G-code route (exact compensation through
+planned object (49 probe heights, 40 distances): the G-code route (exact compensation through
 Klipper's nominal configuration) and the exported firmware values alone (Klipper's values fitted
 to the identified printer, for each first-layer weight swept). Every method is judged on the TRUE
 printer (:func:`deltacal.printer_comparison.evaluate`): 3-D max and RMS over the printable volume

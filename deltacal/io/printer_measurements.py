@@ -57,10 +57,14 @@ class PrintedDistances:
     lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
-def _read(path: str | Path, given: list[str], measured: str, what: str):
-    """The table of a printer's file, its measured column filled in on every row."""
+def _read(path: str | Path, given: list[str], measured: str, what: str, filled: bool = True):
+    """The table of a printer's file, its measured column filled in on every row (``filled``)."""
     source = str(path)
     table = read_csv_table(path, given, [measured])
+    if not filled:
+        if measured not in table.numbers:
+            table.numbers[measured] = np.full(len(table.lines), np.nan)
+        return table
     if measured not in table.numbers:
         raise InputError(f"missing required column {measured} (the {what})", source, "line 1")
     values = table.numbers[measured]
@@ -73,25 +77,33 @@ def _read(path: str | Path, given: list[str], measured: str, what: str):
     return table
 
 
-def read_probe_heights(path: str | Path) -> ProbeHeights:
+def read_probe_heights(path: str | Path, filled: bool = True) -> ProbeHeights:
     """Read a probe heights CSV (``x_mm,y_mm,z_mm``, every ``z_mm`` filled in).
+
+    Args:
+        path: The file.
+        filled: False: a template (``z_mm`` absent or empty on some rows: NaN there).
 
     Raises:
         InputError: naming the file, line, row, column and value of the first bad cell.
     """
-    table = _read(path, PROBE_COLUMNS[:2], PROBE_COLUMNS[2], "height at which the probe triggered")
+    table = _read(path, PROBE_COLUMNS[:2], PROBE_COLUMNS[2], "height at which the probe triggered", filled)
     return ProbeHeights(np.column_stack([table.numbers[c] for c in PROBE_COLUMNS]), np.asarray(table.lines))
 
 
-def read_printed_distances(path: str | Path) -> PrintedDistances:
+def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDistances:
     """Read a distances CSV (``x1_mm..z2_mm,distance_mm``, every distance filled in and positive).
+
+    Args:
+        path: The file.
+        filled: False: a template (``distance_mm`` absent or empty on some rows: NaN there).
 
     Raises:
         InputError: naming the file, line, row, column and value of the first bad cell; a pair whose
             two features are at the same commanded position; a distance not above zero.
     """
     source = str(path)
-    table = _read(path, PAIR_COLUMNS, "distance_mm", "distance measured between the features")
+    table = _read(path, PAIR_COLUMNS, "distance_mm", "distance measured between the features", filled)
     pairs = np.column_stack([table.numbers[c] for c in PAIR_COLUMNS])
     distance = table.numbers["distance_mm"]
     lines = np.asarray(table.lines)
