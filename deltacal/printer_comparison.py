@@ -105,7 +105,7 @@ class PrinterRun:
 
 
 def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: ObjectPlan, probe: np.ndarray,
-                      distances: np.ndarray) -> PrinterMeasurements:
+                      distances: np.ndarray, distance_sigma: float = DISTANCE_SIGMA) -> PrinterMeasurements:
     """The planned object's measurements as the identification takes them: readings through the firmware.
 
     Args:
@@ -114,15 +114,17 @@ def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: Object
         plan: The planned object.
         probe: Commanded probe triggers [mm], (N, 3).
         distances: The distances measured between the plan's pairs [mm], (M,).
+        distance_sigma: Their σ [mm].
     """
     readings = firmware.inverse(probe, step_distance)
     ends = firmware.inverse(plan.pair_positions.reshape(-1, 3), step_distance).reshape(-1, 2, 3)
     return PrinterMeasurements(readings, ends, np.asarray(distances, dtype=float),
-                               height_sigma=PROBE_SIGMA, distance_sigma=DISTANCE_SIGMA)
+                               height_sigma=PROBE_SIGMA, distance_sigma=distance_sigma)
 
 
 def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolerances: Tolerances,
-                bed_tilt_deg: float, weights: tuple[float, ...] = (10.0,)) -> PrinterRun:
+                bed_tilt_deg: float, weights: tuple[float, ...] = (10.0,),
+                distance_sigma: float = DISTANCE_SIGMA) -> PrinterRun:
     """Make a seeded printer, measure it both ways and calibrate it with each method.
 
     Args:
@@ -132,6 +134,7 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
         tolerances: Its build tolerances (a class of :data:`CLASSES`).
         bed_tilt_deg: σ of each of its bed's tilts [deg].
         weights: First-layer weights of the exported values to fit.
+        distance_sigma: σ of every distance, Klipper's and deltacal's [mm] (default a caliper's).
     """
     firmware = KlipperDelta.from_printer(printer)
     step = printer.step_distance
@@ -140,10 +143,10 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
     truth = made.geometry
     klipper_probe = probe_heights(truth, firmware, step, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
     pairs = object_pairs()
-    klipper_distances = printed_distances(truth, firmware, step, pairs, DISTANCE_SIGMA, rng)
+    klipper_distances = printed_distances(truth, firmware, step, pairs, distance_sigma, rng)
     probe = probe_heights(truth, firmware, step, plan.probe[:, :2], PROBE_SIGMA, rng)
-    distances = printed_distances(truth, firmware, step, plan.pair_positions, DISTANCE_SIGMA, rng)
-    data = plan_measurements(firmware, step, plan, probe, distances)
+    distances = printed_distances(truth, firmware, step, plan.pair_positions, distance_sigma, rng)
+    data = plan_measurements(firmware, step, plan, probe, distances, distance_sigma)
     result = identify_printer(printer.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
     configs = {UNCALIBRATED: firmware, BASIC: klipper_basic(firmware, klipper_probe),
                ENHANCED: klipper_enhanced(firmware, klipper_probe, pairs, klipper_distances)}

@@ -98,6 +98,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("-o", "--output", default=str(REPO_ROOT / "results" / "printer_compare.json"))
     parser.add_argument("--printers", type=int, default=10, help="printers per class (default 10)")
+    parser.add_argument("--sigma-distance", type=float, default=DISTANCE_SIGMA,
+                        help=f"σ of every distance [mm] (default {DISTANCE_SIGMA}, a caliper's; 0.01: a "
+                             "micrometer's)")
     parser.add_argument("--weight", type=float, default=30.0,
                         help="the first-layer weight whose exported values the criteria judge (default 30)")
     args = parser.parse_args(argv)
@@ -108,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     out: dict = {"workspace": {"radius_mm": WORKSPACE.radius, "z_mm": [0.2, WORKSPACE.top_z]},
                  "klipper": {"probes": 7, "probe_radius_mm": PROBE_RADIUS, "distances": 12},
                  "deltacal": {"probes": len(plan.probe), "distances": len(plan.pairs)},
-                 "sigma_mm": {"probe": PROBE_SIGMA, "distance": DISTANCE_SIGMA},
+                 "sigma_mm": {"probe": PROBE_SIGMA, "distance": args.sigma_distance},
                  "headline": HEADLINE, "weights": list(weights), "criteria_weight": args.weight,
                  "classes": {}}
     verdicts = []
@@ -116,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
         seeds = [SEEDS[label] + k for k in range(args.printers)]
         runs = []
         for seed in seeds:
-            figures = evaluate(run_printer(printer, plan, seed, tolerances, tilt, weights))
+            run = run_printer(printer, plan, seed, tolerances, tilt, weights, args.sigma_distance)
+            figures = evaluate(run)
             runs.append({view: {m: s.as_dict() for m, s in methods.items()}
                          for view, methods in figures.items()})
         summary = summarise(runs)
