@@ -42,7 +42,7 @@ from .controller import KlipperController, corrected_targets
 from .controller.klipper import KlipperDelta
 from .controller.klipper_calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
 from .controller.klipper_fit import ErrorStats, first_layer, fit_klipper, nozzle_errors, printable_grid
-from .geometry import Tolerances, Workspace
+from .geometry import DeltaGeometry, Tolerances, Workspace
 from .identification.printer import PrinterMeasurements, identify_printer
 from .identification.result import IdentificationResult
 from .planning.printer_plan import ObjectPlan
@@ -122,6 +122,22 @@ def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: Object
                                height_sigma=PROBE_SIGMA, distance_sigma=distance_sigma)
 
 
+def klipper_calibrations(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: float,
+                         rng: np.random.Generator,
+                         distance_sigma: float = DISTANCE_SIGMA) -> dict[str, KlipperDelta]:
+    """Klipper's own calibration of a true printer: its values uncalibrated, basic and enhanced.
+
+    Its 7 probe heights and its object's 12 distances are measured with ``rng`` (in that order);
+    ``DELTA_CALIBRATE`` gives the basic values, with ``DELTA_ANALYZE`` the enhanced ones. Keys
+    :data:`UNCALIBRATED`, :data:`BASIC`, :data:`ENHANCED`.
+    """
+    probe = probe_heights(truth, firmware, step_distance, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
+    pairs = object_pairs()
+    distances = printed_distances(truth, firmware, step_distance, pairs, distance_sigma, rng)
+    return {UNCALIBRATED: firmware, BASIC: klipper_basic(firmware, probe),
+            ENHANCED: klipper_enhanced(firmware, probe, pairs, distances)}
+
+
 def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolerances: Tolerances,
                 bed_tilt_deg: float, weights: tuple[float, ...] = (10.0,),
                 distance_sigma: float = DISTANCE_SIGMA) -> PrinterRun:
@@ -141,15 +157,11 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
     rng = np.random.default_rng(seed)
     made = random_true_printer(printer, rng, tolerances, bed_tilt_deg)
     truth = made.geometry
-    klipper_probe = probe_heights(truth, firmware, step, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
-    pairs = object_pairs()
-    klipper_distances = printed_distances(truth, firmware, step, pairs, distance_sigma, rng)
+    configs = klipper_calibrations(truth, firmware, step, rng, distance_sigma)
     probe = probe_heights(truth, firmware, step, plan.probe[:, :2], PROBE_SIGMA, rng)
     distances = printed_distances(truth, firmware, step, plan.pair_positions, distance_sigma, rng)
     data = plan_measurements(firmware, step, plan, probe, distances, distance_sigma)
     result = identify_printer(printer.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
-    configs = {UNCALIBRATED: firmware, BASIC: klipper_basic(firmware, klipper_probe),
-               ENHANCED: klipper_enhanced(firmware, klipper_probe, pairs, klipper_distances)}
     for w in weights:
         configs[exported_name(w)] = fit_klipper(result.geometry, firmware, step, WORKSPACE,
                                                 first_layer_weight=w).klipper

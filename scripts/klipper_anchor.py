@@ -21,20 +21,21 @@ from pathlib import Path
 import numpy as np
 
 from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
 from deltacal.controller.klipper_fit import error_budget, error_stats, fit_klipper
-from deltacal.geometry import Workspace
 from deltacal.io.atomic import atomic_write_text
 from deltacal.io.robot import load_printer
-from deltacal.printer_simulation import (
-    KIT_BED_TILT_DEG,
-    WELL_BUILT_BED_TILT_DEG,
-    printed_distances,
-    probe_heights,
-    random_true_printer,
-    typical_kit,
-    well_built,
+from deltacal.printer_comparison import (
+    BASIC,
+    CLASSES,
+    DISTANCE_SIGMA,
+    ENHANCED,
+    PROBE_RADIUS,
+    PROBE_SIGMA,
+    UNCALIBRATED,
+    WORKSPACE,
+    klipper_calibrations,
 )
+from deltacal.printer_simulation import random_true_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 #: The anchor's figures (issue 24): 3-D max / first-layer flatness [mm].
@@ -42,12 +43,6 @@ ISSUE = {
     "well built": {"uncalibrated": (1.22, 1.16), "basic": (0.21, 0.023), "enhanced": (0.23, 0.021)},
     "typical kit": {"uncalibrated": (1.62, 1.44), "basic": (0.70, 0.055), "enhanced": (0.73, 0.043)},
 }
-CLASSES = {"well built": (well_built(), WELL_BUILT_BED_TILT_DEG),
-           "typical kit": (typical_kit(), KIT_BED_TILT_DEG)}
-WORKSPACE = Workspace(radius=92.0, height=100.0, top_z=100.0)
-PROBE_RADIUS = 115.0
-PROBE_SIGMA = 0.010
-DISTANCE_SIGMA = 0.020
 #: fit_klipper's weight of the first layer's z errors in the weighted variant.
 FIRST_LAYER_WEIGHT = 10.0
 
@@ -60,14 +55,12 @@ def one_printer(seed: int, tolerances, tilt: float) -> dict[str, dict[str, float
     rng = np.random.default_rng(seed)
     made = random_true_printer(nominal, rng, tolerances, tilt)
     truth = made.geometry
-    probes = probe_heights(truth, firmware, step, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
-    pairs = object_pairs()
-    distances = printed_distances(truth, firmware, step, pairs, DISTANCE_SIGMA, rng)
+    klipper = klipper_calibrations(truth, firmware, step, rng)
     absolute = {"part_frame": False}  # the errors judged raw, as the issue's anchor
     configs = {
-        "uncalibrated": firmware,
-        "basic": klipper_basic(firmware, probes),
-        "enhanced": klipper_enhanced(firmware, probes, pairs, distances),
+        "uncalibrated": klipper[UNCALIBRATED],
+        "basic": klipper[BASIC],
+        "enhanced": klipper[ENHANCED],
         "best firmware values": fit_klipper(truth, firmware, step, WORKSPACE, **absolute).klipper,
         "best firmware values, step distances held": fit_klipper(truth, firmware, step, WORKSPACE,
                                                                  hold_step_distance=True, **absolute).klipper,

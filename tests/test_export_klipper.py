@@ -38,21 +38,9 @@ PRINTER = load_printer(KOSSEL)
 STEP = PRINTER.step_distance
 #: The anchor's printable volume (issue 24): radius 92 mm, heights 0.2 to 100 mm.
 VOLUME = Workspace(radius=92.0, height=100.0, top_z=100.0)
-ROBOT = """name = "kossel-92"
-kind = "linear"
-[geometry]
-tower_radius_mm = 164.4
-effector_radius_mm = 30.0
-rod_length_mm = 269.0
-rod_spacing_mm = 50.0
-tower_azimuth_deg = [210.0, 330.0, 90.0]
-nozzle_mm = [0.0, 0.0, -30.0]
-endstop_height_mm = 558.62
-step_distance_mm = 0.0125
-[workspace]
-radius_mm = 92.0
-height_mm = 100.0
-"""
+#: The shipped Kossel with the anchor's printable volume as its [workspace].
+ROBOT = re.sub(r"\[workspace\].*", "[workspace]\nradius_mm = 92.0\nheight_mm = 100.0\n", KOSSEL.read_text(),
+               flags=re.S)
 
 
 def _config_text(firmware: KlipperDelta) -> str:
