@@ -11,7 +11,7 @@ probe triggers, Ïƒ :data:`PROBE_SIGMA`; caliper distances of a printed object, Ï
 * deltacal's way: the planned object (:func:`~deltacal.planning.printer_plan.plan_object`: 49
   probe heights on Klipper's round mesh and 40 distances), read through the firmware's
   inverse into readings and identified (:func:`~deltacal.identification.printer.identify_printer`,
-  complete model, iterated, kit tolerances as priors).
+  complete model, iterated, the kit's tolerances as priors, scaled by the measurements' evidence).
 
 Each method is judged on the TRUE printer over the printable volume (:data:`WORKSPACE`, the
 anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.controller.klipper_fit.printable_grid`)

@@ -12,7 +12,9 @@ printer (:func:`deltacal.printer_comparison.evaluate`): 3-D max and RMS over the
 the bed motion nothing measures (the headline: a shift along the bed and a turn about its normal
 move the printed part on the bed, not its shape, and no probe and no caliper sees them, for
 Klipper or deltacal). Prints a table and whether each criterion holds; writes
-``results/printer_compare.json``. Fixed seeds, about 3 s a printer.
+``results/printer_compare.json``. Fixed seeds, about 3 s a printer; ``--printers N
+--first-seed S`` runs others (kits: S + 100 + k), ``--caliper`` plans for another caliper and
+``--sigma-distance`` gives both sides another caliper's σ.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import numpy as np
 from deltacal.controller.klipper import KlipperDelta
 from deltacal.io.atomic import atomic_write_text
 from deltacal.io.robot import load_printer
+from deltacal.planning.printer_object import CALIPER_RANGE
 from deltacal.planning.printer_plan import plan_object
 from deltacal.printer_comparison import (
     BASIC,
@@ -98,25 +101,34 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("-o", "--output", default=str(REPO_ROOT / "results" / "printer_compare.json"))
     parser.add_argument("--printers", type=int, default=10, help="printers per class (default 10)")
+    parser.add_argument("--first-seed", type=int, default=None,
+                        help="seed of the first well-built printer (kits: 100 more; default 24000: the "
+                             "comparison's printers)")
     parser.add_argument("--sigma-distance", type=float, default=DISTANCE_SIGMA,
                         help=f"σ of every distance [mm] (default {DISTANCE_SIGMA}, a caliper's; 0.01: a "
                              "micrometer's)")
+    parser.add_argument("--caliper", type=float, default=CALIPER_RANGE,
+                        help=f"the caliper's longest reading the object is planned for [mm] (default "
+                             f"{CALIPER_RANGE:g})")
     parser.add_argument("--weight", type=float, default=30.0,
                         help="the first-layer weight whose exported values the criteria judge (default 30)")
     args = parser.parse_args(argv)
     weights = tuple(sorted(set(WEIGHTS) | {args.weight}))
     start = time.perf_counter()
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
-    plan = plan_object(printer, KlipperDelta.from_printer(printer))
+    plan = plan_object(printer, KlipperDelta.from_printer(printer), caliper=args.caliper)
     out: dict = {"workspace": {"radius_mm": WORKSPACE.radius, "z_mm": [0.2, WORKSPACE.top_z]},
                  "klipper": {"probes": 7, "probe_radius_mm": PROBE_RADIUS, "distances": 12},
-                 "deltacal": {"probes": len(plan.probe), "distances": len(plan.pairs)},
+                 "deltacal": {"probes": len(plan.probe), "distances": len(plan.pairs),
+                              "caliper_mm": args.caliper,
+                              "feature_levels_mm": sorted(set(plan.features[:, 2].tolist()))},
                  "sigma_mm": {"probe": PROBE_SIGMA, "distance": args.sigma_distance},
                  "headline": HEADLINE, "weights": list(weights), "criteria_weight": args.weight,
                  "classes": {}}
     verdicts = []
     for label, (tolerances, tilt) in CLASSES.items():
-        seeds = [SEEDS[label] + k for k in range(args.printers)]
+        first = SEEDS[label] + (0 if args.first_seed is None else args.first_seed - SEEDS["well built"])
+        seeds = [first + k for k in range(args.printers)]
         runs = []
         for seed in seeds:
             run = run_printer(printer, plan, seed, tolerances, tilt, weights, args.sigma_distance)

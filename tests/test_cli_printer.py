@@ -53,12 +53,34 @@ def test_plan_simulate_identify_a_printer(tmp_path, capsys):
     out = tmp_path / "cal.toml"
     assert main(["identify", str(KOSSEL), str(tmp_path / "probe.csv"), str(tmp_path / "d.csv"),
                  "--controller", str(cfg), "-o", str(out)]) == 0
+    assert "the build tolerances scaled by" in capsys.readouterr().out  # the measurements chose it
     calibration = load_calibration(out)
     assert calibration.model.name == "printer" and calibration.geometry.joint == "prismatic"
     # the identified printer's first layer is flat on the true bed
     layer = np.column_stack([xy * 0.8, np.full(len(xy), 0.2)])
     landed = exact.forward(truth, exact.inverse(calibration.geometry, layer)).point(truth.tool)
     assert np.ptp(landed[:, 2]) < 0.05
+
+
+def test_a_printers_tolerance_scale_is_taken_as_asked_and_refused_for_a_rotary_delta(tmp_path, capsys):
+    cfg = _config(tmp_path / "printer.cfg")
+    probe = tmp_path / "probe.csv"
+    printer = load_printer(KOSSEL)
+    firmware = load_klipper(cfg)
+    xy = np.array([[r * np.cos(a), r * np.sin(a)]
+                   for r in (0.0, 50.0, 100.0) for a in np.arange(0.0, 6.3, 0.7)])
+    heights = probe_heights(printer.geometry(), firmware, printer.step_distance, xy, 0.01,
+                            np.random.default_rng(4))
+    write_probe_heights(probe, heights[:, :2], heights[:, 2])
+    out = tmp_path / "c.toml"
+    assert main(["identify", str(KOSSEL), str(probe), "--controller", str(cfg), "-o", str(out),
+                 "--tolerance-scale", "0.25"]) == 0
+    assert "the build tolerances scaled by 0.25 (as asked)" in capsys.readouterr().out
+    rotary = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "flexpicker.toml"
+    code = main(["identify", str(rotary), str(probe), "-o", str(tmp_path / "r.toml"),
+                 "--tolerance-scale", "1"])
+    assert code == 2 and "--tolerance-scale applies to a printer" in capsys.readouterr().err
+    assert not (tmp_path / "r.toml").exists()
 
 
 def test_a_printers_measurements_need_the_firmware(tmp_path, capsys):

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 from deltacal.cli.main import main
 from deltacal.controller.klipper import KlipperDelta
 from deltacal.exceptions import InputError, PlanningError
+from deltacal.geometry import Workspace
 from deltacal.io import (
     read_printed_distances,
     read_probe_heights,
@@ -25,6 +26,7 @@ from deltacal.planning.printer_object import (
     CLEARANCE,
     MAX_ELEVATION,
     feature_mesh,
+    levels,
     probe_grid,
 )
 from deltacal.planning.printer_plan import geometric_rows, model_rows, plan_object
@@ -308,3 +310,23 @@ def test_cli_names_a_bad_printer_cfg(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "section [printer], key delta_radius: value 'abc' is not a number" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
+
+
+def test_feature_levels_follow_the_caliper_and_the_printable_height():
+    """Four levels from 8 mm to 0.55 × the caliper above it, lower where the printable height ends."""
+    tall = Workspace(radius=115.0, height=200.0, top_z=200.0)
+    assert np.array_equal(levels(tall, 200.0), [8.0, 44.7, 81.3, 118.0])
+    assert np.array_equal(levels(tall, 150.0), [8.0, 35.5, 63.0, 90.5])
+    low = levels(Workspace(radius=115.0, height=60.0, top_z=60.0), 200.0)  # the top ball 2 mm under 60 mm
+    assert low[-1] == 53.0 and len(low) == 4 and np.all(np.diff(low) > 0.0)
+    with pytest.raises(PlanningError, match="printable height 24 mm holds no two feature levels"):
+        levels(Workspace(radius=115.0, height=24.0, top_z=24.0), 200.0)
+
+
+def test_a_shorter_caliper_gets_a_lower_object_it_can_measure(printer, firmware):
+    short = plan_object(printer, firmware, caliper=150.0)
+    assert set(np.unique(short.features[:, 2])) <= set(levels(printer.workspace, 150.0))
+    assert np.all(short.lengths + BALL_DIAMETER <= 150.0)
+    long = plan_object(printer, firmware)
+    assert long.features[:, 2].max() > short.features[:, 2].max()
+    assert (long.lengths + BALL_DIAMETER).max() > 150.0  # the default caliper reaches further

@@ -28,6 +28,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"a rotary Delta's measurements are one CSV file, got {len(args.measurements)}")
     if args.controller is not None:
         raise UsageError("--controller applies to a printer's measurements (of commanded positions)")
+    if args.tolerance_scale is not None:
+        raise UsageError("--tolerance-scale applies to a printer's measurements")
     args.measurements = args.measurements[0]
     args.model = args.model or "complete"
     if args.model not in MODEL_NAMES:

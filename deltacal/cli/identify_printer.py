@@ -19,7 +19,7 @@ from ..identification.printer import PrinterMeasurements, identify_printer
 from ..io import load_klipper, save_calibration
 from ..io.printer_measurements import read_printed_distances, read_probe_heights
 from ..printer import NominalLinearDelta
-from .common import check_input, check_output, sigma, three_numbers
+from .common import check_input, check_output, positive_float, sigma, three_numbers
 
 #: The error models of a printer.
 PRINTER_MODELS = ("printer", "klipper")
@@ -46,7 +46,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance)
     result = identify_printer(printer.geometry(), data, model, "linear" if args.linear else "iterated",
-                              Tolerances.printer_kit())
+                              Tolerances.printer_kit(), args.tolerance_scale or "evidence")
     save_calibration(result, args.output)
     print(result.report())
     print(f"\nwrote {args.output}")
@@ -90,4 +90,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a printer: σ of a probe height [mm] (default 0.01)")
     p.add_argument("--sigma-distance", type=sigma, default=0.02, metavar="MM",
                    help="a printer: σ of a caliper distance [mm] (default 0.02)")
+    p.add_argument("--tolerance-scale", type=positive_float, default=None, metavar="S",
+                   help="a printer: the factor of the kit's build tolerances the priors take (default: the "
+                        "one the measurements make most probable)")
 

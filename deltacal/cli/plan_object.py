@@ -81,15 +81,16 @@ def run_object(args: argparse.Namespace) -> int:
         raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "
                          "is a rotary Delta's (kind = 'linear' for a printer)")
     firmware = load_klipper(args.controller)
+    caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
-                       probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=args.caliper or CALIPER_RANGE)
+                       probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
     mesh = plan.mesh()
     if not folder.exists():
         folder.mkdir()
     write_stl(outputs[0], mesh)
     write_probe_heights(outputs[1], plan.probe)
     write_printed_distances(outputs[2], plan.pair_positions)
-    print(_report(plan, printer, mesh))
+    print(_report(plan, printer, mesh, caliper))
     print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points) and {outputs[2]} "
           f"({len(plan.pairs)} distances)")
     return 0
@@ -110,7 +111,7 @@ def _outputs(folder: Path, inputs: tuple[str, ...]) -> list[Path]:
     return outputs
 
 
-def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh) -> str:
+def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float) -> str:
     radius = float(abs(plan.probe[:, :2]).max())
     heights = sorted({float(z) for z in plan.features[:, 2]})
     lengths = plan.lengths
@@ -121,7 +122,8 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh) -> str:
         f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
         f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
         "the bed's centre: the slicer must not move it)",
-        f"distances: {len(plan.pairs)} pairs of ball centres, {lengths.min():.1f} to {lengths.max():.1f} mm: "
+        f"distances: {len(plan.pairs)} pairs of ball centres, {lengths.min():.1f} to {lengths.max():.1f} mm "
+        f"(readings up to {lengths.max() + BALL_DIAMETER:.1f} mm: a {caliper:g} mm caliper, --caliper): "
         "outside jaws across both balls, rocked to the largest reading, minus the balls' mean diameter; "
         "write each in distances.csv",
         f"D-optimal (complete model, in units of the build tolerances): log det {plan.log_det_probe:.4g} "

@@ -206,7 +206,7 @@ def plan_object(
         raise PlanningError("the printer's robot file has no [workspace]: the printable cylinder is needed")
     if not 1 <= count <= MAX_DISTANCES:
         raise PlanningError(f"distances to measure must be 1 to {MAX_DISTANCES}, got {count}")
-    layout = object_layout(printer.workspace, printer.tower_azimuth)
+    layout = object_layout(printer.workspace, printer.tower_azimuth, caliper)
     probe = probe_grid(printer.workspace.radius, probe_count)
     pairs = candidate_pairs(layout, caliper)
     if len(pairs) < count:

@@ -1,0 +1,125 @@
+"""The tolerances' scale the measurements make most probable (type-II likelihood), and what it does."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from deltacal.controller import KlipperController, corrected_targets
+from deltacal.controller.klipper import KlipperDelta
+from deltacal.controller.klipper_fit import printable_grid
+from deltacal.geometry import Tolerances, Workspace
+from deltacal.identification.evidence import evidence_scale, log_evidence
+from deltacal.identification.printer import identify_printer, scaled_tolerances
+from deltacal.io.robot import load_printer
+from deltacal.planning.printer_plan import plan_object
+from deltacal.printer import less_bed_motion
+from deltacal.printer_comparison import plan_measurements
+from deltacal.printer_simulation import (
+    WELL_BUILT_BED_TILT_DEG,
+    nozzle_positions,
+    printed_distances,
+    probe_heights,
+    random_true_printer,
+    well_built,
+)
+
+PRINTER = load_printer(Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml")
+FIRMWARE = KlipperDelta.from_printer(PRINTER)
+VOLUME = printable_grid(Workspace(radius=92.0, height=100.0, top_z=100.0))
+
+
+def test_log_evidence_is_the_gaussian_density_of_the_measurements():
+    """Woodbury in the parameters' space equals the dense m × m density (less its constant)."""
+    rng = np.random.default_rng(5)
+    W, y = rng.normal(size=(30, 12)), rng.normal(size=30)
+    for prior in (np.full(12, 0.3), rng.uniform(0.1, 3.0, 12)):
+        C = np.eye(30) + (W * prior**2) @ W.T
+        dense = -0.5 * y @ np.linalg.solve(C, y) - 0.5 * np.linalg.slogdet(C)[1]
+        assert log_evidence(y, W, prior) == pytest.approx(dense, rel=1e-12, abs=1e-10)
+
+
+def test_evidence_scale_finds_the_scale_the_parameters_were_drawn_with():
+    """60 parameters drawn at 0.2 × their σ, 300 rows: the scale to within its statistical spread."""
+    rng = np.random.default_rng(11)
+    sigma = rng.uniform(0.5, 2.0, 60)
+    W = rng.normal(size=(300, 60))
+    theta = 0.2 * sigma * rng.normal(size=60)
+    y = W @ theta + rng.normal(size=300)
+    found = evidence_scale(y, W, lambda s: s * sigma)
+    assert 0.2 / 1.35 < found < 0.2 * 1.35  # about 3 standard deviations of the estimate (9 %)
+    # it is the maximum, not a grid point near it
+    best = log_evidence(y, W, found * sigma)
+    assert best >= log_evidence(y, W, 1.01 * found * sigma)
+    assert best >= log_evidence(y, W, found / 1.01 * sigma)
+
+
+def _run(seed: int, tolerances: Tolerances, tilt_deg: float, plan):
+    """A seeded printer of a class, measured with the planned object; the truth and the data."""
+    rng = np.random.default_rng(seed)
+    truth = random_true_printer(PRINTER, rng, tolerances, tilt_deg).geometry
+    step = PRINTER.step_distance
+    probe = probe_heights(truth, FIRMWARE, step, plan.probe[:, :2], 0.01, rng)
+    distances = printed_distances(truth, FIRMWARE, step, plan.pair_positions, 0.02, rng)
+    return truth, plan_measurements(FIRMWARE, step, plan, probe, distances)
+
+
+def _gcode_error(truth, geometry) -> float:
+    """3-D max error of the corrected targets sent through the nominal firmware, less bed motion [mm]."""
+    controller = KlipperController(FIRMWARE, PRINTER.step_distance)
+    commands = corrected_targets(geometry, controller, VOLUME).commands
+    errors = nozzle_positions(truth, FIRMWARE, PRINTER.step_distance, commands) - VOLUME
+    return float(np.max(np.linalg.norm(less_bed_motion(VOLUME, errors)[0], axis=1)))
+
+
+@pytest.fixture(scope="module")
+def plan():
+    return plan_object(PRINTER, FIRMWARE)
+
+
+def test_evidence_narrows_a_well_built_printers_tolerances_and_its_error(plan):
+    """Well-built printers (seeds none was tuned on): the kit's tolerances shrink, and the error with them.
+
+    Each printer's scale is below 0.3 (its true errors are 0.1-0.2 of the kit's tolerances, and
+    the measurements see only part of them); over the four printers the G-code route's mean
+    3-D max error is smaller than with the kit's tolerances as given.
+    """
+    nominal = PRINTER.geometry()
+    errors = {"evidence": [], 1.0: []}
+    for seed in range(33000, 33004):
+        truth, data = _run(seed, well_built(), WELL_BUILT_BED_TILT_DEG, plan)
+        for how in errors:
+            result = identify_printer(nominal, data, tolerance_scale=how)
+            errors[how].append(_gcode_error(truth, result.geometry))
+            if how == "evidence":
+                scale = float(result.hints[0].split()[5])
+                assert 0.005 <= scale < 0.3, result.hints[0]
+    assert np.mean(errors["evidence"]) < np.mean(errors[1.0])
+
+
+def test_a_kit_keeps_wider_tolerances_than_a_well_built_printer(plan):
+    """The same printer built to a kit's tolerances and to a tenth of them: the scale follows."""
+    nominal = PRINTER.geometry()
+    scales = []
+    for tolerances in (Tolerances.printer_kit(), scaled_tolerances(Tolerances.printer_kit(), 0.1)):
+        _, data = _run(33100, tolerances, 0.05, plan)
+        hint = identify_printer(nominal, data).hints[0]
+        scales.append(float(hint.split()[5]))
+    assert scales[0] > 3.0 * scales[1]
+    assert scales[0] > 0.3
+
+
+def test_a_given_scale_is_used_as_asked(plan):
+    _, data = _run(33200, well_built(), WELL_BUILT_BED_TILT_DEG, plan)
+    nominal = PRINTER.geometry()
+    result = identify_printer(nominal, data, tolerance_scale=0.5)
+    assert result.hints[0] == "the build tolerances scaled by 0.5 (as asked)"
+    half = identify_printer(nominal, data, tolerances=scaled_tolerances(Tolerances.printer_kit(), 0.5),
+                            tolerance_scale=1.0)
+    assert np.allclose(result.values, half.values, rtol=0.0, atol=1e-12)
+    for bad in (0.0, -1.0, math.nan, "most probable"):
+        with pytest.raises(ValueError, match="tolerance_scale"):
+            identify_printer(nominal, data, tolerance_scale=bad)
