@@ -12,7 +12,9 @@ import pytest  # noqa: E402
 from hypothesis import settings  # noqa: E402
 
 from deltacal import NominalDelta  # noqa: E402
+from deltacal.controller.klipper import KlipperDelta  # noqa: E402
 from deltacal.io import load_nominal  # noqa: E402
+from deltacal.io.robot import load_printer  # noqa: E402
 
 # every random test is seeded: hypothesis draws the same examples on every machine and run (a
 # failure is then a failure of the code, not of the draw), and keeps no example database
@@ -21,6 +23,19 @@ settings.load_profile("deltacal")
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"
+
+
+def kossel_printer_cfg(path: Path) -> Path:
+    """A printer.cfg as a user writes it, of Klipper's model of the nominal models/kossel.toml."""
+    fw = KlipperDelta.from_printer(load_printer(MODELS / "kossel.toml"))
+    text = "[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n"
+    text += f"delta_radius: {fw.delta_radius}\n"
+    for k, tower in enumerate("abc"):
+        text += (f"\n[stepper_{tower}]\nstep_pin: PF0\ndir_pin: PF1\nenable_pin: !PD7\nmicrosteps: 16\n"
+                 f"rotation_distance: 40\nendstop_pin: ^PE4\narm_length: {fw.arm_length[k]}\n"
+                 f"position_endstop: {fw.position_endstop[k]}\n")
+    path.write_text(text)
+    return path
 
 
 @pytest.fixture(scope="session")

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import kossel_printer_cfg
 
 from deltacal.cli.main import main
-from deltacal.controller.klipper import KlipperDelta
 from deltacal.io import load_calibration, load_klipper
 from deltacal.io.printer_measurements import write_printed_distances, write_probe_heights
 from deltacal.io.robot import load_printer
@@ -19,25 +19,13 @@ from deltacal.printer_simulation import printed_distances, probe_heights, random
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 
 
-def _config(path: Path) -> Path:
-    fw = KlipperDelta.from_printer(load_printer(KOSSEL))
-    text = "[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n"
-    text += f"delta_radius: {fw.delta_radius}\n"
-    for k, tower in enumerate("abc"):
-        text += (f"\n[stepper_{tower}]\nstep_pin: PF0\ndir_pin: PF1\nenable_pin: !PD7\nmicrosteps: 16\n"
-                 f"rotation_distance: 40\nendstop_pin: ^PE4\narm_length: {fw.arm_length[k]}\n"
-                 f"position_endstop: {fw.position_endstop[k]}\n")
-    path.write_text(text)
-    return path
-
-
 def _column(path: Path, keys: tuple[str, ...]) -> np.ndarray:
     with open(path) as f:
         return np.array([[float(row[k]) for k in keys] for row in csv.DictReader(f)])
 
 
 def test_plan_simulate_identify_a_printer(tmp_path, capsys):
-    cfg = _config(tmp_path / "printer.cfg")
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
     plan = ["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(tmp_path / "plan")]
     assert main(plan) == 0
     printer, firmware = load_printer(KOSSEL), load_klipper(cfg)
@@ -63,7 +51,7 @@ def test_plan_simulate_identify_a_printer(tmp_path, capsys):
 
 
 def test_a_printers_tolerance_scale_is_taken_as_asked_and_refused_for_a_rotary_delta(tmp_path, capsys):
-    cfg = _config(tmp_path / "printer.cfg")
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
     probe = tmp_path / "probe.csv"
     printer = load_printer(KOSSEL)
     firmware = load_klipper(cfg)
@@ -93,7 +81,7 @@ def test_a_printers_measurements_need_the_firmware(tmp_path, capsys):
 
 @pytest.mark.parametrize("flag", [["--distances"], ["--compliance"]])
 def test_rotary_options_are_refused_for_a_printer(tmp_path, capsys, flag):
-    cfg = _config(tmp_path / "printer.cfg")
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
     probe = tmp_path / "probe.csv"
     write_probe_heights(probe, np.zeros((3, 2)), np.zeros(3))
     code = main(["identify", str(KOSSEL), str(probe), "--controller", str(cfg),

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_cli_printer import _config
+from conftest import kossel_printer_cfg
 
 from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
@@ -24,7 +24,7 @@ KOSSEL = MODELS / "kossel.toml"
 def planned(tmp_path_factory) -> Path:
     """A folder with printer.cfg and plan --object's templates in plan/."""
     folder = tmp_path_factory.mktemp("printsim")
-    cfg = _config(folder / "printer.cfg")
+    cfg = kossel_printer_cfg(folder / "printer.cfg")
     assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(folder / "plan")]) == 0
     return folder
 
