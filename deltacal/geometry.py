@@ -235,7 +235,7 @@ class Tolerances:
 
     @classmethod
     def printer_kit(cls) -> Tolerances:
-        """Errors of a typical linear Delta printer kit (issue 24).
+        """Errors of a typical linear Delta printer kit.
 
         Towers placed to 0.3 mm and leaning 0.15 deg, endstops to 0.5 mm, step distances to
         0.3 %, balls to 0.05 mm and rods to 0.1 mm (the two rods of a pair differ).

@@ -538,7 +538,7 @@ def _write_gcode(path: Path, n: int, rng: np.random.Generator,
 _GCODE_FILTER = """
 import sys
 import numpy as np
-from deltacal.io.gcode import filter_gcode
+from deltacal.gcode.rewriter import filter_gcode
 def correct(p):
     x, y = p[:, 0], p[:, 1]
     return p + np.stack([0.3 * np.sin(y / 50.0), 0.2 * np.cos(x / 40.0), 1e-5 * x * y], axis=1)
@@ -585,8 +585,9 @@ def bench_klipper(setup: Setup) -> list[Row]:
     the library on 10^5 targets; ``compensate --controller printer.cfg`` on 10^5 targets and on a
     printing-like program of 10^5 lines (wall time, peak RSS).
     """
-    from deltacal.controller import KlipperController, KlipperDelta, corrected_targets
+    from deltacal.controller import corrected_targets
     from deltacal.io import load_printer, save_geometry
+    from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
     truth = printer.geometry().perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))

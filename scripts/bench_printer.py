@@ -21,13 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
 from deltacal.geometry import Workspace
-from deltacal.identification.printer import PrinterMeasurements, identify_printer
 from deltacal.io import load_printer
-from deltacal.planning.printer_plan import plan_object
-from deltacal.printer_simulation import printed_distances, probe_heights, random_printer
+from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.identification import PrinterMeasurements, identify_printer
+from deltacal.printer.plan import plan_object
+from deltacal.printer.simulation import printed_distances, probe_heights, random_printer
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 #: The printable volume of the export's fit.

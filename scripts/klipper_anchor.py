@@ -1,12 +1,12 @@
 """Issue 24's anchor: Klipper's own delta calibration on simulated Kossel-size printers.
 
-For 5 seeded printers of each tolerance class (:func:`deltacal.printer_simulation.well_built`,
-:func:`~deltacal.printer_simulation.typical_kit`): Klipper's nominal values (uncalibrated), its basic
+For 5 seeded printers of each tolerance class (:func:`deltacal.printer.simulation.well_built`,
+:func:`~deltacal.printer.simulation.typical_kit`): Klipper's nominal values (uncalibrated), its basic
 calibration (7 probe points in its pattern, radius 115 mm, σ 10 µm), its enhanced calibration (the
 same probes and its object's 12 caliper distances, σ 20 µm), and the best any firmware values can do
-(:func:`deltacal.controller.klipper_fit.fit_klipper` on the TRUE printer, step distances free and
+(:func:`deltacal.printer.firmware.klipper.fit.fit_klipper` on the TRUE printer, step distances free and
 held) and what those leave of each error source alone
-(:func:`~deltacal.controller.klipper_fit.error_budget`). Error over the printable volume (radius
+(:func:`~deltacal.printer.firmware.klipper.fit.error_budget`). Error over the printable volume (radius
 92 mm, heights 0.2 to 100 mm): 3-D max and RMS; first-layer flatness: the largest |z error| at
 z = 0.2 mm over the disc (and its peak to valley). Writes ``results/klipper_anchor.json``. Fixed
 seeds.
@@ -20,11 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_fit import error_budget, error_stats, fit_klipper
 from deltacal.io.atomic import atomic_write_text
 from deltacal.io.robot import load_printer
-from deltacal.printer_comparison import (
+from deltacal.printer.comparison import (
     BASIC,
     CLASSES,
     DISTANCE_SIGMA,
@@ -35,7 +33,9 @@ from deltacal.printer_comparison import (
     WORKSPACE,
     klipper_calibrations,
 )
-from deltacal.printer_simulation import random_true_printer
+from deltacal.printer.firmware.klipper.fit import error_budget, error_stats, fit_klipper
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.simulation import random_true_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 #: The anchor's figures (issue 24): 3-D max / first-layer flatness [mm].

@@ -1,13 +1,13 @@
 """Issue 24's "Done when": deltacal's whole path against Klipper's own calibration on fresh printers.
 
-For seeded printers of each tolerance class (:data:`deltacal.printer_comparison.CLASSES`; seeds
+For seeded printers of each tolerance class (:data:`deltacal.printer.comparison.CLASSES`; seeds
 24000 + k and 24100 + k, used by no test and not by ``klipper_anchor.py``), measured the same
 way for both sides (probe triggers σ 10 µm, caliper distances σ 20 µm): Klipper's basic (7
 probes) and enhanced (7 probes and its object's 12 distances) calibration; deltacal with the
 planned object (49 probe heights, 40 distances): the G-code route (exact compensation through
 Klipper's nominal configuration) and the exported firmware values alone (Klipper's values fitted
 to the identified printer, for each first-layer weight swept). Every method is judged on the TRUE
-printer (:func:`deltacal.printer_comparison.evaluate`): 3-D max and RMS over the printable volume
+printer (:func:`deltacal.printer.comparison.evaluate`): 3-D max and RMS over the printable volume
 (radius 92 mm, z 0.2 to 100 mm), first-layer flatness (max |z| and peak to valley), raw and less
 the bed motion nothing measures (the headline: a shift along the bed and a turn about its normal
 move the printed part on the bed, not its shape, and no probe and no caliper sees them, for
@@ -26,12 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from deltacal.controller.klipper import KlipperDelta
 from deltacal.io.atomic import atomic_write_text
 from deltacal.io.robot import load_printer
-from deltacal.planning.printer_object import CALIPER_RANGE
-from deltacal.planning.printer_plan import plan_object
-from deltacal.printer_comparison import (
+from deltacal.printer.comparison import (
     BASIC,
     CLASSES,
     DISTANCE_SIGMA,
@@ -45,6 +42,9 @@ from deltacal.printer_comparison import (
     exported_name,
     run_printer,
 )
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.object import CALIPER_RANGE
+from deltacal.printer.plan import plan_object
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 #: First-layer weights of the exported values swept.

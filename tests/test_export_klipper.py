@@ -16,22 +16,16 @@ import numpy as np
 import pytest
 
 from deltacal.cli import main
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_calibrate import klipper_enhanced, object_pairs, probe_points
-from deltacal.controller.klipper_fit import error_stats, printable_grid, values_of
 from deltacal.geometry import Tolerances, Workspace
-from deltacal.identification.printer import PrinterMeasurements, identify_printer
-from deltacal.io import (
-    load_calibration,
-    load_klipper,
-    load_nominal,
-    load_printer,
-    save_calibration,
-    save_geometry,
-)
+from deltacal.io import load_calibration, load_nominal, load_printer, save_calibration, save_geometry
 from deltacal.kinematics import exact
-from deltacal.planning.printer_plan import plan_object
-from deltacal.printer_simulation import printed_distances, probe_heights, random_printer, typical_kit
+from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
+from deltacal.printer.firmware.klipper.config import load_klipper
+from deltacal.printer.firmware.klipper.fit import error_stats, printable_grid, values_of
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.identification import PrinterMeasurements, identify_printer
+from deltacal.printer.plan import plan_object
+from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 PRINTER = load_printer(KOSSEL)

@@ -20,9 +20,7 @@ from numpy.testing import assert_allclose
 from deltacal import InputError
 from deltacal.compensation import compensate
 from deltacal.exceptions import UnreachableError
-from deltacal.geometry import Tolerances
-from deltacal.io import load_nominal
-from deltacal.io.gcode import (
+from deltacal.gcode.rewriter import (
     ARC_TOLERANCE_RATIO,
     CHUNK_POINTS,
     DEFAULT_SEGMENT_MM,
@@ -31,6 +29,8 @@ from deltacal.io.gcode import (
     is_gcode_path,
     read_lines,
 )
+from deltacal.geometry import Tolerances
+from deltacal.io import load_nominal
 from deltacal.kinematics import closed_form, exact
 
 MOVE = re.compile(r"^(?:N\d+ )?(?:G9[01] )?G[01] X(-?\d+\.\d{4}) Y(-?\d+\.\d{4}) Z(-?\d+\.\d{4})")

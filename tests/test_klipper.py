@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from deltacal.controller.klipper import KlipperDelta
 from deltacal.exceptions import GeometryError, InputError, InputWarning
-from deltacal.io.klipper import load_klipper, read_klipper_config
 from deltacal.io.robot import load_printer
 from deltacal.kinematics import exact
-from deltacal.printer import NominalLinearDelta
+from deltacal.printer.firmware.klipper.config import load_klipper, read_klipper_config
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.robot import NominalLinearDelta
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 

@@ -9,8 +9,9 @@ import pytest
 from numpy.testing import assert_allclose
 from test_klipper_fit import WORKSPACE, klipper_shaped
 
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_calibrate import (
+from deltacal.io.robot import load_printer
+from deltacal.kinematics import exact
+from deltacal.printer.firmware.klipper.calibrate import (
     delta_analyze_distances,
     klipper_basic,
     klipper_enhanced,
@@ -18,11 +19,10 @@ from deltacal.controller.klipper_calibrate import (
     probe_points,
     stable_positions,
 )
-from deltacal.controller.klipper_fit import error_stats, values_of
-from deltacal.io.robot import load_printer
-from deltacal.kinematics import exact
-from deltacal.printer import NominalLinearDelta
-from deltacal.printer_simulation import (
+from deltacal.printer.firmware.klipper.fit import error_stats, values_of
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.robot import NominalLinearDelta
+from deltacal.printer.simulation import (
     bed_motion,
     printed_distances,
     probe_heights,

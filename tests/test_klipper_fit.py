@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_calibrate import klipper_basic, probe_points
-from deltacal.controller.klipper_fit import (
+from deltacal.geometry import DeltaGeometry, Workspace
+from deltacal.io.robot import load_printer
+from deltacal.printer.firmware.klipper.calibrate import klipper_basic, probe_points
+from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper, save_klipper_config
+from deltacal.printer.firmware.klipper.fit import (
     KLIPPER_NAMES,
     error_budget,
     error_stats,
@@ -19,11 +21,9 @@ from deltacal.controller.klipper_fit import (
     nozzle_errors,
     values_of,
 )
-from deltacal.geometry import DeltaGeometry, Workspace
-from deltacal.io.klipper import klipper_config_text, load_klipper, save_klipper_config
-from deltacal.io.robot import load_printer
-from deltacal.printer import NominalLinearDelta
-from deltacal.printer_simulation import probe_heights, random_true_printer, typical_kit
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.robot import NominalLinearDelta
+from deltacal.printer.simulation import probe_heights, random_true_printer, typical_kit
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 WORKSPACE = Workspace(radius=92.0, height=100.0, top_z=100.0)

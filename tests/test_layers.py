@@ -24,13 +24,16 @@ LAYERS = {
     "report": 70,
     "export": 70,
     "viz": 60,
+    "printer": 55,  # the linear Delta's wing, over the engine
+    # Parts of the wing that the engine still reaches (to be moved behind the kind's interface):
+    "printer.robot": 10,
+    "printer.firmware.klipper.model": 38,
+    "printer.firmware.klipper.config": 50,
+    "gcode": 52,
     "io": 50,
     "planar": 45,  # a paper's example: uses the core, nothing uses it
     "planning": 40,
     "simulation": 40,
-    "printer_simulation": 40,
-    "printer_comparison": 80,
-    "printer_demo": 80,
     "validation": 40,
     "controller": 38,
     "calibration": 36,
@@ -40,7 +43,6 @@ LAYERS = {
     "identifiability": 30,
     "errormodels": 25,
     "kinematics": 20,
-    "printer": 10,
     "geometry": 10,
     "chains": 10,
     "rotations": 10,
@@ -98,10 +100,13 @@ def graph() -> dict[str, set[str]]:
 
 
 def layer(name: str) -> int:
-    parts = name.split(".")
-    key = parts[1] if len(parts) > 1 else "__init__"
-    assert key in LAYERS, f"{name}: not in any layer; add it to LAYERS (and to the README's layout)"
-    return LAYERS[key]
+    """The layer of a module: its longest dotted prefix (below ``deltacal``) in :data:`LAYERS`."""
+    parts = name.split(".")[1:] or ["__init__"]
+    for end in range(len(parts), 0, -1):
+        key = ".".join(parts[:end])
+        if key in LAYERS:
+            return LAYERS[key]
+    raise AssertionError(f"{name}: not in any layer; add it to LAYERS (and to the docs' layout)")
 
 
 def test_every_import_points_down_the_layers():

@@ -18,7 +18,7 @@ from deltacal.io.robot import load_nominal, load_printer, load_robot
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
-from deltacal.printer import NominalLinearDelta
+from deltacal.printer.robot import NominalLinearDelta
 from deltacal.rotations import rotation_from_vector
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

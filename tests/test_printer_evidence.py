@@ -8,17 +8,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from deltacal.controller import KlipperController, corrected_targets
-from deltacal.controller.klipper import KlipperDelta
-from deltacal.controller.klipper_fit import printable_grid
+from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances, Workspace
-from deltacal.identification.evidence import evidence_scale, log_evidence
-from deltacal.identification.printer import identify_printer, scaled_tolerances
 from deltacal.io.robot import load_printer
-from deltacal.planning.printer_plan import plan_object
-from deltacal.printer import less_bed_motion
-from deltacal.printer_comparison import plan_measurements
-from deltacal.printer_simulation import (
+from deltacal.printer.comparison import plan_measurements
+from deltacal.printer.evidence import evidence_scale, log_evidence
+from deltacal.printer.firmware.klipper.fit import printable_grid
+from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
+from deltacal.printer.identification import identify_printer, scaled_tolerances
+from deltacal.printer.plan import plan_object
+from deltacal.printer.robot import less_bed_motion
+from deltacal.printer.simulation import (
     WELL_BUILT_BED_TILT_DEG,
     nozzle_positions,
     printed_distances,

@@ -9,17 +9,17 @@ import pytest
 
 from deltacal.errormodels import get_model
 from deltacal.geometry import Tolerances
-from deltacal.identification.printer import (
+from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
+from deltacal.io.geometry_file import load_geometry, save_geometry
+from deltacal.io.robot import load_printer
+from deltacal.kinematics import exact
+from deltacal.printer.identification import (
     PrinterMeasurements,
     identify_printer,
     measured_combinations,
     posterior_sigma,
 )
-from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
-from deltacal.io.geometry_file import load_geometry, save_geometry
-from deltacal.io.robot import load_printer
-from deltacal.kinematics import exact
-from deltacal.printer_simulation import random_printer
+from deltacal.printer.simulation import random_printer
 from deltacal.report.accuracy import less_bed_motion
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

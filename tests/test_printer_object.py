@@ -10,17 +10,17 @@ import trimesh
 from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
-from deltacal.controller.klipper import KlipperDelta
 from deltacal.exceptions import InputError, PlanningError
 from deltacal.geometry import Workspace
-from deltacal.io import (
+from deltacal.io.robot import load_printer
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.measurement_files import (
     read_printed_distances,
     read_probe_heights,
     write_printed_distances,
     write_probe_heights,
 )
-from deltacal.io.robot import load_printer
-from deltacal.planning.printer_object import (
+from deltacal.printer.object import (
     BALL_DIAMETER,
     CALIPER_RANGE,
     CLEARANCE,
@@ -29,7 +29,7 @@ from deltacal.planning.printer_object import (
     levels,
     probe_grid,
 )
-from deltacal.planning.printer_plan import geometric_rows, model_rows, plan_object
+from deltacal.printer.plan import geometric_rows, model_rows, plan_object
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 KOSSEL = MODELS / "kossel.toml"

@@ -24,6 +24,7 @@ import numpy as np
 from ..compensation import METHODS, screen
 from ..controller import CommandModel
 from ..exceptions import InputError, UnreachableError, UsageError
+from ..gcode.rewriter import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
 from ..io import (
     CommandsWriter,
     JointsWriter,
@@ -33,7 +34,6 @@ from ..io import (
     load_calibration,
     load_controller,
 )
-from ..io.gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
 from .workers import Job, shared_values, solved_in_order

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from ..demo import controller_table, run_demo, text_table
-from ..printer_demo import SEED, printer_table, run_printer_demo
+from ..printer.demo import SEED, printer_table, run_printer_demo
 from .common import seed
 
 

@@ -1,14 +1,14 @@
 """``deltacal export CAL --controller klipper -o CALIBRATED.cfg``: the firmware values that fit best.
 
 Klipper's model (vertical towers, one rod per tower, a point effector) cannot hold a real printer:
-:func:`~deltacal.controller.klipper_fit.fit_klipper` finds its ``delta_radius``, tower ``angle``,
+:func:`~deltacal.printer.firmware.klipper.fit.fit_klipper` finds its ``delta_radius``, tower ``angle``,
 ``arm_length``, ``position_endstop`` and ``rotation_distance`` that leave the least nozzle error
 over the printable volume of the identified printer (its true bed as z = 0), judged in the printed
 part's frame, with the first layer's height errors weighted
-(:data:`~deltacal.controller.klipper_fit.EXPORT_FIRST_LAYER_WEIGHT`) so that its flatness is not
+(:data:`~deltacal.printer.firmware.klipper.fit.EXPORT_FIRST_LAYER_WEIGHT`) so that its flatness is not
 traded for the volume's. The file written holds only the keys Klipper knows, ready to replace those in
 ``printer.cfg``; what the values leave is printed (and kept as comments in the file), with what
-each error source alone would leave (:func:`~deltacal.controller.klipper_fit.error_budget`):
+each error source alone would leave (:func:`~deltacal.printer.firmware.klipper.fit.error_budget`):
 what ``compensate`` corrects through the firmware.
 """
 
@@ -19,12 +19,13 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..controller.klipper import KlipperDelta
-from ..controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget, fit_klipper
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import Workspace
-from ..io import load_calibration, load_klipper, save_klipper_config
+from ..io import load_calibration
 from ..io import load_robot as load_robot_file
+from ..printer.firmware.klipper.config import load_klipper, save_klipper_config
+from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget, fit_klipper
+from ..printer.firmware.klipper.model import KlipperDelta
 from ..viz import default_workspace
 from .common import check_input, check_output
 

@@ -3,7 +3,7 @@
 The measurements are of commanded positions: each is turned into the readings the firmware
 commanded (steps below the endstops, counted in the printer's nominal step distance) through
 the firmware's own inverse model (the Klipper configuration they were made with), then
-:func:`~deltacal.identification.printer.identify_printer` finds the full geometry on the true bed.
+:func:`~deltacal.printer.identification.identify_printer` finds the full geometry on the true bed.
 """
 
 from __future__ import annotations
@@ -12,13 +12,14 @@ import argparse
 
 import numpy as np
 
-from ..controller.klipper import KlipperDelta
 from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
-from ..identification.printer import PrinterMeasurements, identify_printer
-from ..io import load_klipper, save_calibration
-from ..io.printer_measurements import read_printed_distances, read_probe_heights
-from ..printer import NominalLinearDelta
+from ..io import save_calibration
+from ..printer.firmware.klipper.config import load_klipper
+from ..printer.firmware.klipper.model import KlipperDelta
+from ..printer.identification import PrinterMeasurements, identify_printer
+from ..printer.measurement_files import read_printed_distances, read_probe_heights
+from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, positive_float, sigma, three_numbers
 
 #: The error models of a printer.

@@ -29,7 +29,7 @@ from ..planning import (
     rough_poses,
 )
 from ..planning.regressor import _RTOL
-from ..printer import NominalLinearDelta
+from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
 from .plan_object import add_object_arguments, refuse_object_options, run_object
 

@@ -12,10 +12,12 @@ import argparse
 from pathlib import Path
 
 from ..exceptions import UsageError
-from ..io import load_klipper, load_robot, write_printed_distances, write_probe_heights, write_stl
-from ..planning.printer_object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
-from ..planning.printer_plan import ObjectPlan, plan_object
-from ..printer import NominalLinearDelta
+from ..io import load_robot, write_stl
+from ..printer.firmware.klipper.config import load_klipper
+from ..printer.measurement_files import write_printed_distances, write_probe_heights
+from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
+from ..printer.plan import ObjectPlan, plan_object
+from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.

@@ -24,7 +24,7 @@ from ..io import (
     write_measurements,
 )
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from ..printer import NominalLinearDelta
+from ..printer.robot import NominalLinearDelta
 from ..simulation import Metrology, pose_stations, simulate_measurements, truth_path
 from .common import (
     check_input,

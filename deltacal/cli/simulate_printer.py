@@ -4,7 +4,7 @@
 --truth TRUE.toml) -o OUT_PROBE.csv [--distances-output OUT_DISTANCES.csv]`` reads the templates
 ``plan --object`` wrote (the commanded x, y of each probe point; the commanded pairs of features;
 the measured column empty or not: it is replaced in the output), runs them on a true printer
-through the firmware (:mod:`deltacal.printer_simulation`) and writes the filled files. The
+through the firmware (:mod:`deltacal.printer.simulation`) and writes the filled files. The
 readings count steps in the robot file's nominal step distance, as ``identify`` reads them.
 """
 
@@ -17,21 +17,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ..controller.klipper import KlipperDelta
 from ..exceptions import AssemblyError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Tolerances
-from ..io import (
-    data_row,
-    load_geometry,
-    load_klipper,
+from ..io import data_row, load_geometry, save_geometry
+from ..printer.firmware.klipper.config import load_klipper
+from ..printer.firmware.klipper.model import KlipperDelta
+from ..printer.measurement_files import (
     read_printed_distances,
     read_probe_heights,
-    save_geometry,
     write_printed_distances,
     write_probe_heights,
 )
-from ..printer import NominalLinearDelta
-from ..printer_simulation import (
+from ..printer.robot import NominalLinearDelta
+from ..printer.simulation import (
     KIT_BED_TILT_DEG,
     WELL_BUILT_BED_TILT_DEG,
     printed_distances,

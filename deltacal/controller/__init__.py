@@ -2,8 +2,6 @@
 
 * :mod:`.model`: :class:`Controller`, the classical Delta with per-limb values that an industrial
   controller, a PLC's Delta transform or a firmware runs (conventions, "Controllers").
-* :mod:`.klipper`: :class:`KlipperDelta`, Klipper's model of a linear Delta printer, and
-  :class:`KlipperController`, the firmware as a controller of the printer's readings.
 * :mod:`.targets`: :func:`corrected_targets`, the targets to send it so the real TCP lands on the
   targets (exact compensation, then the controller's forward model of those readings).
 * :mod:`.fit`: :func:`fit_controller`, the joint offsets or per-limb values that best represent an
@@ -11,9 +9,8 @@
 """
 
 from .fit import FIT_KINDS, ControllerFit, fit_controller
-from .klipper import KlipperController, KlipperDelta
 from .model import Controller
 from .targets import CommandModel, CorrectedTargets, corrected_targets
 
 __all__ = ["FIT_KINDS", "CommandModel", "Controller", "ControllerFit", "CorrectedTargets",
-           "KlipperController", "KlipperDelta", "corrected_targets", "fit_controller"]
+           "corrected_targets", "fit_controller"]

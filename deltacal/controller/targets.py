@@ -2,7 +2,7 @@
 
 A controller takes Cartesian targets and commands the readings its own model's inverse gives: a
 rotary Delta's :class:`~deltacal.controller.model.Controller`, or a printer's firmware
-(:class:`~deltacal.controller.klipper.KlipperController`, Klipper's delta kinematics), both a
+(:class:`~deltacal.printer.firmware.klipper.model.KlipperController`, Klipper's delta kinematics), both a
 :class:`CommandModel`. The readings that put the identified robot's TCP on a target are those of
 exact compensation (:func:`deltacal.compensation.compensate`, which refuses what the real robot
 cannot reach or reaches near a singularity, and checks the working assembly). The target to send
@@ -91,7 +91,7 @@ def corrected_targets(
     Args:
         calibration: The calibration (or the identified geometry itself).
         controller: The controller's model (a rotary :class:`~deltacal.controller.Controller`, or
-            a printer's firmware, :class:`~deltacal.controller.klipper.KlipperController`).
+            a printer's firmware, :class:`~deltacal.printer.firmware.klipper.model.KlipperController`).
         targets: Desired TCP positions in the base frame {O} [mm], (N, 3).
         min_margin: Singularity margin required of both the real robot (as
             :func:`~deltacal.compensation.compensate`) and the controller's model at the readings.

@@ -10,15 +10,21 @@
 
 from __future__ import annotations
 
+import importlib
+
 from .bai import DISTANCE_GAUGE, MODEL32_REMOVED, BaiModel
 from .base import ErrorModel, SubModel
 from .classical import ClassicalModel
 from .complete import CompleteModel
-from .printer import FirmwareModel, PrinterModel
 
 MODEL_NAMES = ("classical", "bai42", "complete", "bai24", "bai18", "bai36", "bai32")
-#: The models of a linear Delta printer (a prismatic chain).
-PRINTER_MODEL_NAMES = ("printer", "klipper")
+#: The models of a linear Delta printer (a prismatic chain), defined in the printer's wing: name ->
+#: (module, class). Imported on first use, so the engine never imports the wing.
+_PRINTER_MODELS = {
+    "printer": ("deltacal.printer.errormodels", "PrinterModel"),
+    "klipper": ("deltacal.printer.errormodels", "FirmwareModel"),
+}
+PRINTER_MODEL_NAMES = tuple(_PRINTER_MODELS)
 
 
 def get_model(name: str) -> ErrorModel:
@@ -27,10 +33,10 @@ def get_model(name: str) -> ErrorModel:
         return ClassicalModel()
     if name == "complete":
         return CompleteModel()
-    if name == "printer":
-        return PrinterModel()
-    if name == "klipper":
-        return FirmwareModel()
+    if name in _PRINTER_MODELS:
+        module, cls = _PRINTER_MODELS[name]
+        model_class: type[ErrorModel] = getattr(importlib.import_module(module), cls)
+        return model_class()
     if name == "bai42":
         return BaiModel(orientation=True)
     if name == "bai24":
@@ -52,8 +58,6 @@ def get_model(name: str) -> ErrorModel:
 __all__ = [
     "MODEL_NAMES",
     "PRINTER_MODEL_NAMES",
-    "FirmwareModel",
-    "PrinterModel",
     "BaiModel",
     "ClassicalModel",
     "CompleteModel",

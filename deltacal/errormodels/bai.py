@@ -66,7 +66,7 @@ class BaiModel(ErrorModel):
         # (positions of the ball pairs, linear in the geometry) and the four of §3.2. Left to
         # the pivoted QR, distances dropped an encoder offset and axis tilts: held at zero while
         # the robot's are a degree, the rigid motions they stand for are wrong to second order
-        # (tens of µm) and the fit stalls far from the minimum (issue 12).
+        # (tens of µm) and the fit stalls far from the minimum.
         last = [n for n in DISTANCE_GAUGE + MODEL32_REMOVED if n in self.names]
         self.preferred = [n for n in self.names if n not in last] + last
 

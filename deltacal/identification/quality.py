@@ -29,7 +29,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..exceptions import PoorFitError as PoorFitError  # where it lived before issue 20: still importable
+from ..exceptions import PoorFitError as PoorFitError  # its former home: still importable
 from ..geometry import DeltaGeometry
 from ..observations import Measurements
 from .options import FitOptions

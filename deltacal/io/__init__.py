@@ -19,7 +19,6 @@ from .calibration import (
     save_calibration,
 )
 from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
-from .gcode import filter_gcode, filter_lines, is_gcode_path
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -29,24 +28,9 @@ from .geometry_file import (
     load_geometry,
     save_geometry,
 )
-from .klipper import (
-    KlipperConfig,
-    klipper_config_text,
-    load_klipper,
-    read_klipper_config,
-    save_klipper_config,
-)
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
-from .printer_measurements import (
-    PrintedDistances,
-    ProbeHeights,
-    read_printed_distances,
-    read_probe_heights,
-    write_printed_distances,
-    write_probe_heights,
-)
 from .robot import load_nominal, load_printer, load_robot
 from .stl import write_stl
 from .tables import (
@@ -73,12 +57,6 @@ from .targets import (
 from .toml import RawToml, exact_degrees, radians_from_text, read_toml, toml_dumps
 
 __all__ = [
-    "PrintedDistances",
-    "ProbeHeights",
-    "read_printed_distances",
-    "read_probe_heights",
-    "write_printed_distances",
-    "write_probe_heights",
     "write_stl",
     "CALIBRATION_FORMAT",
     "CONTROLLER_FORMAT",
@@ -108,9 +86,6 @@ __all__ = [
     "lines_text",
     "unassembled_rows",
     "exact_degrees",
-    "filter_gcode",
-    "filter_lines",
-    "is_gcode_path",
     "geometry_from_dict",
     "geometry_to_dict",
     "load_geometry",
@@ -121,11 +96,6 @@ __all__ = [
     "load_nominal",
     "load_printer",
     "load_robot",
-    "load_klipper",
-    "read_klipper_config",
-    "klipper_config_text",
-    "save_klipper_config",
-    "KlipperConfig",
     "name_problem",
     "radians_from_text",
     "read_csv_table",

@@ -3,8 +3,8 @@
 A robot file given where a controller is expected is read as the controller of its nominal values
 (all limbs alike, offsets zero). A Klipper configuration (``printer.cfg``: a name ending in ``.cfg``,
 or a ``[printer]`` section) is a printer's firmware: :func:`load_controller` reads it
-(:func:`~deltacal.io.klipper.load_klipper`) into a
-:class:`~deltacal.controller.klipper.KlipperController`. ``[fit]`` is informative: written by
+(:func:`~deltacal.printer.firmware.klipper.config.load_klipper`) into a
+:class:`~deltacal.printer.firmware.klipper.model.KlipperController`. ``[fit]`` is informative: written by
 ``deltacal export --controller``, read by no command. Files are in mm and degrees.
 """
 
@@ -17,11 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from ..controller import Controller, ControllerFit, KlipperController
+from ..controller import Controller, ControllerFit
 from ..exceptions import GeometryError, InputError
+from ..printer.firmware.klipper.config import load_klipper
+from ..printer.firmware.klipper.model import KlipperController
 from .atomic import atomic_write_text
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
-from .klipper import load_klipper
 from .robot import PLAUSIBLE_LENGTH_MM, load_nominal
 from .toml import _shown, _Table, radians_from_text, read_toml, short_degrees, toml_dumps
 

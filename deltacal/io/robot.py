@@ -11,7 +11,7 @@ import numpy as np
 from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
-from ..printer import NominalLinearDelta
+from ..printer.robot import NominalLinearDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
 from .names import check_names, control_character
 from .toml import _Table, read_toml

@@ -4,7 +4,7 @@ A batch of N vectors is an array of shape (3, N) and a batch of 3x3 matrices (3,
 the pose index is last, so every operation below is a handful of elementwise numpy
 operations on contiguous rows of length N. For the small matrices of the Delta's rod
 equations this is several times faster than ``np.linalg.solve`` or ``einsum`` on (N, 3, 3)
-stacks, whose per-matrix overhead dominates (measured in ``scripts/bench.py``, issue 13).
+stacks, whose per-matrix overhead dominates (measured in ``scripts/bench.py``).
 
 The solves are by the adjugate (Cramer's rule): exact in exact arithmetic, and as accurate
 as a pivoted LU for the well-conditioned matrices they are used on; where a matrix is

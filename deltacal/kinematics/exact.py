@@ -9,7 +9,7 @@ rotation vectors in the base frame: ``R <- exp(dphi) R``. This solver shares no
 code with the Pinocchio model (:mod:`deltacal.kinematics.multibody`); tests hold
 the two to each other.
 
-Speed (issue 13): the poses are solved in blocks of :data:`BLOCK` with the pose index
+Speed: the poses are solved in blocks of :data:`BLOCK` with the pose index
 last (:mod:`~deltacal.kinematics.batch3`), each 6x6 Newton step in closed form (the FK
 through the limbs' pair sums and differences and a 3x3 Schur complement, the IK with the
 plate origin eliminated), and a pose leaves the iteration once converged. On the bench's

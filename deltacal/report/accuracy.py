@@ -36,7 +36,7 @@ from ..geometry import DeltaGeometry, Workspace
 from ..identification.columns import COMPLIANCE_NAMES
 from ..identification.frames import gauge_sensitivity, to_axes_gauge
 from ..kinematics import exact, statics
-from ..printer import in_plane_motion, less_bed_motion
+from ..printer.robot import in_plane_motion, less_bed_motion
 from ..rotations import skew
 
 #: Grid points along a side of a horizontal slice (and along x and z of the vertical one).

@@ -1,4 +1,4 @@
-"""What each route to a Cartesian controller leaves, for the report (issue 22).
+"""What each route to a Cartesian controller leaves, for the report.
 
 Beside the predicted-accuracy map: the TCP error over the same slices that the controller's joint
 offsets alone, or its per-limb values, leave once fitted to the calibration
@@ -17,11 +17,11 @@ import numpy as np
 from ..calibration import Calibration
 from ..controller import FIT_KINDS, Controller, fit_controller
 from ..controller.fit import tcp_errors
-from ..controller.klipper import KlipperDelta
-from ..controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
 from ..exceptions import DeltacalError
 from ..geometry import DeltaGeometry, Workspace
 from ..kinematics import exact
+from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
+from ..printer.firmware.klipper.model import KlipperDelta
 from .accuracy import AccuracyMap, less_bed_motion, reachable_readings
 
 

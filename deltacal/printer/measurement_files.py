@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import InputError
-from .atomic import atomic_write_text
-from .tables import TARGET_COLUMNS, _format_rows, data_row, read_csv_table
+from ..io.atomic import atomic_write_text
+from ..io.tables import TARGET_COLUMNS, _format_rows, data_row, read_csv_table
 
 #: The columns of a probe heights file; the last is the one measured.
 PROBE_COLUMNS = TARGET_COLUMNS

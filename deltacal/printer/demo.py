@@ -9,7 +9,7 @@ identifies the printer (``printer_calibration.toml``), exports Klipper's values 
 (``printer_calibrated.cfg``, the keys to replace in printer.cfg) and corrects a small part's
 G-code for Klipper's nominal values (``part.gcode`` -> ``part_corrected.gcode``, the filter of
 ``deltacal compensate``). Klipper's basic and enhanced calibration are simulated on the same
-printer with their own 7 probes and 12 distances (:mod:`deltacal.printer_comparison`).
+printer with their own 7 probes and 12 distances (:mod:`deltacal.printer.comparison`).
 
 Its table: each method's nozzle errors on the TRUE printer over the printable volume (3-D max and
 RMS, less the shift along the bed and the turn about its normal that nothing measures; raw 3-D max
@@ -27,23 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .controller import KlipperController, corrected_targets
-from .controller.klipper import KlipperDelta
-from .controller.klipper_fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
-from .io import (
-    atomic_write_text,
-    load_klipper,
-    save_calibration,
-    save_klipper_config,
-    write_printed_distances,
-    write_probe_heights,
-    write_stl,
-)
-from .io.gcode import DEFAULT_SEGMENT_MM, filter_gcode
-from .io.robot import load_printer
-from .planning.printer_plan import plan_object
-from .printer import less_bed_motion
-from .printer_comparison import (
+from ..controller import corrected_targets
+from ..gcode.rewriter import DEFAULT_SEGMENT_MM, filter_gcode
+from ..io import atomic_write_text, save_calibration, write_stl
+from ..io.robot import load_printer
+from .comparison import (
     BASIC,
     CLASSES,
     ENHANCED,
@@ -55,7 +43,13 @@ from .printer_comparison import (
     exported_name,
     run_printer,
 )
-from .printer_simulation import nozzle_positions
+from .firmware.klipper.config import load_klipper, save_klipper_config
+from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
+from .firmware.klipper.model import KlipperController, KlipperDelta
+from .measurement_files import write_printed_distances, write_probe_heights
+from .plan import plan_object
+from .robot import less_bed_motion
+from .simulation import nozzle_positions
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 #: The first-layer weight of the exported values: ``export --controller klipper``'s.

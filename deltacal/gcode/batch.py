@@ -1,6 +1,6 @@
 """A chunk of a G-code program on its way out: lines kept, move points corrected once per chunk.
 
-The G-code reader (:mod:`deltacal.io.gcode`) hands each line to a :class:`Batch`: a line kept as
+The G-code reader (:mod:`deltacal.gcode.rewriter`) hands each line to a :class:`Batch`: a line kept as
 it is, or a move's points with the text around them (:class:`MoveText`). When the batch holds
 :data:`CHUNK_POINTS` points or :data:`CHUNK_LINES` lines, :meth:`Batch.flush` calls ``correct``
 once on all its points and returns the chunk's output text, in the input's order.

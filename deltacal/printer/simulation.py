@@ -1,7 +1,7 @@
-"""Simulated measurements of a linear Delta printer through its firmware (issue 24).
+"""Simulated measurements of a linear Delta printer through its firmware.
 
 A true printer (:func:`random_printer`: a perturbed geometry expressed with its true bed as z = 0)
-runs a firmware configuration (:class:`~deltacal.controller.klipper.KlipperDelta`): a commanded
+runs a firmware configuration (:class:`~deltacal.printer.firmware.klipper.model.KlipperDelta`): a commanded
 position x becomes steps ``n = firmware.steps(x)``, deltacal's readings ``n d`` (d the printer's
 nominal step distance), and the real nozzle is at the truth's exact forward kinematics of them.
 
@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .controller.klipper import KlipperDelta
-from .exceptions import ConvergenceError
-from .geometry import DeltaGeometry, Tolerances
-from .kinematics import exact
-from .printer import NominalLinearDelta
+from ..exceptions import ConvergenceError
+from ..geometry import DeltaGeometry, Tolerances
+from ..kinematics import exact
+from .firmware.klipper.model import KlipperDelta
+from .robot import NominalLinearDelta
 
 #: The secant iteration on the commanded z stops below this change [mm].
 PROBE_TOLERANCE = 1e-10

@@ -74,7 +74,7 @@ CLEARANCE = 8.0
 PAD_GAP = 3.0
 #: Facets about the axis of each part (the ball's outline is within 5 µm of a circle).
 SECTIONS = 72
-#: Most distances the object offers to measure (issue 24: at most 40 caliper distances).
+#: Most distances the object offers to measure (at most 40 caliper distances).
 MAX_DISTANCES = 40
 
 

@@ -72,8 +72,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from ..exceptions import InputError
-from .atomic import atomic_output
-from .gcode_batch import (
+from ..io.atomic import atomic_output
+from .batch import (
     CHUNK_LINES,
     CHUNK_POINTS,
     E_DECIMALS,
@@ -83,7 +83,7 @@ from .gcode_batch import (
     MoveText,
     Progress,
 )
-from .gcode_path import ArcPath, StraightPath, arc_sweep, centre_from_radius
+from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 
 __all__ = [
     "ARC_RADIUS_TOLERANCE_MM",

@@ -14,9 +14,9 @@ What Klipper does with the file (``klippy/configfile.py``), and so what deltacal
   rest's copy when it writes): deltacal warns. A block with other lines after its header, or
   ``#*#`` lines before it, is ignored with a warning, as Klipper does.
 
-Only ``[printer]`` and ``[stepper_a]`` .. ``[stepper_c]`` are interpreted (:mod:`deltacal.controller.klipper`
-gives each value's meaning); every other section is left alone. Errors are one line naming the file,
-section, key and value.
+Only ``[printer]`` and ``[stepper_a]`` .. ``[stepper_c]`` are interpreted (:mod:`.model` gives each
+value's meaning); every other section is left alone. Errors are one line naming the file, section,
+key and value.
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ from warnings import warn
 
 import numpy as np
 
-from ..controller.klipper import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
-from ..exceptions import GeometryError, InputError, InputWarning
-from .atomic import atomic_write_text
+from ....exceptions import GeometryError, InputError, InputWarning
+from ....io.atomic import atomic_write_text
+from .model import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
 
 #: The line that opens Klipper's SAVE_CONFIG block.
 AUTOSAVE_MARK = "#*# <---------------------- SAVE_CONFIG ---------------------->"

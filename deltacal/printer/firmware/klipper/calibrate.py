@@ -36,7 +36,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .klipper import KlipperDelta
+from .model import KlipperDelta
 
 #: Scatter of the 6 outer probe points (fractions of the probe radius), azimuths 90 + 60 k deg.
 PROBE_SCATTER = (0.95, 0.90, 0.85, 0.70, 0.75, 0.80)

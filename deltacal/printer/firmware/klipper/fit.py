@@ -1,7 +1,7 @@
-"""Klipper's values that fit an identified linear Delta printer best (issue 24, "Into the firmware").
+"""Klipper's values that fit an identified linear Delta printer best.
 
-Klipper's delta model (:class:`~deltacal.controller.klipper.KlipperDelta`) has vertical towers, one
-rod per tower and a point effector; a real printer differs in every element. For each target t of a
+Klipper's delta model (:class:`~.model.KlipperDelta`) has vertical towers, one rod
+per tower and a point effector; a real printer differs in every element. For each target t of a
 grid over the printable volume, Klipper commands steps ``n(t)`` (its closed-form inverse); the real
 printer (its identified geometry, the true bed as z = 0) puts the nozzle at ``T(n d)`` (exact
 forward kinematics, d the printer's nominal step distance: deltacal's readings); the residual is
@@ -31,13 +31,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..exceptions import ConvergenceError
-from ..geometry import DeltaGeometry, Workspace
-from ..identifiability import base_parameters
-from ..kinematics import exact
-from ..printer import in_plane_motion, less_bed_motion
-from ..rotations import skew
-from .klipper import KlipperDelta
+from ....exceptions import ConvergenceError
+from ....geometry import DeltaGeometry, Workspace
+from ....identifiability import base_parameters
+from ....kinematics import exact
+from ....rotations import skew
+from ...robot import in_plane_motion, less_bed_motion
+from .model import KlipperDelta
 
 #: Klipper's values in the order of the fit's unknowns (step distances last).
 KLIPPER_NAMES = (
@@ -153,7 +153,7 @@ def error_stats(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: f
     """3-D errors over the printable volume and the first layer's flatness of Klipper's values [mm].
 
     With ``part_frame`` the 3-D errors are less the in-plane motion that fits them best
-    (:func:`~deltacal.printer.less_bed_motion`); the first layer's z errors are the same either way.
+    (:func:`~deltacal.printer.robot.less_bed_motion`); the first layer's z errors are the same either way.
     """
     grid = printable_grid(workspace) if grid is None else grid
     errors = nozzle_errors(geometry, klipper, step_distance, grid)
@@ -217,7 +217,7 @@ def fit_klipper(
     With ``first_layer_weight`` w > 0 the sum also has the z errors over the first layer's disc
     (:func:`first_layer`) times w: the first layer's flatness bought with some of the volume's
     error. With ``part_frame`` the volume's errors are those of the printed part: less the shift
-    along the bed and the turn about its normal that fit them best (:func:`~deltacal.printer.less_bed_motion`:
+    along the bed and the turn about its normal that fit them best (:func:`~..robot.less_bed_motion`:
     no measurement sees them and a part printed so is the same part), fitted with the values;
     the towers' common turn is then (to first order) the part's turn, so ``angle_c`` is held, as
     Klipper's own calibration holds it.

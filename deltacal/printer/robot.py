@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .exceptions import GeometryError
-from .geometry import DeltaGeometry, Workspace, radial_vectors, tangent_vectors
+from ..exceptions import GeometryError
+from ..geometry import DeltaGeometry, Workspace, radial_vectors, tangent_vectors
 
 
 @dataclass(frozen=True)

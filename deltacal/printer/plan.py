@@ -4,7 +4,7 @@ The distances are chosen among the object's candidate pairs (:mod:`.printer_obje
 what the probe heights and they together tell about the printer: a greedy D-optimal selection
 (Bayesian: ``log det(I + Σ w wᵀ)``, each row ``w`` a measurement's sensitivity in units of each
 parameter's build tolerance and of the measurement's σ, so that the criterion is defined whatever
-the rank, as the identification's priors are, :func:`deltacal.identification.printer.identify_printer`).
+the rank, as the identification's priors are, :func:`deltacal.printer.identification.identify_printer`).
 The probe heights' rows start the information; each step adds the pair that increases the log
 determinant most (``log(1 + wᵀ A⁻¹ w)``) among the pairs still possible: one feature per site
 (a pair fixes the level of its sites), and no printed feature in the way of a chosen pair.
@@ -23,14 +23,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..controller.klipper import KlipperDelta
 from ..errormodels import get_model
 from ..exceptions import PlanningError
 from ..geometry import Tolerances
 from ..identifiability import BaseParameters
-from ..identification.printer import PrinterMeasurements, measured_combinations, residuals_and_regressor
-from ..printer import NominalLinearDelta
-from .printer_object import (
+from .firmware.klipper.model import KlipperDelta
+from .identification import PrinterMeasurements, measured_combinations, residuals_and_regressor
+from .object import (
     CALIPER_RANGE,
     MAX_DISTANCES,
     ObjectLayout,
@@ -40,6 +39,7 @@ from .printer_object import (
     object_mesh,
     probe_grid,
 )
+from .robot import NominalLinearDelta
 
 #: Rows of the probe heights and of candidate pairs: ``rows(probe (N, 3), pairs (P, 2, 3))`` ->
 #: ``(probe rows (N, n), pair rows (P, n))``, each in units of the parameters' prior σ and of the
@@ -97,7 +97,7 @@ def model_rows(printer: NominalLinearDelta, firmware: KlipperDelta, model: str =
 
     The commanded positions become readings through the firmware's inverse model (what the
     printer does when told to go there); the rows are the identification's
-    (:func:`~deltacal.identification.printer.residuals_and_regressor`), scaled by each
+    (:func:`~deltacal.printer.identification.residuals_and_regressor`), scaled by each
     parameter's build tolerance (``model.prior_sigma``).
     """
     geometry = printer.geometry()

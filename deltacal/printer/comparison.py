@@ -1,34 +1,34 @@
-"""deltacal's whole path on a simulated printer, beside Klipper's own calibration (issue 24, "Done when").
+"""deltacal's whole path on a simulated printer, beside Klipper's own calibration.
 
-One seeded true printer (:func:`~deltacal.printer_simulation.random_true_printer`) runs Klipper's
+One seeded true printer (:func:`~deltacal.printer.simulation.random_true_printer`) runs Klipper's
 nominal configuration. It is measured twice, with measurements of the same kind (commanded
 probe triggers, σ :data:`PROBE_SIGMA`; caliper distances of a printed object, σ
 :data:`DISTANCE_SIGMA`):
 
 * Klipper's way: its 7 probe points (radius :data:`PROBE_RADIUS`) and its object's 12 distances,
   for its basic and enhanced calibration
-  (:func:`~deltacal.controller.klipper_calibrate.klipper_basic`, ``klipper_enhanced``);
-* deltacal's way: the planned object (:func:`~deltacal.planning.printer_plan.plan_object`: 49
+  (:func:`~deltacal.printer.firmware.klipper.calibrate.klipper_basic`, ``klipper_enhanced``);
+* deltacal's way: the planned object (:func:`~deltacal.printer.plan.plan_object`: 49
   probe heights on Klipper's round mesh and 40 distances), read through the firmware's
-  inverse into readings and identified (:func:`~deltacal.identification.printer.identify_printer`,
+  inverse into readings and identified (:func:`~deltacal.printer.identification.identify_printer`,
   complete model, iterated, the kit's tolerances as priors, scaled by the measurements' evidence).
 
 Each method is judged on the TRUE printer over the printable volume (:data:`WORKSPACE`, the
-anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.controller.klipper_fit.printable_grid`)
-and over the first layer (z = 0.2 mm, :func:`~deltacal.controller.klipper_fit.first_layer`):
+anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.printer.firmware.klipper.fit.printable_grid`)
+and over the first layer (z = 0.2 mm, :func:`~deltacal.printer.firmware.klipper.fit.first_layer`):
 
 * Klipper's values (nominal, basic, enhanced) and deltacal's exported values (Klipper's values
-  fitted to the identified printer, :func:`~deltacal.controller.klipper_fit.fit_klipper`, for each
+  fitted to the identified printer, :func:`~deltacal.printer.firmware.klipper.fit.fit_klipper`, for each
   first-layer weight asked): the nozzle where the true printer puts it when Klipper commands the
   target with those values;
 * the G-code route: the corrected targets that make the identified printer land on the targets
   (:func:`~deltacal.controller.corrected_targets`), sent through Klipper's NOMINAL configuration to
   the true printer.
 
-Figures (:class:`~deltacal.controller.klipper_fit.ErrorStats`): 3-D max and RMS over the volume,
+Figures (:class:`~deltacal.printer.firmware.klipper.fit.ErrorStats`): 3-D max and RMS over the volume,
 first-layer flatness (max |z| and peak to valley), raw and less the bed motion no probe or caliper
 measures (a shift along the bed and a turn about its normal,
-:func:`~deltacal.printer.less_bed_motion`, fitted to each method's volume errors the same
+:func:`~deltacal.printer.robot.less_bed_motion`, fitted to each method's volume errors the same
 way; it moves nothing vertically, so flatness is the same either way). Units: mm.
 """
 
@@ -38,16 +38,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .controller import KlipperController, corrected_targets
-from .controller.klipper import KlipperDelta
-from .controller.klipper_calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
-from .controller.klipper_fit import ErrorStats, first_layer, fit_klipper, nozzle_errors, printable_grid
-from .geometry import DeltaGeometry, Tolerances, Workspace
-from .identification.printer import PrinterMeasurements, identify_printer
-from .identification.result import IdentificationResult
-from .planning.printer_plan import ObjectPlan
-from .printer import NominalLinearDelta, less_bed_motion
-from .printer_simulation import (
+from ..controller import corrected_targets
+from ..geometry import DeltaGeometry, Tolerances, Workspace
+from ..identification.result import IdentificationResult
+from .firmware.klipper.calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
+from .firmware.klipper.fit import ErrorStats, first_layer, fit_klipper, nozzle_errors, printable_grid
+from .firmware.klipper.model import KlipperController, KlipperDelta
+from .identification import PrinterMeasurements, identify_printer
+from .plan import ObjectPlan
+from .robot import NominalLinearDelta, less_bed_motion
+from .simulation import (
     KIT_BED_TILT_DEG,
     WELL_BUILT_BED_TILT_DEG,
     TruePrinter,

@@ -16,7 +16,7 @@ Klipper's meaning of its values (Config Reference, ``klippy/kinematics/delta.py`
 Inverse kinematics: carriage height ``h_i = sqrt(ℓ_i² − (x − X_i)² − (y − Y_i)²) + z`` and steps
 below the endstop ``(E_i − h_i) / d_i``. Forward: the trilateration of the three spheres of radii
 ℓ_i about ``(X_i, Y_i, E_i − n_i d_i)``, the solution below them. deltacal's readings of a printer
-are travels below the endstops counted in its nominal step distance (:mod:`deltacal.printer`):
+are travels below the endstops counted in its nominal step distance (:mod:`deltacal.printer.robot`):
 reading = steps × that step distance. Units: mm (angles of the dataclass in rad).
 
 In deltacal's terms Klipper's model is the perfect printer (:meth:`KlipperDelta.from_printer`) with
@@ -32,10 +32,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ..exceptions import GeometryError, UnreachableError
-from ..geometry import DeltaGeometry, radial_vectors
-from ..kinematics.closed_form import VirtualDelta
-from ..printer import NominalLinearDelta
+from ....exceptions import GeometryError, UnreachableError
+from ....geometry import DeltaGeometry, radial_vectors
+from ....kinematics.closed_form import VirtualDelta
+from ...robot import NominalLinearDelta
 
 #: Klipper's tower angles when a ``[stepper_*]`` gives none [deg] (towers A, B, C).
 DEFAULT_ANGLES_DEG = (210.0, 330.0, 90.0)
@@ -103,7 +103,7 @@ class KlipperDelta:
         nozzle: the radius and angle of its horizontal part, its height at the endstop ``E_i``
         (``position_endstop = E_i − sqrt(ℓ_i² − ρ²)``); ℓ_i the mean of the pair's rods; the
         geometry's nominal step distance. Exact for a perfect printer (as :meth:`from_printer`);
-        for a real one a start that :func:`~deltacal.controller.klipper_fit.fit_klipper` refines.
+        for a real one a start that :func:`~deltacal.printer.firmware.klipper.fit.fit_klipper` refines.
 
         Raises:
             GeometryError: not a printer (a prismatic chain), no step distance, or a nozzle off
@@ -204,7 +204,7 @@ class KlipperController:
 
     The firmware (:class:`KlipperDelta`) commands steps; deltacal's readings of a printer are
     travels below the endstops counted in the printer's nominal step distance
-    (:mod:`deltacal.printer`), reading = steps × ``step_distance``. This pairs the two, so that
+    (:mod:`deltacal.printer.robot`), reading = steps × ``step_distance``. This pairs the two, so that
     Klipper serves :func:`~deltacal.controller.corrected_targets` and the G-code route as a
     rotary :class:`~deltacal.controller.Controller` does.
 

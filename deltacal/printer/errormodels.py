@@ -27,8 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry import DeltaGeometry, Tolerances
-from .base import (
+from ..errormodels.base import (
     N_ELEMENTARY,
     ErrorModel,
     actuator_rotation_index,
@@ -38,6 +37,7 @@ from .base import (
     plate_ball_index,
     rod_index,
 )
+from ..geometry import DeltaGeometry, Tolerances
 
 #: The travel a ``scale{i}`` parameter is given per [mm]: its value is the error over this travel.
 SCALE_TRAVEL_MM = 100.0
