@@ -1,3 +1,5 @@
-"""Klipper: its ``printer.cfg`` (:mod:`.config`), delta model and limits (:mod:`.model`), the values
-fitted to an identified printer (:mod:`.fit`) and its own ``DELTA_CALIBRATE`` (:mod:`.calibrate`).
+"""Klipper, the firmware of most Delta printers that deltacal meets.
+
+Its ``printer.cfg`` (:mod:`.config`), its delta model and limits (:mod:`.model`), the values fitted to
+an identified printer (:mod:`.fit`) and its own ``DELTA_CALIBRATE`` (:mod:`.calibrate`).
 """
