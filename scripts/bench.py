@@ -586,8 +586,9 @@ def bench_klipper(setup: Setup) -> list[Row]:
     printing-like program of 10^5 lines (wall time, peak RSS).
     """
     from deltacal.controller import corrected_targets
-    from deltacal.io import load_printer, save_geometry
+    from deltacal.io import save_geometry
     from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
+    from deltacal.printer.robot_file import load_printer
 
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
     truth = printer.geometry().perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))

@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 
 from deltacal.io.atomic import atomic_write_text
-from deltacal.io.robot import load_printer
 from deltacal.printer.comparison import (
     BASIC,
     CLASSES,
@@ -35,6 +34,7 @@ from deltacal.printer.comparison import (
 )
 from deltacal.printer.firmware.klipper.fit import error_budget, error_stats, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]

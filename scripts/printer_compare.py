@@ -27,7 +27,6 @@ from pathlib import Path
 import numpy as np
 
 from deltacal.io.atomic import atomic_write_text
-from deltacal.io.robot import load_printer
 from deltacal.printer.comparison import (
     BASIC,
     CLASSES,
@@ -45,6 +44,7 @@ from deltacal.printer.comparison import (
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.object import CALIPER_RANGE
 from deltacal.printer.plan import plan_object
+from deltacal.printer.robot_file import load_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 #: First-layer weights of the exported values swept.

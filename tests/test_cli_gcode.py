@@ -16,9 +16,9 @@ from conftest import MODELS
 from deltacal import Tolerances
 from deltacal.cli import main
 from deltacal.io import load_nominal
-from deltacal.io.controller_file import load_controller
 from deltacal.io.geometry_file import save_geometry
 from deltacal.kinematics import exact
+from deltacal.robots import load_controller
 
 
 def test_a_program_is_corrected_for_the_nominal_controller(tmp_path, capsys):

@@ -12,8 +12,9 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli import main
 from deltacal.compensation import compensate
-from deltacal.io import load_calibration, load_controller, load_geometry, load_nominal, read_measurements
+from deltacal.io import load_calibration, load_geometry, load_nominal, read_measurements
 from deltacal.kinematics import exact
+from deltacal.robots import load_controller
 from deltacal.simulation import compliant_forward
 
 MASSES = "\n[masses]\narm_kg = 0.35\nrod_kg = 0.04\nplate_kg = 0.4\n"

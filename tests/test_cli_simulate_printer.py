@@ -11,10 +11,10 @@ from conftest import kossel_printer_cfg
 from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration, load_geometry, load_nominal, save_geometry
-from deltacal.io.robot import load_printer
 from deltacal.kinematics import exact
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.measurement_files import read_printed_distances, read_probe_heights
+from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import probe_heights, random_printer
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

@@ -24,7 +24,6 @@ from deltacal.exceptions import GeometryError
 from deltacal.io import (
     calibration_from_result,
     load_calibration,
-    load_controller,
     load_nominal,
     save_calibration,
     save_controller,
@@ -33,6 +32,7 @@ from deltacal.kinematics import closed_form, exact
 from deltacal.observations import Measurements
 from deltacal.planning import bai_poses
 from deltacal.report.accuracy import GRID, workspace_slices
+from deltacal.robots import load_controller
 
 NOMINAL = MODELS / "bai2015.toml"
 KEYS = ("limb_azimuth", "base_radius", "plate_radius", "arm_length", "rod_length", "joint_offset", "tool")

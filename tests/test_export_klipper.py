@@ -17,7 +17,7 @@ import pytest
 
 from deltacal.cli import main
 from deltacal.geometry import Tolerances, Workspace
-from deltacal.io import load_calibration, load_nominal, load_printer, save_calibration, save_geometry
+from deltacal.io import load_calibration, load_nominal, save_calibration, save_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper
@@ -25,6 +25,7 @@ from deltacal.printer.firmware.klipper.fit import error_stats, printable_grid, v
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
 from deltacal.printer.plan import plan_object
+from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

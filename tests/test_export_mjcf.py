@@ -22,9 +22,10 @@ from deltacal.exceptions import GeometryError
 from deltacal.export import HOME_KEY, mjcf_model
 from deltacal.export.mjcf import home_configuration
 from deltacal.geometry import Masses, Tolerances
-from deltacal.io import load_geometry, load_instrument, load_nominal, load_robot, save_geometry
+from deltacal.io import load_geometry, load_instrument, load_nominal, save_geometry
 from deltacal.kinematics import exact
 from deltacal.kinematics.multibody import DeltaMultibody
+from deltacal.robots import load_robot
 
 mujoco = pytest.importorskip("mujoco")
 

@@ -22,7 +22,7 @@ from deltacal.controller import Controller, corrected_targets
 from deltacal.exceptions import GeometryError, InputError, UnreachableError
 from deltacal.gcode.rewriter import ARC_TOLERANCE_RATIO, DEFAULT_SEGMENT_MM, filter_lines
 from deltacal.geometry import DeltaGeometry, Tolerances
-from deltacal.io import load_controller, load_nominal, load_printer
+from deltacal.io import load_nominal
 from deltacal.io.geometry_file import save_geometry
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
@@ -30,6 +30,8 @@ from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.kinematics.singularity import singularity_measures
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
+from deltacal.printer.robot_file import load_printer
+from deltacal.robots import load_controller
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 

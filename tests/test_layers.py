@@ -24,11 +24,8 @@ LAYERS = {
     "report": 70,
     "export": 70,
     "viz": 60,
+    "robots": 57,  # robot files and controllers of either kind: over the engine and the wing
     "printer": 55,  # the linear Delta's wing, over the engine
-    # Parts of the wing that the engine still reaches (to be moved behind the kind's interface):
-    "printer.robot": 10,
-    "printer.firmware.klipper.model": 38,
-    "printer.firmware.klipper.config": 50,
     "gcode": 52,
     "io": 50,
     "planar": 45,  # a paper's example: uses the core, nothing uses it

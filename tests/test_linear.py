@@ -14,11 +14,13 @@ from numpy.testing import assert_allclose
 from deltacal.chains import carried_points, path_slopes, path_terms
 from deltacal.exceptions import AssemblyError, GeometryError, InputError
 from deltacal.geometry import DeltaGeometry, Tolerances, error_names, vector_from_rotation
-from deltacal.io.robot import load_nominal, load_printer, load_robot
+from deltacal.io.robot import load_nominal
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.printer.robot import NominalLinearDelta
+from deltacal.printer.robot_file import load_printer
+from deltacal.robots import load_robot
 from deltacal.rotations import rotation_from_vector
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

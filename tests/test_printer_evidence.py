@@ -10,7 +10,6 @@ import pytest
 
 from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances, Workspace
-from deltacal.io.robot import load_printer
 from deltacal.printer.comparison import plan_measurements
 from deltacal.printer.evidence import evidence_scale, log_evidence
 from deltacal.printer.firmware.klipper.fit import printable_grid
@@ -18,6 +17,7 @@ from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDe
 from deltacal.printer.identification import identify_printer, scaled_tolerances
 from deltacal.printer.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
+from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import (
     WELL_BUILT_BED_TILT_DEG,
     nozzle_positions,

@@ -11,7 +11,6 @@ from deltacal.errormodels import get_model
 from deltacal.geometry import Tolerances
 from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
 from deltacal.io.geometry_file import load_geometry, save_geometry
-from deltacal.io.robot import load_printer
 from deltacal.kinematics import exact
 from deltacal.printer.identification import (
     PrinterMeasurements,
@@ -19,6 +18,7 @@ from deltacal.printer.identification import (
     measured_combinations,
     posterior_sigma,
 )
+from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_printer
 from deltacal.report.accuracy import less_bed_motion
 

@@ -12,7 +12,6 @@ from numpy.testing import assert_allclose
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError, PlanningError
 from deltacal.geometry import Workspace
-from deltacal.io.robot import load_printer
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.measurement_files import (
     read_printed_distances,
@@ -30,6 +29,7 @@ from deltacal.printer.object import (
     probe_grid,
 )
 from deltacal.printer.plan import geometric_rows, model_rows, plan_object
+from deltacal.printer.robot_file import load_printer
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 KOSSEL = MODELS / "kossel.toml"

@@ -329,11 +329,11 @@ def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     nominal values; its values fitted), the nozzle in the effector frame, and the 3-D view of towers
     and bed."""
     from deltacal import Tolerances
-    from deltacal.io import load_printer
     from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
     from deltacal.kinematics import exact
     from deltacal.printer.firmware.klipper.model import KlipperDelta
     from deltacal.printer.identification import PrinterMeasurements, identify_printer
+    from deltacal.printer.robot_file import load_printer
     from deltacal.report import accuracy_map, controller_routes, write_report
     from deltacal.report.accuracy import less_bed_motion
 

@@ -352,7 +352,7 @@ def test_render_shows_the_robot_and_its_plate_apart_from_the_ghost(tmp_path, nom
 @pytest.fixture(scope="module")
 def printer():
     """The Kossel printer file and a true printer around it (a typical kit's errors)."""
-    from deltacal.io import load_robot
+    from deltacal.robots import load_robot
 
     kossel = load_robot(MODELS / "kossel.toml")
     geometry = kossel.geometry()
@@ -451,7 +451,7 @@ def test_view_command_shows_a_printer_file(tmp_path, capsys):
     paths = {c["path"] for c in decode_commands(out.read_text(encoding="utf-8"))}
     assert "/meshcat/deltacal/true/limb2/carriage/body" in paths and "/meshcat/deltacal/bed" in paths
     # a true printer from a geometry file
-    from deltacal.io import load_robot
+    from deltacal.robots import load_robot
 
     printer_truth = tmp_path / "printer_truth.toml"
     kossel = load_robot(MODELS / "kossel.toml").geometry()

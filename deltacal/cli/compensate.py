@@ -32,8 +32,8 @@ from ..io import (
     TargetFile,
     lines_text,
     load_calibration,
-    load_controller,
 )
+from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
 from .workers import Job, shared_values, solved_in_order

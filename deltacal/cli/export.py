@@ -18,8 +18,8 @@ from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableEr
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
 from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
-from ..io import load_robot as load_robot_file
 from ..report.accuracy import GRID, workspace_slices
+from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
 from .export_klipper import run_klipper

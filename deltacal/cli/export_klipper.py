@@ -22,10 +22,10 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import Workspace
 from ..io import load_calibration
-from ..io import load_robot as load_robot_file
 from ..printer.firmware.klipper.config import load_klipper, save_klipper_config
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget, fit_klipper
 from ..printer.firmware.klipper.model import KlipperDelta
+from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
 

@@ -11,9 +11,9 @@ from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
 from ..identification import FitOptions, PoorFitError, identify
 from ..io import lines_text, read_measurement_file, save_calibration, unassembled_rows
-from ..io.robot import load_robot
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from ..printer.robot import NominalLinearDelta
+from ..robots import load_robot
 from .common import check_input, check_output, sigma, warn
 from .identify_printer import PRINTER_MODELS, add_arguments, run_printer
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..exceptions import PlanningError, UsageError
 from ..identifiability import base_parameters
-from ..io import load_nominal, load_robot, write_poses
+from ..io import load_nominal, write_poses
 from ..planning import (
     MEASUREMENTS,
     PLAN_MODELS,
@@ -30,6 +30,7 @@ from ..planning import (
 )
 from ..planning.regressor import _RTOL
 from ..printer.robot import NominalLinearDelta
+from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
 from .plan_object import add_object_arguments, refuse_object_options, run_object
 

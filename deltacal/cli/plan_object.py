@@ -12,12 +12,13 @@ import argparse
 from pathlib import Path
 
 from ..exceptions import UsageError
-from ..io import load_robot, write_stl
+from ..io import write_stl
 from ..printer.firmware.klipper.config import load_klipper
 from ..printer.measurement_files import write_printed_distances, write_probe_heights
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.plan import ObjectPlan, plan_object
 from ..printer.robot import NominalLinearDelta
+from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.

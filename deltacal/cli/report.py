@@ -8,8 +8,9 @@ import numpy as np
 
 from ..exceptions import InputError
 from ..identification.quality import implausible_deviations
-from ..io import load_calibration, load_geometry, load_robot
+from ..io import load_calibration, load_geometry
 from ..report import write_report
+from ..robots import load_robot
 from .common import check_input, check_output, non_negative_float, three_numbers, warn
 
 

@@ -17,7 +17,6 @@ from ..geometry import Tolerances
 from ..identification.frames import in_instrument_frames
 from ..io import (
     load_geometry,
-    load_robot,
     read_poses_file,
     save_geometry,
     unassembled_rows,
@@ -25,6 +24,7 @@ from ..io import (
 )
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from ..printer.robot import NominalLinearDelta
+from ..robots import load_robot
 from ..simulation import Metrology, pose_stations, simulate_measurements, truth_path
 from .common import (
     check_input,

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
-from ..io import load_geometry, load_robot
+from ..io import load_geometry
+from ..robots import load_robot
 from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server, words
 from .common import check_input, check_output, positive_float, seed
 

@@ -18,7 +18,7 @@ from .calibration import (
     load_linear_calibration,
     save_calibration,
 )
-from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller, save_controller
+from .controller_file import CONTROLLER_FORMAT, controller_to_dict, load_controller_file, save_controller
 from .geometry_file import (
     CALIBRATION_FORMAT,
     GEOMETRY_FORMAT,
@@ -31,7 +31,7 @@ from .geometry_file import (
 from .measurements import MeasurementFile, read_measurement_file, read_measurements, write_measurements
 from .names import check_names, check_robot_name, control_character, name_problem
 from .poses import POSES_COLUMNS, POSES_TOLERANCE, PosesFile, read_poses, read_poses_file, write_poses
-from .robot import load_nominal, load_printer, load_robot
+from .robot import load_nominal
 from .stl import write_stl
 from .tables import (
     JOINT_COLUMNS,
@@ -61,7 +61,7 @@ __all__ = [
     "CALIBRATION_FORMAT",
     "CONTROLLER_FORMAT",
     "controller_to_dict",
-    "load_controller",
+    "load_controller_file",
     "save_controller",
     "CsvTable",
     "GEOMETRY_FORMAT",
@@ -94,8 +94,6 @@ __all__ = [
     "load_instrument",
     "load_linear_calibration",
     "load_nominal",
-    "load_printer",
-    "load_robot",
     "name_problem",
     "radians_from_text",
     "read_csv_table",

@@ -1,16 +1,14 @@
 """Controller files (``deltacal-controller-1``, conventions "Controllers"): one reader, one writer.
 
 A robot file given where a controller is expected is read as the controller of its nominal values
-(all limbs alike, offsets zero). A Klipper configuration (``printer.cfg``: a name ending in ``.cfg``,
-or a ``[printer]`` section) is a printer's firmware: :func:`load_controller` reads it
-(:func:`~deltacal.printer.firmware.klipper.config.load_klipper`) into a
-:class:`~deltacal.printer.firmware.klipper.model.KlipperController`. ``[fit]`` is informative: written by
-``deltacal export --controller``, read by no command. Files are in mm and degrees.
+(all limbs alike, offsets zero). A printer's firmware configuration (Klipper's ``printer.cfg``) is
+read by the printer's wing; :func:`deltacal.robots.load_controller` reads either. ``[fit]`` is
+informative: written by ``deltacal export --controller``, read by no command. Files are in mm and
+degrees.
 """
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -19,16 +17,12 @@ import numpy as np
 
 from ..controller import Controller, ControllerFit
 from ..exceptions import GeometryError, InputError
-from ..printer.firmware.klipper.config import load_klipper
-from ..printer.firmware.klipper.model import KlipperController
 from .atomic import atomic_write_text
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
 from .robot import PLAUSIBLE_LENGTH_MM, load_nominal
 from .toml import _shown, _Table, radians_from_text, read_toml, short_degrees, toml_dumps
 
 CONTROLLER_FORMAT = "deltacal-controller-1"
-#: A Klipper configuration's ``[printer]`` section header, on a line of its own.
-_KLIPPER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
 
 #: ``[controller]`` keys -> (Controller field, unit), in the file's order.
 CONTROLLER_KEYS = {
@@ -42,29 +36,12 @@ CONTROLLER_KEYS = {
 }
 
 
-def load_controller(path: str | Path, step_distance: float | None = None) -> Controller | KlipperController:
-    """Read a controller file, a robot file as its nominal controller, or a Klipper configuration.
-
-    Args:
-        path: The file.
-        step_distance: For a Klipper configuration: the step distance a printer's readings count
-            in [mm] (the printer's nominal one); by default the configuration's own, which must
-            then be the same on the three towers.
+def load_controller_file(path: str | Path) -> Controller:
+    """Read a controller file, or a robot file as its nominal controller.
 
     Raises:
         InputError: naming the file and the key (and value) of the first problem found.
     """
-    if is_klipper_config(path):
-        firmware = load_klipper(path)
-        if step_distance is None:
-            steps = firmware.step_distance
-            if np.any(steps != steps[0]):
-                raise InputError(f"the towers' step distances differ ({', '.join(f'{v:.9g}' for v in steps)} "
-                                 "mm): the step distance the printer's readings count in is not known; give "
-                                 "the configuration the calibration was measured with", str(path),
-                                 "sections [stepper_a..c], key rotation_distance")
-            step_distance = float(steps[0])
-        return KlipperController(firmware, step_distance)
     source = str(path)
     data = read_toml(path)
     fmt = data.get("format")
@@ -92,18 +69,6 @@ def load_controller(path: str | Path, step_distance: float | None = None) -> Con
         return Controller(**values, name=name)
     except GeometryError as exc:
         raise InputError(str(exc), source, "table controller") from None
-
-
-def is_klipper_config(path: str | Path) -> bool:
-    """Whether a controller file is a Klipper configuration: named ``*.cfg``, or with a ``[printer]``."""
-    if Path(path).suffix.lower() == ".cfg":
-        return True
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            head = f.read(1 << 16)
-    except OSError:
-        return False  # the TOML reader names the problem
-    return _KLIPPER_SECTION.search(head) is not None
 
 
 def _values(table: _Table, key: str, unit: str) -> np.ndarray:

@@ -1,4 +1,10 @@
-"""The nominal robot file (conventions: [geometry], [points], [workspace]; ``kind = "linear"``: a printer)."""
+"""The nominal robot file (conventions: [geometry], [points], [workspace]) of a rotary Delta.
+
+A file with ``kind = "linear"`` is a printer's: the printer's wing reads it
+(:mod:`deltacal.printer.robot_file`), and :func:`deltacal.robots.load_robot` reads a file of
+either kind. The readers of the parts both kinds share (``kind``, ``name``, ``[points]``, the
+plausible lengths) are here.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +17,6 @@ import numpy as np
 from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
-from ..printer.robot import NominalLinearDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
 from .names import check_names, control_character
 from .toml import _Table, read_toml
@@ -22,22 +27,6 @@ from .toml import _Table, read_toml
 PLAUSIBLE_LENGTH_MM = (1.0, 20_000.0)
 #: The kinds of robot file: a rotary Delta (``kind`` absent) or a linear Delta printer.
 ROBOT_KINDS = ("rotary", "linear")
-#: A step distance [mm] at or above this is not a printer's (steps per mm given instead?).
-MAX_STEP_DISTANCE_MM = 1.0
-#: The ``[geometry]`` keys of a linear Delta printer's file (conventions, "Linear Delta printers").
-LINEAR_LENGTH_KEYS = ("tower_radius_mm", "effector_radius_mm", "rod_length_mm", "rod_spacing_mm",
-                      "endstop_height_mm")
-
-
-def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:
-    """Read a robot file of either kind: a rotary Delta or (``kind = "linear"``) a Delta printer.
-
-    Raises:
-        InputError: naming the file and the key of the first problem found.
-    """
-    if _kind(_Table(read_toml(path), str(path))) == "linear":
-        return load_printer(path)
-    return load_nominal(path)
 
 
 def _kind(top: _Table) -> str:
@@ -194,88 +183,6 @@ def _check_workspace_reachable(nominal, source: str) -> None:
         p = pts[np.argmax(bad)]
         raise InputError(
             f"the workspace reaches {np.round(p, 3).tolist()} mm, out of reach of the robot",
-            source,
-            "key workspace",
-        )
-
-
-def load_printer(path: str | Path) -> NominalLinearDelta:
-    """Read and validate a linear Delta printer's robot file (``kind = "linear"``).
-
-    Raises:
-        InputError: naming the file and the key (and value) of the first problem found.
-    """
-    source = str(path)
-    top = _Table(read_toml(path), source)
-    if _kind(top) != "linear":
-        raise top.error("kind", "not a linear Delta printer's file: kind = 'linear' is required")
-    top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace"])
-    geo = top.table("geometry")
-    assert geo is not None
-    geo.check_unknown([*LINEAR_LENGTH_KEYS, "tower_azimuth_deg", "nozzle_mm", "step_distance_mm"])
-    lengths = {key: geo.number(key, positive=True) for key in LINEAR_LENGTH_KEYS}
-    for key, value in lengths.items():
-        _check_plausible(geo, key, value)
-    step = geo.number("step_distance_mm", positive=True)
-    if step >= MAX_STEP_DISTANCE_MM:
-        raise geo.error("step_distance_mm", f"{step!r} mm per step is not a printer's (steps per mm "
-                                            "given? the step distance is mm per step, such as 0.0125)")
-    azimuth_deg = geo.vector("tower_azimuth_deg", (3,))
-    if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
-        raise geo.error("tower_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
-    reach = lengths["tower_radius_mm"] - lengths["effector_radius_mm"]
-    if lengths["rod_length_mm"] <= reach:
-        raise geo.error("rod_length_mm", f"rods of {lengths['rod_length_mm']} mm cannot reach the effector "
-                                         f"from towers {reach} mm away (tower_radius_mm - "
-                                         "effector_radius_mm)")
-    try:
-        printer = NominalLinearDelta(
-            name=_robot_name(top),
-            description=top.string("description", ""),
-            tower_radius=lengths["tower_radius_mm"],
-            effector_radius=lengths["effector_radius_mm"],
-            rod_length=lengths["rod_length_mm"],
-            rod_spacing=lengths["rod_spacing_mm"],
-            tower_azimuth=np.radians(azimuth_deg),
-            endstop_height=lengths["endstop_height_mm"],
-            step_distance=step,
-            tool=geo.vector("nozzle_mm", (3,)),
-            points=_points(top, source),
-            workspace=_printable(top),
-        )
-    except GeometryError as exc:
-        raise InputError(str(exc), source) from None
-    if printer.workspace is not None:
-        _check_printable_reachable(printer, source)
-    return printer
-
-
-def _printable(top: _Table) -> Workspace | None:
-    """A printer's ``[workspace]``: the printable cylinder from the bed (z = 0) up, or None."""
-    ws = top.table("workspace", required=False)
-    if ws is None:
-        return None
-    ws.check_unknown(["radius_mm", "height_mm"])
-    height = ws.number("height_mm", positive=True)
-    return Workspace(radius=ws.number("radius_mm", positive=True), height=height, top_z=height)
-
-
-def _check_printable_reachable(printer: NominalLinearDelta, source: str) -> None:
-    """The printable cylinder's rim must be reachable with every carriage below its endstop."""
-    ws = printer.workspace
-    assert ws is not None
-    ang = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
-    rim = [np.stack([ws.radius * np.cos(ang), ws.radius * np.sin(ang), np.full_like(ang, z)], 1)
-           for z in (ws.bottom_z, ws.top_z)]
-    pts = np.concatenate(rim)
-    travel = VirtualDelta.from_geometry(printer.geometry()).inverse(pts - printer.tool, check=False)
-    with np.errstate(invalid="ignore"):
-        bad = ~np.all(travel >= 0.0, axis=1)  # NaN: out of the rods' reach; negative: above an endstop
-    if np.any(bad):
-        p = pts[np.argmax(bad)]
-        raise InputError(
-            f"the workspace reaches {np.round(p, 3).tolist()} mm, out of reach of the printer "
-            "(above an endstop, or beyond the rods)",
             source,
             "key workspace",
         )

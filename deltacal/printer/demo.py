@@ -30,7 +30,6 @@ import numpy as np
 from ..controller import corrected_targets
 from ..gcode.rewriter import DEFAULT_SEGMENT_MM, filter_gcode
 from ..io import atomic_write_text, save_calibration, write_stl
-from ..io.robot import load_printer
 from .comparison import (
     BASIC,
     CLASSES,
@@ -49,6 +48,7 @@ from .firmware.klipper.model import KlipperController, KlipperDelta
 from .measurement_files import write_printed_distances, write_probe_heights
 from .plan import plan_object
 from .robot import less_bed_motion
+from .robot_file import load_printer
 from .simulation import nozzle_positions
 
 MODELS_DIR = Path(__file__).resolve().parent / "models"

@@ -1,13 +1,36 @@
-"""The firmwares that run a linear Delta printer, one subpackage each.
+"""The firmwares that run a linear Delta printer, one subpackage each behind one interface.
 
 A firmware holds its own (classical) model of the printer: vertical towers, one rod length per
-tower, a point effector. Each firmware's subpackage has the same parts:
+tower, a point effector. Each implements :class:`~.base.Firmware` (its configuration file read and
+written, its model, its controller, its values fitted to an identified printer), and its
+subpackage has the same parts:
 
 * ``config``: its configuration file read and written (values in the firmware's own words);
 * ``model``: its kinematic model (commanded position to steps and back) and its limits, and the
   firmware as a controller of the printer's readings;
 * ``fit``: the values that fit an identified printer best over the printable volume;
-* ``calibrate``: its own calibration, emulated from its algorithm, for the comparison.
+* ``calibrate``: its own calibration, emulated from its algorithm, for the comparison;
+* ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
-Klipper (:mod:`.klipper`) is the first.
+Klipper (:mod:`.klipper`) is the first. :func:`firmwares` lists them; :func:`config_firmware`
+finds the one whose configuration a file is.
 """
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from .base import Firmware
+
+
+def firmwares() -> tuple[Firmware[Any], ...]:
+    """Every firmware deltacal knows, in the order their configuration files are recognised."""
+    from .klipper.firmware import KLIPPER
+
+    return (KLIPPER,)
+
+
+def config_firmware(path: str | Path) -> Firmware[Any] | None:
+    """The firmware whose configuration file ``path`` is, or None (a file of deltacal's own)."""
+    return next((firmware for firmware in firmwares() if firmware.is_config(path)), None)

@@ -44,6 +44,8 @@ AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW
 #: The three towers' sections, in Klipper's order.
 STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
 
+#: A Klipper configuration's ``[printer]`` section header, on a line of its own.
+_PRINTER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
 _COMMENT = re.compile(r"[#;].*$")
 _FIELD = re.compile(r"[^A-Za-z0-9_].*$")
 
@@ -94,6 +96,18 @@ class KlipperConfig:
         if above is not None and value <= above:
             raise self.error(section, option, f"value {text!r} must be above {above:g}")
         return value
+
+
+def is_klipper_config(path: str | Path) -> bool:
+    """Whether a file is a Klipper configuration: named ``*.cfg``, or with a ``[printer]`` section."""
+    if Path(path).suffix.lower() == ".cfg":
+        return True
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            head = f.read(1 << 16)
+    except OSError:
+        return False  # the reader of the file taken instead names the problem
+    return _PRINTER_SECTION.search(head) is not None
 
 
 def read_klipper_config(path: str | Path) -> KlipperConfig:
@@ -294,6 +308,9 @@ MM_DECIMALS = 6
 DEG_DECIMALS = 4
 #: The microstepping assumed when no source configuration gives one.
 DEFAULT_MICROSTEPS = 16
+#: The ``[printer]`` options a complete configuration adds to the values (Klipper requires the
+#: kinematics and the limits; velocity [mm/s], acceleration [mm/s²]).
+PRINTER_OPTIONS = (("kinematics", "delta"), ("max_velocity", "300"), ("max_accel", "3000"))
 
 
 def _rotation_factor(config: KlipperConfig | None, stepper: str) -> tuple[float, bool]:
@@ -307,15 +324,23 @@ def _rotation_factor(config: KlipperConfig | None, stepper: str) -> tuple[float,
 
 
 def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | KlipperConfig | None = None,
-                        title: str = "", notes: list[str] | tuple[str, ...] = ()) -> str:
-    """Klipper's values as ``printer.cfg`` text: ``[printer]`` and ``[stepper_a..c]``, ready to replace those.
+                        title: str = "", notes: list[str] | tuple[str, ...] = (),
+                        complete: bool = False) -> str:
+    """Klipper's values as ``printer.cfg`` text: ``[printer]`` and ``[stepper_a..c]``.
 
     Writes ``delta_radius`` and each tower's ``angle`` [deg, 4 decimals], ``arm_length``,
     ``position_endstop`` and ``rotation_distance`` [mm, 6 decimals]. ``rotation_distance`` is the
     step distance times the source configuration's ``full_steps_per_rotation × microsteps × gear
-    ratio``; without a source (or without ``microsteps`` in it), 200 full steps × 16 microsteps,
-    said in a comment. Only keys Klipper knows; read back by :func:`load_klipper` they give the
-    same values to the written decimals.
+    ratio``; without a source (or without ``microsteps`` in it), 200 full steps × 16 microsteps.
+    Only keys Klipper knows; read back by :func:`load_klipper` they give the same values to the
+    written decimals.
+
+    By default only those keys, to replace the printer's own (the header says so; an assumed
+    microstepping is said in a comment). With ``complete``, a whole configuration of Klipper's
+    delta kinematics that Klipper and :func:`load_klipper` read: ``kinematics``, ``max_velocity``
+    and ``max_accel`` (:data:`PRINTER_OPTIONS`) added to ``[printer]``, each tower's microstepping
+    (the source's, or 200 full steps × 16 microsteps) written, and every value written exactly
+    (the shortest text that reads back the same float; angles as their degrees do).
 
     Args:
         klipper: The values.
@@ -323,30 +348,50 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
             steppers' microstepping and gears.
         title: A first comment line (what the values are).
         notes: More comment lines (what the values leave), each written after ``# ``.
+        complete: A whole configuration, values exact (see above).
     """
     config = read_klipper_config(source_config) if isinstance(source_config, (str, Path)) else source_config
-    lines = [f"# {title}" if title else "# Klipper delta values written by deltacal",
-             "# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, if any)."]
+    lines = [f"# {title}" if title else "# Klipper delta values written by deltacal"]
+    if not complete:
+        lines.append("# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, "
+                     "if any).")
     lines += [f"# {note}".rstrip() for note in notes]
     assumed = []
-    body = ["", "[printer]", f"delta_radius: {klipper.delta_radius:.{MM_DECIMALS}f}"]
+    body = ["", "[printer]", *(f"{key}: {value}" for key, value in PRINTER_OPTIONS if complete),
+            f"delta_radius: {_number(klipper.delta_radius, MM_DECIMALS, complete)}"]
     for i, stepper in enumerate(STEPPERS):
         factor, guess = _rotation_factor(config, stepper)
         if guess:
             assumed.append(stepper)
-        body += ["", f"[{stepper}]",
-                 f"angle: {math.degrees(klipper.angle[i]):.{DEG_DECIMALS}f}",
-                 f"arm_length: {klipper.arm_length[i]:.{MM_DECIMALS}f}",
-                 f"position_endstop: {klipper.position_endstop[i]:.{MM_DECIMALS}f}",
-                 f"rotation_distance: {klipper.step_distance[i] * factor:.{MM_DECIMALS}f}"]
-    if assumed:
+        body += ["", f"[{stepper}]", *(_stepping(config, stepper) if complete else []),
+                 f"angle: {_number(math.degrees(klipper.angle[i]), DEG_DECIMALS, complete)}",
+                 f"arm_length: {_number(klipper.arm_length[i], MM_DECIMALS, complete)}",
+                 f"position_endstop: {_number(klipper.position_endstop[i], MM_DECIMALS, complete)}",
+                 f"rotation_distance: {_number(klipper.step_distance[i] * factor, MM_DECIMALS, complete)}"]
+    if assumed and not complete:
         lines.append(f"# rotation_distance of {', '.join(assumed)} assumes {DEFAULT_FULL_STEPS} full steps x "
                      f"{DEFAULT_MICROSTEPS} microsteps (no source configuration gave its microsteps)")
     return "\n".join(lines + body) + "\n"
 
 
+def _number(value: float, decimals: int, exact: bool) -> str:
+    """A value's text: with ``decimals`` decimals, or (``exact``) the shortest that reads back the same."""
+    return repr(float(value)) if exact else f"{value:.{decimals}f}"
+
+
+def _stepping(config: KlipperConfig | None, stepper: str) -> list[str]:
+    """A complete configuration's microstepping of a tower: the source's, else 200 full steps × 16."""
+    if config is None or not config.has(stepper, "microsteps"):
+        return [f"microsteps: {DEFAULT_MICROSTEPS}", f"full_steps_per_rotation: {DEFAULT_FULL_STEPS}"]
+    microsteps = config.number(stepper, "microsteps", integer=True, above=0.0)
+    full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True,
+                         above=0.0)
+    gear = [f"gear_ratio: {config.text(stepper, 'gear_ratio')}"] if config.has(stepper, "gear_ratio") else []
+    return [f"microsteps: {int(microsteps)}", f"full_steps_per_rotation: {int(full)}", *gear]
+
+
 def save_klipper_config(path: str | Path, klipper: KlipperDelta,
                         source_config: str | Path | KlipperConfig | None = None, title: str = "",
-                        notes: list[str] | tuple[str, ...] = ()) -> Path:
+                        notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> Path:
     """Write :func:`klipper_config_text` to ``path`` atomically; returns the path."""
-    return atomic_write_text(path, klipper_config_text(klipper, source_config, title, notes))
+    return atomic_write_text(path, klipper_config_text(klipper, source_config, title, notes, complete))

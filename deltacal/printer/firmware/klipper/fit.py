@@ -109,6 +109,11 @@ class KlipperFit:
     iterations: int
     points: int
 
+    @property
+    def values(self) -> KlipperDelta:
+        """The fitted configuration (:attr:`klipper`), by the firmware interface's name."""
+        return self.klipper
+
 
 def printable_grid(workspace: Workspace, per_radius: int = 6, layers: int = 5, ring: int = 24,
                    z_min: float = FIRST_LAYER) -> np.ndarray:

@@ -1,0 +1,170 @@
+"""The interface a printer's firmware implements (Klipper now; Marlin and RepRapFirmware next).
+
+A firmware holds its own classical model of the printer (vertical towers, one rod length per tower,
+a point effector) with the values of its configuration file. What deltacal needs of it, each
+firmware gives through one :class:`Firmware`:
+
+* its configuration file read into its values (:meth:`Firmware.read_config`), and its files told
+  from deltacal's own (:meth:`Firmware.is_config`);
+* its model with those values (:class:`FirmwareModel`): a commanded nozzle position to steps
+  below the endstops and back; the model of the perfect printer (:meth:`Firmware.nominal`) and of
+  an identified geometry at its tolerances' centre (:meth:`Firmware.start`);
+* the firmware as the controller of the printer's readings (:meth:`Firmware.controller`, a
+  :class:`~deltacal.controller.targets.CommandModel`: what corrected targets and G-code go
+  through), also from its configuration file (:meth:`Firmware.load_controller`);
+* a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
+* the values that fit an identified geometry best (:meth:`Firmware.fit`).
+
+deltacal's readings of a printer are the carriages' travels below the endstops counted in the
+printer's nominal step distance: reading = steps × that step distance. Units: mm, the models'
+angles in rad (the configuration files' in the firmware's own units).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
+
+import numpy as np
+
+from ...controller.targets import CommandModel
+from ...exceptions import InputError
+from ...geometry import DeltaGeometry, Workspace
+from ...io.atomic import atomic_write_text
+
+if TYPE_CHECKING:
+    from ..robot import NominalLinearDelta
+
+
+class FirmwareModel(Protocol):
+    """A firmware's kinematic model with its configuration's values.
+
+    Attributes:
+        name: A name (the configuration file's).
+        step_distance: The carriage travel per (micro)step of each tower [mm], (3,).
+    """
+
+    @property
+    def name(self) -> str: ...  # noqa: D102
+
+    @property
+    def step_distance(self) -> np.ndarray: ...  # noqa: D102
+
+    def steps(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """Steps below the endstops the firmware commands for nozzle targets [mm], (N, 3) -> (N, 3)."""
+
+    def positions(self, steps: np.ndarray, check: bool = True) -> np.ndarray:
+        """The firmware's nozzle positions at steps below the endstops, (N, 3) -> (N, 3) [mm]."""
+
+    def inverse(self, targets: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+        """The readings (steps × the printer's ``step_distance`` [mm]) for nozzle targets, (N, 3) [mm]."""
+
+    def forward(self, readings: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+        """Nozzle positions at readings (travels counted in ``step_distance`` [mm]), (N, 3) [mm]."""
+
+
+class FirmwareFit(Protocol):
+    """A firmware's values fitted to an identified printer (and, per firmware, what they leave)."""
+
+    @property
+    def values(self) -> FirmwareModel:
+        """The fitted values."""
+
+
+ModelT = TypeVar("ModelT", bound=FirmwareModel)
+
+
+class Firmware(ABC, Generic[ModelT]):
+    """A printer's firmware: its configuration file, its model, its controller, its fitted values.
+
+    Attributes:
+        name: The firmware's name, lower case (``"klipper"``).
+        step_distance_keys: Where its configuration sets the towers' step distances (for messages).
+    """
+
+    name: ClassVar[str]
+    step_distance_keys: ClassVar[str]
+
+    @abstractmethod
+    def is_config(self, path: str | Path) -> bool:
+        """Whether a file (a command's ``--controller``) is this firmware's configuration."""
+
+    @abstractmethod
+    def read_config(self, path: str | Path) -> ModelT:
+        """The firmware's model with the values of its configuration file.
+
+        Raises:
+            InputError: naming the file and the key (and value) of the first problem found.
+        """
+
+    @abstractmethod
+    def nominal(self, printer: NominalLinearDelta) -> ModelT:
+        """The values that make the firmware's model the perfect printer built to these values."""
+
+    @abstractmethod
+    def start(self, geometry: DeltaGeometry) -> ModelT:
+        """The values of a printer's geometry at its tolerances' centre (a fit's start)."""
+
+    @abstractmethod
+    def controller(self, model: ModelT, step_distance: float) -> CommandModel:
+        """The firmware with these values as the controller of readings counted in ``step_distance`` [mm]."""
+
+    @abstractmethod
+    def config_text(self, model: ModelT, source: str | Path | None = None, title: str = "",
+                    notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> str:
+        """The configuration file's text with these values.
+
+        Args:
+            model: The values.
+            source: The configuration the printer runs, for what the values do not hold (its
+                steppers' microstepping, say).
+            title: A first comment line (what the values are).
+            notes: More comment lines.
+            complete: A whole configuration the firmware (and :meth:`read_config`) reads, the values
+                written exactly; else only the keys of the values, to replace those of the
+                printer's configuration.
+        """
+
+    @abstractmethod
+    def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: float, workspace: Workspace,
+            hold_step_distance: bool = False, first_layer_weight: float = 0.0) -> FirmwareFit:
+        """The values that leave the least nozzle error of an identified printer over its printable volume.
+
+        Args:
+            geometry: The identified printer (a prismatic chain; the true bed is z = 0).
+            start: The values to start from.
+            step_distance: The printer's nominal step distance, what deltacal's readings count [mm].
+            workspace: The printable cylinder.
+            hold_step_distance: Keep the start's step distances.
+            first_layer_weight: Weight of the first layer's height errors (0: the volume alone).
+        """
+
+    def save_config(self, path: str | Path, model: ModelT, source: str | Path | None = None, title: str = "",
+                    notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> Path:
+        """Write :meth:`config_text` to ``path`` atomically; returns the path."""
+        return atomic_write_text(path, self.config_text(model, source, title, notes, complete))
+
+    def load_controller(self, path: str | Path, step_distance: float | None = None) -> CommandModel:
+        """The firmware as a controller, from its configuration file.
+
+        Args:
+            path: The configuration file.
+            step_distance: The step distance the printer's readings count in [mm] (the printer's
+                nominal one); by default the configuration's own, which must then be the same on
+                the three towers.
+
+        Raises:
+            InputError: the file's first problem, or towers stepping differently without
+                ``step_distance``.
+        """
+        model = self.read_config(path)
+        if step_distance is None:
+            steps = model.step_distance
+            if np.any(steps != steps[0]):
+                raise InputError(f"the towers' step distances differ ({', '.join(f'{v:.9g}' for v in steps)} "
+                                 "mm): the step distance the printer's readings count in is not known; give "
+                                 "the configuration the calibration was measured with", str(path),
+                                 self.step_distance_keys)
+            step_distance = float(steps[0])
+        return self.controller(model, step_distance)

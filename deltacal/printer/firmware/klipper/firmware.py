@@ -1,0 +1,61 @@
+"""Klipper behind the firmware interface (:class:`~..base.Firmware`): a thin layer over its modules.
+
+Each method delegates: the configuration to :mod:`.config`, the model and the controller to
+:mod:`.model`, the fit to :mod:`.fit`. :data:`KLIPPER` is the one instance. Units: mm, angles in rad.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar
+
+from ....geometry import DeltaGeometry, Workspace
+from ..base import Firmware
+from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper
+from .fit import KlipperFit, fit_klipper
+from .model import KlipperController, KlipperDelta
+
+if TYPE_CHECKING:
+    from ...robot import NominalLinearDelta
+
+
+class Klipper(Firmware[KlipperDelta]):
+    """Klipper: ``printer.cfg``, :class:`~.model.KlipperDelta`, :class:`~.model.KlipperController`."""
+
+    name: ClassVar[str] = "klipper"
+    step_distance_keys: ClassVar[str] = "sections [stepper_a..c], key rotation_distance"
+
+    def is_config(self, path: str | Path) -> bool:
+        """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
+        return is_klipper_config(path)
+
+    def read_config(self, path: str | Path) -> KlipperDelta:
+        """``printer.cfg`` read as Klipper reads it (:func:`~.config.load_klipper`)."""
+        return load_klipper(path)
+
+    def nominal(self, printer: NominalLinearDelta) -> KlipperDelta:
+        """:meth:`KlipperDelta.from_printer <.model.KlipperDelta.from_printer>`."""
+        return KlipperDelta.from_printer(printer)
+
+    def start(self, geometry: DeltaGeometry) -> KlipperDelta:
+        """:meth:`KlipperDelta.from_geometry <.model.KlipperDelta.from_geometry>`."""
+        return KlipperDelta.from_geometry(geometry)
+
+    def controller(self, model: KlipperDelta, step_distance: float) -> KlipperController:
+        """:class:`~.model.KlipperController` of the values, readings counted in ``step_distance`` [mm]."""
+        return KlipperController(model, step_distance)
+
+    def config_text(self, model: KlipperDelta, source: str | Path | KlipperConfig | None = None,
+                    title: str = "", notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> str:
+        """:func:`~.config.klipper_config_text`."""
+        return klipper_config_text(model, source, title, notes, complete)
+
+    def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: float, workspace: Workspace,
+            hold_step_distance: bool = False, first_layer_weight: float = 0.0) -> KlipperFit:
+        """:func:`~.fit.fit_klipper` (the printed part's frame)."""
+        return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
+                           first_layer_weight=first_layer_weight)
+
+
+#: Klipper, the firmware.
+KLIPPER = Klipper()
