@@ -568,16 +568,6 @@ def bench_gcode_filter(setup: Setup) -> list[Row]:
     return rows
 
 
-def _klipper_cfg(firmware) -> str:
-    """A printer.cfg for Klipper's model ``firmware`` (equal towers: 40 mm per turn, 16 microsteps)."""
-    steppers = "".join(
-        f"[stepper_{t}]\nmicrosteps: 16\nrotation_distance: 40\nangle: {float(np.degrees(a))!r}\n"
-        f"arm_length: {float(arm)!r}\nposition_endstop: {float(endstop)!r}\n\n"
-        for t, a, arm, endstop in zip("abc", firmware.angle, firmware.arm_length, firmware.position_endstop,
-                                      strict=True))
-    return f"[printer]\nkinematics: delta\ndelta_radius: {firmware.delta_radius!r}\n\n" + steppers
-
-
 def bench_klipper(setup: Setup) -> list[Row]:
     """Corrected targets and G-code through Klipper for a kit printer (issue 24 item 4).
 
@@ -587,13 +577,13 @@ def bench_klipper(setup: Setup) -> list[Row]:
     """
     from deltacal.controller import corrected_targets
     from deltacal.io import save_geometry
-    from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
+    from deltacal.printer.firmware.klipper.firmware import KLIPPER
     from deltacal.printer.robot_file import load_printer
 
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
     truth = printer.geometry().perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))
-    firmware = KlipperDelta.from_printer(printer)
-    controller = KlipperController(firmware, printer.step_distance)
+    firmware = KLIPPER.nominal(printer)
+    controller = KLIPPER.controller(firmware, printer.step_distance)
     rng = setup.rng()
     n = 100_000
     r, a = 115.0 * np.sqrt(rng.random(n)), rng.uniform(0.0, 2.0 * np.pi, n)
@@ -606,7 +596,7 @@ def bench_klipper(setup: Setup) -> list[Row]:
         folder = Path(tmp)
         cal, cfg, path, program = (folder / name for name in ("true.toml", "printer.cfg", "t.csv", "p.gcode"))
         save_geometry(truth, cal)
-        cfg.write_text(_klipper_cfg(firmware))
+        KLIPPER.save_config(cfg, firmware, complete=True)
         _write_targets(path, targets)
         args = command + ["compensate", str(cal), str(path), "--controller", str(cfg), "-o",
                           str(folder / "c.csv")]

@@ -22,8 +22,8 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import Workspace
 from ..io import load_calibration
-from ..printer.firmware.klipper.config import load_klipper, save_klipper_config
-from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget, fit_klipper
+from ..printer.firmware.klipper.firmware import KLIPPER
+from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget
 from ..printer.firmware.klipper.model import KlipperDelta
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
@@ -44,18 +44,17 @@ def run_klipper(args: argparse.Namespace) -> int:
     if calibration.geometry.joint != "prismatic":
         raise UsageError(f"--controller klipper: {args.calibration} is a rotary Delta's calibration; "
                          "Klipper's values are a printer's (--controller offsets|limbs serve a rotary Delta)")
-    config = load_klipper(args.config) if args.config is not None else None
+    config = KLIPPER.read_config(args.config) if args.config is not None else None
     step = _step_distance(calibration.geometry.step_distance, config, args,
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
     geometry, nominal = calibration.geometry, calibration.nominal
     try:
-        start = config if config is not None else KlipperDelta.from_geometry(
-            replace(nominal, step_distance=step))
+        start = config if config is not None else KLIPPER.start(replace(nominal, step_distance=step))
     except GeometryError as exc:
         raise InputError(str(exc), str(args.calibration), "key nominal") from None
     workspace, where = _workspace(args, calibration.nominal)
     try:
-        fit = fit_klipper(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
+        fit = KLIPPER.fit(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
         budget = error_budget(nominal, geometry.deviation_from(nominal), np.eye(3), np.zeros(3), start, step,
                               workspace, args.keep_rotation_distance)
@@ -67,7 +66,7 @@ def run_klipper(args: argparse.Namespace) -> int:
     except ConvergenceError as exc:
         raise InputError(f"Klipper's values could not be fitted: {exc}", str(args.calibration)) from None
     lines = _summary(fit.before, fit.after, budget, workspace, where, fit.held, args.config is not None)
-    save_klipper_config(args.output, fit.klipper, args.config,
+    KLIPPER.save_config(args.output, fit.klipper, args.config,
                         title=f"Klipper delta values fitted by deltacal to {args.calibration}",
                         notes=lines)
     print(f"wrote the Klipper values that best fit {args.calibration} to {args.output}")

@@ -15,8 +15,8 @@ import numpy as np
 from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
 from ..io import save_calibration
-from ..printer.firmware.klipper.config import load_klipper
-from ..printer.firmware.klipper.model import KlipperDelta
+from ..printer.firmware.base import FirmwareModel
+from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.identification import PrinterMeasurements, identify_printer
 from ..printer.measurement_files import read_printed_distances, read_probe_heights
 from ..printer.robot import NominalLinearDelta
@@ -42,7 +42,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     for path in inputs:
         check_input(path)
     check_output(args.output, inputs)
-    firmware = load_klipper(args.controller)
+    firmware = KLIPPER.read_config(args.controller)
     probe, pairs, distance = _read(files[0], files[1:], firmware, printer.step_distance)
     data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance)
@@ -54,7 +54,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     return 0
 
 
-def _read(probe_file: str, distance_files: list[str], firmware: KlipperDelta,
+def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel,
           step_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Readings of the probe heights and of the printed pairs, and the distances measured."""
     heights = read_probe_heights(probe_file)
@@ -68,7 +68,8 @@ def _read(probe_file: str, distance_files: list[str], firmware: KlipperDelta,
     return probe, np.concatenate(pairs), np.concatenate(distance)
 
 
-def _readings(firmware: KlipperDelta, commanded: np.ndarray, step_distance: float, source: str) -> np.ndarray:
+def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: float,
+              source: str) -> np.ndarray:
     """The readings the firmware commanded for positions; a position it cannot reach is named by row."""
     readings = firmware.inverse(commanded, step_distance, check=False)
     bad = np.flatnonzero(~np.all(np.isfinite(readings), axis=1))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..exceptions import UsageError
 from ..io import write_stl
-from ..printer.firmware.klipper.config import load_klipper
+from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import write_printed_distances, write_probe_heights
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.plan import ObjectPlan, plan_object
@@ -83,7 +83,7 @@ def run_object(args: argparse.Namespace) -> int:
     if not isinstance(printer, NominalLinearDelta):
         raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "
                          "is a rotary Delta's (kind = 'linear' for a printer)")
-    firmware = load_klipper(args.controller)
+    firmware = KLIPPER.read_config(args.controller)
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)

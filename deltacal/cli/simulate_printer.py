@@ -20,8 +20,8 @@ import numpy as np
 from ..exceptions import AssemblyError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Tolerances
 from ..io import data_row, load_geometry, save_geometry
-from ..printer.firmware.klipper.config import load_klipper
-from ..printer.firmware.klipper.model import KlipperDelta
+from ..printer.firmware.base import FirmwareModel
+from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import (
     read_printed_distances,
     read_probe_heights,
@@ -101,7 +101,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
         check_output(path, inputs)
     if len({p.resolve() for p in outputs}) != len(outputs):
         raise UsageError(f"the outputs {', '.join(map(str, outputs))} must be different files")
-    firmware = load_klipper(args.controller)
+    firmware = KLIPPER.read_config(args.controller)
     truth = _truth(args, printer)
     step = printer.step_distance
     offset = np.zeros(3) if args.probe_offset is None else args.probe_offset
@@ -164,7 +164,7 @@ def _truth(args: argparse.Namespace, printer: NominalLinearDelta) -> DeltaGeomet
     return random_true_printer(printer, np.random.default_rng(args.perturb), tolerances(), tilt).geometry
 
 
-def _check_travel(firmware: KlipperDelta, step_distance: float, commanded: np.ndarray, source: str,
+def _check_travel(firmware: FirmwareModel, step_distance: float, commanded: np.ndarray, source: str,
                   lines: np.ndarray) -> None:
     """Refuse, by its row, a commanded position (or pair of them) the firmware cannot reach.
 

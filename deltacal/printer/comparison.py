@@ -42,8 +42,9 @@ from ..controller import corrected_targets
 from ..geometry import DeltaGeometry, Tolerances, Workspace
 from ..identification.result import IdentificationResult
 from .firmware.klipper.calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
-from .firmware.klipper.fit import ErrorStats, first_layer, fit_klipper, nozzle_errors, printable_grid
-from .firmware.klipper.model import KlipperController, KlipperDelta
+from .firmware.klipper.firmware import KLIPPER
+from .firmware.klipper.fit import ErrorStats, first_layer, nozzle_errors, printable_grid
+from .firmware.klipper.model import KlipperDelta
 from .identification import PrinterMeasurements, identify_printer
 from .plan import ObjectPlan
 from .robot import NominalLinearDelta, less_bed_motion
@@ -152,7 +153,7 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
         weights: First-layer weights of the exported values to fit.
         distance_sigma: σ of every distance, Klipper's and deltacal's [mm] (default a caliper's).
     """
-    firmware = KlipperDelta.from_printer(printer)
+    firmware = KLIPPER.nominal(printer)
     step = printer.step_distance
     rng = np.random.default_rng(seed)
     made = random_true_printer(printer, rng, tolerances, bed_tilt_deg)
@@ -163,14 +164,14 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
     data = plan_measurements(firmware, step, plan, probe, distances, distance_sigma)
     result = identify_printer(printer.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
     for w in weights:
-        configs[exported_name(w)] = fit_klipper(result.geometry, firmware, step, WORKSPACE,
-                                                first_layer_weight=w).klipper
+        configs[exported_name(w)] = KLIPPER.fit(result.geometry, firmware, step, WORKSPACE,
+                                                first_layer_weight=w).values
     return PrinterRun(made, firmware, step, probe, distances, result, configs)
 
 
 def gcode_route_errors(run: PrinterRun, targets: np.ndarray) -> np.ndarray:
     """The true nozzle's errors, the corrected targets sent through Klipper's nominal values [mm], (N, 3)."""
-    controller = KlipperController(run.firmware, run.step_distance)
+    controller = KLIPPER.controller(run.firmware, run.step_distance)
     commands = corrected_targets(run.result.geometry, controller, targets).commands
     return nozzle_positions(run.truth.geometry, run.firmware, run.step_distance, commands) - targets
 

@@ -42,20 +42,21 @@ from .comparison import (
     exported_name,
     run_printer,
 )
-from .firmware.klipper.config import load_klipper, save_klipper_config
+from .firmware.klipper.firmware import KLIPPER
 from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
-from .firmware.klipper.model import KlipperController, KlipperDelta
 from .measurement_files import write_printed_distances, write_probe_heights
 from .plan import plan_object
 from .robot import less_bed_motion
 from .robot_file import load_printer
 from .simulation import nozzle_positions
 
-MODELS_DIR = Path(__file__).resolve().parent / "models"
+MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
 #: The first-layer weight of the exported values: ``export --controller klipper``'s.
 FIRST_LAYER_WEIGHT = EXPORT_FIRST_LAYER_WEIGHT
 #: The demo's default seed.
 SEED = 2400
+#: The first line of the nominal ``printer.cfg`` the demo writes.
+NOMINAL_TITLE = "Klipper's nominal configuration of the demo printer (deltacal demo --printer)"
 #: The rows of the table, in order.
 ROWS = (UNCALIBRATED, BASIC, ENHANCED, "deltacal exported values", GCODE)
 _XYZ = re.compile(r"^G[01] X([-+.0-9]+) Y([-+.0-9]+) Z([-+.0-9]+)", re.MULTILINE)
@@ -63,20 +64,6 @@ _XYZ = re.compile(r"^G[01] X([-+.0-9]+) Y([-+.0-9]+) Z([-+.0-9]+)", re.MULTILINE
 
 def _silent(text: str) -> None:
     """The default progress callback: says nothing."""
-
-
-def nominal_config_text(firmware: KlipperDelta) -> str:
-    """A printer.cfg of Klipper's delta kinematics with these values (200 full steps, 16 microsteps)."""
-    lines = ["# Klipper's nominal configuration of the demo printer (deltacal demo --printer)",
-             "[printer]", "kinematics: delta", "max_velocity: 300", "max_accel: 3000",
-             f"delta_radius: {firmware.delta_radius!r}"]
-    for k, tower in enumerate("abc"):
-        lines += ["", f"[stepper_{tower}]", "microsteps: 16", "full_steps_per_rotation: 200",
-                  f"rotation_distance: {float(firmware.step_distance[k]) * 3200.0!r}",
-                  f"angle: {float(np.degrees(firmware.angle[k]))!r}",
-                  f"arm_length: {float(firmware.arm_length[k])!r}",
-                  f"position_endstop: {float(firmware.position_endstop[k])!r}"]
-    return "\n".join(lines) + "\n"
 
 
 def part_gcode(heights: tuple[float, ...]) -> str:
@@ -98,7 +85,7 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool) -> dict[str, float]:
     """
     source, corrected = out_dir / "part.gcode", out_dir / "part_corrected.gcode"
     atomic_write_text(source, part_gcode((0.2, 50.0) if quick else (0.2, 10.0, 30.0, 60.0, 100.0)))
-    controller = KlipperController(run.firmware, run.step_distance)
+    controller = KLIPPER.controller(run.firmware, run.step_distance)
     intended: list[np.ndarray] = []
 
     def correct(points: np.ndarray) -> np.ndarray:
@@ -136,8 +123,9 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     printer = load_printer(MODELS_DIR / "kossel.toml")
-    cfg = atomic_write_text(out_dir / "printer.cfg", nominal_config_text(KlipperDelta.from_printer(printer)))
-    firmware = load_klipper(cfg)
+    cfg = KLIPPER.save_config(out_dir / "printer.cfg", KLIPPER.nominal(printer), title=NOMINAL_TITLE,
+                              complete=True)
+    firmware = KLIPPER.read_config(cfg)
     plan = plan_object(printer, firmware)
     write_stl(out_dir / "object.stl", plan.mesh())
     write_probe_heights(out_dir / "probe.csv", plan.probe)
@@ -154,7 +142,7 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
              "calibration simulated")
     exported = run.configs.pop(exported_name(FIRST_LAYER_WEIGHT))
     run.configs[ROWS[3]] = exported
-    save_klipper_config(out_dir / "printer_calibrated.cfg", exported, cfg,
+    KLIPPER.save_config(out_dir / "printer_calibrated.cfg", exported, cfg,
                         f"Klipper's values fitted to {printer.name} by deltacal (first-layer weight "
                         f"{FIRST_LAYER_WEIGHT:g})")
     figures = evaluate(run)

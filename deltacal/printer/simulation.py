@@ -25,7 +25,7 @@ import numpy as np
 from ..exceptions import ConvergenceError
 from ..geometry import DeltaGeometry, Tolerances
 from ..kinematics import exact
-from .firmware.klipper.model import KlipperDelta
+from .firmware.base import FirmwareModel
 from .robot import NominalLinearDelta
 
 #: The secant iteration on the commanded z stops below this change [mm].
@@ -129,7 +129,7 @@ def random_printer(nominal: NominalLinearDelta, rng: np.random.Generator,
     return random_true_printer(nominal, rng, tolerances, bed_tilt_deg, bed_height).geometry
 
 
-def nozzle_positions(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: float,
+def nozzle_positions(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float,
                      commanded: np.ndarray, point: np.ndarray | None = None) -> np.ndarray:
     """Where a plate point (default: the nozzle) of the truth is at commanded positions [mm], (N, 3)."""
     commanded = np.atleast_2d(np.asarray(commanded, dtype=float))
@@ -137,7 +137,7 @@ def nozzle_positions(truth: DeltaGeometry, firmware: KlipperDelta, step_distance
     return pose.point(truth.tool if point is None else point)
 
 
-def probe_heights(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: float, xy: np.ndarray,
+def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float, xy: np.ndarray,
                   sigma_mm: float, rng: np.random.Generator,
                   probe_offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
                   max_iter: int = 30) -> np.ndarray:
@@ -182,7 +182,7 @@ def probe_heights(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: f
     return np.column_stack([xy, z1 + rng.normal(0.0, sigma_mm, len(xy)) if sigma_mm > 0.0 else z1])
 
 
-def printed_distances(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: float, pairs: np.ndarray,
+def printed_distances(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float, pairs: np.ndarray,
                       sigma_mm: float, rng: np.random.Generator) -> np.ndarray:
     """True distances between features printed at commanded positions, with caliper noise [mm], (M,).
 
