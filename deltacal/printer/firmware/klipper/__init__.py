@@ -1,5 +1,6 @@
 """Klipper, the firmware of most Delta printers that deltacal meets.
 
 Its ``printer.cfg`` (:mod:`.config`), its delta model and limits (:mod:`.model`), the values fitted to
-an identified printer (:mod:`.fit`) and its own ``DELTA_CALIBRATE`` (:mod:`.calibrate`).
+an identified printer (:mod:`.fit`) and its own ``DELTA_CALIBRATE`` (:mod:`.calibrate`); Klipper
+behind the firmware interface (:mod:`.firmware`: :data:`~.firmware.KLIPPER`).
 """
