@@ -1,6 +1,6 @@
 """``plan --object`` for a linear Delta printer: which distances of the printed object to measure.
 
-The distances are chosen among the object's candidate pairs (:mod:`.printer_object`) to maximise
+The distances are chosen among the object's candidate pairs (:mod:`.object`) to maximise
 what the probe heights and they together tell about the printer: a greedy D-optimal selection
 (Bayesian: ``log det(I + Σ w wᵀ)``, each row ``w`` a measurement's sensitivity in units of each
 parameter's build tolerance and of the measurement's σ, so that the criterion is defined whatever
