@@ -86,7 +86,6 @@ def test_files_of_either_kind(kossel, tmp_path):
     assert isinstance(load_controller(cfg), KlipperController)
     # the top-level names are these
     assert deltacal.load_robot is load_robot and deltacal.load_controller is load_controller
-    assert deltacal.load_printer is load_printer
 
 
 def test_towers_stepping_differently_need_the_step_distance(kossel, tmp_path):
