@@ -233,7 +233,7 @@ def _tracker_cell(start, truth, nominal: NominalDelta, q: np.ndarray, metrology:
 
 
 def markdown_table(summary: dict) -> str:
-    """The comparison table of a demo run as Markdown (the README quotes it verbatim)."""
+    """The comparison table of a demo run as Markdown (docs/results.md quotes it verbatim)."""
     rows = summary["validation"]
     tools = list(dict.fromkeys(r["tool"] for r in rows))
     lines = [
@@ -264,7 +264,7 @@ def _row(tool: str, model: str, method: str, metrics) -> dict:
 def _controller_routes(result, truth, nominal: NominalDelta, progress: Callable[[str], None]) -> dict:
     """What each route to a Cartesian controller leaves on the true robot, tool 200 mm.
 
-    The routes (README, "Using a calibration on your controller"): the nominal controller fed the
+    The routes (docs/controllers.md, "Using a calibration on your controller"): the nominal controller fed the
     targets as they are, its joint offsets or per-limb values fitted to the complete model's
     calibration, and corrected targets for it.
 

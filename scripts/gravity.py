@@ -3,7 +3,7 @@
 A mid-size pick-and-place Delta (arms 0.31 m and 0.35 kg, rods 0.82 m and 0.04 kg, plate 0.4 kg)
 with compliant actuators. Ground truth: the Pinocchio closed-loop model's statics
 (:func:`deltacal.kinematics.statics.multibody_gravity_torque`). Writes ``results/gravity.json``;
-the README quotes it. Fixed seeds.
+docs/tracker.md quotes it. Fixed seeds.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""The README's Python example runs as written (from the repository root)."""
+"""The README's Python example runs as written (from the repository root), and the API reference's
+table of main objects matches the package."""
 
 import os
 import re
@@ -23,15 +24,15 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
 
 
 def test_the_api_tables_match_the_public_names():
-    """Every name of ``deltacal.__all__`` (exceptions aside) is in the README's API tables, and
-    every name there imports from the module its row gives."""
+    """Every name of ``deltacal.__all__`` (exceptions aside) is in the API reference's table of main
+    objects (docs/api/index.md), and every name there imports from the module its row gives."""
     import importlib
 
     import deltacal
     import deltacal.exceptions
 
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = text[text.index("## Python API"):text.index("## Command line")]
+    text = (ROOT / "docs" / "api" / "index.md").read_text(encoding="utf-8")
+    section = text[text.index("## Main objects"):text.index("## Reference pages")]
     named: set[str] = set()
     for line in section.splitlines():
         if not line.startswith("| `"):
@@ -49,7 +50,7 @@ def test_the_api_tables_match_the_public_names():
                     found = True
                 except AttributeError:
                     continue
-            assert found, f"README names {name} in {modules}, which do not hold it"
+            assert found, f"docs/api/index.md names {name} in {modules}, which do not hold it"
     exceptions = {n for n in dir(deltacal.exceptions) if n[0].isupper()} | {"__version__"}
     missing = sorted(set(deltacal.__all__) - named - exceptions)
-    assert not missing, f"exported but not in the README's API tables: {missing}"
+    assert not missing, f"exported but not in the API reference's table: {missing}"

@@ -1,6 +1,6 @@
 """The ``deltacal`` command: parser, dispatch, exit codes and one-line errors.
 
-Commands (files in mm and deg; see the README for formats):
+Commands (files in mm and deg; see docs/conventions.md for formats):
 
 * ``deltacal demo``: the whole job on a simulated robot (plan, measure, identify,
   compensate, validate).

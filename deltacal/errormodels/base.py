@@ -14,6 +14,7 @@ DeltaGeometry. It states:
 Every model here is a linear combination ``e = M(g) dk`` of 63 *elementary moves*
 of a geometry g, in this order:
 
+```text
 ====================  =====  ==============================================
 block                 size   meaning
 ====================  =====  ==============================================
@@ -28,6 +29,7 @@ joint scales          3      joint_scale[i]: true joint coordinate per unit
                              reading (a printer's step distance) [-]; a
                              rotary Delta's stay 1 (their columns are 0)
 ====================  =====  ==============================================
+```
 
 A linear Delta (a prismatic chain, :mod:`deltacal.chains`) has the same moves: its "arm" balls
 are its carriage's, held in the carriage frame; the actuator rotation's two tilts lean its tower

@@ -100,7 +100,7 @@ def identify(
     return review(result, start, error_model, Data(measurements, options), fit)
 
 #: Encoder offsets found first (:mod:`.offsets`) below these [rad] leave the start as it is: the
-#: base parameters are chosen at the start (the papers' way, and every figure of the README).
+#: base parameters are chosen at the start (the papers' way, and every figure of docs/results.md).
 #: With free frames what they absorb depends on the offsets from about 1°; in {O} the choice
 #: does not, only the start's plausibility check (its residuals grow with the offsets: 87 mm at
 #: 8° read as wrong units).

@@ -53,18 +53,14 @@ LOWEST_LEVEL = 8.0
 #: Levels of features' centres, evenly from :data:`LOWEST_LEVEL` up to the top level.
 LEVEL_COUNT = 4
 #: The top level's height above the lowest, per mm of the caliper's range: slanted pairs across the
-#: whole span must still fit the caliper. Measured on 60 simulated well-built printers (seeds
-#: 29000-29059, evidence-scaled priors), mean 3-D max error of the G-code route: with a 150 mm
-#: caliper, the top at 78, 90 (the former fixed levels 8/30/60/90), 90.5 and 107 mm: 0.0266, 0.0250,
-#: 0.0235 and 0.0264 mm; with a 200 mm caliper, at 98, 107, 118 and 142 mm: 0.0208, 0.0209, 0.0218
-#: and 0.0220 mm. (The D-optimal choice prints most features on the lowest and the top levels.)
+#: whole span must still fit the caliper. The factor was chosen on simulated printers (the figures:
+#: docs/results.md, "The printed object's levels and caliper").
 LEVEL_SPAN_PER_CALIPER = 0.55
 #: Room left between the top ball and the printable height [mm].
 TOP_MARGIN = 2.0
-#: Longest outside-jaw reading of the caliper [mm]: a common 200 mm (8 in) caliper. Its longer,
-#: taller pairs take the G-code route's 3-D max error on well-built printers from 0.025 to 0.022 mm
-#: (mean of 60, ``scripts/printer_compare.py --first-seed 34000 --printers 60``, against 150 mm);
-#: ``plan --caliper 150`` plans for the shorter one.
+#: Longest outside-jaw reading of the caliper [mm]: a common 200 mm (8 in) caliper, whose longer,
+#: taller pairs leave less error than a 150 mm one's (docs/results.md); ``plan --caliper 150`` plans
+#: for the shorter one.
 CALIPER_RANGE = 200.0
 #: Steepest line between two measured centres [rad]: the jaws must touch the balls above their cones.
 MAX_ELEVATION = math.radians(45.0)

@@ -52,10 +52,10 @@ _STEP = {"delta_radius": 1e-4, "angle": 1e-7, "arm_length": 1e-4, "position_ends
 _ANGLE_C = 3
 #: Gauss-Newton stops when a step moves no nozzle by more than this [mm].
 TOLERANCE = 1e-8
-#: The first layer's weight of ``export --controller klipper`` and the report (:func:`fit_klipper`).
-#: On 12 simulated printers measured with 29 probe heights, 10 left two kits' first layer less flat
-#: than Klipper's own calibration and 30 none; with 49 heights (``scripts/printer_compare.py``) both
-#: beat Klipper's on both figures, 30 with the wider margin on flatness.
+#: The first layer's weight of ``export --controller klipper`` and the report (:func:`fit_klipper`):
+#: it trades the volume's largest error for the first layer's flatness, which the firmware's values
+#: must not leave worse than the firmware's own calibration (the figures: docs/printers.md and
+#: docs/results.md).
 EXPORT_FIRST_LAYER_WEIGHT = 30.0
 #: The height of the first layer, where flatness is judged [mm].
 FIRST_LAYER = 0.2
