@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..calibration import Calibration
-from ..io import exact_degrees
+from ..io.toml import exact_degrees
 from .accuracy import AccuracyMap
 from .controllers import ControllerRoutes
 from .deflection import DeflectionMap
@@ -71,7 +71,7 @@ def cell(value: float, digits: int = 6) -> str:
 
 
 def file_degrees(angles: np.ndarray) -> list[float]:
-    """Angles [rad] in degrees as the calibration file holds them (:func:`~deltacal.io.exact_degrees`)."""
+    """Angles [rad] in degrees as a calibration file holds them (:func:`~deltacal.io.toml.exact_degrees`)."""
     return [float(exact_degrees(float(v))) for v in angles]
 
 
