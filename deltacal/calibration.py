@@ -2,30 +2,37 @@
 
 :class:`Calibration` holds the identified geometry, the nominal one it started from, the error
 model, the base parameters with σ and correlations, the instrument frames, the fit's quality and
-(later) the actuators' compliances. It is read and written by
-:func:`deltacal.io.load_calibration` / :func:`deltacal.io.save_calibration` only; compensation,
-the report and the export take the value, never the file. Compliances identified with the
-geometry are in ``geometry.compliance`` (what exact compensation uses) and, with their σ, in
-:attr:`Calibration.compliance` / :attr:`Calibration.compliance_sigma` (the file's
-``[compliance]``). The linear compensators' view of it
-(:meth:`Calibration.linear`) refuses a calibration identified with free instrument frames: its
-base parameters are in the fit's own gauge, which those compensators cannot follow.
+the actuators' compliances, all in the library's units (mm, rad, rad/N m).
+:meth:`Calibration.from_result` builds it from an identification;
+:func:`deltacal.io.load_calibration` / :func:`deltacal.io.save_calibration` read and write it
+(converting to and from the file's degrees); compensation, the report and the export take the
+value, never the file. Compliances identified with the geometry are ``geometry.compliance`` (what
+exact compensation uses), their σ :attr:`Calibration.compliance_sigma` (the file's
+``[compliance]``). The linear compensators' view of it (:meth:`Calibration.linear`) refuses a
+calibration identified with free instrument frames: its base parameters are in the fit's own
+gauge, which those compensators cannot follow.
 """
 
 from __future__ import annotations
 
-import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Literal, cast, get_args
 
 import numpy as np
 
 from .compensation import LinearCalibration
-from .errormodels import ErrorModel
+from .errormodels import ErrorModel, get_model
 from .exceptions import InputError
 from .geometry import DeltaGeometry
 from .identification.columns import COMPLIANCE, COMPLIANCE_NAMES, FRAME, GEOMETRY, POINT, ParameterKind
 from .identification.frames import InstrumentFrame, axes_motion
+from .identification.options import Method
+from .identification.result import IdentificationResult, ResidualStats
+
+#: The unit of a base parameter's value and σ: a length, an angle or an actuator's compliance.
+BaseUnit = Literal["mm", "rad", "rad/Nm"]
 
 #: How far ``[geometry]`` may be from ``[nominal]`` moved by the base parameters: lengths [mm],
 #: angles and unit vectors [rad]. Identification composes its steps, the file sums them: the two
@@ -54,14 +61,14 @@ def kind_of(name: str) -> ParameterKind:
 
 @dataclass(frozen=True)
 class BaseParameter:
-    """One identified base parameter.
+    """One identified base parameter, in the library's units.
 
     Attributes:
         name: The kept parameter (``T[station].rx``... for an instrument frame's).
         regrouping: What it stands for, e.g. ``δb11x − δa11y``.
         value: Identified value in ``unit``.
         sigma: Its standard deviation in ``unit``.
-        unit: ``"mm"``, ``"deg"`` or ``"rad/Nm"`` (a compliance).
+        unit: ``"mm"``, ``"rad"`` or ``"rad/Nm"`` (a compliance).
         kind: ``"geometry"``, ``"frame"``, ``"point"`` or ``"compliance"``
             (:mod:`deltacal.identification.columns`).
     """
@@ -70,23 +77,13 @@ class BaseParameter:
     regrouping: str
     value: float
     sigma: float
-    unit: str
+    unit: BaseUnit
     kind: ParameterKind = GEOMETRY
 
     @property
     def is_frame(self) -> bool:
         """Whether it is an instrument frame's parameter (not the robot's)."""
         return self.kind == FRAME
-
-    @property
-    def si_value(self) -> float:
-        """The value in the library's units (mm or rad)."""
-        return math.radians(self.value) if self.unit == "deg" else self.value
-
-    @property
-    def si_sigma(self) -> float:
-        """σ in the library's units (mm or rad)."""
-        return math.radians(self.sigma) if self.unit == "deg" else self.sigma
 
     @property
     def terms(self) -> list[str]:
@@ -96,23 +93,45 @@ class BaseParameter:
 
 @dataclass(frozen=True)
 class FrameRecord:
-    """An instrument station's frame (pose of {O} in {T}), degrees and mm, with σ."""
+    """An instrument station's frame: the pose of {O} in {T}, ``y_T = R(rotation) y_O + translation``.
+
+    Attributes:
+        name: The station.
+        rotation: Rotation vector of {O} in {T} [rad], (3,).
+        translation: Origin of {O} in {T} [mm], (3,).
+        rotation_sigma: σ of a small rotation about the axes of {T} [rad], (3,).
+        translation_sigma: σ of the origin along the axes of {T} [mm], (3,).
+    """
 
     name: str
-    rotation_deg: np.ndarray
-    translation_mm: np.ndarray
-    rotation_sigma_deg: np.ndarray
-    translation_sigma_mm: np.ndarray
+    rotation: np.ndarray
+    translation: np.ndarray
+    rotation_sigma: np.ndarray
+    translation_sigma: np.ndarray
+
+    @classmethod
+    def from_frame(cls, name: str, frame: InstrumentFrame) -> FrameRecord:
+        """The record of an identified frame.
+
+        Its rotation vector goes through degrees and back (``np.radians(np.degrees(...))``), as
+        calibrations have always held it: the files written from it stay the same to the last digit.
+        """
+        return cls(name, np.radians(np.degrees(frame.rotation_vector)),
+                   np.asarray(frame.translation, dtype=float), np.asarray(frame.rotation_sigma, dtype=float),
+                   np.asarray(frame.translation_sigma, dtype=float))
 
     @property
     def frame(self) -> InstrumentFrame:
         """The frame as the library uses it."""
-        return InstrumentFrame.from_vectors(np.radians(self.rotation_deg), self.translation_mm)
+        return InstrumentFrame.from_vectors(self.rotation, self.translation)
 
 
 @dataclass(frozen=True)
 class Calibration:
     """An identified robot: geometry, model, base parameters, frames and the fit's quality.
+
+    Built by :meth:`from_result` from an identification, or read from its file. What a file
+    written by an earlier version lacks takes the default below.
 
     Attributes:
         geometry: The identified geometry (what exact compensation uses).
@@ -120,21 +139,21 @@ class Calibration:
         model: The error model.
         base: The base parameters, in the fit's order.
         correlation: Their correlation matrix.
-        method: ``linear`` or ``iterated``.
+        method: ``"linear"`` or ``"iterated"``; None when not recorded.
         rank: Rank of the regressor (number of base parameters).
         parameters: Number of parameters of the model (and frames).
-        condition_number: Condition number of the scaled base regressor.
-        iterations: Gauss-Newton iterations.
-        variance_factor: s0² of the fit.
+        condition_number: Condition number of the scaled base regressor (nan: not recorded).
+        iterations: Gauss-Newton iterations (0: not recorded).
+        variance_factor: s0² of the fit (nan: not recorded).
         unidentifiable: Parameters not kept as base parameters.
-        residuals_before: Summary statistics at the nominal geometry.
+        residuals_before: Residual statistics at the nominal geometry [mm, rad] (nan: not recorded).
         residuals_after: The same at the identified geometry.
         outlier_lines: Lines of the measurement file flagged as outliers (command line).
         outlier_rows: Their 1-based data rows.
         frames: Instrument frames by station (empty: measured in the base frame).
-        compliance: Actuator compliances [rad/N m] when identified, else None (the same values
-            as ``geometry.compliance``).
-        compliance_sigma: Their σ [rad/N m] (0 for one the measurements could not identify).
+        compliance_sigma: σ of the actuators' compliances [rad/N m] when they were identified with
+            the geometry (0 for one the measurements could not identify), else None; the
+            compliances themselves are ``geometry.compliance`` (:attr:`compliance`).
         source: The file it was read from ("" when built in memory).
     """
 
@@ -143,21 +162,64 @@ class Calibration:
     model: ErrorModel
     base: list[BaseParameter]
     correlation: np.ndarray
-    method: str = "?"
+    method: Method | None = None
     rank: int = 0
     parameters: int = 0
-    condition_number: float = math.nan
+    condition_number: float = np.nan
     iterations: int = 0
-    variance_factor: float = math.nan
+    variance_factor: float = np.nan
     unidentifiable: list[str] = field(default_factory=list)
-    residuals_before: dict[str, float] = field(default_factory=dict)
-    residuals_after: dict[str, float] = field(default_factory=dict)
+    residuals_before: ResidualStats = field(default_factory=ResidualStats)
+    residuals_after: ResidualStats = field(default_factory=ResidualStats)
     outlier_lines: list[int] = field(default_factory=list)
     outlier_rows: list[int] = field(default_factory=list)
     frames: dict[str, FrameRecord] = field(default_factory=dict)
-    compliance: np.ndarray | None = None
     compliance_sigma: np.ndarray | None = None
     source: str = ""
+
+    @classmethod
+    def from_result(cls, result: IdentificationResult,
+                    lines: Sequence[int] | np.ndarray | None = None) -> Calibration:
+        """The calibration an identification found.
+
+        Args:
+            result: The identification (:func:`~deltacal.identification.identify`, or a printer's).
+            lines: The line of each measurement in the file it came from: the outliers are then
+                also named by line (``outlier_lines``).
+
+        Raises:
+            ValueError: the result's method is neither ``"linear"`` nor ``"iterated"``.
+        """
+        if result.method not in get_args(Method):
+            raise ValueError(f"method must be 'linear' or 'iterated', got {result.method!r}")
+        kinds = {c.name: c.kind for c in result.columns}
+        base = []
+        for label, name, v, s, u in zip(result.labels, result.base.base_names, result.values, result.sigma,
+                                        result.units, strict=True):
+            kind = kinds.get(name, kind_of(name))
+            base.append(BaseParameter(name, label, float(v), float(s), _unit(kind, u), kind))
+        compliance_sigma = None
+        if any(c.kind == COMPLIANCE for c in result.columns):
+            sigma = {p.name: p.sigma for p in base if p.kind == COMPLIANCE}
+            compliance_sigma = np.array([sigma.get(n, 0.0) for n in COMPLIANCE_NAMES])
+        return cls(
+            geometry=result.geometry, nominal=result.start, model=get_model(result.model), base=base,
+            correlation=np.asarray(result.correlation, dtype=float), method=cast(Method, result.method),
+            rank=result.rank, parameters=len(result.base.names),
+            condition_number=float(result.condition_number), iterations=result.iterations,
+            variance_factor=float(result.variance_factor),
+            unidentifiable=list(result.base.unidentifiable_names),
+            residuals_before=result.before, residuals_after=result.after,
+            outlier_lines=[] if lines is None else [int(lines[k]) for k in result.outliers],
+            outlier_rows=[int(k) + 1 for k in result.outliers],
+            frames={name: FrameRecord.from_frame(name, f) for name, f in result.frames.items()},
+            compliance_sigma=compliance_sigma,
+        )
+
+    @property
+    def compliance(self) -> np.ndarray | None:
+        """The actuators' compliances [rad/N m] when identified (``geometry.compliance``), else None."""
+        return None if self.compliance_sigma is None else self.geometry.compliance
 
     @property
     def robot(self) -> str:
@@ -186,7 +248,7 @@ class Calibration:
         rows and columns are dropped.
         """
         k = self.robot_index
-        sigma = np.array([self.base[i].si_sigma for i in k])
+        sigma = np.array([self.base[i].sigma for i in k])
         return sigma[:, None] * self.correlation[np.ix_(k, k)] * sigma[None, :]
 
     def explain(self, name: str) -> str:
@@ -205,9 +267,9 @@ class Calibration:
         deviation, tool_move = np.zeros(self.model.size), np.zeros(3)
         for p in self.base:
             if p.kind == POINT and p.name.startswith("P[tcp]."):  # the tool identified as a free point
-                tool_move["xyz".index(p.name[-1])] = p.si_value
+                tool_move["xyz".index(p.name[-1])] = p.value
             elif p.kind == GEOMETRY:
-                deviation[self.model.names.index(p.name)] = p.si_value
+                deviation[self.model.names.index(p.name)] = p.value
         return deviation, tool_move
 
     def predicted_geometry(self) -> DeltaGeometry:
@@ -272,3 +334,10 @@ class Calibration:
         deviation, tool_move = self.deviation()
         return LinearCalibration(nominal=self.nominal.with_tool(self.nominal.tool + tool_move),
                                  model=self.model, deviation=deviation)
+
+
+def _unit(kind: ParameterKind, unit: str) -> BaseUnit:
+    """A base parameter's unit from its kind and its column's unit (any but rad counts as mm)."""
+    if kind == COMPLIANCE:
+        return "rad/Nm"
+    return "rad" if unit == "rad" else "mm"

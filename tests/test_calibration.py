@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
 import pytest
 from conftest import MODELS, complete_fit
 from numpy.testing import assert_allclose
 
 from deltacal import Tolerances, identify
+from deltacal.calibration import Calibration
 from deltacal.cli import main
 from deltacal.exceptions import InputError
 from deltacal.io import calibration_from_result, load_calibration, save_calibration
@@ -117,3 +121,65 @@ def test_report_of_another_robot_is_refused(fitted, tmp_path, capsys):
         err = capsys.readouterr().err
         assert "is not the calibration's robot" in err and len(err.strip().splitlines()) == 1
     assert main(["report", cal, "--truth", str(same), "--robot", str(NOMINAL), "--no-view", "-o", out]) == 0
+
+
+def test_the_value_holds_the_library_units(fitted):
+    cal = Calibration.from_result(fitted)
+    assert {p.unit for p in cal.base} == {"mm", "rad"} and cal.method == fitted.method
+    # the identified values themselves (mm, rad), not their degrees
+    assert [p.value for p in cal.base] == [float(v) for v in fitted.values]
+    assert [p.sigma for p in cal.base] == [float(s) for s in fitted.sigma]
+    assert cal.residuals_before == fitted.before and cal.residuals_after == fitted.after
+    assert cal.compliance is None and cal.compliance_sigma is None
+    alias = calibration_from_result(fitted)
+    assert alias.base == cal.base and alias.geometry is cal.geometry
+
+
+def test_the_file_converts_degrees_both_ways_to_the_last_digit(fitted, tmp_path):
+    save_calibration(fitted, tmp_path / "a.toml")
+    back = load_calibration(tmp_path / "a.toml")
+    text = (tmp_path / "a.toml").read_text()
+    angles = [p for p in back.base if p.unit == "rad"]
+    assert angles and all(f"value_deg = {math.degrees(p.value)!r}\n" in text for p in angles)
+    assert back.residuals_after.as_dict() == fitted.after.as_dict()
+
+
+def test_what_an_earlier_file_lacks_reads_as_not_recorded(fitted, tmp_path):
+    save_calibration(fitted, tmp_path / "a.toml")
+    text = (tmp_path / "a.toml").read_text()
+    start = text.index("\n[calibration.residuals_before]")
+    end = text.index("\n[[calibration.base_parameter]]")
+    old = tmp_path / "old.toml"
+    old.write_text(text[:start] + text[end:])
+    _edit(old, 'method = "iterated"\n', "", old)
+    cal = load_calibration(old)
+    assert cal.method is None and not cal.residuals_before.as_dict() and not cal.residuals_after.as_dict()
+    save_calibration(cal, tmp_path / "b.toml")  # written back without a method (not a placeholder)
+    assert "method =" not in (tmp_path / "b.toml").read_text()
+    assert load_calibration(tmp_path / "b.toml").method is None
+    # the placeholder earlier versions wrote back for a missing method reads as not recorded
+    assert load_calibration(_edit(tmp_path / "a.toml", 'method = "iterated"', 'method = "?"',
+                                  tmp_path / "q.toml")).method is None
+    with pytest.raises(InputError, match="key calibration.method: must be 'linear' or 'iterated'"):
+        load_calibration(_edit(tmp_path / "a.toml", 'method = "iterated"', 'method = "magic"',
+                               tmp_path / "m.toml"))
+    bad = _edit(tmp_path / "a.toml", "position_rms_mm = ", "positoin_rms_mm = ", tmp_path / "bad.toml")
+    with pytest.raises(InputError, match="key calibration.residuals_before.positoin_rms_mm: unknown key"):
+        load_calibration(bad)
+
+
+def test_the_report_takes_the_value_or_its_file(fitted, tmp_path):
+    from deltacal.report import write_report
+
+    save_calibration(fitted, tmp_path / "cal.toml")
+    by_file = write_report(tmp_path / "cal.toml", tmp_path / "a.html", view=False, grid=7)
+    by_value = write_report(load_calibration(tmp_path / "cal.toml"), tmp_path / "b.html", view=False, grid=7)
+    assert by_file.worst_sigma == by_value.worst_sigma
+
+    def page(name: str) -> str:  # the figures' element ids count the figures drawn in this process
+        return re.sub(r"\bf\d+-", "f-", (tmp_path / name).read_text())
+
+    assert page("a.html") == page("b.html")
+    # built in memory: the same map, but for the correlations, which the file rounds to 6 decimals
+    in_memory = write_report(Calibration.from_result(fitted), tmp_path / "c.html", view=False, grid=7)
+    assert in_memory.worst_sigma == pytest.approx(by_file.worst_sigma, rel=1e-4)

@@ -119,7 +119,7 @@ def test_a_calibration_with_any_names_reads_back_equal(fitted, tmp_path_factory,
     back = load_calibration(folder / "a.toml")
     assert list(back.frames) == stations and list(back.geometry.points) == [point]
     for name in stations:
-        np.testing.assert_array_equal(back.frames[name].translation_mm, frames[name].translation_mm)
+        np.testing.assert_array_equal(back.frames[name].translation, frames[name].translation)
     save_calibration(back, folder / "b.toml")
     assert (folder / "a.toml").read_bytes() == (folder / "b.toml").read_bytes()
     save_geometry(geometry, folder / "g.toml")

@@ -26,7 +26,8 @@ def run(args: argparse.Namespace) -> int:
         if path is not None:
             check_input(path)
     check_output(args.output, inputs)
-    nominal = load_calibration(args.calibration).nominal
+    calibration = load_calibration(args.calibration)
+    nominal = calibration.nominal
     truth = load_geometry(args.truth) if args.truth is not None else None
     robot = load_robot(args.robot) if args.robot is not None else None
     for path, geometry, what in ((args.truth, truth, "true robot"),
@@ -38,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
                              f"calibration's nominal {name!r}): the file of another robot?", str(path))
     workspace = robot.workspace if robot is not None else None
     summary = write_report(
-        args.calibration,
+        calibration,
         args.output,
         measurements=args.measurements,
         truth=truth,

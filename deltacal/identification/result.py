@@ -267,34 +267,3 @@ class IdentificationResult:
             "are the fit's, before that move)"
         )
         return lines
-
-    def to_dict(self) -> dict:
-        """The calibration report as plain data (angles in degrees)."""
-        params = []
-        for label, name, v, s, u in zip(
-            self.labels, self.base.base_names, self.values, self.sigma, self.units, strict=True
-        ):
-            if u == "rad":
-                params.append({"name": name, "regrouping": label, "value_deg": math.degrees(v),
-                               "sigma_deg": math.degrees(s)})
-            elif u == "rad/Nm":
-                params.append({"name": name, "regrouping": label, "value_rad_per_nm": v,
-                               "sigma_rad_per_nm": s})
-            else:
-                params.append({"name": name, "regrouping": label, "value_mm": v, "sigma_mm": s})
-        return {
-            "model": self.model,
-            "method": self.method,
-            "rank": self.rank,
-            "parameters": len(self.base.names),
-            "condition_number": self.condition_number,
-            "iterations": self.iterations,
-            "variance_factor": self.variance_factor,
-            "unidentifiable": self.base.unidentifiable_names,
-            "residuals_before": self.before.as_dict(),
-            "residuals_after": self.after.as_dict(),
-            "outlier_rows": [int(k) + 1 for k in self.outliers],
-            "base_parameter": params,
-            # correlation matrix of the base parameters, in the order of base_parameter
-            "correlation": np.round(self.correlation, 6).tolist(),
-        }

@@ -1,21 +1,28 @@
-"""Calibration files: one reader and one writer of :class:`~deltacal.calibration.Calibration`."""
+"""Calibration files: one reader and one writer of :class:`~deltacal.calibration.Calibration`.
+
+The value holds the library's units (mm, rad, rad/N m); the file holds angles in degrees. Both
+directions convert here and only here: a file read and written again is the same file, to the
+last digit (see :func:`~deltacal.io.toml.radians_written_as` and
+:func:`~deltacal.io.toml.exact_degrees`).
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import fields
 from pathlib import Path
+from typing import cast, get_args
 
 import numpy as np
 
-from ..calibration import BaseParameter, Calibration, FrameRecord, kind_of
+from ..calibration import BaseParameter, BaseUnit, Calibration, FrameRecord, kind_of
 from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
-from ..identification import IdentificationResult
-from ..identification.columns import COMPLIANCE, COMPLIANCE_NAMES
+from ..identification import IdentificationResult, ResidualStats
 from ..identification.frames import InstrumentFrame
+from ..identification.options import Method
 from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
@@ -25,10 +32,13 @@ from .geometry_file import (
     geometry_to_dict,
 )
 from .names import check_names, check_robot_name
-from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
+from .toml import _shown, _Table, exact_degrees, radians_from_text, radians_written_as, read_toml, toml_dumps
 
-#: The key suffix of each unit of a base parameter (``value_deg``, ``value_rad_per_nm``...).
-_UNIT_KEYS = {"mm": "mm", "deg": "deg", "rad/Nm": "rad_per_nm"}
+#: The key suffix of each unit of a base parameter in the file (``value_deg``, ``value_rad_per_nm``...).
+_UNIT_KEYS = {"mm": "mm", "rad": "deg", "rad/Nm": "rad_per_nm"}
+
+#: The statistics of a residual summary (:class:`~deltacal.identification.ResidualStats`' fields).
+_STATISTICS = tuple(f.name for f in fields(ResidualStats))
 
 #: Tolerance on the correlation matrix read from a file (it is written rounded to 6 decimals).
 CORRELATION_ATOL = 1e-5
@@ -46,14 +56,11 @@ def save_calibration(
     Args:
         calibration: The calibration (or the identification it comes from).
         path: The file to write (atomically).
-        lines: The line of each measurement in the measurements file it came from: the
-            outliers are then also saved by line (``outlier_lines``).
+        lines: With an identification: the line of each measurement in the measurements file it
+            came from; the outliers are then also saved by line (``outlier_lines``).
     """
     if isinstance(calibration, IdentificationResult):
-        result = calibration
-        calibration = calibration_from_result(result)
-        if lines is not None:
-            calibration = replace(calibration, outlier_lines=[int(lines[k]) for k in result.outliers])
+        calibration = Calibration.from_result(calibration, lines)
     for geometry in (calibration.geometry, calibration.nominal):
         check_robot_name(geometry.name, str(path))
         check_names(geometry.points, "point", str(path))
@@ -63,41 +70,13 @@ def save_calibration(
 
 
 def calibration_from_result(result: IdentificationResult) -> Calibration:
-    """The calibration an identification found."""
-    kinds = {c.name: c.kind for c in result.columns}
-    base = []
-    for label, name, v, s, u in zip(result.labels, result.base.base_names, result.values, result.sigma,
-                                    result.units, strict=True):
-        kind = kinds.get(name, kind_of(name))
-        if kind == COMPLIANCE:
-            base.append(BaseParameter(name, label, float(v), float(s), "rad/Nm", kind))
-        elif u == "rad":
-            base.append(BaseParameter(name, label, math.degrees(v), math.degrees(s), "deg", kind))
-        else:
-            base.append(BaseParameter(name, label, float(v), float(s), "mm", kind))
-    frames = {
-        name: FrameRecord(name, np.degrees(f.rotation_vector), np.asarray(f.translation, dtype=float),
-                          np.degrees(f.rotation_sigma), np.asarray(f.translation_sigma, dtype=float))
-        for name, f in result.frames.items()
-    }
-    return Calibration(
-        geometry=result.geometry, nominal=result.start, model=get_model(result.model), base=base,
-        correlation=np.asarray(result.correlation, dtype=float), method=result.method, rank=result.rank,
-        parameters=len(result.base.names), condition_number=float(result.condition_number),
-        iterations=result.iterations, variance_factor=float(result.variance_factor),
-        unidentifiable=list(result.base.unidentifiable_names), residuals_before=result.before.as_dict(),
-        residuals_after=result.after.as_dict(), outlier_rows=[int(k) + 1 for k in result.outliers],
-        frames=frames, **_identified_compliance(result, base),
-    )
+    """The calibration an identification found (:meth:`~deltacal.calibration.Calibration.from_result`)."""
+    return Calibration.from_result(result)
 
 
-def _identified_compliance(result: IdentificationResult, base: list[BaseParameter]) -> dict:
-    """``compliance`` and ``compliance_sigma`` of a fit that identified them (else nothing)."""
-    if not any(c.kind == COMPLIANCE for c in result.columns):
-        return {}
-    sigma = {p.name: p.sigma for p in base if p.kind == COMPLIANCE}
-    return {"compliance": np.array(result.geometry.compliance, dtype=float),
-            "compliance_sigma": np.array([sigma.get(n, 0.0) for n in COMPLIANCE_NAMES])}
+def _shown_value(value: float, unit: BaseUnit) -> float:
+    """A base parameter's value or σ in the file's unit (degrees for an angle)."""
+    return math.degrees(value) if unit == "rad" else float(value)
 
 
 def calibration_to_dict(calibration: Calibration) -> dict:
@@ -105,16 +84,20 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     cal = calibration
     params = [
         {"name": p.name, "kind": p.kind, "regrouping": p.regrouping,
-         f"value_{_UNIT_KEYS[p.unit]}": float(p.value), f"sigma_{_UNIT_KEYS[p.unit]}": float(p.sigma)}
+         f"value_{_UNIT_KEYS[p.unit]}": _shown_value(p.value, p.unit),
+         f"sigma_{_UNIT_KEYS[p.unit]}": _shown_value(p.sigma, p.unit)}
         for p in cal.base
     ]
-    report: dict = {
-        "model": cal.model.name, "method": cal.method, "rank": cal.rank, "parameters": cal.parameters,
+    report: dict = {"model": cal.model.name}
+    if cal.method is not None:
+        report["method"] = cal.method
+    report.update({
+        "rank": cal.rank, "parameters": cal.parameters,
         "condition_number": cal.condition_number, "iterations": cal.iterations,
         "variance_factor": cal.variance_factor, "unidentifiable": list(cal.unidentifiable),
-        "residuals_before": dict(cal.residuals_before), "residuals_after": dict(cal.residuals_after),
+        "residuals_before": cal.residuals_before.as_dict(), "residuals_after": cal.residuals_after.as_dict(),
         "outlier_rows": list(cal.outlier_rows),
-    }
+    })
     if cal.outlier_lines:
         report["outlier_lines"] = list(cal.outlier_lines)
     report["base_parameter"] = params
@@ -122,18 +105,17 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     report["correlation"] = np.round(cal.correlation, 6).tolist()
     data: dict = {"format": CALIBRATION_FORMAT, "calibration": report,
                   "geometry": geometry_to_dict(cal.geometry), "nominal": geometry_to_dict(cal.nominal)}
-    if cal.compliance is not None:
-        sigma = np.zeros(3) if cal.compliance_sigma is None else cal.compliance_sigma
-        data["compliance"] = {"actuator_rad_per_nm": [float(v) for v in cal.compliance],
-                              "sigma_rad_per_nm": [float(v) for v in sigma]}
+    if cal.compliance_sigma is not None:
+        data["compliance"] = {"actuator_rad_per_nm": [float(v) for v in cal.geometry.compliance],
+                              "sigma_rad_per_nm": [float(v) for v in cal.compliance_sigma]}
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
             name: {
-                "rotation_deg": [exact_degrees(math.radians(v)) for v in f.rotation_deg],
-                "translation_mm": [float(v) for v in f.translation_mm],
-                "rotation_sigma_deg": [float(v) for v in f.rotation_sigma_deg],
-                "translation_sigma_mm": [float(v) for v in f.translation_sigma_mm],
+                "rotation_deg": [exact_degrees(float(v)) for v in f.rotation],
+                "translation_mm": [float(v) for v in f.translation],
+                "rotation_sigma_deg": [math.degrees(v) for v in f.rotation_sigma],
+                "translation_sigma_mm": [float(v) for v in f.translation_sigma],
             }
             for name, f in cal.frames.items()
         }
@@ -216,7 +198,7 @@ def load_calibration(path: str | Path) -> Calibration:
         geometry=geometry_from_dict(data["geometry"], source, "geometry."),
         nominal=geometry_from_dict(data["nominal"], source, "nominal."),
         model=model, base=base, correlation=_correlation(cal, len(base)),
-        method=cal.string("method", default="?"),
+        method=_method(cal),
         rank=_count(cal, "rank", len(base), exactly=len(base)),
         parameters=_count(cal, "parameters", model.size, at_least=len(base)),
         condition_number=_positive(cal, "condition_number", minimum=1.0),
@@ -227,18 +209,38 @@ def load_calibration(path: str | Path) -> Calibration:
         residuals_after=_summary(cal, "residuals_after"),
         outlier_lines=_names(cal, "outlier_lines", int, "an array of line numbers"),
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
-        frames={name: FrameRecord(name=name, **item)
-                for name, item in instrument_tables(data, source).items()},
-        source=source, **_compliance_table(data, source),
+        frames=_frames(data, source), source=source, compliance_sigma=_compliance_sigma(data, source),
     )
     calibration.check()
     return calibration
 
 
-def _compliance_table(data: Mapping, source: str) -> dict:
-    """``[compliance]`` (``actuator_rad_per_nm``, ``sigma_rad_per_nm``), checked against ``[geometry]``."""
+def _method(cal: _Table) -> Method | None:
+    """The identification's method; None when the file has none (or the ``"?"`` earlier versions wrote)."""
+    method = cal.string("method", default="?")
+    if method == "?":
+        return None
+    if method not in get_args(Method):
+        raise cal.error("method", f"must be 'linear' or 'iterated', got {method!r}")
+    return cast(Method, method)
+
+
+def _frames(data: Mapping, source: str) -> dict[str, FrameRecord]:
+    """The instrument frames of ``[instrument]`` in the library's units (see :func:`instrument_tables`)."""
+    frames = {}
+    for name, item in instrument_tables(data, source).items():
+        # the rotation is written with every digit (exact_degrees): read back to the same angle
+        rotation = np.array([radians_from_text(v) for v in data["instrument"][name]["rotation_deg"]])
+        frames[name] = FrameRecord(name, rotation, item["translation_mm"],
+                                   np.array([radians_written_as(v) for v in item["rotation_sigma_deg"]]),
+                                   item["translation_sigma_mm"])
+    return frames
+
+
+def _compliance_sigma(data: Mapping, source: str) -> np.ndarray | None:
+    """The σ of ``[compliance]`` (None: no such table); its values are checked against ``[geometry]``."""
     if "compliance" not in data:
-        return {}
+        return None
     t = _Table(data, source).table("compliance")
     assert t is not None
     t.check_unknown(["actuator_rad_per_nm", "sigma_rad_per_nm"])
@@ -251,7 +253,7 @@ def _compliance_table(data: Mapping, source: str) -> dict:
         raise t.error("actuator_rad_per_nm", f"{value.tolist()} disagrees with key "
                       f"geometry.compliance.actuator_rad_per_nm = {_shown(geometry)} (a file edited in one "
                       "place only? edit both, or identify again)")
-    return {"compliance": value, "compliance_sigma": sigma}
+    return sigma
 
 
 def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
@@ -267,13 +269,15 @@ def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
         kind = t.string("kind", default=kind_of(name))
         if kind not in ("geometry", "frame", "point", "compliance"):
             raise t.error("kind", f"must be 'geometry', 'frame', 'point' or 'compliance', got {kind!r}")
-        unit = "rad/Nm" if kind == "compliance" else "deg" if t.has("value_deg") else "mm"
+        unit: BaseUnit = "rad/Nm" if kind == "compliance" else "rad" if t.has("value_deg") else "mm"
         key = _UNIT_KEYS[unit]
         value, sigma = t.number(f"value_{key}"), t.number(f"sigma_{key}")
         if not sigma >= 0.0:
             raise t.error(f"sigma_{key}", f"must not be negative, got {sigma!r}")
         if kind == "geometry" and name not in model.names:
             raise t.error("name", f"{name!r} is not a parameter of model {model.name}")
+        if unit == "rad":
+            value, sigma = radians_written_as(value), radians_written_as(sigma)
         base.append(BaseParameter(name, t.string("regrouping", default=f"δ{name}"), value, sigma, unit,
                                   kind))  # type: ignore[arg-type]
     return base
@@ -319,8 +323,16 @@ def _names(cal: _Table, key: str, kind: type, what: str) -> list:
     return list(raw)
 
 
-def _summary(cal: _Table, name: str) -> dict[str, float]:
+def _summary(cal: _Table, name: str) -> ResidualStats:
+    """A residual summary (``position_rms_mm``..., ``orientation_deg_max``): the statistics it holds."""
     t = cal.table(name, required=False)
     if t is None:
-        return {}
-    return {str(k): t.number(str(k)) for k in t.data}
+        return ResidualStats()
+    keys = ResidualStats(**dict.fromkeys(_STATISTICS, 1.0)).as_dict()  # every key, in the writer's words
+    t.check_unknown(keys)
+    stats = {}
+    for statistic, key in zip(_STATISTICS, keys, strict=True):
+        if t.has(key):
+            value = t.number(key)
+            stats[statistic] = radians_written_as(value) if key.startswith("orientation") else value
+    return ResidualStats(**stats)

@@ -62,6 +62,26 @@ def short_degrees(angle: float) -> RawToml:
     return exact_degrees(angle)
 
 
+def radians_written_as(degrees: float) -> float:
+    """The angle [rad] that ``math.degrees`` writes as ``degrees``: what a file's plain degrees stand for.
+
+    Values that files hold in degrees to ``repr``'s digits (a base parameter's ``value_deg``...)
+    are written as ``math.degrees(angle)``; plain ``math.radians`` does not always give that angle
+    back (one value in twenty is an ulp off, and is then written back an ulp off). This returns
+    the angle within two ulps of ``math.radians(degrees)`` whose ``math.degrees`` is ``degrees``,
+    so a file read and written again is the same to the last digit. Degrees no angle gives (typed
+    by hand, about one value in ten) read as ``math.radians(degrees)``.
+    """
+    near = math.radians(degrees)
+    for step in (0, 1, -1, 2, -2):
+        angle = near
+        for _ in range(abs(step)):
+            angle = math.nextafter(angle, math.copysign(math.inf, step))
+        if math.degrees(angle) == degrees:
+            return angle
+    return near
+
+
 def radians_from_text(value: Decimal | float) -> float:
     """Degrees read from a file (Decimal keeps every digit) to radians, rounded once."""
     if isinstance(value, float):

@@ -74,7 +74,7 @@ def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, 
 
 
 def write_report(
-    calibration: str | Path,
+    calibration: Calibration | str | Path,
     output: str | Path,
     measurements: str | Path | None = None,
     truth: DeltaGeometry | None = None,
@@ -85,10 +85,10 @@ def write_report(
     grid: int = 41,
     payload: float = 0.0,
 ) -> ReportSummary:
-    """Write the HTML report of a calibration file, atomically.
+    """Write the HTML report of a calibration, atomically.
 
     Args:
-        calibration: Calibration file written by ``deltacal identify``.
+        calibration: The calibration, or its file (written by ``deltacal identify``; read first).
         output: The HTML file to write.
         measurements: The measurement CSV the calibration was identified from (residual plots).
         truth: The true geometry (simulations): actual TCP errors beside the predicted σ.
@@ -102,11 +102,14 @@ def write_report(
 
     Returns:
         A summary of what was written.
+
+    Raises:
+        InputError: a calibration without base parameters (read from a geometry file), or a bad file.
     """
-    cal = load_calibration(calibration)
+    cal = calibration if isinstance(calibration, Calibration) else load_calibration(calibration)
     if not cal.base:
         raise InputError("not a calibration file: a geometry file has no identification to report "
-                         "(give the calibration file written by 'deltacal identify')", str(calibration),
+                         "(give the calibration file written by 'deltacal identify')", cal.source,
                          "key format")
     ws = workspace if workspace is not None else default_workspace(cal.nominal)
     ws_text = (f"Workspace cylinder: radius {ws.radius:.0f} mm, z from {ws.bottom_z:.0f} to {ws.top_z:.0f} mm"

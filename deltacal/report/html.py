@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..calibration import Calibration
+from ..io.toml import exact_degrees
 from .accuracy import AccuracyMap
 from .controllers import ControllerRoutes
 from .deflection import DeflectionMap
@@ -67,6 +68,11 @@ def num(value: float, digits: int = 6) -> str:
 def cell(value: float, digits: int = 6) -> str:
     """A numeric ``<td>`` holding the exact value in ``data-value`` and a rounded one as its text."""
     return f'<td class="num" data-value="{esc(repr(float(value)))}">{esc(num(value, digits))}</td>'
+
+
+def file_degrees(angles: np.ndarray) -> list[float]:
+    """Angles [rad] in degrees as a calibration file holds them (:func:`~deltacal.io.toml.exact_degrees`)."""
+    return [float(exact_degrees(float(v))) for v in angles]
 
 
 def table(header: Sequence[str], rows: Sequence[Sequence[str]], ident: str) -> str:
@@ -127,7 +133,7 @@ def _summary(page: Page) -> str:
         [td("robot"), td(c.robot)],
         [td("calibration file"), td(c.source)],
         [td("error model"), td(f"{c.model.name} ({c.parameters} parameters)")],
-        [td("method"), td(f"{c.method}, {c.iterations} iteration(s)")],
+        [td("method"), td(f"{c.method or '?'}, {c.iterations} iteration(s)")],
         [td("rank (base parameters)"), cell(c.rank)],
         [td("condition number"), cell(c.condition_number)],
         [td("variance factor s0²"), cell(s0, 4)],
@@ -141,9 +147,10 @@ def _summary(page: Page) -> str:
     if c.frames:
         frows = []
         for name, f in c.frames.items():
-            frows.append([td(name)] + [cell(v) for v in f.rotation_deg] + [cell(v) for v in f.translation_mm]
-                         + [td(", ".join(num(v, 3) for v in f.rotation_sigma_deg)),
-                            td(", ".join(num(v, 3) for v in f.translation_sigma_mm))])
+            frows.append([td(name)] + [cell(v) for v in file_degrees(f.rotation)]
+                         + [cell(v) for v in f.translation]
+                         + [td(", ".join(num(v, 3) for v in np.degrees(f.rotation_sigma))),
+                            td(", ".join(num(v, 3) for v in f.translation_sigma))])
         out += ("<h3>Instrument frames</h3><p>The measurements were taken in instrument frames {T} "
             "identified "
                 "with the robot (one per station): the pose of the robot base {O} in each, "
@@ -160,7 +167,10 @@ def _parameters(page: Page) -> str:
     c = page.calibration
     rows = []
     for k, p in enumerate(c.base, start=1):
-        rows.append([cell(k), td(p.name), td(p.regrouping), cell(p.value), cell(p.sigma), td(p.unit),
+        # an angle in degrees, as the calibration file writes it
+        value, sigma, unit = ((math.degrees(p.value), math.degrees(p.sigma), "deg") if p.unit == "rad"
+                              else (p.value, p.sigma, p.unit))
+        rows.append([cell(k), td(p.name), td(p.regrouping), cell(value), cell(sigma), td(unit),
                      td(regrouping_words(p.regrouping, p.terms))])
     out = ("<p>Each base parameter is what the measurements identify: a kept parameter, plus any "
         "others whose "
@@ -193,9 +203,9 @@ def _correlation(page: Page) -> str:
 
 def _residuals(page: Page) -> str:
     c = page.calibration
-    keys = sorted(set(c.residuals_before) | set(c.residuals_after))
-    rows = [[td(k), cell(c.residuals_before.get(k, math.nan)), cell(c.residuals_after.get(k, math.nan))]
-            for k in keys]
+    before, after = c.residuals_before.as_dict(), c.residuals_after.as_dict()
+    rows = [[td(k), cell(before.get(k, math.nan)), cell(after.get(k, math.nan))]
+            for k in sorted(set(before) | set(after))]
     out = "<p>As recorded in the calibration file:</p>" + table(["statistic", "before", "after"], rows,
                                                                  "residual-summary")
     r = page.residuals

@@ -101,7 +101,8 @@ def measurement_residuals(calibration: Calibration, path: str | Path) -> Measure
     read = read_measurement_file(path, calibration.geometry.point_names)
     measurements, file_lines = read.measurements, np.asarray(read.lines)
     warnings = list(read.warnings)
-    distances = any(k.startswith("distance") for k in calibration.residuals_after)
+    recorded = calibration.residuals_after
+    distances = math.isfinite(recorded.distance_rms) or math.isfinite(recorded.distance_max)
     nominal, identified = calibration.nominal, calibration.geometry
     poses = []
     for geometry, robot in ((nominal, "the nominal robot"), (identified, "the identified robot")):
@@ -117,7 +118,7 @@ def measurement_residuals(calibration: Calibration, path: str | Path) -> Measure
         before = _per_measurement_distance(nominal, measurements, pose0)
         after = _per_measurement_distance(identified, measurements, pose1)
         seen = measurements
-        key = "distance_rms_mm"
+        expected = recorded.distance_rms
     else:
         seen0, seen = measurements, measurements
         if calibration.frames:
@@ -131,7 +132,7 @@ def measurement_residuals(calibration: Calibration, path: str | Path) -> Measure
                                                 initial_frames(identified, measurements, pose1).items()})
         before = np.linalg.norm(seen0.position - predicted_points(nominal, seen0, pose0), axis=1)
         after = np.linalg.norm(seen.position - predicted_points(identified, seen, pose1), axis=1)
-        key = "position_rms_mm"
+        expected = recorded.position_rms
     result = MeasurementResiduals(
         source=str(path),
         kind="distance" if distances else "position",
@@ -145,8 +146,7 @@ def measurement_residuals(calibration: Calibration, path: str | Path) -> Measure
                  else np.isin(np.arange(1, len(measurements) + 1), calibration.outlier_rows)),
         warnings=(),
     )
-    expected = calibration.residuals_after.get(key)
-    if expected is not None and math.isfinite(expected):
+    if math.isfinite(expected):
         got = result.rms_after
         if abs(got - expected) > MISMATCH_RTOL * max(expected, 1e-9):
             warnings.append(
