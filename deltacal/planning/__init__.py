@@ -37,6 +37,7 @@ from .doptimal import (
     pool_memory,
     require_pool_memory,
 )
+from .options import PlanOptions
 from .poses import (
     PoseSet,
     bai_poses,
@@ -61,6 +62,7 @@ __all__ = [
     "SingularityMargin",
     "ConditionCurve",
     "DOptimalDesign",
+    "PlanOptions",
     "MEASUREMENTS",
     "PLAN_MODELS",
     "PoseSet",
