@@ -178,7 +178,8 @@ def _validation_rows(truth, nominal: NominalDelta, fits: dict, progress: Callabl
         for name, result in fits.items():
             linear = linear_calibration_from_result(result, tool)
             for method in METHODS:
-                q = compensate(result.geometry.with_tool(tool), targets, method, linear)
+                q = compensate(result.geometry.with_tool(tool), targets, method,
+                               None if method == "exact" else linear)
                 rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
         progress(f"validated every model and method on the true robot, {tool_name}")
     return rows
