@@ -12,16 +12,18 @@ import difflib
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import fields, replace
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import Any, ClassVar, Protocol, TypeVar
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from _typeshed import DataclassInstance
 
-    Options = TypeVar("Options", bound=DataclassInstance)
-else:
-    Options = TypeVar("Options")
+class _Dataclass(Protocol):
+    """Any dataclass (what :func:`dataclasses.fields` and :func:`dataclasses.replace` take)."""
+
+    __dataclass_fields__: ClassVar[dict[str, Any]]
+
+
+Options = TypeVar("Options", bound=_Dataclass)
 
 
 def with_overrides(cls: type[Options], options: Options | None, overrides: Mapping[str, Any]) -> Options:
