@@ -17,6 +17,7 @@ in ``threadpoolctl.threadpool_limits(1)`` or set ``OPENBLAS_NUM_THREADS=1``.
 
 from __future__ import annotations
 
+from . import _moved
 from ._lazy import lazy_getattr
 from ._version import __version__
 from .exceptions import (
@@ -29,67 +30,83 @@ from .exceptions import (
     InputWarning,
     PlanningError,
     PoorFitError,
-    ResourceError,
     UnreachableError,
-    UsageError,
-    ViewerError,
 )
 
-#: Public name -> module that defines it (loaded on first access).
+#: The job's public names -> module that defines them (loaded on first access).
 _LAZY = {
-    # geometry and kinematics
-    "DeltaGeometry": "geometry",
+    # the robot: its values and files
     "NominalDelta": "geometry",
-    "Masses": "geometry",
     "NominalLinearDelta": "printer.robot",
+    "DeltaGeometry": "geometry",
     "Tolerances": "geometry",
     "Workspace": "geometry",
-    "error_names": "geometry",
-    "VirtualDelta": "kinematics.closed_form",
-    "PlatePose": "kinematics.exact",
-    "ClosureSolution": "kinematics.multibody",
-    "DeltaMultibody": "kinematics.multibody",
+    "load_robot": "io",
+    "load_geometry": "io",
+    "save_geometry": "io",
     "forward": "kinematics.exact",
-    "inverse": "kinematics.exact",
-    "gravity_torque": "kinematics.statics",
-    "multibody_gravity_torque": "kinematics.statics",
-    "compliant_readings": "kinematics.statics",
-    # models, measurements, identification
-    "ErrorModel": "errormodels",
-    "get_model": "errormodels",
-    "MODEL_NAMES": "errormodels",
+    "DeltaMultibody": "kinematics.multibody",
+    # plan and simulate
+    "PoseSet": "planning",
+    "d_optimal": "planning",
+    "Metrology": "simulation",
+    "simulate_measurements": "simulation",
+    # measure and identify
     "Measurements": "observations",
-    "BaseParameters": "identifiability",
-    "base_parameters": "identifiability",
+    "read_measurements": "io",
     "FitOptions": "identification",
     "IdentificationResult": "identification",
     "identify": "identification",
     "PrinterMeasurements": "printer.identification",
     "identify_printer": "printer.identification",
-    "measured_combinations": "printer.identification",
-    "posterior_sigma": "printer.identification",
     "Calibration": "calibration",
-    # compensation, planning, simulation, validation
-    "LinearCalibration": "compensation",
+    "load_calibration": "io",
+    "save_calibration": "io",
+    # compensate, validate, hand over, report
     "compensate": "compensation",
-    "linear_calibration_from_result": "compensation",
-    "PoseSet": "planning",
-    "bai_poses": "planning",
-    "condition_curve": "planning",
-    "d_optimal": "planning",
-    "Metrology": "simulation",
-    "simulate_measurements": "simulation",
-    "compliant_forward": "simulation",
-    "ValidationMetrics": "validation",
     "validate": "validation",
     "validation_poses": "validation",
-    # controllers
     "Controller": "controller",
-    "ControllerFit": "controller",
-    "CorrectedTargets": "controller",
+    "load_controller": "io",
     "corrected_targets": "controller",
     "fit_controller": "controller",
+    "write_mjcf": "export",
+    "write_report": "report",
+    # the whole job
+    "run_demo": "demo",
+}
+
+#: Names the top level held before, now in their subpackage: still importable from here, with a
+#: DeprecationWarning, for one release.
+_FORMER = {
+    "ResourceError": "exceptions",
+    "UsageError": "exceptions",
+    "ViewerError": "exceptions",
+    "Masses": "geometry",
+    "error_names": "geometry",
+    "VirtualDelta": "kinematics.closed_form",
+    "PlatePose": "kinematics.exact",
+    "ClosureSolution": "kinematics.multibody",
+    "gravity_torque": "kinematics.statics",
+    "multibody_gravity_torque": "kinematics.statics",
+    "compliant_readings": "kinematics.statics",
+    "ErrorModel": "errormodels",
+    "get_model": "errormodels",
+    "MODEL_NAMES": "errormodels",
+    "BaseParameters": "identifiability",
+    "base_parameters": "identifiability",
+    "measured_combinations": "printer.identification",
+    "posterior_sigma": "printer.identification",
+    "LinearCalibration": "compensation",
+    "linear_calibration_from_result": "compensation",
+    "bai_poses": "planning",
+    "condition_curve": "planning",
+    "compliant_forward": "simulation",
+    "ValidationMetrics": "validation",
+    "ControllerFit": "controller",
+    "CorrectedTargets": "controller",
     "KlipperDelta": "printer.firmware.klipper.model",
+    "KlipperController": "printer.firmware.klipper.model",
     "KlipperFit": "printer.firmware.klipper.fit",
     "fit_klipper": "printer.firmware.klipper.fit",
     "klipper_basic": "printer.firmware.klipper.calibrate",
@@ -97,25 +114,15 @@ _LAZY = {
     "probe_heights": "printer.simulation",
     "printed_distances": "printer.simulation",
     "random_printer": "printer.simulation",
-    "KlipperController": "printer.firmware.klipper.model",
-    # files
-    "load_controller": "io",
     "save_controller": "io",
     "load_nominal": "io",
+    "inverse": "kinematics.exact",
+    "write_measurements": "io",
     "load_printer": "io",
-    "load_robot": "io",
     "load_klipper": "printer.firmware.klipper.config",
     "klipper_config_text": "printer.firmware.klipper.config",
     "save_klipper_config": "printer.firmware.klipper.config",
-    "load_geometry": "io",
-    "save_geometry": "io",
-    "save_calibration": "io",
-    "load_calibration": "io",
     "calibration_from_result": "io",
-    "read_measurements": "io",
-    "write_measurements": "io",
-    # the whole job
-    "run_demo": "demo",
     "run_printer_demo": "printer.demo",
 }
 
@@ -129,18 +136,14 @@ __all__ = [
     "InputWarning",
     "PlanningError",
     "PoorFitError",
-    "ResourceError",
     "UnreachableError",
-    "UsageError",
-    "ViewerError",
     "__version__",
     *sorted(_LAZY),
 ]
 
-
-__getattr__ = lazy_getattr(__name__, _LAZY)
+_moved.install()
+__getattr__ = lazy_getattr(__name__, _LAZY, _FORMER)
 
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
-

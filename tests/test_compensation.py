@@ -3,7 +3,7 @@ import pytest
 from conftest import MODELS, workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import DeltaMultibody, Tolerances, UnreachableError, VirtualDelta
+from deltacal import Tolerances, UnreachableError
 from deltacal.compensation import (
     LinearCalibration,
     compensate,
@@ -15,6 +15,8 @@ from deltacal.compensation import (
 )
 from deltacal.errormodels import get_model
 from deltacal.kinematics import exact
+from deltacal.kinematics.closed_form import VirtualDelta
+from deltacal.kinematics.multibody import DeltaMultibody
 
 
 def _scaled_errors(model, rng, mm=0.05, rad=2e-4):

@@ -16,7 +16,7 @@ from conftest import MODELS, workspace_points, write_targets
 from numpy.testing import assert_allclose
 from scipy.optimize import least_squares
 
-from deltacal import DeltaMultibody, NominalDelta, Tolerances, UnreachableError, identify
+from deltacal import NominalDelta, Tolerances, UnreachableError, identify
 from deltacal.cli import main
 from deltacal.compensation import compensate
 from deltacal.controller import Controller, corrected_targets, fit_controller
@@ -30,6 +30,7 @@ from deltacal.io import (
     save_controller,
 )
 from deltacal.kinematics import closed_form, exact
+from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import Measurements
 from deltacal.planning import bai_poses
 from deltacal.report.accuracy import GRID, workspace_slices

@@ -154,8 +154,8 @@ def test_a_problem_too_large_is_refused_in_one_line(bai, tmp_path):
     import subprocess
     import sys
 
-    from deltacal import VirtualDelta
     from deltacal.io import write_measurements
+    from deltacal.kinematics.closed_form import VirtualDelta
 
     rng = np.random.default_rng(4)
     n = 100_000

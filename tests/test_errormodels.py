@@ -10,11 +10,12 @@ import pytest
 from conftest import workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import DeltaGeometry, NominalDelta, Tolerances, VirtualDelta
+from deltacal import DeltaGeometry, NominalDelta, Tolerances
 from deltacal.errormodels import MODEL_NAMES, ClassicalModel, ErrorModel, SubModel, get_model
 from deltacal.errormodels.base import N_ELEMENTARY, elementary_jacobian
 from deltacal.geometry import vector_from_rotation
 from deltacal.kinematics import exact
+from deltacal.kinematics.closed_form import VirtualDelta
 
 #: Central-difference steps. The error of a central difference is about
 #: h² |f'''| / 6 (truncation) + eps / h (the forward solver's residual, ~1e-13 mm, and

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 from conftest import MODELS
 
-from deltacal import GeometryError, InputError, Tolerances, error_names
+from deltacal import GeometryError, InputError, Tolerances
+from deltacal.geometry import error_names
 from deltacal.io import exact_degrees, load_geometry, load_nominal, radians_from_text, save_geometry
 
 

@@ -10,12 +10,13 @@ import pytest
 from conftest import workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import NominalDelta, VirtualDelta
+from deltacal import NominalDelta
 from deltacal.errormodels import get_model
 from deltacal.errormodels.bai import MODEL32_REMOVED
 from deltacal.geometry import vector_from_rotation
 from deltacal.identifiability import base_parameters, pivoted_qr
 from deltacal.kinematics import exact
+from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.observations import Measurements, build_rows, pair_rows
 
 SIGMA_POSITION = 0.005  # [mm]

@@ -10,13 +10,15 @@ import pytest
 from conftest import workspace_points
 from numpy.testing import assert_allclose
 
-from deltacal import DeltaGeometry, DeltaMultibody, NominalDelta, Tolerances, VirtualDelta
+from deltacal import DeltaGeometry, NominalDelta, Tolerances
 from deltacal.compensation import compensate
 from deltacal.errormodels import ErrorModel, get_model
 from deltacal.geometry import rotation_from_vector, vector_from_rotation
 from deltacal.identification import identify
 from deltacal.io import load_geometry, load_linear_calibration, save_calibration
 from deltacal.kinematics import exact
+from deltacal.kinematics.closed_form import VirtualDelta
+from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import Measurements
 
 SIGMA_POSITION = 0.005  # [mm], a laser tracker

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 from conftest import workspace_points
 
-from deltacal import AssemblyError, Tolerances, UnreachableError, VirtualDelta
+from deltacal import AssemblyError, Tolerances, UnreachableError
 from deltacal.kinematics import exact
+from deltacal.kinematics.closed_form import VirtualDelta
 
 
 @pytest.mark.parametrize("robot", ["bai", "flexpicker"])

@@ -51,6 +51,7 @@ LAYERS = {
     "exceptions": 0,
     "_version": 0,
     "_lazy": 0,
+    "_moved": 0,
 }
 MAX_LINES = 700
 #: Lines of code of a function at most, from its first statement after the docstring to its end.

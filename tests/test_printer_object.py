@@ -129,7 +129,7 @@ def test_pairs_can_be_measured_with_a_caliper(plan):
 
 def _blocking_of_printed(features, pairs):
     """Printed features within the clearance of a pair's line (ball, cone and tapered post), by loops."""
-    from deltacal.planning import printer_object as po
+    from deltacal.printer import object as po
 
     r = 0.5 * BALL_DIAMETER
     out = np.zeros((len(pairs), len(features)), dtype=bool)

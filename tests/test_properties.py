@@ -21,12 +21,13 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from deltacal import DeltaMultibody, NominalDelta, Tolerances
+from deltacal import NominalDelta, Tolerances
 from deltacal.cli import main
 from deltacal.identification import identify
 from deltacal.io import load_nominal, write_measurements
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
+from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.observations import Measurements
 
 ROBOTS = ("bai2015", "flexpicker")

@@ -51,7 +51,7 @@ from .plan import plan_object
 from .robot import less_bed_motion
 from .simulation import nozzle_positions
 
-MODELS_DIR = Path(__file__).resolve().parent / "models"
+MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
 #: The first-layer weight of the exported values: ``export --controller klipper``'s.
 FIRST_LAYER_WEIGHT = EXPORT_FIRST_LAYER_WEIGHT
 #: The demo's default seed.
