@@ -1,18 +1,18 @@
 """Compensation: the joint readings to command so the real robot's TCP reaches targets.
 
-Three methods, vectorised over targets:
+Three methods, vectorised over targets, each a function taking what it needs
+(:func:`compensate` picks one by name, for the command line):
 
-* ``exact`` (default): Newton through the identified geometry with the vectorised
-  exact solver (:func:`deltacal.kinematics.exact.inverse`). It uses every element
-  of the identified geometry, including the plate tilt and the tool's lever arm.
-* ``savoure``: Savoure 2006's approximate complete inverse model (Eq. 29-33,
-  Fig. 2): nominal closed-form IK, predicted TCP error ``δX = S_C(q) δk`` around the
-  nominal geometry (TCP displacement, tilt included), correction
-  ``δq = J_S^m(q) δx``, ``q_corrected = q − δq``.
-* ``bai``: Bai 2015's linear compensator (Eq. 22-25): the same first-order
-  correction computed for the plate's reference point, ``Δq_m = −B_m⁻¹(B_r Δp_r −
-  A_rε A_εε⁻¹ B_ε Δp_ε)``; the tilt's effect on a tool below the plate is not
-  compensated.
+* ``exact`` (default, :func:`compensate_exact`): Newton through the identified geometry
+  with the vectorised exact solver (:func:`deltacal.kinematics.exact.inverse`). It uses every
+  element of the identified geometry, including the plate tilt and the tool's lever arm.
+* ``savoure`` (:func:`compensate_savoure`): Savoure 2006's approximate complete inverse model
+  (Eq. 29-33, Fig. 2): nominal closed-form IK, predicted TCP error ``δX = S_C(q) δk`` around
+  the nominal geometry (TCP displacement, tilt included), correction ``δq = J_S^m(q) δx``,
+  ``q_corrected = q − δq``.
+* ``bai`` (:func:`compensate_bai`): Bai 2015's linear compensator (Eq. 22-25): the same
+  first-order correction computed for the plate's reference point, ``Δq_m = −B_m⁻¹(B_r Δp_r −
+  A_rε A_εε⁻¹ B_ε Δp_ε)``; the tilt's effect on a tool below the plate is not compensated.
 
 The linear methods are first order in the identified deviations. Encoder offsets,
 usually the largest, act in joint space, where the correction ``J_S^m J_S δθ = δθ``
@@ -26,6 +26,7 @@ Units: mm and rad.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -38,7 +39,10 @@ from .kinematics.closed_form import VirtualDelta
 from .kinematics.exact import PlatePose
 from .kinematics.singularity import COMMAND_MARGIN
 
+#: The compensation methods (``deltacal compensate --method``).
 METHODS = ("exact", "savoure", "bai")
+#: The linear compensators' names.
+LinearMethod = Literal["savoure", "bai"]
 
 
 @dataclass(frozen=True)
@@ -83,7 +87,7 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
 
 
 def compensate_linear(
-    calibration: LinearCalibration, targets: np.ndarray, method: str = "savoure"
+    calibration: LinearCalibration, targets: np.ndarray, method: LinearMethod = "savoure"
 ) -> np.ndarray:
     """Readings from a linear compensator (``"savoure"`` Eq. 29-33 or ``"bai"`` Eq. 22-25).
 
@@ -179,52 +183,14 @@ def singularity_margin(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray | N
     return COMMAND_MARGIN.margin(VirtualDelta.from_geometry(geometry), q, x)
 
 
-def compensate(
-    geometry: DeltaGeometry,
-    targets: np.ndarray,
-    method: str = "exact",
-    linear: LinearCalibration | None = None,
-    min_margin: float = 1.0,
-    payload: float = 0.0,
-) -> np.ndarray:
-    """Joint readings that put the identified robot's TCP at the targets.
-
-    With compliant actuators (``geometry.compliance``) the exact method puts the loaded TCP
-    there: the rigid robot's readings e reach the targets, and the robot stands there loaded at
-    the readings ``q = e − c tau(e)`` (:mod:`~deltacal.kinematics.statics`: e is its
-    equilibrium), its own weight and the payload included. The checks are on e.
-
-    Args:
-        geometry: The identified geometry (exact method).
-        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
-        method: ``"exact"``, ``"savoure"`` or ``"bai"``.
-        linear: Nominal geometry, model and deviations (required by the linear methods).
-        min_margin: Targets whose readings have a :func:`singularity_margin` below this
-            are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
-        payload: Mass carried at the TCP [kg] (exact method only).
-
-    Returns:
-        Readings to command [rad; a printer's: carriage travels, mm], shape (N, 3).
+def _refuse_unsafe(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str,
+                   min_margin: float) -> None:
+    """Refuse readings that miss their targets (:func:`check_readings`) or are near a singularity.
 
     Raises:
-        UnreachableError: naming the targets out of reach or too close to a singularity.
-        GeometryError: a linear method asked of a printer (a prismatic chain).
+        UnreachableError: naming the targets (:attr:`~UnreachableError.CHECK_FAILED` or
+            :attr:`~UnreachableError.SINGULAR`).
     """
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
-    if geometry.joint != "revolute" and method != "exact":  # their error models are a rotary Delta's
-        raise GeometryError(f"the {method} compensation serves rotary Delta robots; "
-                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain: use the "
-                            "exact method")
-    if payload and method != "exact":
-        raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
-    if method == "exact":
-        q = exact.inverse(geometry, targets)
-    elif method in ("savoure", "bai"):
-        if linear is None:
-            raise ValueError(f"method {method!r} needs the nominal geometry and identified deviations")
-        q = compensate_linear(linear, targets, method)
-    else:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     failed = check_readings(geometry, targets, q, method)
     if np.any(failed):
         raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)
@@ -241,9 +207,164 @@ def compensate(
             targets[near],
             UnreachableError.SINGULAR,
         )
-    if method == "exact" and np.any(geometry.compliance):
+
+
+def compensate_exact(
+    geometry: DeltaGeometry, targets: np.ndarray, *, min_margin: float = 1.0, payload: float = 0.0
+) -> np.ndarray:
+    """Joint readings that put the identified robot's TCP at the targets, through its exact kinematics.
+
+    Newton through the identified geometry (:func:`deltacal.kinematics.exact.inverse`): every
+    element of it counts, the plate tilt and the tool's lever arm included. With compliant
+    actuators (``geometry.compliance``) the loaded TCP is put there: the rigid robot's readings
+    e reach the targets, and the robot stands there loaded at the readings
+    ``q = e − c tau(e)`` (:mod:`~deltacal.kinematics.statics`: e is its equilibrium), its own
+    weight and the payload included. The checks are on e.
+
+    Args:
+        geometry: The identified geometry.
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        min_margin: Targets whose readings have a :func:`singularity_margin` below this
+            are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
+        payload: Mass carried at the TCP [kg].
+
+    Returns:
+        Readings to command [rad; a printer's: carriage travels, mm], shape (N, 3).
+
+    Raises:
+        UnreachableError: naming the targets out of reach or too close to a singularity.
+    """
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    q = exact.inverse(geometry, targets)
+    _refuse_unsafe(geometry, targets, q, "exact", min_margin)
+    if np.any(geometry.compliance):
         q = q - geometry.compliance * statics.gravity_torque(geometry, q, payload)
     return q
+
+
+def compensate_savoure(
+    geometry: DeltaGeometry, linear: LinearCalibration, targets: np.ndarray, *, min_margin: float = 1.0
+) -> np.ndarray:
+    """Joint readings from Savoure's linear compensator (Eq. 29-33), checked on the identified robot.
+
+    Args:
+        geometry: The identified geometry (the readings are checked through it).
+        linear: Nominal geometry, model and identified deviations (what the scheme computes from).
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        min_margin: As :func:`compensate_exact`.
+
+    Returns:
+        Readings to command [rad], shape (N, 3).
+
+    Raises:
+        UnreachableError: naming the targets out of reach, missed by more than
+            :data:`CHECK_TOLERANCE`, or too close to a singularity.
+        GeometryError: a printer (a prismatic chain): the linear schemes are a rotary Delta's.
+    """
+    return _compensate_linearly(geometry, linear, targets, "savoure", min_margin)
+
+
+def compensate_bai(
+    geometry: DeltaGeometry, linear: LinearCalibration, targets: np.ndarray, *, min_margin: float = 1.0
+) -> np.ndarray:
+    """Joint readings from Bai's linear compensator (Eq. 22-25), checked on the identified robot.
+
+    The correction is the plate reference point's: the tilt's effect on a tool below the plate
+    is not compensated (:data:`CHECK_TOLERANCE` allows for it).
+
+    Args:
+        geometry: The identified geometry (the readings are checked through it).
+        linear: Nominal geometry, model and identified deviations (what the scheme computes from).
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        min_margin: As :func:`compensate_exact`.
+
+    Returns:
+        Readings to command [rad], shape (N, 3).
+
+    Raises:
+        UnreachableError: as :func:`compensate_savoure`.
+        GeometryError: a printer (a prismatic chain).
+    """
+    return _compensate_linearly(geometry, linear, targets, "bai", min_margin)
+
+
+def _require_rotary(geometry: DeltaGeometry, method: str) -> None:
+    if geometry.joint != "revolute":  # their error models are a rotary Delta's
+        raise GeometryError(f"the {method} compensation serves rotary Delta robots; "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain: use the "
+                            "exact method")
+
+
+def _compensate_linearly(geometry: DeltaGeometry, linear: LinearCalibration, targets: np.ndarray,
+                         method: LinearMethod, min_margin: float) -> np.ndarray:
+    _require_rotary(geometry, method)
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    q = compensate_linear(linear, targets, method)
+    _refuse_unsafe(geometry, targets, q, method, min_margin)
+    return q
+
+
+def _check_arguments(geometry: DeltaGeometry, method: str, linear: LinearCalibration | None,
+                     payload: float) -> None:
+    """Refuse a method that does not exist, or an argument that does not belong to it.
+
+    Raises:
+        ValueError: naming the method and the argument.
+        GeometryError: a linear method asked of a printer.
+    """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "exact":
+        if linear is not None:
+            raise ValueError("method 'exact' takes no linear calibration (it computes from the identified "
+                             "geometry alone): give linear to the savoure or bai method only")
+        return
+    _require_rotary(geometry, method)
+    if payload:
+        raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
+    if linear is None:
+        raise ValueError(f"method {method!r} needs the nominal geometry and identified deviations")
+
+
+def compensate(
+    geometry: DeltaGeometry,
+    targets: np.ndarray,
+    method: str = "exact",
+    linear: LinearCalibration | None = None,
+    min_margin: float = 1.0,
+    payload: float = 0.0,
+) -> np.ndarray:
+    """Joint readings that put the identified robot's TCP at the targets, by a method named at run time.
+
+    The command line's entry (``--method``): :func:`compensate_exact`,
+    :func:`compensate_savoure` or :func:`compensate_bai`, once the arguments are checked
+    against the method.
+
+    Args:
+        geometry: The identified geometry.
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        method: ``"exact"``, ``"savoure"`` or ``"bai"``.
+        linear: Nominal geometry, model and deviations (the linear methods' alone, and required by them).
+        min_margin: Targets whose readings have a :func:`singularity_margin` below this
+            are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
+        payload: Mass carried at the TCP [kg] (the exact method's alone).
+
+    Returns:
+        Readings to command [rad; a printer's: carriage travels, mm], shape (N, 3).
+
+    Raises:
+        ValueError: an unknown method, or an argument the method does not take (``linear`` with
+            the exact method, a payload with a linear one) or lacks (a linear method without
+            ``linear``).
+        UnreachableError: naming the targets out of reach or too close to a singularity.
+        GeometryError: a linear method asked of a printer (a prismatic chain).
+    """
+    _check_arguments(geometry, method, linear, payload)
+    if method == "exact":
+        return compensate_exact(geometry, targets, min_margin=min_margin, payload=payload)
+    assert linear is not None
+    scheme = compensate_savoure if method == "savoure" else compensate_bai
+    return scheme(geometry, linear, targets, min_margin=min_margin)
 
 
 def screen(
@@ -268,7 +389,9 @@ def screen(
 
     Raises:
         UnreachableError: as :func:`compensate` would, its indices among ``targets``.
+        ValueError, GeometryError: arguments :func:`compensate` refuses, whatever the targets.
     """
+    _check_arguments(geometry, method, linear, 0.0)
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     virtual = VirtualDelta.from_geometry(geometry)
     x = targets - geometry.tool[None]

@@ -36,9 +36,10 @@ from .export import write_mjcf
 from .geometry import NominalDelta, Tolerances
 from .identification import identify
 from .identification.frames import InstrumentFrame, in_instrument_frames
+from .identification.options import Frame
 from .io import atomic_write_text, load_nominal, save_calibration, write_measurements
 from .kinematics import exact
-from .observations import SIGMA_ANGLE, SIGMA_POSITION
+from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements
 from .planning import d_optimal
 from .report import write_report
 from .report.accuracy import workspace_slices
@@ -177,7 +178,8 @@ def _validation_rows(truth, nominal: NominalDelta, fits: dict, progress: Callabl
         for name, result in fits.items():
             linear = linear_calibration_from_result(result, tool)
             for method in METHODS:
-                q = compensate(result.geometry.with_tool(tool), targets, method, linear)
+                q = compensate(result.geometry.with_tool(tool), targets, method,
+                               None if method == "exact" else linear)
                 rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
         progress(f"validated every model and method on the true robot, {tool_name}")
     return rows
@@ -222,7 +224,9 @@ def _tracker_cell(start, truth, nominal: NominalDelta, q: np.ndarray, metrology:
                "translation_mm": f.translation.tolist()}
         for name, f in TRACKER_STATIONS.items()
     }}
-    for key, data, frame in (("base_frame", measured, "base"), ("tracker_frame", in_tracker, "free")):
+    cases: tuple[tuple[str, Measurements, Frame], ...] = (
+        ("base_frame", measured, "base"), ("tracker_frame", in_tracker, "free"))
+    for key, data, frame in cases:
         result = identify(start, data, "complete", frame=frame)
         targets = result.frames["A"].to_base(targets_in_tracker) if result.frames else poses.targets
         q_cmd = compensate(result.geometry.with_tool(tool), targets)

@@ -185,11 +185,11 @@ def bench_identification(setup: Setup, n: int = 100) -> list[Row]:
     # one linearised step from the nominal leaves the perturbation's second-order terms, which the
     # quality check rightly calls a poor fit (s0² 12) and reviews by refitting the data under other
     # readings (several fits): the figure is the step's own cost (fit), the review's apart
-    t_linear = median_time(lambda: fit(start, meas, "complete", "linear"), setup.repeat)
-    t_review = median_time(lambda: identify(start, meas, "complete", "linear", accept_poor_fit=True),
+    t_linear = median_time(lambda: fit(start, meas, "complete", method="linear"), setup.repeat)
+    t_review = median_time(lambda: identify(start, meas, "complete", method="linear", accept_poor_fit=True),
                            setup.repeat)
-    t_iterated = median_time(lambda: identify(start, meas, "complete", "iterated"), setup.repeat)
-    iterations = identify(start, meas, "complete", "iterated").iterations
+    t_iterated = median_time(lambda: identify(start, meas, "complete", method="iterated"), setup.repeat)
+    iterations = identify(start, meas, "complete", method="iterated").iterations
     return [
         Row("identify_complete_linear", 1e3 * t_linear, "ms", "<= 20"),
         Row("identify_complete_linear_reviewed", 1e3 * t_review, "ms"),
@@ -372,7 +372,7 @@ def bench_fk_versus_least_squares(setup: Setup, n: int = 200) -> list[Row]:
 def bench_identify_free_frame(setup: Setup, n: int = 200) -> list[Row]:
     """Issue 11: the complete model and a free instrument frame from 200 poses, iterated (library)."""
     start, meas = _calibration_measurements(setup, n, setup.rng())
-    t = median_time(lambda: identify(start, meas, "complete", "iterated", frame="free"), setup.repeat)
+    t = median_time(lambda: identify(start, meas, "complete", method="iterated", frame="free"), setup.repeat)
     return [Row("identify_free_frame_200", 1e3 * t, "ms", "<= 50")]
 
 

@@ -7,6 +7,9 @@ from deltacal import Tolerances, UnreachableError
 from deltacal.compensation import (
     LinearCalibration,
     compensate,
+    compensate_bai,
+    compensate_exact,
+    compensate_savoure,
     predicted_plate_displacement,
     singularity_margin,
 )
@@ -26,6 +29,26 @@ def test_exact_compensation_reaches_targets_on_the_geometry(bai):
     targets = workspace_points(bai, 100, rng) + g.tool
     q = compensate(g, targets)
     np.testing.assert_allclose(exact.forward(g, q).point(g.tool), targets, atol=1e-9)
+
+
+def test_each_method_takes_what_it_needs_and_compensate_dispatches_by_name(bai):
+    rng = np.random.default_rng(24)
+    model = get_model("complete")
+    g0 = bai.geometry().with_tool([0, 0, -100.0])
+    linear = LinearCalibration(g0, model, _scaled_errors(model, rng))
+    g = model.apply(g0, linear.deviation)
+    targets = workspace_points(bai, 20, rng) + g.tool
+    assert np.array_equal(compensate_exact(g, targets), compensate(g, targets))
+    assert np.array_equal(compensate_savoure(g, linear, targets), compensate(g, targets, "savoure", linear))
+    assert np.array_equal(compensate_bai(g, linear, targets, min_margin=0.5),
+                          compensate(g, targets, "bai", linear, min_margin=0.5))
+    for args, says in ((("exact", linear), "method 'exact' takes no linear calibration"),
+                       (("savoure",), "method 'savoure' needs the nominal geometry"),
+                       (("magic", linear), "method must be one of exact, savoure, bai, got 'magic'")):
+        with pytest.raises(ValueError, match=says):
+            compensate(g, targets, *args)
+    with pytest.raises(ValueError, match="method 'bai' cannot represent a payload"):
+        compensate(g, targets, "bai", linear, payload=1.0)
 
 
 @pytest.mark.parametrize("name", ["complete", "bai42", "classical"])
@@ -101,9 +124,9 @@ def test_targets_on_the_reach_limit_are_refused_never_answered_with_garbage(bai,
     linear = linear_calibration_from_result(result)
     for target in limit:
         with pytest.raises(UnreachableError) as caught:
-            compensate(result.geometry, target[None], method, linear)
+            compensate(result.geometry, target[None], method, None if method == "exact" else linear)
         assert caught.value.reason in UnreachableError.REASONS  # out of reach, singular, or check failed
-    q = compensate(result.geometry, inside, method, linear)
+    q = compensate(result.geometry, inside, method, None if method == "exact" else linear)
     assert np.all(np.isfinite(q))
 
 
@@ -202,7 +225,7 @@ def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin
     deviation = _scaled_errors(model, rng, mm=0.3, rad=2e-3)  # imperfect parallelograms, tenths of mm
     nominal = bai.geometry()
     g = model.apply(nominal, deviation)
-    linear = LinearCalibration(nominal, model, deviation)
+    linear = None if method == "exact" else LinearCalibration(nominal, model, deviation)
     virtual = VirtualDelta.from_geometry(g)
     # along a ray out of the workspace, the virtual model's limit (reach, or margin 1) by bisection
     centre = np.array([0.0, 0.0, -900.0])

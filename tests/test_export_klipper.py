@@ -91,7 +91,8 @@ def printer(tmp_path_factory):
     distance = printed_distances(truth, firmware, STEP, pairs, 0.02, rng)
     data = PrinterMeasurements(firmware.inverse(probe, STEP), firmware.inverse(pairs.reshape(-1, 3), STEP)
                                .reshape(-1, 2, 3), distance)
-    result = identify_printer(PRINTER.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
+    result = identify_printer(PRINTER.geometry(), data, "printer", method="iterated",
+                              tolerances=Tolerances.printer_kit())
     calibration = folder / "cal.toml"
     save_calibration(result, calibration)
     klipper = {"probe": probe_heights(truth, firmware, STEP, probe_points(115.0), 0.01, rng),

@@ -99,7 +99,8 @@ def test_noise_free_recovery_of_the_identifiable_combinations(bai, name):
     dk = 0.05 * rng.normal(0.0, 1.0, model.size) * _error_sizes(model)
     truth = model.apply(g0, dk)
     q = _poses(bai, 60, rng)
-    result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
+    result = identify(g0, _pose_measurements(truth, q, None), model, method="iterated",
+                      sigma_position=EXACT_POSITION, sigma_angle=EXACT_ANGLE)
     assert result.rank == (42 if name == "complete" else 24)
     assert_allclose(result.values, result.base.project(dk), rtol=0, atol=1e-6)
     # the fit reaches the floating-point floor for both models (7e-13 mm measured for the
@@ -119,9 +120,11 @@ def test_noise_free_recovery_of_large_errors_in_the_model_family(bai):
     dk = rng.normal(0.0, 1.0, model.size) * _error_sizes(model)
     # the base parameters depend on the weights: choose them with the σ used below
     meas = _pose_measurements(model.apply(g0, dk), q, None)
-    base = identify(g0, meas, model, "linear", EXACT_POSITION, EXACT_ANGLE, accept_poor_fit=True).base
+    base = identify(g0, meas, model, method="linear", sigma_position=EXACT_POSITION, sigma_angle=EXACT_ANGLE,
+                    accept_poor_fit=True).base
     truth = model.apply(g0, base.expand(base.project(dk)))
-    result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
+    result = identify(g0, _pose_measurements(truth, q, None), model, method="iterated",
+                      sigma_position=EXACT_POSITION, sigma_angle=EXACT_ANGLE)
     assert result.base.base == base.base
     assert result.iterations <= 6
     assert result.after.position_max < 1e-9
@@ -134,7 +137,8 @@ def test_classical_noise_free_recovery_of_large_errors(bai):
     g0 = bai.geometry().with_tool(TOOL)
     truth = model.apply(g0, rng.normal(0.0, 1.0, 24) * _error_sizes(model))
     q = _poses(bai, 60, rng)
-    result = identify(g0, _pose_measurements(truth, q, None), model, "iterated", EXACT_POSITION, EXACT_ANGLE)
+    result = identify(g0, _pose_measurements(truth, q, None), model, method="iterated",
+                      sigma_position=EXACT_POSITION, sigma_angle=EXACT_ANGLE)
     assert result.after.position_max < 1e-9
 
 
@@ -154,14 +158,16 @@ def test_reported_sigma_is_honest(bai, name):
     q = _poses(bai, 60, rng)
     dk = rng.normal(0.0, 1.0, model.size) * _error_sizes(model)
     meas = _pose_measurements(model.apply(g0, dk), q, None)
-    base = identify(g0, meas, model, "linear", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True).base
+    base = identify(g0, meas, model, method="linear", sigma_position=SIGMA_POSITION, sigma_angle=SIGMA_ANGLE,
+                    accept_poor_fit=True).base
     beta = base.project(dk)
     truth = model.apply(g0, base.expand(beta))
     z, variance_factor = [], []
     for seed in range(5):
         noise = np.random.default_rng(100 + seed)
         meas = _pose_measurements(truth, q, noise)
-        result = identify(g0, meas, model, "iterated", SIGMA_POSITION, SIGMA_ANGLE)
+        result = identify(g0, meas, model, method="iterated", sigma_position=SIGMA_POSITION,
+                          sigma_angle=SIGMA_ANGLE)
         assert result.base.base == base.base
         z.append((result.values - beta) / result.sigma)
         variance_factor.append(result.variance_factor)
@@ -188,8 +194,10 @@ def test_iterated_beats_linear_for_encoder_offsets_of_degrees(bai):
     )
     meas = _pose_measurements(truth, _poses(bai, 60, rng), rng)
     targets = validation_targets(bai)
-    linear = identify(g0, meas, "complete", "linear", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True)
-    iterated = identify(g0, meas, "complete", "iterated", SIGMA_POSITION, SIGMA_ANGLE)
+    linear = identify(g0, meas, "complete", method="linear", sigma_position=SIGMA_POSITION,
+                      sigma_angle=SIGMA_ANGLE, accept_poor_fit=True)
+    iterated = identify(g0, meas, "complete", method="iterated", sigma_position=SIGMA_POSITION,
+                        sigma_angle=SIGMA_ANGLE)
     assert 0.8 < iterated.variance_factor < 1.25 and linear.variance_factor > 100.0
     assert iterated.iterations <= 8
     error_iterated = np.max(_tcp_errors(truth, iterated.geometry, targets))
@@ -206,7 +214,8 @@ def test_iterated_recovers_encoder_offsets_of_degrees_exactly(bai):
         {f"limb{i + 1}.encoder_offset": math.radians(d) for i, d in enumerate((1.0, -2.5, 1.7))}
     )
     meas = _pose_measurements(truth, _poses(bai, 60, np.random.default_rng(15)), None)
-    result = identify(g0, meas, "complete", "iterated", EXACT_POSITION, EXACT_ANGLE)
+    result = identify(g0, meas, "complete", method="iterated", sigma_position=EXACT_POSITION,
+                      sigma_angle=EXACT_ANGLE)
     assert np.max(_tcp_errors(truth, result.geometry, validation_targets(bai))) < 1e-9
     before = np.max(_tcp_errors(truth, g0, validation_targets(bai)))
     assert before > 5.0  # [mm]: what the offsets do uncompensated
@@ -258,7 +267,8 @@ def test_end_to_end_on_the_pinocchio_robot(flexpicker):
     def max_error(measurements: Measurements, model: str) -> float:
         # classical is too simple for this robot: its poor fit is kept, to compare
         result = identify(
-            g0, measurements, model, "iterated", SIGMA_POSITION, SIGMA_ANGLE, accept_poor_fit=True
+            g0, measurements, model, method="iterated", sigma_position=SIGMA_POSITION,
+            sigma_angle=SIGMA_ANGLE, accept_poor_fit=True,
         )
         q_cmd = compensate(result.geometry, targets, "exact")
         return float(np.max(np.linalg.norm(robot.forward(q_cmd).point(truth.tool) - targets, axis=1)))
@@ -332,7 +342,7 @@ def test_distance_sigma_is_honest(bai):
     for seed in range(10):
         noise = np.random.default_rng(100 + seed).normal(0.0, SIGMA_POSITION, position.shape)
         meas = Measurements(np.concatenate([q, q]), position + noise, names)
-        result = identify(g0, meas, model, "iterated", SIGMA_POSITION, distances=True)
+        result = identify(g0, meas, model, method="iterated", sigma_position=SIGMA_POSITION, distances=True)
         assert result.rank == 32
         z.append((result.values - dk[result.base.base]) / result.sigma)
         variance_factor.append(result.variance_factor)

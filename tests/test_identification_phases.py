@@ -13,6 +13,7 @@ from deltacal.errormodels import get_model
 from deltacal.identification import FitOptions, fit, identify
 from deltacal.identification.choice import choose, fixed_base
 from deltacal.identification.columns import FRAME, GEOMETRY, POINT, build_columns
+from deltacal.identification.options import FitOverrides, fit_options
 from deltacal.identification.problem import build_problem
 from deltacal.identification.result import ResidualStats
 from deltacal.identification.solver import solve, solve_iterated, solve_linear, solve_wls
@@ -148,6 +149,30 @@ def test_options_are_frozen_and_identify_checks_through_them(data):
         options.method = "linear"  # type: ignore[misc]
     with pytest.raises(ValueError, match="method must be one of"):
         identify(start, noisy, "complete", method="newton")
+
+
+def test_overrides_win_over_the_options_and_are_checked_once(data):
+    start, _, _, noisy = data
+    linear = FitOptions(method="linear", sigma_position=0.004)
+    by_override = fit(start, noisy, "bai42", options=FitOptions(method="iterated", sigma_position=0.004),
+                      method="linear")
+    assert np.array_equal(by_override.values, fit(start, noisy, "bai42", options=linear).values)
+    assert fit_options(linear, {}) is linear
+    assert fit_options(None, {"free_points": ["a", "b", "a"]}).free_points == ("a", "b")
+    with pytest.raises(TypeError, match=r"'methd' is not an option of FitOptions \(did you mean 'method'"):
+        identify(start, noisy, "complete", methd="linear")  # type: ignore[call-arg]
+    with pytest.raises(TypeError, match="options must be a FitOptions, got str 'linear'"):
+        fit_options("linear", {})  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="distances must be True or False, got 'yes'"):
+        FitOptions(distances="yes")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="free_points must be a sequence of names, got 'smr'"):
+        FitOptions(free_points="smr")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="max_iter must be a positive integer"):
+        fit(start, noisy, "bai42", options=linear, max_iter=0)
+
+
+def test_the_overrides_are_the_options_fields():
+    assert tuple(FitOverrides.__annotations__) == FitOptions.names()
 
 
 def test_poor_fit_error_is_exported_with_codes():

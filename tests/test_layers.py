@@ -44,6 +44,7 @@ LAYERS = {
     "chains": 10,
     "rotations": 10,
     "resources": 5,
+    "options": 0,  # the options values' shared plumbing: imports nothing of deltacal
     "exceptions": 0,
     "_version": 0,
     "_lazy": 0,

@@ -19,6 +19,7 @@ from deltacal.kinematics.singularity import jacobian_condition, singularity_meas
 from deltacal.planning import (
     ConditionCurve,
     PlanningError,
+    PlanOptions,
     PoseSet,
     SingularityMargin,
     bai_poses,
@@ -161,6 +162,28 @@ def test_d_optimal_rejects_impossible_requests(bai):
         d_optimal(bai, "classical", 8, pool=pool)
     with pytest.raises(ValueError, match="pose or position"):
         d_optimal(bai, "classical", 3, pool=pool, measurement="distance")
+
+
+def test_d_optimal_takes_one_options_value_and_overrides_of_its_fields(bai):
+    pool = candidate_pool(bai, 120, np.random.default_rng(4))
+    options = PlanOptions(measurement="position", max_passes=2)
+    by_options = d_optimal(bai, "classical", 12, pool=pool, options=options)
+    by_keywords = d_optimal(bai, "classical", 12, pool=pool, measurement="position", max_passes=2)
+    overridden = d_optimal(bai, "classical", 12, pool=pool, options=PlanOptions(max_passes=2),
+                           measurement="position")
+    assert by_options.selected.tolist() == by_keywords.selected.tolist() == overridden.selected.tolist()
+    assert overridden.measurement == "position"
+    assert PlanOptions(tool=np.array([0.0, 0.0, -100.0])).tool == (0.0, 0.0, -100.0)
+    assert PlanOptions(points=["tcp", "tcp"]).points == ("tcp",)
+    with pytest.raises(TypeError, match=r"'max_pass' is not an option of PlanOptions \(did you mean"):
+        d_optimal(bai, "classical", 12, pool=pool, max_pass=2)  # type: ignore[call-arg]
+    for bad, says in (({"pool_size": 0}, "pool_size must be a positive integer"),
+                      ({"max_passes": -1}, "max_passes must be a non-negative integer"),
+                      ({"sigma_angle": 0.0}, "sigma_angle must be a positive finite number"),
+                      ({"tool": (0.0, 1.0)}, "tool must be 3 finite coordinates"),
+                      ({"payloads": (math.nan,)}, "payloads must be finite masses")):
+        with pytest.raises(ValueError, match=says):
+            PlanOptions(**bad)
 
 
 # --------------------------------------------------------------------------- POSES file

@@ -13,6 +13,7 @@ from deltacal.io.calibration import calibration_from_result, load_calibration, s
 from deltacal.io.geometry_file import load_geometry, save_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.identification import (
+    PrinterFitOptions,
     PrinterMeasurements,
     identify_printer,
     measured_combinations,
@@ -100,6 +101,21 @@ def test_noise_free_measurements_are_fitted_exactly(nominal):
     assert result.after.height_max < 1e-5
     assert result.after.distance_max < 1e-5
     assert _shape_error(truth, result.geometry, _volume()) < 1e-4
+
+
+def test_identify_printer_takes_one_options_value_and_overrides_of_its_fields(nominal):
+    data = _measure(_printer(nominal, 12), np.random.default_rng(2))
+    options = PrinterFitOptions(method="linear", tolerance_scale=0.5)
+    by_options = identify_printer(nominal, data, options=options)
+    by_keywords = identify_printer(nominal, data, method="linear", tolerance_scale=0.5)
+    overridden = identify_printer(nominal, data, options=PrinterFitOptions(tolerance_scale=0.5),
+                                  method="linear")
+    assert np.array_equal(by_options.values, by_keywords.values)
+    assert np.array_equal(by_options.values, overridden.values) and overridden.method == "linear"
+    with pytest.raises(TypeError, match="'tolerance' is not an option of PrinterFitOptions"):
+        identify_printer(nominal, data, tolerance=Tolerances.printer_kit())  # type: ignore[call-arg]
+    with pytest.raises(ValueError, match="method must be 'linear' or 'iterated', got 'newton'"):
+        PrinterFitOptions(method="newton")  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("seed", [31, 32, 33])

@@ -46,8 +46,9 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     probe, pairs, distance = _read(files[0], files[1:], firmware, printer.step_distance)
     data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance)
-    result = identify_printer(printer.geometry(), data, model, "linear" if args.linear else "iterated",
-                              Tolerances.printer_kit(), args.tolerance_scale or "evidence")
+    result = identify_printer(printer.geometry(), data, model, method="linear" if args.linear else "iterated",
+                              tolerances=Tolerances.printer_kit(),
+                              tolerance_scale=args.tolerance_scale or "evidence")
     save_calibration(result, args.output)
     print(result.report())
     print(f"\nwrote {args.output}")

@@ -119,7 +119,7 @@ def choose(problem: Problem, rows: Rows) -> Choice:
     stations = list(columns.stations)
     check_plausible(problem.start, problem.measurements, rows, frame_free=bool(stations))
     hints = check_rank(problem.start, problem.measurements, problem.model, base, W[:, : columns.n_fixed],
-                       opt.sigma_position, opt.sigma_angle, opt.distances, opt.pairs, opt.rtol, stations)
+                       opt, stations)
     confounded: tuple[str, ...] = ()
     if columns.points or columns.compliance:
         base, confounded = with_points(problem, W, base, held)

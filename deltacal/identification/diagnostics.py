@@ -14,6 +14,7 @@ from ..identifiability import BaseParameters, base_parameters
 from ..kinematics import exact
 from ..observations import DISTANCE, POSITION, Measurements, Rows, build_rows, predicted_points
 from .frames import frame_columns
+from .options import FitOptions
 
 
 def _stations_in_metres(measurements: Measurements) -> list[str]:
@@ -83,9 +84,8 @@ def check_plausible(
 
 
 def _reference_regressor(
-    start: DeltaGeometry, measurements: Measurements, model: ErrorModel, sigma_position: float,
-    sigma_angle: float, distances: bool, pairs: str, stations: list[str], orientation: bool = False,
-    extra_point: bool = False,
+    start: DeltaGeometry, measurements: Measurements, model: ErrorModel, options: FitOptions,
+    stations: list[str], orientation: bool = False, extra_point: bool = False,
 ) -> np.ndarray | None:
     """Weighted regressor of well-spread poses with the same kinds of measurement, or richer ones.
 
@@ -120,8 +120,8 @@ def _reference_regressor(
                        station=station)
     try:
         pose = exact.forward(geometry, ref.q)
-        rows = build_rows(geometry, ref, model.sensitivity, sigma_position, sigma_angle,
-                          distances=distances, pairs=pairs, pose=pose)
+        rows = build_rows(geometry, ref, model.sensitivity, options.sigma_position, options.sigma_angle,
+                          distances=options.distances, pairs=options.pairs, pose=pose)
     except AssemblyError:
         return None
     W = rows.weighted[1]
@@ -147,17 +147,18 @@ def _separated(
 
 def check_rank(
     start: DeltaGeometry, measurements: Measurements, model: ErrorModel, base: BaseParameters,
-    W: np.ndarray, sigma_position: float, sigma_angle: float, distances: bool, pairs: str, rtol: float,
-    stations: list[str] | None = None,
+    W: np.ndarray, options: FitOptions, stations: list[str] | None = None,
 ) -> list[str]:
     """Compare the rank with what well-spread poses of the same kinds give.
 
     Raises IdentificationError if the poses are too few or too alike, naming the
     parameters lost and how many poses are needed; returns hints on what richer
-    measurements (orientations, a second point) would identify.
+    measurements (orientations, a second point) would identify. The options give the σ of
+    the measurements, distances and their pairs, and the rank tolerance.
     """
     stations = list(stations or [])
-    args = (start, measurements, model, sigma_position, sigma_angle, distances, pairs, stations)
+    distances, pairs, rtol = options.distances, options.pairs, options.rtol
+    args = (start, measurements, model, options, stations)
     W_ref = _reference_regressor(*args)
     if W_ref is None:
         return []

@@ -21,8 +21,8 @@ of the measurements; the variance factor ``s0² = χ²/(m − r)`` says whether 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import replace
+from typing import Unpack
 
 import numpy as np
 
@@ -30,11 +30,11 @@ from ..errormodels import ErrorModel, get_model
 from ..exceptions import AssemblyError
 from ..geometry import DeltaGeometry
 from ..kinematics import exact
-from ..observations import POSITION, SIGMA_ANGLE, SIGMA_POSITION, Measurements, Rows
+from ..observations import POSITION, Measurements, Rows
 from .choice import choose
 from .frames import initial_frames
 from .offsets import encoder_offsets
-from .options import FitOptions
+from .options import FitOptions, FitOverrides, fit_options
 from .problem import Problem, build_problem
 from .result import IdentificationResult
 from .review import Data, review
@@ -46,17 +46,9 @@ def identify(
     start: DeltaGeometry,
     measurements: Measurements,
     model: str | ErrorModel = "complete",
-    method: str = "iterated",
-    sigma_position: float = SIGMA_POSITION,
-    sigma_angle: float = SIGMA_ANGLE,
-    distances: bool = False,
-    pairs: str = "all",
-    rtol: float = 1e-8,
-    max_iter: int = 30,
-    frame: str = "base",
-    accept_poor_fit: bool = False,
-    free_points: Sequence[str] = (),
+    *,
     options: FitOptions | None = None,
+    **overrides: Unpack[FitOverrides],
 ) -> IdentificationResult:
     """Identify the geometry of a robot from measurements, and refuse a fit that cannot be right.
 
@@ -69,35 +61,26 @@ def identify(
         start: Nominal geometry (the linearisation point of the first step).
         measurements: Readings and measured positions (and orientations).
         model: Error model or its name.
-        method: ``"iterated"`` or ``"linear"``.
-        sigma_position: σ of each measured coordinate [mm].
-        sigma_angle: σ of each measured orientation component [rad].
-        distances: Identify from distances between positions of a same point.
-        pairs: Distance pairs, ``"all"`` or ``"reference"``.
-        rtol: Rank tolerance.
-        max_iter: Iterations at most.
-        frame: ``"base"`` or ``"free"`` (see :class:`FitOptions`).
-        accept_poor_fit: Return a poor fit instead of raising (its ``warnings`` say why).
-        free_points: Plate points whose position on the plate is identified too (see :func:`fit`).
-        options: All the options above as one value; when given, the keyword arguments
-            above (from ``method`` on) are not used.
+        options: How to fit (:class:`FitOptions`; default: its defaults).
+        **overrides: Fields of :class:`FitOptions` by name (``method="linear"``,
+            ``sigma_position=0.005`` [mm], ``accept_poor_fit=True``: return a poor fit instead of
+            raising, its ``warnings`` saying why, ...); they win over the same fields of
+            ``options``.
 
     Returns:
         The result, holding the identified geometry.
 
     Raises:
+        TypeError: an override that names no option, or ``options`` not a :class:`FitOptions`.
         ValueError: an option out of range, or options that do not go together.
         PoorFitError: the fit is far from the σ given or implausible (unless ``accept_poor_fit``).
         IdentificationError, AssemblyError, ConvergenceError: see :func:`fit`.
     """
-    if options is None:
-        options = FitOptions(method=method, sigma_position=sigma_position,  # type: ignore[arg-type]
-                             sigma_angle=sigma_angle, distances=distances, pairs=pairs,  # type: ignore[arg-type]
-                             rtol=rtol, max_iter=max_iter, frame=frame,  # type: ignore[arg-type]
-                             accept_poor_fit=accept_poor_fit, free_points=tuple(free_points))
+    options = fit_options(options, overrides)
     error_model = get_model(model) if isinstance(model, str) else model
     result = fit(start, measurements, error_model, options=options)
     return review(result, start, error_model, Data(measurements, options), fit)
+
 
 #: Encoder offsets found first (:mod:`.offsets`) below these [rad] leave the start as it is: the
 #: base parameters are chosen at the start (the papers' way, and every figure of docs/results.md).
@@ -111,17 +94,9 @@ def fit(
     start: DeltaGeometry,
     measurements: Measurements,
     model: str | ErrorModel = "complete",
-    method: str = "iterated",
-    sigma_position: float = SIGMA_POSITION,
-    sigma_angle: float = SIGMA_ANGLE,
-    distances: bool = False,
-    pairs: str = "all",
-    rtol: float = 1e-8,
-    max_iter: int = 30,
-    frame: str = "base",
-    axes_gauge: bool = True,
-    free_points: Sequence[str] = (),
+    *,
     options: FitOptions | None = None,
+    **overrides: Unpack[FitOverrides],
 ) -> IdentificationResult:
     """Fit the geometry of a robot to measurements (weighted least squares, base parameters).
 
@@ -132,32 +107,25 @@ def fit(
         start: Nominal geometry (the linearisation point of the first step).
         measurements: Readings and measured positions (and orientations).
         model: Error model or its name (see :data:`deltacal.errormodels.MODEL_NAMES`).
-        method: ``"iterated"`` (Gauss-Newton with the exact kinematics) or ``"linear"``.
-        sigma_position: σ of each measured coordinate [mm].
-        sigma_angle: σ of each measured orientation component [rad].
-        distances: Identify from distances between positions of a same point.
-        pairs: ``"all"`` pairs or pairs with the ``"reference"`` (first) pose.
-        rtol: Rank tolerance relative to the largest scaled pivot.
-        max_iter: Iterations at most for ``"iterated"``.
-        frame: ``"base"``: the measurements are in the robot base frame {O};
-            ``"free"``: each station's instrument frame is identified with the geometry
-            (see :mod:`deltacal.identification.frames`).
-        axes_gauge: With free frames, move the identified robot (and the frames) to the gauge
-            where its actuator axes have no net rigid motion; False keeps the model's own gauge
-            (Bai's distance models fix it by their parameters, Eq. 11).
-        free_points: Measured plate points (reflectors) whose position on the plate is
-            identified with the geometry, three parameters ``P[name].x/y/z`` each (plate
-            frame). What the geometry's own parameters already account for (a common shift
-            of every plate point with the plate balls: the plate frame's origin is a
-            convention) is not: those coordinates are held at their given values and listed
-            in the result's ``confounded``.
-        options: All the options above (from ``method`` on) as one value; when given, those
-            keyword arguments are not used.
+        options: How to fit (:class:`FitOptions`: the method, the σ of the measurements,
+            distances, the rank tolerance, the frame, free points, compliances...; default:
+            its defaults).
+        **overrides: Fields of :class:`FitOptions` by name (``method="linear"``,
+            ``frame="free"``, ``free_points=["smr"]``, ...); they win over the same fields of
+            ``options``. With ``free_points``, the measured plate points (reflectors) whose
+            position on the plate is identified with the geometry, three parameters
+            ``P[name].x/y/z`` each (plate frame): what the geometry's own parameters already
+            account for (a common shift of every plate point with the plate balls: the plate
+            frame's origin is a convention) is not; those coordinates are held at their given
+            values and listed in the result's ``confounded``. With ``frame="free"``, each
+            station's instrument frame is identified with the geometry
+            (:mod:`deltacal.identification.frames`).
 
     Returns:
         The result, holding the identified geometry.
 
     Raises:
+        TypeError: an override that names no option, or ``options`` not a :class:`FitOptions`.
         ValueError: an option out of range, or options that do not go together.
         IdentificationError: too few measurements, poses too alike to identify what
             such measurements can identify (the message says which parameters and what
@@ -165,11 +133,7 @@ def fit(
         AssemblyError: a measurement's readings cannot be assembled by the robot.
         ConvergenceError: Gauss-Newton did not converge (with the residual reached).
     """
-    if options is None:
-        options = FitOptions(method=method, sigma_position=sigma_position,  # type: ignore[arg-type]
-                             sigma_angle=sigma_angle, distances=distances, pairs=pairs,  # type: ignore[arg-type]
-                             rtol=rtol, max_iter=max_iter, frame=frame,  # type: ignore[arg-type]
-                             axes_gauge=axes_gauge, free_points=tuple(free_points))
+    options = fit_options(options, overrides)
     error_model = get_model(model) if isinstance(model, str) else model
     problem = build_problem(start, measurements, error_model, options)
     rows = problem.rows_at(start, problem.frames)

@@ -1,17 +1,20 @@
 """The options of an identification: one frozen value, checked once.
 
-:func:`~deltacal.identification.identify`, the command line and the poor-fit review
-(:func:`~deltacal.identification.quality.readings`) share it; each option is checked here
-and nowhere else.
+:func:`~deltacal.identification.identify`, :func:`~deltacal.identification.fit`, the command
+line and the poor-fit review (:func:`~deltacal.identification.quality.readings`) share it; each
+option is checked here and nowhere else. :class:`FitOverrides` types the keyword arguments
+that :func:`~deltacal.identification.identify` and :func:`~deltacal.identification.fit` take for
+its fields (:func:`fit_options` applies them).
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Literal, get_args
+from typing import Literal, TypedDict, get_args
 
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION
+from ..options import require_bool, require_count, require_names, require_positive, with_overrides
 
 Method = Literal["linear", "iterated"]
 Frame = Literal["base", "free"]
@@ -44,6 +47,7 @@ class FitOptions:
     Raises:
         ValueError: an option out of its range, or two that do not go together (the message
             names the fields and values).
+        TypeError: a switch that is not a bool, or free points that are not a sequence of names.
     """
 
     method: Method = "iterated"
@@ -60,17 +64,16 @@ class FitOptions:
     compliance: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "free_points", tuple(dict.fromkeys(self.free_points)))
+        object.__setattr__(self, "free_points", require_names("free_points", self.free_points))
+        for name in ("distances", "accept_poor_fit", "axes_gauge", "compliance"):
+            object.__setattr__(self, name, require_bool(name, getattr(self, name)))
         for name, allowed in (("method", Method), ("frame", Frame), ("pairs", Pairs)):
             value = getattr(self, name)
             if value not in get_args(allowed):
                 raise ValueError(f"{name} must be one of {get_args(allowed)}, got {value!r}")
         for name in ("sigma_position", "sigma_angle", "rtol"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be a positive finite number, got {value!r}")
-        if isinstance(self.max_iter, bool) or not isinstance(self.max_iter, int) or self.max_iter < 1:
-            raise ValueError(f"max_iter must be a positive integer, got {self.max_iter!r}")
+            require_positive(name, getattr(self, name))
+        require_count("max_iter", self.max_iter)
         if self.distances and self.free_points:
             raise ValueError(
                 f"free_points={self.free_points!r} applies to positions and poses, not to distances=True"
@@ -86,3 +89,30 @@ class FitOptions:
     def names(cls) -> tuple[str, ...]:
         """The options' names (the keyword arguments :func:`identify` takes for them)."""
         return tuple(f.name for f in fields(cls))
+
+
+class FitOverrides(TypedDict, total=False):
+    """The fields of :class:`FitOptions` as keyword arguments (see there), each optional."""
+
+    method: Method
+    sigma_position: float
+    sigma_angle: float
+    distances: bool
+    pairs: Pairs
+    rtol: float
+    max_iter: int
+    frame: Frame
+    free_points: Sequence[str]
+    accept_poor_fit: bool
+    axes_gauge: bool
+    compliance: bool
+
+
+def fit_options(options: FitOptions | None, overrides: Mapping[str, object]) -> FitOptions:
+    """The options of a fit: ``options`` (default: :class:`FitOptions`) with ``overrides`` applied once.
+
+    Raises:
+        TypeError: ``options`` is not a :class:`FitOptions`, or an override names none of its fields.
+        ValueError: a value out of its range, or options that do not go together.
+    """
+    return with_overrides(FitOptions, options, overrides)

@@ -32,7 +32,7 @@ import numpy as np
 from ..exceptions import PoorFitError as PoorFitError  # its former home: still importable
 from ..geometry import DeltaGeometry
 from ..observations import Measurements
-from .options import FitOptions
+from .options import FitOptions, Frame
 
 #: s0² above which a fit is refused whatever else is found: residuals ten times the σ given.
 POOR_FIT = 100.0
@@ -103,13 +103,13 @@ def readings(
     """
     for cause, other, frame, points in _readings(measurements, point_names, options.frame, options.distances,
                                                  options.free_points):
-        yield cause, other, replace(options, frame=frame, free_points=points)  # type: ignore[arg-type]
+        yield cause, other, replace(options, frame=frame, free_points=points)
 
 
 def _readings(
-    measurements: Measurements, point_names: list[str], frame: str, distances: bool,
+    measurements: Measurements, point_names: list[str], frame: Frame, distances: bool,
     free_points: Sequence[str] = (),
-) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+) -> Iterator[tuple[str, Measurements, Frame, tuple[str, ...]]]:
     """:func:`readings` as ``(cause, measurements, frame, free_points)``."""
     points = tuple(free_points)
     has = measurements.has_orientation
@@ -163,8 +163,8 @@ def _readings(
 
 
 def _station_readings(
-    measurements: Measurements, names: list[str], frame: str, points: tuple[str, ...]
-) -> Iterator[tuple[str, Measurements, str, tuple[str, ...]]]:
+    measurements: Measurements, names: list[str], frame: Frame, points: tuple[str, ...]
+) -> Iterator[tuple[str, Measurements, Frame, tuple[str, ...]]]:
     """The mistakes of one station alone: its positions in metres, its point labels swapped.
 
     A file-wide reading cannot explain them (the other stations are right), and the fit said "no

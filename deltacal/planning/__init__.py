@@ -18,7 +18,8 @@ Three ways of choosing poses:
   is at most ε0 (:func:`condition_curve`, :meth:`ConditionCurve.least_n`).
 * **D-optimal selection** (:func:`d_optimal`): a greedy then exchange (Fedorov)
   maximisation of ``log det(Wᵀ W)`` of the column-scaled base regressor over a
-  pool of reachable candidates kept away from singularities (:func:`candidate_pool`).
+  pool of reachable candidates kept away from singularities (:func:`candidate_pool`); its
+  options are one value, :class:`PlanOptions`.
 
 The POSES file (:func:`deltacal.io.write_poses`, :func:`deltacal.io.read_poses`) has the header
 ``q1_deg,q2_deg,q3_deg,x_mm,y_mm,z_mm``: the readings to command, then the
@@ -37,6 +38,7 @@ from .doptimal import (
     pool_memory,
     require_pool_memory,
 )
+from .options import PlanOptions
 from .poses import (
     PoseSet,
     bai_poses,
@@ -61,6 +63,7 @@ __all__ = [
     "SingularityMargin",
     "ConditionCurve",
     "DOptimalDesign",
+    "PlanOptions",
     "MEASUREMENTS",
     "PLAN_MODELS",
     "PoseSet",

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from typing import Unpack
 
 import numpy as np
 from scipy.linalg import solve_triangular
@@ -16,8 +17,8 @@ from ..identifiability import BaseParameters, base_parameters
 from ..identification.columns import COMPLIANCE_NAMES
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import PLANNING_MARGIN, SingularityMargin
-from ..observations import SIGMA_ANGLE, SIGMA_POSITION
 from ..resources import require_memory
+from .options import PlanOptions, PlanOverrides, plan_options
 from .poses import PoseSet, poses_from_reference, require_workspace
 from .regressor import _RTOL, default_points, planning_model, pose_blocks
 
@@ -262,8 +263,8 @@ def require_pool_memory(pool_size: int, rows: int, parameters: int) -> float:
 
 
 def scaled_base_blocks(
-    geometry: DeltaGeometry, error_model: ErrorModel, q: np.ndarray, measurement: str, points: list[str],
-    sigma_position: float, sigma_angle: float, chunk: int | None = None, payloads: Sequence[float] = (),
+    geometry: DeltaGeometry, error_model: ErrorModel, q: np.ndarray, points: list[str], options: PlanOptions,
+    chunk: int | None = None,
 ) -> tuple[np.ndarray, BaseParameters]:
     """The column-scaled base regressor blocks of candidate poses, and the base parameters.
 
@@ -273,12 +274,13 @@ def scaled_base_blocks(
     pivoted QR needs) and the columns' RMS; the second keeps each pose's rows of the base
     parameters, divided by their column's RMS over the pool.
 
-    With ``payloads``, each pose measured at each and the compliances c1..c3 fitted too
-    (:func:`pose_blocks`).
+    The options give the measurement, the σ of its rows and the payloads: with payloads, each
+    pose measured at each and the compliances c1..c3 fitted too (:func:`pose_blocks`).
 
     Returns:
         Blocks of shape (N, b, r) and the base parameters (r of the model's n).
     """
+    measurement, payloads = options.measurement, options.payloads
     names = list(error_model.names) + (list(COMPLIANCE_NAMES) if payloads else [])
     n = len(names)
     size = CHUNK if chunk is None else chunk
@@ -287,8 +289,8 @@ def scaled_base_blocks(
 
     def raw_chunks() -> Iterator[np.ndarray]:
         for qc in _chunks(q, size):
-            yield pose_blocks(geometry, error_model, qc, measurement, points, sigma_position, sigma_angle,
-                              payloads)
+            yield pose_blocks(geometry, error_model, qc, measurement, points, options.sigma_position,
+                              options.sigma_angle, payloads)
 
     for raw in raw_chunks():
         A = raw.reshape(-1, n)
@@ -316,15 +318,9 @@ def d_optimal(
     count: int,
     rng: np.random.Generator | None = None,
     pool: PoseSet | None = None,
-    pool_size: int = 1000,
-    measurement: str = "pose",
-    points: Sequence[str] | None = None,
-    margin: SingularityMargin | None = None,
-    tool: np.ndarray | None = None,
-    sigma_position: float = SIGMA_POSITION,
-    sigma_angle: float = SIGMA_ANGLE,
-    max_passes: int = 10,
-    payloads: Sequence[float] = (),
+    *,
+    options: PlanOptions | None = None,
+    **overrides: Unpack[PlanOverrides],
 ) -> DOptimalDesign:
     """Select ``count`` poses maximising log det(Wᵀ W) of the column-scaled base regressor.
 
@@ -339,38 +335,34 @@ def d_optimal(
         model: Error model or name (:data:`PLAN_MODELS`).
         count: Poses to select.
         rng: Random generator for the pool (needed when ``pool`` is not given).
-        pool: Candidate poses (default: :func:`candidate_pool` of ``pool_size``).
-        pool_size: Candidates drawn when no pool is given.
-        measurement: ``pose`` or ``position`` (distance rows are not additive per pose).
-        points: Plate points measured (default: :func:`default_points`).
-        margin: Singularity margin of the drawn pool.
-        tool: TCP for the targets.
-        sigma_position: σ of a position coordinate [mm].
-        sigma_angle: σ of an orientation component [rad].
-        max_passes: Exchange passes at most.
-        payloads: Plan for the actuators' compliances too [kg]: every pose measured at each
-            payload (``simulate --payload``); the base parameters then hold c1..c3 where the
-            gravity torques (the robot's masses, the payloads) separate them.
+        pool: Candidate poses (default: :func:`candidate_pool` of ``options.pool_size``).
+        options: How to select (:class:`PlanOptions`: the pool drawn, the measurement and its
+            points and σ, the exchange passes, the payloads; default: its defaults).
+        **overrides: Fields of :class:`PlanOptions` by name (``pool_size=400``,
+            ``measurement="position"``, ``payloads=(0.0, 3.0)`` [kg], ...); they win over the
+            same fields of ``options``.
 
     Raises:
         PlanningError: more poses asked than candidates.
+        TypeError: an override that names no option, or ``options`` not a :class:`PlanOptions`.
+        ValueError: an option out of its range, or no ``rng`` to draw the pool with.
     """
+    options = plan_options(options, overrides)
     error_model = planning_model(model) if isinstance(model, str) else model
     if pool is None:
         if rng is None:
             raise ValueError("d_optimal needs a seeded rng to draw its candidate pool")
-        pool = candidate_pool(nominal, pool_size, rng, margin, tool)
+        pool = candidate_pool(nominal, options.pool_size, rng, options.margin, options.tool_array)
     if count < 1 or count > len(pool):
         raise PlanningError(f"cannot select {count} poses from {len(pool)} candidates")
     geometry = nominal.geometry()
-    pts = default_points(geometry, error_model, measurement) if points is None else list(points)
-    if measurement not in ("pose", "position"):
-        raise ValueError(f"per-pose blocks exist for pose or position measurements, not {measurement!r}")
+    measurement, payloads = options.measurement, options.payloads
+    given = options.points
+    pts = default_points(geometry, error_model, measurement) if given is None else list(given)
     loads = max(len(payloads), 1)
     require_pool_memory(len(pool), _rows(measurement, pts) * loads, error_model.size + 3 * bool(payloads))
-    blocks, base = scaled_base_blocks(geometry, error_model, pool.q, measurement, pts, sigma_position,
-                                      sigma_angle, payloads=tuple(payloads))
-    chosen = _greedy_exchange(blocks, count, max_passes)
+    blocks, base = scaled_base_blocks(geometry, error_model, pool.q, pts, options)
+    chosen = _greedy_exchange(blocks, count, options.max_passes)
     W = blocks[chosen]
     return DOptimalDesign(
         poses=pool[chosen],

@@ -162,7 +162,8 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
     probe = probe_heights(truth, firmware, step, plan.probe[:, :2], PROBE_SIGMA, rng)
     distances = printed_distances(truth, firmware, step, plan.pair_positions, distance_sigma, rng)
     data = plan_measurements(firmware, step, plan, probe, distances, distance_sigma)
-    result = identify_printer(printer.geometry(), data, "printer", "iterated", Tolerances.printer_kit())
+    result = identify_printer(printer.geometry(), data, "printer", method="iterated",
+                              tolerances=Tolerances.printer_kit())
     for w in weights:
         configs[exported_name(w)] = KLIPPER.fit(result.geometry, firmware, step, WORKSPACE,
                                                 first_layer_weight=w).values

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import Literal, TypedDict, Unpack, get_args
 
 import numpy as np
 
@@ -35,10 +36,12 @@ from ..errormodels import ErrorModel, get_model
 from ..geometry import DeltaGeometry, Tolerances
 from ..identifiability import BaseParameters, base_parameters
 from ..identification.columns import build_columns
+from ..identification.options import Method
 from ..identification.result import IdentificationResult, ResidualStats
 from ..identification.solver import solve_wls
 from ..kinematics import exact
 from ..observations import rigid_alignment
+from ..options import with_overrides
 from ..rotations import skew
 from .evidence import evidence_scale
 
@@ -201,10 +204,47 @@ def posterior_sigma(start: DeltaGeometry, data: PrinterMeasurements, model: str 
     return prior, np.sqrt(np.sum(Rinv**2, axis=1)) * prior
 
 
+@dataclass(frozen=True)
+class PrinterFitOptions:
+    """How to fit a printer (:func:`identify_printer`): one value, checked once.
+
+    Attributes:
+        method: ``"linear"`` (one step at the start) or ``"iterated"`` (to convergence).
+        tolerances: The build tolerances (None: :meth:`Tolerances.printer_kit`).
+        tolerance_scale: ``"evidence"`` (the measurements choose it) or a factor applied to every
+            tolerance (1: as given).
+
+    Raises:
+        ValueError: a method or scale out of its range (the message names the field and value).
+        TypeError: tolerances that are not a :class:`~deltacal.geometry.Tolerances`.
+    """
+
+    method: Method = "iterated"
+    tolerances: Tolerances | None = None
+    tolerance_scale: float | Literal["evidence"] = "evidence"
+
+    def __post_init__(self) -> None:
+        if self.method not in get_args(Method):
+            raise ValueError(f"method must be 'linear' or 'iterated', got {self.method!r}")
+        if self.tolerances is not None and not isinstance(self.tolerances, Tolerances):
+            raise TypeError(f"tolerances must be a Tolerances, got {self.tolerances!r}")
+        scale = self.tolerance_scale
+        if scale != "evidence" and (isinstance(scale, str) or not isinstance(scale, (int, float))
+                                    or not scale > 0.0):
+            raise ValueError(f"tolerance_scale must be 'evidence' or a positive factor, got {scale!r}")
+
+
+class PrinterFitOverrides(TypedDict, total=False):
+    """The fields of :class:`PrinterFitOptions` as keyword arguments (see there), each optional."""
+
+    method: Method
+    tolerances: Tolerances | None
+    tolerance_scale: float | Literal["evidence"]
+
+
 def identify_printer(
-    start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
-    method: str = "iterated", tolerances: Tolerances | None = None,
-    tolerance_scale: float | str = "evidence",
+    start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer", *,
+    options: PrinterFitOptions | None = None, **overrides: Unpack[PrinterFitOverrides],
 ) -> IdentificationResult:
     """Identify a printer's geometry from probe heights and printed distances.
 
@@ -228,27 +268,25 @@ def identify_printer(
         start: The nominal printer (a prismatic DeltaGeometry, {O} on the nominal bed).
         data: The measurements, at the readings the firmware commanded.
         model: ``"printer"`` (the complete model) or ``"klipper"`` (the firmware's values).
-        method: ``"linear"`` (one step at the start) or ``"iterated"`` (to convergence).
-        tolerances: The build tolerances (default: :meth:`Tolerances.printer_kit`).
-        tolerance_scale: ``"evidence"`` (the measurements choose it) or a factor applied to every
-            tolerance (1: as given).
+        options: How to fit (:class:`PrinterFitOptions`: the method, the build tolerances and
+            their scale; default: its defaults).
+        **overrides: Fields of :class:`PrinterFitOptions` by name (``method="linear"``,
+            ``tolerance_scale=0.5``, ...); they win over the same fields of ``options``.
 
     Returns:
         The result: the identified geometry on the true bed (z = 0), every parameter with its
         posterior σ; its hints say the scale of the tolerances and what only they bound.
     """
+    options = with_overrides(PrinterFitOptions, options, overrides)
+    method, tolerance_scale = options.method, options.tolerance_scale
     error_model = get_model(model) if isinstance(model, str) else model
     error_model.check_fits(start)
-    if method not in ("linear", "iterated"):
-        raise ValueError(f"method must be 'linear' or 'iterated', got {method!r}")
-    given = tolerances or Tolerances.printer_kit()
+    given = options.tolerances or Tolerances.printer_kit()
     if tolerance_scale == "evidence":
         total, geometry, r, W, _ = _map_fit(start, data, error_model, error_model.prior_sigma(given), method)
         y = r + W @ total  # the measurements about the estimate, in its linearisation
         scale = evidence_scale(y, W, lambda s: error_model.prior_sigma(scaled_tolerances(given, s)))
         how = "the scale the measurements make most probable"
-    elif isinstance(tolerance_scale, str) or not tolerance_scale > 0.0:
-        raise ValueError(f"tolerance_scale must be 'evidence' or a positive factor, got {tolerance_scale!r}")
     else:
         scale, how = float(tolerance_scale), "as asked"
     used = scaled_tolerances(given, scale)
@@ -288,7 +326,7 @@ def scaled_tolerances(tolerances: Tolerances, scale: float) -> Tolerances:
 
 
 def _map_fit(start: DeltaGeometry, data: PrinterMeasurements, error_model: ErrorModel, prior: np.ndarray,
-             method: str) -> tuple[np.ndarray, DeltaGeometry, np.ndarray, np.ndarray, int]:
+             method: Method) -> tuple[np.ndarray, DeltaGeometry, np.ndarray, np.ndarray, int]:
     """The most probable parameters with these priors: (values, geometry, whitened r and W there, steps)."""
     total = np.zeros(error_model.size)
     geometry = start
