@@ -122,12 +122,6 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
     return q
 
 
-#: Readings a real arm can take [rad]: from straight up (-90 deg) to folded under (135 deg).
-ARM_RANGE = (np.radians(-90.0), np.radians(135.0))
-#: Readings a printer's carriage can take [mm]: travel below its endstop, which it cannot pass.
-TRAVEL_RANGE = (0.0, np.inf)
-#: The range of the readings of each actuated chain.
-READING_RANGE = {"revolute": ARM_RANGE, "prismatic": TRAVEL_RANGE}
 #: How far from the target the identified robot may put the TCP at the readings a method
 #: gives [mm]: exact solves the closed loops (Newton to 1e-9 mm); Savoure's linear scheme
 #: leaves the products of deviations (micrometres for real robots); Bai's ignores the tilt's
@@ -138,8 +132,9 @@ CHECK_TOLERANCE = {"exact": 1e-6, "savoure": 0.1, "bai": 5.0}
 def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str) -> np.ndarray:
     """Targets whose readings are not finite, out of range, or miss the target, (N,) bool.
 
-    The range is an arm's (:data:`ARM_RANGE`) or a carriage's (:data:`TRAVEL_RANGE`: not above
-    its endstop).
+    The range is the chain's :attr:`~deltacal.chains.Chain.reading_range`: an arm's
+    (:data:`~deltacal.chains.ARM_RANGE`) or a carriage's (:data:`~deltacal.chains.TRAVEL_RANGE`:
+    not above its endstop).
 
     Missing is judged through the exact forward kinematics of ``geometry`` (the identified
     robot) started from its working assembly (the virtual model's pose, plate parallel: where
@@ -149,7 +144,7 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     millimetres away); those targets are refused.
     """
     bad = ~np.all(np.isfinite(q), axis=1)
-    low, high = READING_RANGE[geometry.joint]
+    low, high = geometry.chain.reading_range
     with np.errstate(invalid="ignore"):
         bad |= np.any((q < low) | (q > high), axis=1)
     ok = np.flatnonzero(~bad)
@@ -289,9 +284,9 @@ def compensate_bai(
 
 
 def _require_rotary(geometry: DeltaGeometry, method: str) -> None:
-    if geometry.joint != "revolute":  # their error models are a rotary Delta's
+    if not geometry.chain.linear_compensation:  # their error models are a rotary Delta's
         raise GeometryError(f"the {method} compensation serves rotary Delta robots; "
-                            f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain: use the "
+                            f"{geometry.name or 'this geometry'!r} is a {geometry.chain.name} chain: use the "
                             "exact method")
 
 

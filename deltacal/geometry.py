@@ -33,7 +33,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .chains import JOINTS, carried_points, check_joint, path_slopes, path_terms
+from .chains import REVOLUTE, Chain, chain_of
 from .chains import arm_frame_circle as arm_frame_circle  # re-exported: old import paths
 from .exceptions import GeometryError
 from .rotations import rotation_about_y as rotation_about_y  # re-exported: old import paths
@@ -277,13 +277,8 @@ _NAME_RE = re.compile(
 )
 
 
-def _second_tilt(joint: str) -> str:
-    """The second axis tilt's name: about z (a revolute axis along t_i), about t_i (a tower along z)."""
-    return "z" if joint == "revolute" else "t"
-
-
-def error_names(joint: str = "revolute") -> list[str]:
-    """All names accepted by :meth:`DeltaGeometry.with_errors` of a chain kind, in a fixed order.
+def error_names(chain: Chain | str = REVOLUTE) -> list[str]:
+    """All names accepted by :meth:`DeltaGeometry.with_errors` of a chain (or its word), in a fixed order.
 
     Units: [mm] for positions and lengths, [rad] for the two axis tilts (``axis_tilt_r`` about
     r_i, then ``axis_tilt_z`` about z for a revolute axis or ``axis_tilt_t`` about t_i for a
@@ -291,13 +286,13 @@ def error_names(joint: str = "revolute") -> list[str]:
     chain's ``encoder_offset`` (its endstop) is in [mm] and its ``joint_scale`` (true over
     nominal step distance) has no unit.
     """
-    check_joint(joint)
+    chain = chain_of(chain)
     names = []
     for i in range(1, 4):
         names += [f"limb{i}.axis_point.{a}" for a in AXES]
-        names += [f"limb{i}.axis_tilt_r", f"limb{i}.axis_tilt_{_second_tilt(joint)}",
+        names += [f"limb{i}.axis_tilt_r", f"limb{i}.axis_tilt_{chain.tilt_letter}",
                   f"limb{i}.encoder_offset"]
-        if joint == "prismatic":
+        if chain.counts_steps:
             names.append(f"limb{i}.joint_scale")
         for j in (1, 2):
             names += [f"limb{i}.arm_ball{j}.{a}" for a in AXES]
@@ -324,10 +319,10 @@ class DeltaGeometry:
         tool: TCP in the plate frame [mm], shape (3,).
         points: Named reference points in the plate frame [mm].
         name: Robot name.
-        joint: The actuated chain (:mod:`deltacal.chains`): ``"revolute"`` (a rotary Delta's
-            arms) or ``"prismatic"`` (a linear Delta's carriages: axis point = carriage frame
-            origin at the endstop, axis direction = up the tower, reading = travel below the
-            endstop [mm]).
+        chain: The actuated chain (:mod:`deltacal.chains`): :data:`~deltacal.chains.REVOLUTE` (a
+            rotary Delta's arms) or :data:`~deltacal.chains.PRISMATIC` (a linear Delta's carriages:
+            axis point = carriage frame origin at the endstop, axis direction = up the tower,
+            reading = travel below the endstop [mm]); :attr:`joint` is its word in files.
         joint_scale: True joint coordinate per unit reading, shape (3,): a prismatic chain's
             true over nominal step distance; 1 for a revolute chain.
         masses: Masses of the moving bodies (all zero: a kinematic robot).
@@ -347,15 +342,15 @@ class DeltaGeometry:
     tool: np.ndarray = field(default_factory=lambda: np.zeros(3))
     points: dict[str, np.ndarray] = field(default_factory=dict)
     name: str = ""
-    joint: str = "revolute"
+    chain: Chain = REVOLUTE
     joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     masses: Masses = field(default_factory=Masses)
     compliance: np.ndarray = field(default_factory=lambda: np.zeros(3))
     step_distance: float | None = None
 
     def __post_init__(self) -> None:
-        if self.joint not in JOINTS:
-            raise GeometryError(f"joint must be one of {', '.join(JOINTS)}, got {self.joint!r}")
+        if not isinstance(self.chain, Chain):
+            raise GeometryError(f"chain must be a deltacal.chains.Chain, got {self.chain!r}")
         shapes = {
             "joint_scale": (3,),
             "limb_azimuth": (3,),
@@ -391,15 +386,21 @@ class DeltaGeometry:
             raise GeometryError(f"rod lengths must be positive, got {self.rod_length.tolist()}")
         if "tcp" in pts:
             raise GeometryError("'tcp' is reserved for the tool centre point")
-        if self.joint == "revolute" and np.any(self.joint_scale != 1.0):
+        if not self.chain.counts_steps and np.any(self.joint_scale != 1.0):
             raise GeometryError(f"a revolute chain's joint_scale must be 1, got {self.joint_scale.tolist()}")
         if np.any(self.joint_scale <= 0.0):
             raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
         if self.step_distance is not None:
-            if self.joint == "revolute" or not (math.isfinite(self.step_distance) and self.step_distance > 0):
+            steps = self.chain.counts_steps
+            if not steps or not (math.isfinite(self.step_distance) and self.step_distance > 0):
                 raise GeometryError(f"step_distance must be a prismatic chain's positive length, got "
-                                    f"{self.step_distance!r} ({self.joint})")
+                                    f"{self.step_distance!r} ({self.chain.name})")
             object.__setattr__(self, "step_distance", float(self.step_distance))
+
+    @property
+    def joint(self) -> str:
+        """The chain's word in files: ``"revolute"`` or ``"prismatic"``."""
+        return self.chain.name
 
     # ------------------------------------------------------------------ frames
     @property
@@ -434,9 +435,7 @@ class DeltaGeometry:
     def joint_coordinate(self, q: np.ndarray) -> np.ndarray:
         """True joint coordinates ``θ = joint_scale q + encoder_offset`` [rad or mm], (N, 3)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
-            return q + self.encoder_offset
-        return self.joint_scale * q + self.encoder_offset
+        return self.chain.coordinate(q, self.joint_scale, self.encoder_offset)
 
     def arm_rotation(self, q: np.ndarray) -> np.ndarray:
         """Rotation of each arm (or carriage) frame in {O} at readings q.
@@ -447,10 +446,7 @@ class DeltaGeometry:
         Returns:
             Rotations, shape (N, 3, 3, 3) (pose, limb, 3x3).
         """
-        q = np.atleast_2d(np.asarray(q, dtype=float))
-        if self.joint == "prismatic":  # a carriage slides without turning
-            return np.broadcast_to(self.actuator_rotation(), (q.shape[0], 3, 3, 3)).copy()
-        return self.actuator_rotation()[None] @ rotation_about_y(q + self.encoder_offset)
+        return self.chain.carrier_rotation(self.actuator_rotation(), self.joint_coordinate(q))
 
     def arm_balls_in_base(self, q: np.ndarray) -> np.ndarray:
         """Arm-side ball centres in {O} at readings q.
@@ -465,7 +461,7 @@ class DeltaGeometry:
         # faster than a batched (N, 3, 3, 3) matrix product and einsum
         theta = self.joint_coordinate(q)[:, :, None, None]  # (N, 3, 1, 1)
         centre, along_f, along_g = self.arm_ball_path
-        f, g = path_terms(self.joint, theta)
+        f, g = self.chain.path_terms(theta)
         return centre + f * along_f + g * along_g
 
     def arm_ball_velocity(self, q: np.ndarray) -> np.ndarray:
@@ -473,7 +469,7 @@ class DeltaGeometry:
         q = np.atleast_2d(np.asarray(q, dtype=float))
         theta = self.joint_coordinate(q)[:, :, None, None]
         _, along_f, along_g = self.arm_ball_path
-        f, g = path_slopes(self.joint, theta)
+        f, g = self.chain.path_slopes(theta)
         return self.joint_scale[None, :, None, None] * (f * along_f + g * along_g)
 
     @cached_property
@@ -482,7 +478,7 @@ class DeltaGeometry:
 
         f and g are the chain's (:mod:`deltacal.chains`): cos and sin, or θ and 0.
         """
-        path = carried_points(self.joint, self.axis_point, self._actuator_rotation, self.arm_ball)
+        path = self.chain.carried_points(self.axis_point, self._actuator_rotation, self.arm_ball)
         for v in path:
             v.setflags(write=False)  # cached by a frozen geometry: not to be changed through it
         return path
@@ -494,7 +490,7 @@ class DeltaGeometry:
         Raises:
             GeometryError: the chain is prismatic (its balls move on lines: :attr:`arm_ball_path`).
         """
-        if self.joint != "revolute":
+        if self.chain.slides:
             raise GeometryError("a prismatic chain's balls move on lines, not circles: use arm_ball_path")
         return self.arm_ball_path
 
@@ -528,7 +524,7 @@ class DeltaGeometry:
         turned = np.einsum("kl,ilm->ikm", R, self.actuator_rotation())
         moved = replace(self, axis_point=self.axis_point @ R.T + t, axis_direction=turned[:, :, 1])
         rel = np.einsum("ilk,ilm->ikm", moved.actuator_rotation(), turned)  # a rotation about y
-        if self.joint == "prismatic":  # a carriage turned about its tower: its balls turn with it
+        if self.chain.turns_balls:  # a carriage turned about its tower: its balls turn with it
             return replace(moved, arm_ball=np.einsum("ikl,ijl->ijk", rel, self.arm_ball))
         return replace(moved, encoder_offset=self.encoder_offset + np.arctan2(rel[:, 0, 2], rel[:, 0, 0]))
 
@@ -538,7 +534,7 @@ class DeltaGeometry:
         return replace(self, tool=np.asarray(tool, dtype=float))
 
     def with_errors(self, errors: dict[str, float]) -> DeltaGeometry:
-        """The robot with individual errors added, by name (see :func:`error_names` of its joint).
+        """The robot with individual errors added, by name (see :func:`error_names` of its chain).
 
         Args:
             errors: Name to deviation, in [mm] or [rad] (``joint_scale``: no unit).
@@ -546,10 +542,10 @@ class DeltaGeometry:
         Returns:
             A new geometry.
         """
-        known = set(error_names(self.joint))
+        known = set(error_names(self.chain))
         wrong = [n for n in errors if _NAME_RE.match(n) is not None and n not in known]
         if wrong:
-            raise GeometryError(f"error name {wrong[0]!r} does not apply to a {self.joint} chain")
+            raise GeometryError(f"error name {wrong[0]!r} does not apply to a {self.chain.name} chain")
         joint_scale = np.array(self.joint_scale)
         axis_point = np.array(self.axis_point)
         axis_direction = np.array(self.axis_direction)
@@ -586,7 +582,7 @@ class DeltaGeometry:
                 joint_scale[i] += value
         if np.any(tilts):
             r = self.radial
-            second = np.array([0.0, 0.0, 1.0]) if self.joint == "revolute" else self.tangent
+            second = self.chain.second_tilt_axis(self.tangent)
             rotvec = tilts[:, :1] * r + tilts[:, 1:] * second
             axis_direction = np.einsum("ikl,il->ik", rotation_from_vector(rotvec), axis_direction)
             axis_direction /= np.linalg.norm(axis_direction, axis=1, keepdims=True)
@@ -613,7 +609,7 @@ class DeltaGeometry:
             A new geometry.
         """
         errors: dict[str, float] = {}
-        for name in error_names(self.joint):
+        for name in error_names(self.chain):
             if name.startswith("tool."):
                 sigma = tolerances.tool
             elif ".axis_point." in name:
@@ -637,18 +633,17 @@ class DeltaGeometry:
         dw = self.axis_direction - other.axis_direction
         r = other.radial
         w = other.axis_direction
-        tilt = _second_tilt(other.joint)
-        second = np.array([0.0, 0.0, 1.0]) if tilt == "z" else None
+        tilt = other.chain.tilt_letter
+        second = other.chain.second_tilt_axis(other.tangent)
         for i in range(3):
             n = f"limb{i + 1}"
             for k, a in enumerate(AXES):
                 out[f"{n}.axis_point.{a}"] = float(self.axis_point[i, k] - other.axis_point[i, k])
             # dw = (tilt_r r + tilt_2 s) x w to first order (s: z, or t_i for a tower)
             out[f"{n}.axis_tilt_r"] = float(np.dot(np.cross(w[i], dw[i]), r[i]))
-            s_i = other.tangent[i] if second is None else second
-            out[f"{n}.axis_tilt_{tilt}"] = float(np.dot(np.cross(w[i], dw[i]), s_i))
+            out[f"{n}.axis_tilt_{tilt}"] = float(np.dot(np.cross(w[i], dw[i]), second[i]))
             out[f"{n}.encoder_offset"] = float(self.encoder_offset[i] - other.encoder_offset[i])
-            if other.joint == "prismatic":
+            if other.chain.counts_steps:
                 out[f"{n}.joint_scale"] = float(self.joint_scale[i] - other.joint_scale[i])
             for j in range(2):
                 for k, a in enumerate(AXES):
@@ -692,7 +687,7 @@ class DeltaGeometry:
             "joint_scale",
             "compliance",
         )
-        if set(self.points) != set(other.points) or self.joint != other.joint or self.masses != other.masses:
+        if set(self.points) != set(other.points) or self.chain != other.chain or self.masses != other.masses:
             return False
         same = all(np.allclose(getattr(self, k), getattr(other, k), atol=atol, rtol=0) for k in keys)
         return same and all(

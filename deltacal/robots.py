@@ -14,7 +14,7 @@ from pathlib import Path
 from .controller import CommandModel, Controller
 from .geometry import NominalDelta
 from .io.controller_file import load_controller_file
-from .io.robot import _kind, load_nominal
+from .io.robot import _is_printer_file, load_nominal
 from .io.toml import _Table, read_toml
 from .printer.firmware import config_firmware
 from .printer.robot import NominalLinearDelta
@@ -27,7 +27,7 @@ def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:
     Raises:
         InputError: naming the file and the key of the first problem found.
     """
-    if _kind(_Table(read_toml(path), str(path))) == "linear":
+    if _is_printer_file(_Table(read_toml(path), str(path))):
         return load_printer(path)
     return load_nominal(path)
 

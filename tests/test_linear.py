@@ -118,7 +118,7 @@ def test_error_names_belong_to_their_chain(kossel):
 
 def _fields(g: DeltaGeometry) -> dict:
     keys = ("limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
-            "rod_length", "tool", "points", "name", "joint", "joint_scale")
+            "rod_length", "tool", "points", "name", "chain", "joint_scale")
     return {k: getattr(g, k) for k in keys}
 
 

@@ -148,11 +148,10 @@ def _controller(args: argparse.Namespace, geometry) -> CommandModel:
     configuration's own ``rotation_distance`` may have been refitted per tower since).
     """
     controller = load_controller(args.controller, step_distance=geometry.step_distance)
-    joint = controller.virtual.joint
-    if joint != geometry.joint:
-        kinds = {"revolute": "a rotary Delta", "prismatic": "a linear Delta printer"}
-        raise UsageError(f"--controller {args.controller} is {kinds[joint]}'s, but the calibration "
-                         f"{args.calibration} is of {kinds[geometry.joint]}")
+    chain = controller.virtual.chain
+    if chain != geometry.chain:
+        raise UsageError(f"--controller {args.controller} is {chain.words.a_kind}'s, but the calibration "
+                         f"{args.calibration} is of {geometry.chain.words.a_kind}")
     return controller
 
 

@@ -13,6 +13,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..chains import Chain
 from ..controller import FIT_KINDS, Controller, fit_controller
 from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableError, UsageError
 from ..export import write_mjcf
@@ -46,7 +47,7 @@ def _home_readings(text: str) -> str:
     return text
 
 
-def _home(text: str | None, joint: str) -> np.ndarray | None:
+def _home(text: str | None, chain: Chain) -> np.ndarray | None:
     """``--home`` as readings, checked for the robot's kind.
 
     Arm angles in degrees within ±180 (one turn) -> [rad]; carriage travels below the endstops [mm],
@@ -55,14 +56,10 @@ def _home(text: str | None, joint: str) -> np.ndarray | None:
     if text is None:
         return None
     values = np.array(three_numbers(text, "Q1,Q2,Q3"))
-    if joint == "prismatic":
-        if np.any(values < 0.0):
-            raise UsageError(f"argument --home: a printer's readings are carriage travels below the "
-                             f"endstops [mm], not negative, got {text!r}")
-        return values
-    if np.any(np.abs(values) > 180.0):
-        raise UsageError(f"argument --home: readings must lie within ±180 deg, got {text!r}")
-    return np.radians(values)
+    low, high = chain.option_range
+    if np.any((values < low) | (values > high)):
+        raise UsageError(f"argument --home: {chain.words.reading_rule}, got {text!r}")
+    return chain.reading_from_file(values)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     check_input(args.calibration)
     check_output(args.mjcf, (args.calibration,))
     geometry, stations = load_robot(args.calibration)
-    write_mjcf(args.mjcf, geometry, name=args.name, home=_home(args.home, geometry.joint), stations=stations,
+    write_mjcf(args.mjcf, geometry, name=args.name, home=_home(args.home, geometry.chain), stations=stations,
                source=str(args.calibration))
     frame = " (robot base frame {O}; the instrument frames are not exported)" if stations else ""
     print(f"wrote the MJCF model of {args.name or geometry.name or 'delta'} to {args.mjcf}{frame}")
@@ -99,7 +96,7 @@ def run_controller(args: argparse.Namespace) -> int:
         check_input(path)
     check_output(args.output, inputs)
     calibration = load_calibration(args.calibration)
-    if calibration.geometry.joint == "prismatic":
+    if calibration.geometry.chain.firmware:
         raise UsageError(f"--controller {args.controller}: {args.calibration} is a printer's calibration; "
                          "its firmware's values: --controller klipper")
     start, workspace, shift, sized = _start(calibration, args)

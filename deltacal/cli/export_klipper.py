@@ -41,7 +41,7 @@ def run_klipper(args: argparse.Namespace) -> int:
         check_input(path)
     check_output(args.output, inputs)
     calibration = load_calibration(args.calibration)
-    if calibration.geometry.joint != "prismatic":
+    if not calibration.geometry.chain.firmware:
         raise UsageError(f"--controller klipper: {args.calibration} is a rotary Delta's calibration; "
                          "Klipper's values are a printer's (--controller offsets|limbs serve a rotary Delta)")
     config = KLIPPER.read_config(args.config) if args.config is not None else None
@@ -90,7 +90,7 @@ def _workspace(args: argparse.Namespace, nominal) -> tuple[Workspace, str]:
     """The printable volume: the robot file's ``[workspace]``, else the default for the nominal printer."""
     if args.robot is not None:
         robot = load_robot_file(args.robot)
-        if getattr(robot, "kind", "rotary") != "linear":
+        if robot.geometry().chain != nominal.chain:
             raise UsageError(f"--robot {args.robot}: a rotary Delta's robot file; give the printer's")
         if robot.workspace is not None:
             return robot.workspace, f" of {args.robot}"

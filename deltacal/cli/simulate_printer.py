@@ -156,7 +156,7 @@ def _truth(args: argparse.Namespace, printer: NominalLinearDelta) -> DeltaGeomet
     """The true printer: the geometry file of ``--truth``, or the nominal one perturbed (``--perturb``)."""
     if args.truth is not None:
         truth = load_geometry(args.truth)
-        if truth.joint != "prismatic":
+        if truth.chain != printer.geometry().chain:
             raise InputError(f"a printer's true geometry has prismatic chains, got joint = {truth.joint!r} "
                              "(a rotary Delta's geometry?)", args.truth, "key joint")
         return truth

@@ -71,15 +71,14 @@ def run(args: argparse.Namespace) -> int:
     source = args.truth if args.truth is not None else args.calibration
     if source is not None:
         true_geometry = load_geometry(source)
-        if true_geometry.joint != nominal_geometry.joint:
-            kinds = {"revolute": "a rotary Delta (revolute chain)",
-                     "prismatic": "a printer (prismatic chain)"}
-            raise InputError(f"{kinds[true_geometry.joint]}, while {args.nominal} is "
-                             f"{kinds[nominal_geometry.joint]}: give a robot file of the same kind",
+        true, nominal_chain = true_geometry.chain, nominal_geometry.chain
+        if true != nominal_chain:
+            raise InputError(f"{true.words.a_robot} ({true.name} chain), while {args.nominal} is "
+                             f"{nominal_chain.words.a_robot} ({nominal_chain.name} chain): give a robot file "
+                             "of the same kind",
                              str(source), "key joint")
     elif args.perturb is not None:
-        printer = nominal_geometry.joint == "prismatic"
-        tolerances = Tolerances.printer_kit() if printer else Tolerances.bai2015()
+        tolerances = getattr(Tolerances, nominal_geometry.chain.typical_tolerances)()
         true_geometry = nominal_geometry.perturbed(tolerances, np.random.default_rng(args.perturb))
     else:
         true_geometry = nominal_geometry

@@ -7,8 +7,8 @@ rotary Delta's :class:`~deltacal.controller.model.Controller`, or a printer's fi
 exact compensation (:func:`deltacal.compensation.compensate`, which refuses what the real robot
 cannot reach or reaches near a singularity, and checks the working assembly). The target to send
 is the controller's forward model of those readings: its inverse then returns them exactly
-(checked here to :data:`ROUND_TRIP_TOLERANCE`), whatever the controller's values. Vectorised over
-targets. Units: mm and rad (a printer's readings: mm).
+(checked here to the chain's :attr:`~deltacal.chains.Chain.round_trip_tolerance`), whatever the
+controller's values. Vectorised over targets. Units: mm and rad (a printer's readings: mm).
 """
 
 from __future__ import annotations
@@ -23,12 +23,6 @@ from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import COMMAND_MARGIN
-
-#: Largest difference between the readings wanted and those the controller's inverse gives for the
-#: corrected target, by actuated chain [rad, mm]: a round trip through its closed-form forward and
-#: inverse models (1e-15 rad measured; a printer's, 1e-13 mm); beyond, the readings are on the
-#: model's other branch (knee in; a carriage below the nozzle).
-ROUND_TRIP_TOLERANCE = {"revolute": 1e-9, "prismatic": 1e-9}
 
 
 class CommandModel(Protocol):
@@ -110,9 +104,9 @@ def corrected_targets(
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
     virtual = controller.virtual
-    if virtual.joint != geometry.joint:
-        raise GeometryError(f"the controller {controller.name or ''!r} runs a {virtual.joint} Delta's model, "
-                            f"the robot {geometry.name or ''!r} is a {geometry.joint} one")
+    if virtual.chain != geometry.chain:
+        raise GeometryError(f"the controller {controller.name or ''!r} runs a {virtual.chain.name} Delta's "
+                            f"model, the robot {geometry.name or ''!r} is a {geometry.chain.name} one")
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     q = compensate(geometry, targets, "exact", min_margin=min_margin, payload=payload)
     commands = controller.forward(q, check=False)
@@ -124,10 +118,8 @@ def corrected_targets(
     if np.any(near):
         raise UnreachableError.from_mask(near, targets, UnreachableError.CONTROLLER_SINGULAR)
     with np.errstate(invalid="ignore"):
-        apart = controller.inverse(commands, check=False) - q
-        if virtual.joint == "revolute":
-            apart = (apart + np.pi) % (2.0 * np.pi) - np.pi
-    other_branch = ~np.all(np.abs(apart) <= ROUND_TRIP_TOLERANCE[virtual.joint], axis=1)
+        apart = virtual.chain.wrap(controller.inverse(commands, check=False) - q)
+    other_branch = ~np.all(np.abs(apart) <= virtual.chain.round_trip_tolerance, axis=1)
     if np.any(other_branch):
         raise UnreachableError.from_mask(other_branch, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
     return CorrectedTargets(commands, q)

@@ -51,6 +51,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..chains import REVOLUTE, Chain
 from ..exceptions import GeometryError
 from ..geometry import DeltaGeometry, Tolerances, arm_frame_circle
 from ..kinematics import batch3 as b3
@@ -123,7 +124,7 @@ def elementary_jacobian(
     N = q.shape[0]
     if moves is not None:
         moves = np.asarray(moves, dtype=float)
-        if geometry.joint == "prismatic":
+        if geometry.chain.slides:
             return _moved_rods_along_lines(geometry, q, pose, moves)
         return _moved_rods(geometry, q, pose, moves)
     A = geometry.arm_balls_in_base(q)  # (N, 3, 2, 3)
@@ -138,7 +139,7 @@ def elementary_jacobian(
     torque = np.cross(lever, n)  # d|d|/d(rotation) = -(lever x n) . omega
     slope = geometry.arm_ball_velocity(q) / geometry.joint_scale[None, :, None, None]  # dA/dθ
     along = np.sum(n * slope, axis=-1)  # (N, 3, 2): n . dA/dθ
-    prismatic = geometry.joint == "prismatic"
+    slides = geometry.chain.slides
     for i in range(3):
         for j in range(2):
             s = plate_ball_index(i, j, 0)
@@ -150,7 +151,7 @@ def elementary_jacobian(
             J[:, i, j, s : s + 3] = -n[:, i, j]
             s = actuator_rotation_index(i, 0)
             J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
-            if prismatic:  # the w component: the endstop, a shift along the line of travel
+            if slides:  # the w component: the endstop, a shift along the line of travel
                 J[:, i, j, s + 1] = -along[:, i, j]
                 J[:, i, j, joint_scale_index(i)] = -along[:, i, j] * q[:, i]
     return J.reshape(N, 6, N_ELEMENTARY)
@@ -248,7 +249,7 @@ def apply_elementary(geometry: DeltaGeometry, e: np.ndarray) -> DeltaGeometry:
         # the zero direction the geometry derives differs from the rigidly turned one by a
         # rotation about the new axis: fold it into the encoder offset
         rel = np.einsum("ilk,ilm->ikm", R0_derived, R0_new)  # R0_derived^T R0_new, a rotation about y
-        if geometry.joint == "prismatic":  # a carriage turned about its tower: its balls turn with it
+        if geometry.chain.turns_balls:  # a carriage turned about its tower: its balls turn with it
             arm_ball = np.einsum("ikl,ijl->ijk", rel, arm_ball)
             encoder_offset = encoder_offset + rot[:, 1]
         else:
@@ -279,7 +280,7 @@ class ErrorModel(ABC):
     #: Short name used on the command line.
     name: str = ""
     #: The actuated chain the model is written for (:mod:`deltacal.chains`).
-    joint: str = "revolute"
+    chain: Chain = REVOLUTE
     #: Whether the model moves the plate orientation (False: perfect parallelograms).
     tilts_plate: bool = True
     #: Preference order of the parameters kept when some must be regrouped (None: pivoted QR's).
@@ -336,10 +337,9 @@ class ErrorModel(ABC):
 
     def check_fits(self, geometry: DeltaGeometry) -> None:
         """GeometryError unless the model is written for the geometry's chain (rotary or linear Delta)."""
-        if geometry.joint != self.joint:
-            what = {"revolute": "rotary Delta robots", "prismatic": "linear Delta printers"}[self.joint]
-            raise GeometryError(f"the {self.name!r} error model serves {what}; "
-                                f"{geometry.name or 'this geometry'!r} is a {geometry.joint} chain")
+        if geometry.chain != self.chain:
+            raise GeometryError(f"the {self.name!r} error model serves {self.chain.words.robots}; "
+                                f"{geometry.name or 'this geometry'!r} is a {geometry.chain.name} chain")
 
     def pair_rotations(self, geometry: DeltaGeometry) -> np.ndarray | None:
         """Rotations of ball pairs about their midpoints per parameter, (18, n), or None.
@@ -382,7 +382,7 @@ class SubModel(ErrorModel):
         self._index = [parent.names.index(k) for k in keep]
         self.name = name
         self.tilts_plate = parent.tilts_plate
-        self.joint = parent.joint
+        self.chain = parent.chain
         self.preferred = parent.preferred
         self.frame_held_first = tuple(n for n in parent.frame_held_first if n in keep)
 

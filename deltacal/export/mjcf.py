@@ -65,6 +65,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
+from ..chains import REVOLUTE, Chain
 from ..exceptions import GeometryError
 from ..geometry import DeltaGeometry
 from ..io import atomic_write_text
@@ -220,14 +221,13 @@ def _weighing(part: tuple[float, np.ndarray, np.ndarray], mass: float):
 
 
 # ------------------------------------------------------------------- names
-def _actuator_names(joint: str) -> tuple[str, str]:
+def _actuator_names(chain: Chain) -> tuple[str, str]:
     """The actuated joint's and its body's name stem: ``arm``, ``arm_link`` or ``carriage``, ..."""
-    stem = "arm" if joint == "revolute" else "carriage"
-    return stem, "_link"
+    return chain.words.part, "_link"
 
 
-def _reserved_names(joint: str = "revolute") -> set[str]:
-    stem, link = _actuator_names(joint)
+def _reserved_names(chain: Chain = REVOLUTE) -> set[str]:
+    stem, link = _actuator_names(chain)
     names = {"base", "plate", "plate_x", "plate_y", "plate_z", "plate_rotation", "tcp"}
     for i in range(1, 4):
         names |= {f"{stem}{i}", f"{stem}{i}{link}"}
@@ -237,7 +237,7 @@ def _reserved_names(joint: str = "revolute") -> set[str]:
 
 
 def _check_point_names(geometry: DeltaGeometry) -> None:
-    taken = _reserved_names(geometry.joint)
+    taken = _reserved_names(geometry.chain)
     for name in geometry.points:
         if name in taken:
             raise GeometryError(f"point {name!r}: the name is taken by an element of the MJCF model; "
@@ -259,11 +259,10 @@ def home_configuration(geometry: DeltaGeometry, readings: np.ndarray | None = No
     pose = exact.forward(geometry, q[None])
     p, R = pose.position[0], pose.rotation[0]
     arms = geometry.arm_rotation(q[None])[0]
-    if geometry.joint == "prismatic":
-        values = -geometry.joint_scale * q / _MM
+    values = geometry.chain.joint_value(q, geometry.joint_scale, _MM)
+    if geometry.chain.slides:
         carried = geometry.arm_balls_in_base(q[None])[0]
     else:
-        values = q
         carried = np.array([[geometry.axis_point[i] + arms[i] @ geometry.arm_ball[i, j] for j in range(2)]
                             for i in range(3)])
     qpos: list[float] = []
@@ -352,8 +351,8 @@ def _plate_body(base: ET.Element, geometry: DeltaGeometry) -> None:
         ET.SubElement(plate, "joint", {"name": f"plate_{axis}", "type": "slide", "axis": direction})
     ET.SubElement(plate, "joint", {"name": "plate_rotation", "type": "ball"})
     balls = g.plate_ball.reshape(6, 3) / _MM
-    thickness, margin = ((_PLATE_THICKNESS, _PLATE_MARGIN) if g.joint == "revolute"
-                         else (_EFFECTOR_THICKNESS, _EFFECTOR_MARGIN))
+    thickness, margin = ((_EFFECTOR_THICKNESS, _EFFECTOR_MARGIN) if g.chain.on_bed
+                         else (_PLATE_THICKNESS, _PLATE_MARGIN))
     radius = float(np.max(np.linalg.norm(balls[:, :2], axis=1))) + margin
     part = _disc(np.zeros(3), radius, thickness, _ALUMINIUM)
     _inertial(plate, part if g.masses.is_zero else _weighing(part, g.masses.plate))
@@ -401,7 +400,7 @@ def _printer_base(base: ET.Element, geometry: DeltaGeometry) -> None:
 def _actuators(actuator: ET.Element, geometry: DeltaGeometry) -> None:
     """Position servos whose control is the reading: on the arms [rad], or geared on the carriages [mm]."""
     for i in range(1, 4):
-        if geometry.joint == "revolute":
+        if not geometry.chain.slides:
             ET.SubElement(actuator, "position", {"name": f"arm{i}", "joint": f"arm{i}", "kp": _num(_ARM_KP)})
         else:
             gear = -_MM / float(geometry.joint_scale[i - 1])  # actuator length = gear x slide = reading [mm]
@@ -412,9 +411,9 @@ def _actuators(actuator: ET.Element, geometry: DeltaGeometry) -> None:
 def _comments(g: DeltaGeometry, model_name: str, readings: np.ndarray, stations: Sequence[str],
               source: str) -> list[str]:
     """The lines of the model's leading comments: what it is, its units, frames and joints."""
-    printer = g.joint == "prismatic"
+    printer = g.chain.on_bed
     lines = [
-        f" {model_name}: {'linear Delta printer' if printer else 'Delta robot'} written by deltacal "
+        f" {model_name}: {g.chain.words.model} written by deltacal "
         f"{__version__} export" + (f" from {source}" if source else "") + ". ",
     ]
     if printer:
@@ -444,7 +443,7 @@ def _comments(g: DeltaGeometry, model_name: str, readings: np.ndarray, stations:
         ]
     if not g.masses.is_zero:
         m = g.masses
-        lines.append(f" Masses: the geometry's ({'carriage' if printer else 'arm'} {_num(m.arm)} kg, rod "
+        lines.append(f" Masses: the geometry's ({g.chain.words.part} {_num(m.arm)} kg, rod "
                      f"{_num(m.rod)} kg, plate {_num(m.plate)} kg; a body given 0 kg weighs {_LEAST_MASS:g} "
                      "kg); inertias those of their plausible shapes. ")
     elif printer:
@@ -502,7 +501,7 @@ def mjcf_model(
     ET.SubElement(world, "light", {"name": "top", "pos": _vec([0.0, 0.0, top + 2.0]), "dir": "0 0 -1",
                                    "directional": "true"})
     base = ET.SubElement(world, "body", {"name": "base"})
-    if g.joint == "prismatic":
+    if g.chain.on_bed:
         _printer_base(base, g)
     else:
         _rotary_base(base, g, top)

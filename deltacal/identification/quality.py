@@ -64,10 +64,7 @@ def implausible_deviations(start: DeltaGeometry, geometry: DeltaGeometry) -> lis
     :data:`PLAUSIBLE_LENGTH` of the arm length (a printer's: of its rod length; its carriage
     balls are on its tower), and actuator axes tilted by more than :data:`PLAUSIBLE_TILT`.
     """
-    if start.joint == "prismatic":
-        arm = float(np.mean(start.rod_length))
-    else:
-        arm = float(np.mean(np.linalg.norm(start.arm_ball.mean(axis=1), axis=1)))
+    arm = start.chain.limb_length(start.arm_ball, start.rod_length)
     limit = PLAUSIBLE_LENGTH * arm
     found = []
     for label, a, b in (

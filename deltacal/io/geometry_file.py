@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..chains import JOINTS
+from ..chains import JOINTS, REVOLUTE, chain_of
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry, Masses
 from .atomic import atomic_write_text
@@ -30,7 +30,7 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     at the top when known: the nominal step distance its readings count steps in (what the
     firmware's steps are converted with); a rotary robot's file is unchanged.
     """
-    prismatic = geometry.joint == "prismatic"
+    steps = geometry.chain.counts_steps
     limbs = []
     for i in range(3):
         limb: dict[str, Any] = {
@@ -38,7 +38,7 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
             "axis_point_mm": geometry.axis_point[i].tolist(),
             "axis_direction": geometry.axis_direction[i].tolist(),
         }
-        if prismatic:
+        if steps:
             limb["endstop_offset_mm"] = float(geometry.encoder_offset[i])
             limb["joint_scale"] = float(geometry.joint_scale[i])
         else:
@@ -50,8 +50,8 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
         }
         limbs.append(limb)
     out: dict[str, Any] = {"format": GEOMETRY_FORMAT, "name": geometry.name}
-    if prismatic:
-        out["joint"] = geometry.joint
+    if geometry.chain != REVOLUTE:  # the default, not written: a rotary robot's file is unchanged
+        out["joint"] = geometry.chain.name
         if geometry.step_distance is not None:
             out["step_distance_mm"] = geometry.step_distance
     out |= {"tool_mm": geometry.tool.tolist(), "limb": limbs}
@@ -103,12 +103,13 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     problem = control_character(name)
     if problem is not None:
         raise top.error("name", f"robot name {name!r} {problem}")
-    joint = top.string("joint", default="revolute")
+    joint = top.string("joint", default=REVOLUTE.name)
     if joint not in JOINTS:
         raise top.error("joint", f"must be one of {', '.join(JOINTS)}, got {joint!r}")
+    chain = chain_of(joint)
     step_distance = None
     if "step_distance_mm" in data:
-        if joint != "prismatic":
+        if not chain.counts_steps:
             raise top.error("step_distance_mm", "a rotary robot's file (no joint = \"prismatic\") has no "
                             "step distance")
         step_distance = top.number("step_distance_mm", positive=True)
@@ -119,7 +120,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     fields: dict[str, list[Any]] = {k: [] for k in (
         "limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
         "rod_length", "joint_scale")}
-    joint_keys = ["endstop_offset_mm", "joint_scale"] if joint == "prismatic" else ["encoder_offset_deg"]
+    joint_keys = ["endstop_offset_mm", "joint_scale"] if chain.counts_steps else ["encoder_offset_deg"]
     for i, limb_data in enumerate(limbs):
         t = _Table(limb_data, source, f"{prefix}limb[{i + 1}].")
         t.check_unknown(["azimuth_deg", "axis_point_mm", "axis_direction", *joint_keys, "arm_ball_mm",
@@ -130,7 +131,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
         if abs(float(np.linalg.norm(w)) - 1.0) > 1e-9:
             raise t.error("axis_direction", f"must be a unit vector, got {w.tolist()}")
         fields["axis_direction"].append(w)
-        if joint == "prismatic":
+        if chain.counts_steps:
             fields["encoder_offset"].append(t.number("endstop_offset_mm"))
             scale = t.number("joint_scale")
             if scale <= 0.0:
@@ -158,7 +159,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     try:
         arrays: dict[str, Any] = {k: np.array(v) for k, v in fields.items()}
         return DeltaGeometry(**arrays, tool=tool, points=points, name=name, masses=masses,
-                             compliance=compliance, joint=joint, step_distance=step_distance)
+                             compliance=compliance, chain=chain, step_distance=step_distance)
     except GeometryError as exc:
         raise InputError(str(exc), source) from None
 

@@ -14,6 +14,8 @@ from warnings import warn
 
 import numpy as np
 
+from ..chains import PRISMATIC, REVOLUTE
+from ..chains import ROBOT_KINDS as ROBOT_KINDS  # the kinds of robot file (kind absent: rotary)
 from ..exceptions import GeometryError, InputError, InputWarning
 from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
@@ -25,18 +27,21 @@ from .toml import _Table, read_toml
 #: most likely written in metres (every Delta has a plate radius under 1 m); above, in
 #: micrometres or mistyped (the largest Delta printers stand about 12 m tall).
 PLAUSIBLE_LENGTH_MM = (1.0, 20_000.0)
-#: The kinds of robot file: a rotary Delta (``kind`` absent) or a linear Delta printer.
-ROBOT_KINDS = ("rotary", "linear")
 
 
 def _kind(top: _Table) -> str:
     """The file's ``kind`` (absent: ``"rotary"``), checked."""
     if not top.has("kind"):
-        return "rotary"
+        return REVOLUTE.robot_kind
     kind = top.string("kind")
     if kind not in ROBOT_KINDS:
         raise top.error("kind", f"unknown robot kind {kind!r}: one of {', '.join(map(repr, ROBOT_KINDS))}")
     return kind
+
+
+def _is_printer_file(top: _Table) -> bool:
+    """Whether the file is a linear Delta printer's (``kind = "linear"``; checked): the wing reads it."""
+    return _kind(top) == PRISMATIC.robot_kind
 
 
 def load_nominal(path: str | Path) -> NominalDelta:
@@ -50,7 +55,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
     if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
         raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
                                   "robot file (such as deltacal/models/bai2015.toml)")
-    if _kind(top) == "linear":
+    if _is_printer_file(top):
         raise top.error("kind", "a linear Delta printer's file (kind = 'linear'): this command "
                                 "serves rotary Delta robots only")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace", "masses"])

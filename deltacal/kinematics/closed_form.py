@@ -18,7 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ..chains import carried_points, path_slopes, path_terms
+from ..chains import REVOLUTE, Chain
 from ..exceptions import AssemblyError, GeometryError, UnreachableError
 from ..geometry import DeltaGeometry, NominalDelta
 from . import batch3 as b3
@@ -35,9 +35,9 @@ class VirtualDelta:
         elbow: Elbow midpoint E_i in the arm frame [mm], (3, 3).
         plate_attachment: a_i, the virtual rod's end in the plate frame [mm], (3, 3).
         rod_length: Virtual rod lengths [mm], (3,).
-        joint: The actuated chain, ``"revolute"`` or ``"prismatic"`` (:mod:`deltacal.chains`):
-            for a prismatic one the "elbow" is the carriage's ball-pair midpoint in its frame,
-            the readings are travels [mm] and the offsets endstop errors [mm].
+        chain: The actuated chain (:mod:`deltacal.chains`; :attr:`joint` is its word): for a
+            prismatic one the "elbow" is the carriage's ball-pair midpoint in its frame, the
+            readings are travels [mm] and the offsets endstop errors [mm].
         joint_scale: True joint coordinate per unit reading, (3,).
     """
 
@@ -47,7 +47,7 @@ class VirtualDelta:
     elbow: np.ndarray
     plate_attachment: np.ndarray
     rod_length: np.ndarray
-    joint: str = "revolute"
+    chain: Chain = REVOLUTE
     joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     @classmethod
@@ -68,18 +68,23 @@ class VirtualDelta:
             elbow=geometry.arm_ball.mean(axis=1),
             plate_attachment=geometry.plate_ball.mean(axis=1),
             rod_length=geometry.rod_length.mean(axis=1),
-            joint=geometry.joint,
+            chain=geometry.chain,
             joint_scale=np.array(geometry.joint_scale),
         )
+
+    @property
+    def joint(self) -> str:
+        """The chain's word in files: ``"revolute"`` or ``"prismatic"``."""
+        return self.chain.name
 
     # ------------------------------------------------------------- helpers
     @cached_property
     def elbow_path(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Elbow paths, ``E_i = C_i + f(θ_i) U_i + g(θ_i) V_i``: C, U, V, each (3, 3).
 
-        θ is the true joint coordinate; :func:`~deltacal.chains.carried_points` (rows are limbs).
+        θ is the true joint coordinate; :meth:`~deltacal.chains.Chain.carried_points` (rows are limbs).
         """
-        path = carried_points(self.joint, self.axis_point, self.actuator_rotation, self.elbow[:, None])
+        path = self.chain.carried_points(self.axis_point, self.actuator_rotation, self.elbow[:, None])
         centre, along_f, along_g = (np.array(v[:, 0]) for v in path)
         for v in (centre, along_f, along_g):
             v.setflags(write=False)
@@ -92,26 +97,24 @@ class VirtualDelta:
         Raises:
             GeometryError: the chain is prismatic (:attr:`elbow_path`).
         """
-        if self.joint != "revolute":
+        if self.chain.slides:
             raise GeometryError("a prismatic chain's elbows move on lines, not circles: use elbow_path")
         return self.elbow_path
 
     def _theta(self, q: np.ndarray) -> np.ndarray:
         """True joint coordinates at readings q, (N, 3, 1)."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
-        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
-            return (q + self.encoder_offset)[..., None]
-        return (self.joint_scale * q + self.encoder_offset)[..., None]
+        return self.chain.coordinate(q, self.joint_scale, self.encoder_offset)[..., None]
 
     def elbows(self, q: np.ndarray) -> np.ndarray:
         """Elbow midpoints E_i in {O} [mm], shape (N, 3, 3), at readings q (N, 3) [rad or mm]."""
-        f, g = path_terms(self.joint, self._theta(q))
+        f, g = self.chain.path_terms(self._theta(q))
         base, along_f, along_g = self.elbow_path
         return base + f * along_f + g * along_g
 
     def elbow_velocity(self, q: np.ndarray) -> np.ndarray:
         """dE_i/dq_i [mm/rad or mm/mm], shape (N, 3, 3): each elbow's motion per unit of its reading."""
-        f, g = path_slopes(self.joint, self._theta(q))
+        f, g = self.chain.path_slopes(self._theta(q))
         _, along_f, along_g = self.elbow_path
         return self.joint_scale[:, None] * (f * along_f + g * along_g)
 
@@ -177,7 +180,7 @@ class VirtualDelta:
             Readings [rad], shape (N, 3).
         """
         x = np.atleast_2d(np.asarray(x, dtype=float))
-        if self.joint == "prismatic":
+        if self.chain.slides:
             return self._inverse_prismatic(x, check)
         # d in actuator frames: X - p_i, X = x + a_i
         # d = X - p_i in the actuator frames, coordinate by coordinate: (N, 3) arrays, limbs last

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chains import MAX_STEP, path_slopes, path_terms
+from ..chains import Chain
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry
 from ..rotations import vector_from_rotation
@@ -174,7 +174,7 @@ class _Rods:
     ``θ_i = scale_i q_i + encoder_offset_i`` and f, g the chain's (:attr:`DeltaGeometry.arm_ball_path`).
     """
 
-    joint: str  # the actuated chain (deltacal.chains)
+    chain: Chain  # the actuated chain
     base: np.ndarray  # (3, 6, 1)
     along_f: np.ndarray  # (3, 6, 1)
     along_g: np.ndarray  # (3, 6, 1)
@@ -189,7 +189,7 @@ class _Rods:
         centre, along_f, along_g = geometry.arm_ball_path
         col = lambda v: np.ascontiguousarray(v.reshape(6, 3).T)[:, :, None]  # noqa: E731  -> (3, 6, 1)
         return cls(
-            joint=geometry.joint,
+            chain=geometry.chain,
             base=col(centre),
             along_f=col(along_f),
             along_g=col(along_g),
@@ -201,18 +201,16 @@ class _Rods:
         )
 
     def _theta(self, q: np.ndarray) -> np.ndarray:
-        if self.joint == "revolute":  # scale 1: the reading as is, bit for bit
-            return q + self.offset
-        return self.scale * q + self.offset
+        return self.chain.coordinate(q, self.scale, self.offset)
 
     def arm_balls(self, q: np.ndarray) -> np.ndarray:
         """Arm balls A_k in {O} at readings q (3, N), shape (3, 6, N)."""
-        f, g = path_terms(self.joint, self._theta(q))
+        f, g = self.chain.path_terms(self._theta(q))
         return self.base + np.repeat(f, 2, axis=0) * self.along_f + np.repeat(g, 2, axis=0) * self.along_g
 
     def arm_ball_slopes(self, q: np.ndarray) -> np.ndarray:
         """dA_k/dq_i of each rod's arm ball by its own reading at readings q (3, N), shape (3, 6, N)."""
-        f, g = path_slopes(self.joint, self._theta(q))
+        f, g = self.chain.path_slopes(self._theta(q))
         f, g = (np.repeat(self.scale * v, 2, axis=0) for v in (f, g))
         return f * self.along_f + g * self.along_g
 
@@ -412,7 +410,7 @@ def _ceiling(geometry: DeltaGeometry, rods: _Rods, q: np.ndarray) -> np.ndarray 
     The actuator axes of a rotary Delta; each pose's lowest carriage ball of a linear one (the
     effector hangs below its carriages).
     """
-    if rods.joint == "revolute":
+    if not rods.chain.plate_below_balls:
         return rods.axis_z
     return geometry.arm_balls_in_base(q)[..., 2].reshape(q.shape[0], -1).min(axis=1)
 
@@ -481,7 +479,7 @@ def inverse(
     Batched Newton on the six rod equations with the plate origin eliminated by the point's
     position (6 unknowns: q and the plate rotation; see :func:`_inverse_step`), in blocks of
     :data:`BLOCK` targets. Joint steps are limited to 0.2 rad, so a far start cannot jump to
-    another branch (a prismatic chain's: :data:`~deltacal.chains.MAX_STEP`).
+    another branch (a prismatic chain's: :attr:`~deltacal.chains.Chain.max_step`).
 
     Args:
         geometry: The robot.
@@ -508,7 +506,7 @@ def inverse(
         q_all = np.array(start, dtype=float).reshape(N, 3)
     residual = np.empty(N)
     done = np.empty(N, dtype=bool)
-    max_step = MAX_STEP[geometry.joint]
+    max_step = geometry.chain.max_step
 
     def step(t, q, R):
         r, solved = _inverse_step(rods, t, lever, q, R, tol)

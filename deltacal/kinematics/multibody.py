@@ -68,7 +68,6 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from ..chains import MAX_STEP, WARM_RADIUS
 from ..exceptions import AssemblyError, UnreachableError
 from ..geometry import DeltaGeometry, Masses
 from ..rotations import rotation_about_y
@@ -144,7 +143,7 @@ class DeltaMultibody:
         max_iter: Newton iterations at most (Levenberg-Marquardt then gets ten times more).
         warm_radius: The last assembly warm-starts a solve when the readings moved by
             less than this in each joint [rad or mm; default: the chain's
-            :data:`~deltacal.chains.WARM_RADIUS`]; otherwise the closed-form pose is used.
+            :attr:`~deltacal.chains.Chain.warm_radius`]; otherwise the closed-form pose is used.
         payload: A point mass at the TCP [kg] (statics only).
     """
 
@@ -163,8 +162,8 @@ class DeltaMultibody:
         self._massive = not geometry.masses.is_zero or self.payload > 0.0
         self.tol = float(tol)
         self.max_iter = int(max_iter)
-        self.warm_radius = float(WARM_RADIUS[geometry.joint] if warm_radius is None else warm_radius)
-        self._max_arm_step = MAX_STEP[geometry.joint]
+        self.warm_radius = float(geometry.chain.warm_radius if warm_radius is None else warm_radius)
+        self._max_arm_step = geometry.chain.max_step
         self._virtual = VirtualDelta.from_geometry(geometry)
         self._z_base = float(geometry.axis_point[:, 2].min())
         model = pin.Model()
@@ -194,7 +193,7 @@ class DeltaMultibody:
         g = self.geometry
         R0 = g.actuator_rotation()
         com = g.arm_ball[i].mean(axis=0)
-        if g.joint == "prismatic":
+        if g.chain.slides:
             place = pin.SE3(R0[i], g.axis_point[i] - g.encoder_offset[i] * R0[i][:, 1])
             jid = model.addJoint(0, pin.JointModelPY(), place, f"carriage{i + 1}")
             # placeholder inertia: a 0.2 kg carriage [kg, mm]
@@ -210,9 +209,7 @@ class DeltaMultibody:
 
     def _joint_values(self, q: np.ndarray) -> np.ndarray:
         """Actuator joint values of readings q (revolute: the readings; prismatic: ``−scale q``)."""
-        if self.geometry.joint == "prismatic":
-            return -self.geometry.joint_scale * q
-        return q
+        return self.geometry.chain.joint_value(q, self.geometry.joint_scale)
 
     def _build(self, model: pin.Model) -> None:
         g = self.geometry
@@ -293,9 +290,7 @@ class DeltaMultibody:
     def readings_of(self, configuration: np.ndarray) -> np.ndarray:
         """Readings q [rad, or mm for a prismatic chain] of a full configuration, shape (3,)."""
         values = np.array(configuration)[self._arm_q]
-        if self.geometry.joint == "prismatic":
-            return -values / self.geometry.joint_scale
-        return values
+        return self.geometry.chain.reading_of(values, self.geometry.joint_scale)
 
     def plate_placement(self, configuration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Plate position [mm] (3,) and rotation (3, 3) in {O} of a full configuration."""
@@ -480,7 +475,7 @@ class DeltaMultibody:
         p = x[self._plate_q : self._plate_q + 3]
         R = pin.XYZQUATToSE3(np.array(x[self._plate_q : self._plate_q + 7])).rotation
         ceiling = self._z_base
-        if self.geometry.joint == "prismatic":
+        if self.geometry.chain.plate_below_balls:
             pin.forwardKinematics(self._model, self._data, x)
             ceiling = min(float(self._data.oMi[rid].translation[2]) for rid in self._rod_joints)
         return bool(p[2] < ceiling and R[2, 2] > 0.0)

@@ -101,7 +101,7 @@ def singularity_measures(
     q = np.atleast_2d(np.asarray(q, dtype=float))
     if x is None:
         x = virtual.forward(q, check=False)
-    if virtual.joint == "prismatic":
+    if virtual.chain.slides:
         return _prismatic_measures(virtual, q, x)
     w = virtual.actuator_rotation[:, :, 1]  # (limb, coordinate)
     e = virtual.elbow

@@ -59,9 +59,9 @@ def payload_per_pose(payload: float | np.ndarray, n: int) -> np.ndarray:
 
 def _check_revolute(geometry: DeltaGeometry) -> None:
     """Statics serve rotary Deltas (arms on revolute joints); a printer's carriages have none yet."""
-    if geometry.joint != "revolute":
+    if not geometry.chain.gravity_statics:
         name = geometry.name or "this geometry"
-        raise GeometryError(f"gravity statics serve rotary Delta robots; {name!r} is a {geometry.joint} "
+        raise GeometryError(f"gravity statics serve rotary Delta robots; {name!r} is a {geometry.chain.name} "
                             "chain")
 
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..chains import PRISMATIC
 from ..errormodels.base import (
     N_ELEMENTARY,
     ErrorModel,
@@ -55,7 +56,7 @@ class PrinterModel(ErrorModel):
     """The complete model of a linear Delta printer (54 parameters)."""
 
     name = "printer"
-    joint = "prismatic"
+    chain = PRISMATIC
     tilts_plate = True
 
     def __init__(self) -> None:
@@ -128,7 +129,7 @@ class FirmwareModel(ErrorModel):
     """Klipper's values as deviations of a printer's full geometry (13 parameters)."""
 
     name = "klipper"
-    joint = "prismatic"
+    chain = PRISMATIC
     tilts_plate = False
 
     def __init__(self) -> None:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..chains import PRISMATIC
 from ..exceptions import GeometryError
 from ..geometry import DeltaGeometry, Workspace, radial_vectors, tangent_vectors
 
@@ -57,7 +58,7 @@ class NominalLinearDelta:
     description: str = ""
 
     #: The robot file's kind.
-    kind = "linear"
+    kind = PRISMATIC.robot_kind
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "tower_azimuth", np.asarray(self.tower_azimuth, dtype=float))
@@ -109,7 +110,7 @@ class NominalLinearDelta:
             tool=self.tool.copy(),
             points={k: v.copy() for k, v in self.points.items()},
             name=self.name,
-            joint="prismatic",
+            chain=PRISMATIC,
             step_distance=self.step_distance,
         )
 

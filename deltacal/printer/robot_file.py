@@ -15,7 +15,7 @@ import numpy as np
 
 from ..exceptions import GeometryError, InputError
 from ..geometry import Workspace
-from ..io.robot import _check_plausible, _kind, _points, _robot_name
+from ..io.robot import _check_plausible, _is_printer_file, _points, _robot_name
 from ..io.toml import _Table, read_toml
 from ..kinematics.closed_form import VirtualDelta
 from .robot import NominalLinearDelta
@@ -35,7 +35,7 @@ def load_printer(path: str | Path) -> NominalLinearDelta:
     """
     source = str(path)
     top = _Table(read_toml(path), source)
-    if _kind(top) != "linear":
+    if not _is_printer_file(top):
         raise top.error("kind", "not a linear Delta printer's file: kind = 'linear' is required")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace"])
     geo = top.table("geometry")

@@ -64,8 +64,8 @@ def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, 
     except (DeltacalError, ImportError) as exc:
         return None, f"No 3-D view: {exc}"
     plate, tcp = words(calibration.geometry)
-    robot = "printer" if calibration.geometry.joint == "prismatic" else "robot"
-    bed = " above the bed (the plane z = 0)" if robot == "printer" else ""
+    robot = calibration.geometry.chain.words.robot
+    bed = " above the bed (the plane z = 0)" if calibration.geometry.chain.on_bed else ""
     note = (f"The identified {robot} (solid) over the nominal one (ghost){bed}, {plate} tilt exaggerated "
             f"{DEFAULT_EXAGGERATION:g} times (real tilt {np.degrees(summary.tilt):.4f}° at the drawn pose); "
             f"arrows: where the identified {robot}'s {tcp} goes when commanded with the nominal model (the "

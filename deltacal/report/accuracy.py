@@ -88,7 +88,7 @@ def tcp_jacobian(
         A = gauge_sensitivity(model, geometry, columns)
         A = np.concatenate([A, np.zeros((6, len(compliance)))], axis=1)
         J = J + skew(pose.point(tool)) @ A[:3] - A[3:]
-    if geometry.joint == "prismatic" and not compliance:
+    if geometry.chain.on_bed and not compliance:
         J = J - in_plane_motion(pose.point(tool)) @ _bed_gauge(geometry, calibration, tool)
     return J
 
@@ -280,7 +280,7 @@ def accuracy_map(
             # of its axes and plate balls); the gauge holds it at nominal, the truth has its own
             shift = np.nanmean(vectors, axis=0)
             vectors = vectors - shift
-        if calibration.geometry.joint == "prismatic":
+        if calibration.geometry.chain.on_bed:
             vectors, moved = less_bed_motion(flat, vectors)
         err = np.linalg.norm(vectors, axis=1)
         error = [err[a:b].reshape(shape) for a, b, shape in zip(sizes[:-1], sizes[1:], shapes, strict=True)]

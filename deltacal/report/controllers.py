@@ -63,7 +63,7 @@ def controller_routes(calibration: Calibration, amap: AccuracyMap,
     points = points[np.all(np.isfinite(points), axis=1) & np.isfinite(sigma)]
     geometry = calibration.geometry.with_tool(amap.tool)
     true_tool = truth.with_tool(amap.tool) if truth is not None else None
-    if geometry.joint == "prismatic":
+    if geometry.chain.firmware:
         return _firmware_routes(calibration.nominal.with_tool(amap.tool), geometry, true_tool, points)
     try:
         start = Controller.from_geometry(calibration.nominal).replace(tool=amap.tool)

@@ -232,11 +232,11 @@ def _residuals(page: Page) -> str:
 def _accuracy(page: Page) -> str:
     a = page.accuracy
     w = a.worst_point
-    printer = page.calibration.geometry.joint == "prismatic"
+    chain = page.calibration.geometry.chain
     out = (
         "<p>The predicted accuracy map is the standard deviation of the TCP position the calibration leaves, "
-        f"at each place of the workspace, for the {'nozzle' if printer else 'tool'} "
-        f"({esc(', '.join(num(v, 6) for v in a.tool))}) mm in the {'effector' if printer else 'plate'} "
+        f"at each place of the workspace, for the {chain.words.tool} "
+        f"({esc(', '.join(num(v, 6) for v in a.tool))}) mm in the {chain.words.plate} "
         "frame: the uncertainty of the "
         "identified base parameters (their σ and correlations) carried through the error model to the TCP. "
         "It is the 3-D RMS, √(σx² + σy² + σz²). It covers what the measurement noise leaves in the "
@@ -255,7 +255,7 @@ def _accuracy(page: Page) -> str:
     rows = [[td(s.label), cell(float(np.nanmin(v)) * 1000.0, 4), cell(float(np.nanmax(v)) * 1000.0, 4)]
             for s, v in zip(a.slices, a.sigma, strict=True)]
     out += table(["slice", "smallest σ [µm]", "largest σ [µm]"], rows, "accuracy-slices")
-    if printer:
+    if chain.on_bed:
         out += ("<p><b>How to use it.</b> Where σ is large, the probe heights and printed distances say "
                 "little about the printer there: probe the bed there, or print and measure features at those "
                 "heights and directions (<code>deltacal plan PRINTER.toml --object</code> designs an object "
@@ -354,7 +354,7 @@ def _firmware(page: Page) -> str:
 
 
 def _controllers(page: Page) -> str:
-    if page.calibration.geometry.joint == "prismatic":
+    if page.calibration.geometry.chain.firmware:
         return _firmware(page)
     routes = page.controllers
     assert routes is not None

@@ -39,7 +39,7 @@ CAMERA_ELEVATION = 18.0
 
 def words(geometry: DeltaGeometry) -> tuple[str, str]:
     """What the scene calls the plate and the TCP: a rotary Delta's, or a printer's effector and nozzle."""
-    return ("effector", "nozzle") if geometry.joint == "prismatic" else ("plate", "TCP")
+    return geometry.chain.words.plate, geometry.chain.words.tcp
 
 
 # ==================================================================================== the scene

@@ -70,9 +70,9 @@ def _check_scene(nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry, 
     """Two robots of one kind, and a positive finite exaggeration (ValueError, GeometryError)."""
     if not (math.isfinite(exaggerate) and exaggerate > 0.0):
         raise ValueError(f"exaggerate must be a positive finite factor, got {exaggerate!r}")
-    if true_geometry.joint != nominal_geometry.joint:
-        raise GeometryError(f"the true robot is a {true_geometry.joint} chain and the nominal one a "
-                            f"{nominal_geometry.joint} chain: draw two robots of the same kind")
+    if true_geometry.chain != nominal_geometry.chain:
+        raise GeometryError(f"the true robot is a {true_geometry.chain.name} chain and the nominal one a "
+                            f"{nominal_geometry.chain.name} chain: draw two robots of the same kind")
 
 
 def _scene_readings(nominal_geometry: DeltaGeometry, ws: Workspace, q: np.ndarray | None) -> np.ndarray:
@@ -104,8 +104,8 @@ def build_scene(
 ) -> SceneSummary:
     """Draw the true robot over its nominal ghost into a meshcat visualizer.
 
-    A rotary Delta is drawn as its base, actuators, arms, rods and plate; a printer (a prismatic
-    chain, :attr:`DeltaGeometry.joint`) as its towers from the bed up past the endstops, the
+    A rotary Delta is drawn as its base, actuators, arms, rods and plate; a printer (a chain on a
+    bed, :attr:`~deltacal.chains.Chain.on_bed`) as its towers from the bed up past the endstops, the
     carriages where their travel puts them, the rods, the effector and nozzle, and the bed.
 
     Args:
@@ -221,7 +221,7 @@ def _fixed_parts(
     Round a rotary Delta's base; a printer's bed (drawn here: it is the plane z = 0 of both
     printers) and both printers' towers and frame tops.
     """
-    if nominal_geometry.joint == "prismatic":
+    if nominal_geometry.chain.on_bed:
         ends = [np.concatenate(_tower_ends(g)) for g in (nominal_geometry, true_geometry)]
         top = np.max(np.concatenate(ends)[:, 2]) + 16.0 * _reach(nominal_geometry) / 375.0
         return np.concatenate([writer.bed(nominal_geometry), *ends, [[0.0, 0.0, top]]])

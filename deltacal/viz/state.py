@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..chains import carried_points, path_terms
+from ..chains import REVOLUTE, Chain
 from ..exceptions import UnreachableError
 from ..geometry import (
     DeltaGeometry,
@@ -50,7 +50,7 @@ class RobotState:
         axis_point: Actuator axis points in {O} [mm], (3, 3).
         arm_origin: Origins of the arm frames in {O} [mm], (N, 3, 3): the axis points of a
             rotary Delta's arms; a printer's carriages where they are on their towers.
-        joint: The actuated chain, ``"revolute"`` (arms) or ``"prismatic"`` (carriages).
+        chain: The actuated chain (:mod:`deltacal.chains`): arms or carriages; :attr:`joint` is its word.
     """
 
     q: np.ndarray
@@ -62,7 +62,12 @@ class RobotState:
     tcp: np.ndarray
     axis_point: np.ndarray
     arm_origin: np.ndarray
-    joint: str = "revolute"
+    chain: Chain = REVOLUTE
+
+    @property
+    def joint(self) -> str:
+        """The chain's word in files: ``"revolute"`` or ``"prismatic"``."""
+        return self.chain.name
 
     @classmethod
     def compute(cls, geometry: DeltaGeometry, q: np.ndarray, exaggerate: float = 1.0) -> RobotState:
@@ -71,11 +76,11 @@ class RobotState:
         plate = exact.forward(geometry, q)
         shown = rotation_from_vector(exaggerate * vector_from_rotation(plate.rotation))
         balls = plate.position[:, None, None, :] + np.einsum("nkl,ijl->nijk", shown, geometry.plate_ball)
-        # the arm frames' origins carried as points of the arms (chains.carried_points)
-        centre, along_f, along_g = carried_points(
-            geometry.joint, geometry.axis_point, geometry.actuator_rotation(), np.zeros((3, 1, 3))
+        # the arm frames' origins carried as points of the arms (Chain.carried_points)
+        centre, along_f, along_g = geometry.chain.carried_points(
+            geometry.axis_point, geometry.actuator_rotation(), np.zeros((3, 1, 3))
         )
-        f, g = path_terms(geometry.joint, geometry.joint_coordinate(q)[:, :, None, None])
+        f, g = geometry.chain.path_terms(geometry.joint_coordinate(q)[:, :, None, None])
         origin = (centre + f * along_f + g * along_g)[:, :, 0]
         return cls(
             q=q,
@@ -87,7 +92,7 @@ class RobotState:
             tcp=plate.point(geometry.tool),
             axis_point=np.array(geometry.axis_point),
             arm_origin=origin,
-            joint=geometry.joint,
+            chain=geometry.chain,
         )
 
 
@@ -158,7 +163,7 @@ def default_workspace(geometry: DeltaGeometry) -> Workspace:
     0.7 ρ (ρ = tower radius − effector radius, Klipper's delta radius; 94 mm on a Kossel, whose
     printable radius is 92-115 mm), up to ρ below the nozzle at the endstops.
     """
-    if geometry.joint == "prismatic":
+    if geometry.chain.on_bed:
         reach = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)
                               - np.linalg.norm(geometry.plate_ball.mean(axis=1)[:, :2], axis=1)))
         nozzle = VirtualDelta.from_geometry(geometry).forward(np.zeros(3))[0, 2] + geometry.tool[2]

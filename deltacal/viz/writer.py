@@ -46,7 +46,7 @@ class _SceneWriter:
         self, name: str, geometry: DeltaGeometry, state: RobotState, ghost: bool, plate_shape: np.ndarray
     ) -> None:
         """Draw one robot (a rotary Delta, or a printer: towers, carriages) at the first pose of ``state``."""
-        if geometry.joint == "prismatic":
+        if geometry.chain.on_bed:
             self._towers(name, geometry, ghost)
         else:
             self._arms(name, geometry, ghost)
@@ -187,7 +187,7 @@ class _SceneWriter:
     def pose(self, name: str, state: RobotState, k: int, frame: Any = None) -> None:
         """Set the moving parts of a robot to pose k (into an animation frame when given)."""
         target = self.root if frame is None else frame["deltacal"]
-        part = "carriage" if state.joint == "prismatic" else "arm"
+        part = state.chain.words.part
         for i in range(3):
             limb = f"{name}/limb{i + 1}"
             arm_T = _transform(state.arm_rotation[k, i], state.arm_origin[k, i])
@@ -215,9 +215,7 @@ def _sizes(geometry: DeltaGeometry, ghost: bool) -> tuple[float, float]:
 
 def _reach(geometry: DeltaGeometry) -> float:
     """A robot's size [mm]: its arm length, or (a printer) 375/600 of its rod length."""
-    if geometry.joint == "prismatic":
-        return 375.0 / 600.0 * float(np.mean(geometry.rod_length))
-    return float(np.mean(np.linalg.norm(geometry.arm_ball.mean(axis=1), axis=1)))
+    return geometry.chain.drawn_scale * geometry.chain.limb_length(geometry.arm_ball, geometry.rod_length)
 
 
 def _tower_ends(geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:

@@ -32,6 +32,7 @@ from functools import cached_property
 
 import numpy as np
 
+from ....chains import PRISMATIC
 from ....exceptions import GeometryError, UnreachableError
 from ....geometry import DeltaGeometry, radial_vectors
 from ....kinematics.closed_form import VirtualDelta
@@ -109,7 +110,7 @@ class KlipperDelta:
             GeometryError: not a printer (a prismatic chain), no step distance, or a nozzle off
                 the effector's axis.
         """
-        if geometry.joint != "prismatic" or geometry.step_distance is None:
+        if not geometry.chain.firmware or geometry.step_distance is None:
             raise GeometryError("Klipper's values need a printer's geometry (a prismatic chain) with its "
                                 "step distance")
         if np.any(geometry.tool[:2] != 0.0):
@@ -181,7 +182,7 @@ class KlipperDelta:
             elbow=np.zeros((3, 3)),
             plate_attachment=np.zeros((3, 3)),
             rod_length=np.array(self.arm_length),
-            joint="prismatic",
+            chain=PRISMATIC,
             joint_scale=np.array(self.step_distance),
         )
 
