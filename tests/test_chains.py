@@ -13,7 +13,7 @@ from conftest import MODELS
 
 from deltacal.chains import CHAINS, JOINTS, PRISMATIC, REVOLUTE, ROBOT_KINDS, Chain, chain_of
 from deltacal.geometry import error_names
-from deltacal.io import load_printer, load_robot
+from deltacal.robots import load_printer, load_robot
 
 PACKAGE = Path(__file__).resolve().parents[1] / "deltacal"
 #: The words of the kinds in files (a geometry file's ``joint``, a robot file's ``kind``).
