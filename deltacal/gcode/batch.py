@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 
@@ -104,7 +105,8 @@ class Batch:
         xyz: list[str] = []
         increments: list[str] = []
         if self.points:
-            points = np.array(self.points, dtype=float).reshape(-1, 3)
+            flat = chain.from_iterable(self.points)  # faster than np.array of a list of tuples
+            points = np.fromiter(flat, dtype=float, count=3 * len(self.points)).reshape(-1, 3)
             units = np.rint(self._corrected(points) * _SCALE).astype(np.int64)
             xyz = _xyz(units)
             if self.relative:
@@ -113,19 +115,19 @@ class Batch:
             self.previous = units[-1]
         out: list[str] = []
         row = 0
-        for item in self.items:
-            match item:
-                case str():
-                    out.append(item)
-                case SingleMove(relative=relative, prefix=prefix, suffix=suffix):
-                    out.append(prefix + (increments if relative else xyz)[row] + suffix)
-                    row += 1
-                case _Segments(text=text, k0=k0, k1=k1, n=n):
-                    texts = increments if text.relative else xyz
-                    out.extend(text.segments(texts[row:row + k1 - k0], k0, n))
-                    row += k1 - k0
-                case _Start():
-                    row += 1
+        for item in self.items:  # by class, the commonest first (a match statement costs more here)
+            if isinstance(item, SingleMove):
+                out.append(item.prefix + (increments if item.relative else xyz)[row] + item.suffix)
+                row += 1
+            elif isinstance(item, str):
+                out.append(item)
+            elif isinstance(item, _Segments):
+                count = item.k1 - item.k0
+                texts = increments if item.text.relative else xyz
+                out.extend(item.text.segments(texts[row:row + count], item.k0, item.n))
+                row += count
+            else:  # _Start
+                row += 1
         self.items.clear()
         self.points.clear()
         self.relative = False

@@ -124,12 +124,13 @@ _HOMING = (28.0, 29.0, 30.0, 38.2, 38.3, 38.4, 38.5)
 _FRAMES = (52.0, 53.0, 54.0, 55.0, 56.0, 57.0, 58.0, 59.0, 59.1, 59.2, 59.3, 92.1, 92.2, 92.3, 68.0, 51.0)
 _MODES = (90.0, 91.0, 17.0, 21.0)  # kept on a move's first segment
 _MOVE_WORDS = frozenset("GXYZEFSN")
-# the modes compared on every line, bound once
-_RAPID, _LINEAR = Motion.RAPID, Motion.LINEAR
-_CLOCKWISE, _COUNTER_CLOCKWISE = Motion.CLOCKWISE, Motion.COUNTER_CLOCKWISE
-_ARCS = (_CLOCKWISE, _COUNTER_CLOCKWISE)
-_ABSOLUTE, _AMBIGUOUS = Extrusion.ABSOLUTE, Extrusion.AMBIGUOUS
 _ARC_WORDS = frozenset("GXYZEFSNIJR")
+# the modes compared on most lines, bound once
+_RAPID, _LINEAR = Motion.RAPID, Motion.LINEAR
+_ARCS = (Motion.CLOCKWISE, Motion.COUNTER_CLOCKWISE)
+_ABSOLUTE, _AMBIGUOUS = Extrusion.ABSOLUTE, Extrusion.AMBIGUOUS
+#: Builds a SingleMove without the call of its __new__ (half its cost, on most lines of a program).
+_new_tuple = tuple.__new__
 
 
 def is_gcode_path(path: str | Path) -> bool:
@@ -194,24 +195,24 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         batch.anchor(start)
     points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
-        plain_move = match_plain(line)  # the plainest move first, at the least cost
-        plan = (plain_move is not None and plain(number, plain_move)) or read(number, line)
-        match plan:
-            case SingleMove():  # batch.single(plan), inline
-                points.append(plan.end)
-                items.append(plan)
-                if plan.relative:
-                    batch.relative = True
-            case SplitMove(path=path, text=text):
-                k0 = 0
-                while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
-                    k1 = min(path.n, k0 + batch.room())
-                    batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
-                    k0 = k1
-                    if batch.full():
-                        yield batch.flush()
-            case _:  # KEPT
-                items.append(line)
+        plain_match = match_plain(line)  # the plainest move first, at the least cost
+        plan = (plain_match is not None and plain(number, plain_match)) or read(number, line)
+        if isinstance(plan, SingleMove):  # the commonest first; batch.single(plan), inline
+            points.append(plan.end)
+            items.append(plan)
+            if plan.relative:
+                batch.relative = True
+        elif isinstance(plan, SplitMove):
+            path, text = plan.path, plan.text
+            k0 = 0
+            while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
+                k1 = min(path.n, k0 + batch.room())
+                batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
+                k0 = k1
+                if batch.full():
+                    yield batch.flush()
+        else:  # KEPT
+            items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
             yield batch.flush()
     yield batch.flush()
@@ -331,7 +332,7 @@ class _Reader:
             st.e_pos = float(e) if mode is _ABSOLUTE else \
                 None if mode is _AMBIGUOUS or st.e_pos is None else st.e_pos + float(e)
         suffix = ("" if e is None else " E" + e) + ("" if f is None else " F" + f) + (ending or "")
-        return SingleMove(end, False, "G1 " if linear else "G0 ", suffix, number)
+        return _new_tuple(SingleMove, (end, False, "G1 " if linear else "G0 ", suffix, number))
 
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
@@ -452,7 +453,7 @@ class _Reader:
         if ending:
             self.newline = ending
         motion = st.motion
-        arc = motion is _CLOCKWISE or motion is _COUNTER_CLOCKWISE
+        arc = motion in _ARCS
         e_text = given.get("E")
         e_mode = _ABSOLUTE if e_text is None else st.extrusion
         if not arc and "X" not in given and "Y" not in given and "Z" not in given:

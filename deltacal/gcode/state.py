@@ -21,16 +21,6 @@ class Motion(enum.Enum):
     CLOCKWISE = 2  #: G2: a clockwise arc
     COUNTER_CLOCKWISE = 3  #: G3: a counter-clockwise arc
 
-    @property
-    def is_arc(self) -> bool:
-        """Whether the mode is an arc (G2, G3)."""
-        return self is Motion.CLOCKWISE or self is Motion.COUNTER_CLOCKWISE
-
-    @property
-    def word(self) -> str:
-        """The G word a move of this mode is written with: ``G0``, else ``G1`` (an arc's chords too)."""
-        return "G0" if self is Motion.RAPID else "G1"
-
 
 class Plane(enum.Enum):
     """The plane of arcs (modal G17/G18/G19); the value is the G number."""
