@@ -123,14 +123,12 @@ class SingleMove(NamedTuple):
         relative: Whether XYZ are written as increments (G91).
         prefix: The text before XYZ: ``N`` label and mode words, then ``G0 `` or ``G1 ``.
         suffix: The text after XYZ: `` E``, `` F``, `` S`` words, the comments and the line ending.
-        line: The line's number in the program (from 1).
     """
 
     end: tuple[float, float, float]
     relative: bool
     prefix: str
     suffix: str
-    line: int
 
 
 @dataclass(frozen=True, slots=True)
@@ -140,12 +138,10 @@ class SplitMove:
     Attributes:
         path: The move's intended path, cut into the points sent [mm].
         text: The words around each segment's XYZ.
-        line: The line's number in the program (from 1).
     """
 
     path: StraightPath | ArcPath
     text: MoveText
-    line: int
 
 
 #: The plan of a line.

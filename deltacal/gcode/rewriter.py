@@ -196,10 +196,10 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
         plain_match = match_plain(line)  # the plainest move first, at the least cost
-        plan = (plain_match is not None and plain(number, plain_match)) or read(number, line)
-        if isinstance(plan, SingleMove):  # the commonest first; batch.single(plan), inline
+        plan = (plain_match is not None and plain(plain_match)) or read(number, line)
+        if isinstance(plan, SingleMove):  # the commonest first; batch.single(plan, number), inline
             points.append(plan.end)
-            items.append(plan)
+            items.append((plan.relative, plan.prefix, plan.suffix, number))
             if plan.relative:
                 batch.relative = True
         elif isinstance(plan, SplitMove):
@@ -304,7 +304,7 @@ class _Reader:
             return KEPT
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
 
-    def plain(self, number: int, match: re.Match) -> SingleMove | None:
+    def plain(self, match: re.Match) -> SingleMove | None:
         """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
 
         Most lines of a printing program are these: read here at once, as :meth:`plan` would
@@ -332,7 +332,7 @@ class _Reader:
             st.e_pos = float(e) if mode is _ABSOLUTE else \
                 None if mode is _AMBIGUOUS or st.e_pos is None else st.e_pos + float(e)
         suffix = ("" if e is None else " E" + e) + ("" if f is None else " F" + f) + (ending or "")
-        return _new_tuple(SingleMove, (end, False, "G1 " if linear else "G0 ", suffix, number))
+        return _new_tuple(SingleMove, (end, False, "G1 " if linear else "G0 ", suffix))
 
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
@@ -483,7 +483,7 @@ class _Reader:
         if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
             e = f" E{e_text}" if e_text is not None else ""
             return SingleMove(end, st.relative, f"{head} {code} " if head else code + " ",
-                              e + tail + (" " + comment if comment else "") + ending, number)
+                              e + tail + (" " + comment if comment else "") + ending)
         if e_text is not None and e_mode is Extrusion.AMBIGUOUS:
             raise self.fail(number, "E is split here, but its mode is ambiguous (M83 then G90, or G91 "
                                     "without M83: firmwares differ): add M82 or M83 before this line")
@@ -492,7 +492,7 @@ class _Reader:
                                     "(absolute E, M82): add G92 E0 before the first extruding move")
         text = MoveText.of(st.relative, code, head, tail, comment, (ending, self.newline), e_text, e_mode,
                            e_start)
-        return SplitMove(path, text, number)
+        return SplitMove(path, text)
 
     def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
         """The move's end [mm]; the position becomes it."""
