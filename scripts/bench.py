@@ -538,7 +538,7 @@ def _write_gcode(path: Path, n: int, rng: np.random.Generator,
 _GCODE_FILTER = """
 import sys
 import numpy as np
-from deltacal.gcode.rewriter import filter_gcode
+from deltacal.gcode import filter_gcode
 def correct(p):
     x, y = p[:, 0], p[:, 1]
     return p + np.stack([0.3 * np.sin(y / 50.0), 0.2 * np.cos(x / 40.0), 1e-5 * x * y], axis=1)
@@ -547,7 +547,7 @@ filter_gcode(sys.argv[1], sys.argv[2], correct)
 
 
 def bench_gcode_filter(setup: Setup) -> list[Row]:
-    """``io.gcode.filter_gcode`` on 10^5 and 10^6 lines of G-code: wall time and peak RSS (flat).
+    """``gcode.filter_gcode`` on 10^5 and 10^6 lines of G-code: wall time and peak RSS (flat).
 
     A process per run (Python and numpy start-up included, about 0.3 s), the correction a
     cheap smooth map: the figure is the filter's own cost.

@@ -20,7 +20,7 @@ from deltacal.cli import main
 from deltacal.compensation import compensate
 from deltacal.controller import Controller, corrected_targets
 from deltacal.exceptions import GeometryError, InputError, UnreachableError
-from deltacal.gcode.rewriter import ARC_TOLERANCE_RATIO, DEFAULT_SEGMENT_MM, filter_lines
+from deltacal.gcode import ARC_TOLERANCE_RATIO, DEFAULT_SEGMENT_MM, filter_lines
 from deltacal.geometry import DeltaGeometry, Tolerances
 from deltacal.io import load_nominal
 from deltacal.io.geometry_file import save_geometry

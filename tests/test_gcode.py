@@ -20,7 +20,7 @@ from numpy.testing import assert_allclose
 from deltacal import InputError
 from deltacal.compensation import compensate
 from deltacal.exceptions import UnreachableError
-from deltacal.gcode.rewriter import (
+from deltacal.gcode import (
     ARC_TOLERANCE_RATIO,
     CHUNK_POINTS,
     DEFAULT_SEGMENT_MM,

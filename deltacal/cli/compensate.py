@@ -24,7 +24,7 @@ import numpy as np
 from ..compensation import METHODS, screen
 from ..controller import CommandModel
 from ..exceptions import InputError, UnreachableError, UsageError
-from ..gcode.rewriter import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
+from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
 from ..io import (
     CommandsWriter,
     JointsWriter,

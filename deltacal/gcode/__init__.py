@@ -1,6 +1,39 @@
-"""G-code programs rewritten for a controller: a streaming reader with the program's modal state.
+"""G-code programs rewritten for a controller: every move's points corrected, the rest kept byte for byte.
 
-* :mod:`.rewriter`: the program read line by line, every move's points corrected, the rest kept.
+* :mod:`.rewriter`: the reader: the program read line by line into plans, streamed out in chunks
+  (:func:`filter_gcode`, :func:`filter_lines`, :func:`read_lines`, :func:`is_gcode_path`).
+* :mod:`.state`: the program's modal state, and its modes as enums (motion, plane, extrusion).
+* :mod:`.moves`: the plan of a line (kept, a move sent whole, or split) and a split move's text.
 * :mod:`.path`: a move's intended path (lines and XY arcs) cut into the points sent.
 * :mod:`.batch`: a chunk of output, its points corrected once per chunk.
 """
+
+from .rewriter import (
+    ARC_RADIUS_TOLERANCE_MM,
+    ARC_TOLERANCE_RATIO,
+    CHUNK_LINES,
+    CHUNK_POINTS,
+    DEFAULT_SEGMENT_MM,
+    E_DECIMALS,
+    SUFFIXES,
+    XYZ_DECIMALS,
+    filter_gcode,
+    filter_lines,
+    is_gcode_path,
+    read_lines,
+)
+
+__all__ = [
+    "ARC_RADIUS_TOLERANCE_MM",
+    "ARC_TOLERANCE_RATIO",
+    "CHUNK_LINES",
+    "CHUNK_POINTS",
+    "DEFAULT_SEGMENT_MM",
+    "E_DECIMALS",
+    "SUFFIXES",
+    "XYZ_DECIMALS",
+    "filter_gcode",
+    "filter_lines",
+    "is_gcode_path",
+    "read_lines",
+]

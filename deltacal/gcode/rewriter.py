@@ -73,17 +73,10 @@ from pathlib import Path
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
-from .batch import (
-    CHUNK_LINES,
-    CHUNK_POINTS,
-    E_DECIMALS,
-    XYZ_DECIMALS,
-    Batch,
-    Correct,
-    MoveText,
-    Progress,
-)
+from .batch import CHUNK_LINES, CHUNK_POINTS, XYZ_DECIMALS, Batch, Correct, Progress
+from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
+from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
 
 __all__ = [
     "ARC_RADIUS_TOLERANCE_MM",
@@ -132,6 +125,12 @@ _FRAMES = (52.0, 53.0, 54.0, 55.0, 56.0, 57.0, 58.0, 59.0, 59.1, 59.2, 59.3, 92.
 _MODES = (90.0, 91.0, 17.0, 21.0)  # kept on a move's first segment
 _MOVE_WORDS = frozenset("GXYZEFSN")
 _ARC_WORDS = frozenset("GXYZEFSNIJR")
+# the modes compared on most lines, bound once
+_RAPID, _LINEAR = Motion.RAPID, Motion.LINEAR
+_ARCS = (Motion.CLOCKWISE, Motion.COUNTER_CLOCKWISE)
+_ABSOLUTE, _AMBIGUOUS = Extrusion.ABSOLUTE, Extrusion.AMBIGUOUS
+#: Builds a SingleMove without the call of its __new__ (half its cost, on most lines of a program).
+_new_tuple = tuple.__new__
 
 
 def is_gcode_path(path: str | Path) -> bool:
@@ -161,31 +160,6 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
         if opened is not None:
             opened.append(f)
         yield from f
-
-
-class _State:
-    """The modal state of the program as read so far (positions in mm)."""
-
-    __slots__ = ("pos", "relative", "m83", "m83_ended", "e_pos", "motion", "plane", "unknown_since", "homed")
-
-    def __init__(self, start) -> None:
-        self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
-        self.relative = False
-        self.m83 = False
-        self.m83_ended = False  # G90 read after M83 (firmwares differ on its effect)
-        self.e_pos: float | None = None
-        self.motion: float | None = None
-        self.plane = 17.0
-        self.unknown_since = 0  # line of the homing that made the position unknown (0: the start)
-        self.homed = 0  # line of a homing that left the TCP at the controller's home, until a move
-
-    def e_mode(self) -> str:
-        """``absolute``, ``relative`` or ``ambiguous``: how E words are read here."""
-        if self.relative:
-            return "relative" if self.m83 else "ambiguous"
-        if self.m83:
-            return "ambiguous" if self.m83_ended else "relative"
-        return "absolute"
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
@@ -221,17 +195,15 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         batch.anchor(start)
     points, items = batch.points, batch.items
     for number, line in enumerate(lines, 1):
-        match = match_plain(line)  # the plainest move first, at the least cost
-        plan = (match is not None and plain(match)) or read(number, line)
-        if plan is None:
-            items.append(line)
-        elif len(plan) == 4:  # batch.single(number, plan), inline
-            points.append(plan[0])
-            items.append((1, plan[1], plan[2], plan[3], number))
-            if plan[1]:
+        plain_match = match_plain(line)  # the plainest move first, at the least cost
+        plan = (plain_match is not None and plain(plain_match)) or read(number, line)
+        if isinstance(plan, SingleMove):  # the commonest first; batch.single(plan, number), inline
+            points.append(plan.end)
+            items.append((plan.relative, plan.prefix, plan.suffix, number))
+            if plan.relative:
                 batch.relative = True
-        else:
-            path, text = plan
+        elif isinstance(plan, SplitMove):
+            path, text = plan.path, plan.text
             k0 = 0
             while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
                 k1 = min(path.n, k0 + batch.room())
@@ -239,6 +211,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
                 k0 = k1
                 if batch.full():
                     yield batch.flush()
+        else:  # KEPT
+            items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
             yield batch.flush()
     yield batch.flush()
@@ -289,7 +263,7 @@ class _Reader:
     def __init__(self, source: str, segment_mm: float, start, home=None) -> None:
         self.source = source
         self.segment_mm = segment_mm
-        self.state = _State(start)
+        self.state = ModalState(start)
         self.home = None if home is None else tuple(float(v) for v in home)
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
@@ -297,30 +271,27 @@ class _Reader:
         """The error for line ``number``."""
         return InputError(detail, self.source, f"line {number}")
 
-    def line(self, number: int, line: str):
-        """None (keep the line), ``(end, relative, prefix, suffix)`` (sent whole) or ``(path, MoveText)``.
-
-        (:meth:`plain` first reads what it can of the plainest moves.)
-        """
+    def line(self, number: int, line: str) -> Plan:
+        """The plan of a line (:meth:`plain` first reads what it can of the plainest moves)."""
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
             g, body, comment, ending = fast.groups()
             st = self.state
             if g is not None:
-                st.motion = 1.0 if g[-1] == "1" else 0.0
-            if st.motion == 0.0 or st.motion == 1.0:
+                st.motion = _LINEAR if g[-1] == "1" else _RAPID
+            if st.motion is _RAPID or st.motion is _LINEAR:
                 words = _FAST_WORD.findall(body)
                 given = dict(words)
                 if len(given) == len(words):  # else a word given twice: refused below
                     return self.plan(number, given, "", comment or "", ending or "")
         s = line.lstrip()
         if not s or s[0] not in _READ:
-            return None
+            return KEPT
         m = _M_LINE.match(s)
         if m is not None:  # M codes are kept as they are; M82 and M83 set the extruder's mode
             if m.group(1) in ("82", "83"):
-                self.state.m83, self.state.m83_ended = m.group(1) == "83", False
-            return None
+                self.state.set_extruder(m.group(1) == "83")
+            return KEPT
         code, comment, ending = _split(line)
         parens = ""
         if "(" in code:
@@ -330,10 +301,10 @@ class _Reader:
                 raise self.fail(number, "a '(' comment is not closed on its line")
         read = self.words(number, code)
         if read is None:
-            return None
+            return KEPT
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
 
-    def plain(self, match: re.Match) -> tuple | None:
+    def plain(self, match: re.Match) -> SingleMove | None:
         """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
 
         Most lines of a printing program are these: read here at once, as :meth:`plan` would
@@ -349,16 +320,19 @@ class _Reader:
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         if dx * dx + dy * dy + dz * dz > self.segment_mm * self.segment_mm:
             return None
-        st.motion = 1.0 if g[-1] == "1" else 0.0
+        linear = g[-1] == "1"
+        st.motion = _LINEAR if linear else _RAPID
         st.pos = end
         st.homed = 0
         if ending:
             self.newline = ending
         f = f1 if f2 is None else f2
-        if e is not None:
-            self.track_e(float(e), st.e_mode())
+        if e is not None:  # st.extrude(float(e), st.extrusion), inline
+            mode = st.extrusion
+            st.e_pos = float(e) if mode is _ABSOLUTE else \
+                None if mode is _AMBIGUOUS or st.e_pos is None else st.e_pos + float(e)
         suffix = ("" if e is None else " E" + e) + ("" if f is None else " F" + f) + (ending or "")
-        return end, False, "G1 " if st.motion == 1.0 else "G0 ", suffix
+        return _new_tuple(SingleMove, (end, False, "G1 " if linear else "G0 ", suffix))
 
     def words(self, number: int, code: str) -> list[tuple[str, str]] | None:
         """The line's (LETTER, number text) words; None where the line is not G-code words."""
@@ -378,7 +352,7 @@ class _Reader:
             words.append(("*", code[checksum:].strip()))
         return words
 
-    def dispatch(self, number: int, words, code: str, comment: str, ending: str):
+    def dispatch(self, number: int, words, code: str, comment: str, ending: str) -> Plan:
         """Update the state from a line's words; the plan of its move, if it has one."""
         st = self.state
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
@@ -391,16 +365,16 @@ class _Reader:
                 st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
             else:
                 st.pos, st.unknown_since = (None, None, None), number
-            return None
+            return KEPT
         if not gs and not any(w[0] in "XYZIJRE" for w in words):
-            return None  # a numbered line without motion, F alone ...
+            return KEPT  # a numbered line without motion, F alone ...
         return self.g_line(number, gs, words, comment, ending)
 
-    def g_line(self, number: int, gs: list[float], words, comment: str, ending: str):
+    def g_line(self, number: int, gs: list[float], words, comment: str, ending: str) -> Plan:
         """A line of G words and axis words: modes, G92, a move, or a line to keep."""
         st = self.state
         axes = {w[0] for w in words} & set("XYZ")
-        motion = [g for g in gs if g in (0.0, 1.0, 2.0, 3.0)]
+        motion = [g for g in gs if g in MOTIONS]
         for g in gs:
             if g == 20.0:
                 raise self.fail(number, "G20 (inches) is not supported: convert the program to "
@@ -413,24 +387,21 @@ class _Reader:
         if len(motion) > 1:
             raise self.fail(number, f"two motion codes on one line: G{motion[0]:g} and G{motion[1]:g}")
         for g in gs:
-            if g == 90.0:
-                st.relative = False
-                st.m83_ended = st.m83
-            elif g == 91.0:
-                st.relative = True
-            elif g in (17.0, 18.0, 19.0):
-                st.plane = g
+            if g == 90.0 or g == 91.0:
+                st.set_distance(g == 91.0)
+            elif g in PLANES:
+                st.plane = PLANES[g]
         if motion:
-            st.motion = motion[0]
-        other = [g for g in gs if g not in _MODES and g not in (0.0, 1.0, 2.0, 3.0)]
+            st.motion = MOTIONS[motion[0]]
+        other = [g for g in gs if g not in _MODES and g not in MOTIONS]
         arc_words = any(w[0] in "IJR" for w in words)
         if not motion and (other or not (axes or arc_words)):
             if axes and other:
                 raise self.fail(number, f"G{other[0]:g} with X, Y or Z is not supported by the filter")
             e_text = next((v for letter, v in words if letter == "E"), None)
             if e_text is not None:
-                self.track_e(self.number(number, "E", e_text), st.e_mode())
-            return None
+                st.extrude(self.number(number, "E", e_text), st.extrusion)
+            return KEPT
         if st.motion is None:
             raise self.fail(number, "X, Y or Z without G0/G1/G2/G3, and no motion mode set before")
         if other:
@@ -445,7 +416,7 @@ class _Reader:
                             if value else f"word {letter} has no number")
         return float(value)
 
-    def g92(self, number: int, words):
+    def g92(self, number: int, words) -> Plan:
         """G92: E sets the extruder's position (the line is kept); X, Y, Z or nothing are refused."""
         given = {w[0]: w[1] for w in words if w[0] != "G"}
         if set(given) & set("XYZ"):
@@ -454,21 +425,11 @@ class _Reader:
         if "E" not in given:
             raise self.fail(number, "G92 without axes is refused: it sets X, Y and Z to zero")
         self.state.e_pos = self.number(number, "E", given["E"])
-        return None
+        return KEPT
 
-    def track_e(self, value: float, mode: str) -> None:
-        """The extruder position after an E word of ``value`` read in ``mode``."""
-        st = self.state
-        if mode == "absolute":
-            st.e_pos = value
-        elif mode == "relative":
-            st.e_pos = None if st.e_pos is None else st.e_pos + value
-        else:
-            st.e_pos = None
-
-    def move(self, number: int, words, gs: list[float], comment: str, ending: str):
+    def move(self, number: int, words, gs: list[float], comment: str, ending: str) -> Plan:
         """The plan of a G0/G1/G2/G3 line, its words checked."""
-        arc = self.state.motion in (2.0, 3.0)
+        arc = self.state.motion in _ARCS
         allowed = _ARC_WORDS if arc else _MOVE_WORDS
         given: dict[str, str] = {}
         for letter, value in words:
@@ -486,18 +447,19 @@ class _Reader:
                                     *(f"G{g:g}" for g in gs if g in _MODES)) if x)
         return self.plan(number, given, head, comment, ending)
 
-    def plan(self, number: int, given: dict[str, str], head: str, comment: str, ending: str):
-        """The plan of a move whose numbers are checked: None (no XYZ: kept), sent whole, or split."""
+    def plan(self, number: int, given: dict[str, str], head: str, comment: str, ending: str) -> Plan:
+        """The plan of a move whose numbers are checked: kept (no XYZ), sent whole, or split."""
         st = self.state
         if ending:
             self.newline = ending
-        arc = st.motion == 2.0 or st.motion == 3.0
+        motion = st.motion
+        arc = motion in _ARCS
         e_text = given.get("E")
-        e_mode = "absolute" if e_text is None else st.e_mode()
+        e_mode = _ABSOLUTE if e_text is None else st.extrusion
         if not arc and "X" not in given and "Y" not in given and "Z" not in given:
             if e_text is not None:
-                self.track_e(float(e_text), e_mode)
-            return None  # no XYZ: the TCP does not move, the line is kept
+                st.extrude(float(e_text), e_mode)
+            return KEPT  # no XYZ: the TCP does not move, the line is kept
         start, e_start = st.pos, st.e_pos
         if st.relative or None in start:
             end = self.target(number, given)
@@ -507,9 +469,9 @@ class _Reader:
                             start[2] if z is None else float(z))
         st.homed = 0
         if e_text is not None:
-            self.track_e(float(e_text), e_mode)
+            st.extrude(float(e_text), e_mode)
         tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
-        code = "G0" if st.motion == 0.0 else "G1"
+        code = "G0" if motion is _RAPID else "G1"
         path: ArcPath | StraightPath | None = None
         if arc:
             if None in start:
@@ -520,16 +482,17 @@ class _Reader:
             path = StraightPath(start, end, self.segment_mm)
         if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
             e = f" E{e_text}" if e_text is not None else ""
-            return (end, st.relative, f"{head} {code} " if head else code + " ",
-                    e + tail + (" " + comment if comment else "") + ending)
-        if e_text is not None and e_mode == "ambiguous":
+            return SingleMove(end, st.relative, f"{head} {code} " if head else code + " ",
+                              e + tail + (" " + comment if comment else "") + ending)
+        if e_text is not None and e_mode is Extrusion.AMBIGUOUS:
             raise self.fail(number, "E is split here, but its mode is ambiguous (M83 then G90, or G91 "
                                     "without M83: firmwares differ): add M82 or M83 before this line")
-        if e_text is not None and e_mode == "absolute" and e_start is None:
+        if e_text is not None and e_mode is Extrusion.ABSOLUTE and e_start is None:
             raise self.fail(number, "E is split here, but the extruder's position is not known yet "
                                     "(absolute E, M82): add G92 E0 before the first extruding move")
-        return path, MoveText(st.relative, code, head, tail, comment, (ending, self.newline), e_text,
-                              e_mode, e_start)
+        text = MoveText.of(st.relative, code, head, tail, comment, (ending, self.newline), e_text, e_mode,
+                           e_start)
+        return SplitMove(path, text)
 
     def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
         """The move's end [mm]; the position becomes it."""
@@ -560,9 +523,10 @@ class _Reader:
         """The chords of a G2/G3 arc from start to end."""
         st = self.state
         values = {k: float(v) for k, v in given.items() if k in "IJR"}
-        clockwise = st.motion == 2.0
-        if st.plane != 17.0:
-            raise self.fail(number, f"arc in the plane of G{st.plane:g}: only XY arcs (G17) are supported")
+        clockwise = st.motion is Motion.CLOCKWISE
+        if st.plane is not Plane.XY:
+            raise self.fail(number, f"arc in the plane of G{st.plane.value}: only XY arcs (G17) are "
+                                    "supported")
         if "R" in values:
             if "I" in values or "J" in values:
                 raise self.fail(number, "arc with both R and I/J")

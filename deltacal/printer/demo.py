@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..controller import corrected_targets
-from ..gcode.rewriter import DEFAULT_SEGMENT_MM, filter_gcode
+from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode
 from ..io import atomic_write_text, save_calibration, write_stl
 from .comparison import (
     BASIC,
