@@ -214,8 +214,9 @@ def test_singularity_measures_match_the_svd_reference(bai, perturbed):
         assert_allclose(c, conditioning, rtol=0, atol=1e-7)
 
 
-@pytest.mark.parametrize("method", ["exact", "savoure"])
-@pytest.mark.parametrize("min_margin", [0.0, 1.0])  # the reach limit itself, then the singularity margin
+@pytest.mark.parametrize("method", [pytest.param("exact", marks=pytest.mark.slow), "savoure"])
+# the reach limit itself, then the singularity margin
+@pytest.mark.parametrize("min_margin", [pytest.param(0.0, marks=pytest.mark.slow), 1.0])
 def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin):
     """Issue 13: the reading pass's screen never refuses a target the exact computation accepts."""
     from deltacal.compensation import screen

@@ -52,6 +52,7 @@ def _motion_from_truth(nominal, truth, result, q):
     return vector_from_rotation(R), t
 
 
+@pytest.mark.slow
 def test_large_offsets_with_free_frames_keep_the_gauge_and_the_file(bai):
     motions = {}
     for offsets in ((0.0, 0.0, 0.0), (5.0, -3.0, 2.0), (7.0, 7.0, 7.0)):
@@ -93,6 +94,7 @@ def test_offsets_of_tens_of_degrees_are_found_first(bai):
     assert np.max(np.abs(found - (truth.encoder_offset - bai.geometry().encoder_offset))) < np.radians(1.0)
 
 
+@pytest.mark.slow
 def test_report_truth_of_a_free_frame_calibration_compares_in_its_gauge(bai):
     """Issue 21, item 4: "largest actual error 884 µm" while the robot was right to 6 µm."""
     truth, meas, _ = _measured(bai, (5.0, -3.0, 2.0), stations=True)

@@ -157,6 +157,7 @@ KINDS = [
 
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
+@pytest.mark.slow
 def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(robot, kind, request):
     """Same accuracy (within 10 %) as the same measurements in {O}, on the mean over three robots.
 
@@ -235,7 +236,7 @@ def assert_absorbed(free, in_base):
     assert free.iterations <= in_base.iterations + 2
 
 
-@pytest.mark.parametrize("robot", ["bai", "flexpicker"])
+@pytest.mark.parametrize("robot", ["bai", pytest.param("flexpicker", marks=pytest.mark.slow)])
 @pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
 def test_a_free_frame_fit_converges_from_measurements_in_any_frame(robot, kind, request):
     """The robot's rotations, which the complete model mimics only to a few 0.1 % of their effect.
