@@ -107,7 +107,8 @@ def test_refuses_targets_out_of_reach_and_near_singularities(bai):
     compensate(g, pts[-1:])
 
 
-@pytest.mark.parametrize("method", ["exact", "savoure", "bai"])
+@pytest.mark.parametrize("method", ["exact", pytest.param("savoure", marks=pytest.mark.slow),
+                                    pytest.param("bai", marks=pytest.mark.slow)])
 def test_targets_on_the_reach_limit_are_refused_never_answered_with_garbage(bai, method):
     """Issue 12: on the nominal reach limit savoure and bai wrote joints of 1e14 deg, exit 0."""
     from deltacal.compensation import linear_calibration_from_result

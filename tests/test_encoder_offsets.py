@@ -76,7 +76,8 @@ def test_large_offsets_with_free_frames_keep_the_gauge_and_the_file(bai):
         assert np.max(np.abs(motions[offsets][1] - motions[(0.0, 0.0, 0.0)][1])) < 0.03
 
 
-@pytest.mark.parametrize("offsets", [(12.0, -9.0, 10.0), (20.0, 20.0, 20.0)])
+@pytest.mark.parametrize("offsets", [pytest.param((12.0, -9.0, 10.0), marks=pytest.mark.slow),
+                                     (20.0, 20.0, 20.0)])
 def test_offsets_of_ten_degrees_and_more_are_identified_in_the_base_frame(bai, offsets):
     truth, meas, _ = _measured(bai, offsets, stations=False)
     found = encoder_offsets(bai.geometry(), meas, free=False)

@@ -88,6 +88,7 @@ def test_accept_poor_fit_writes_with_a_warning(session, tmp_path, capsys):
     assert "warning:" in err and "swapped" in err
 
 
+@pytest.mark.slow
 def test_a_moderate_excess_is_reported_not_refused(session, tmp_path, capsys):
     """σ given 0.7 of the real noise: s0² about 2, unmodelled-looking, and no other reading fits better."""
     bai, reflector, _ = session

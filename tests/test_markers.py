@@ -13,31 +13,41 @@ TESTS = ROOT / "tests"
 
 
 class _Selection:
-    """A pytest plugin that keeps the node ids of the tests a session selects."""
+    """A pytest plugin that keeps the tests a session selects and those its ``-m`` leaves out."""
 
     def __init__(self) -> None:
-        self.nodeids: list[str] = []
+        self.selected: list[pytest.Item] = []
+        self.deselected: list[pytest.Item] = []
+
+    def pytest_deselected(self, items: list[pytest.Item]) -> None:
+        self.deselected += items
 
     def pytest_collection_finish(self, session: pytest.Session) -> None:
-        self.nodeids = [item.nodeid for item in session.items]
+        self.selected = list(session.items)
 
 
-def selected(expression: str) -> list[str]:
-    """Node ids (``tests/test_x.py::test_y[...]``) of the tests ``pytest -m EXPRESSION`` runs."""
+@pytest.fixture(scope="module")
+def fast_loop() -> _Selection:
+    """The tests ``python -m pytest -m "not slow"`` runs and leaves out, collected only."""
     selection = _Selection()
-    code = pytest.main(["--collect-only", "-qq", "-p", "no:cacheprovider", "-m", expression, str(TESTS)],
+    code = pytest.main(["--collect-only", "-qq", "-p", "no:cacheprovider", "-m", "not slow", str(TESTS)],
                        plugins=[selection])
-    assert code in (pytest.ExitCode.OK, pytest.ExitCode.NO_TESTS_COLLECTED), f"collection failed: {code!r}"
-    return selection.nodeids
+    assert code == pytest.ExitCode.OK, f"collection failed: {code!r}"
+    return selection
 
 
-def test_every_test_module_keeps_a_test_in_the_fast_loop():
-    fast = {nodeid.split("::", 1)[0] for nodeid in selected("not slow")}
+def module(item: pytest.Item) -> str:
+    return item.nodeid.split("::", 1)[0]
+
+
+def test_every_test_module_keeps_a_test_in_the_fast_loop(fast_loop):
+    fast = {module(item) for item in fast_loop.selected}
     modules = {f"tests/{path.name}" for path in TESTS.glob("test_*.py")}
-    assert "tests/test_markers.py" in fast
+    assert "tests/test_markers.py" in fast and fast <= modules
     assert sorted(modules - fast) == [], "leave a cheap test of each unmarked (docs/testing.md)"
 
 
-def test_browser_tests_are_slow_too():
-    assert selected("browser and not slow") == []
-    assert len(selected("browser")) >= 4  # the Chromium renders of the report and of the meshcat scene
+def test_browser_tests_are_slow_too(fast_loop):
+    assert [item.nodeid for item in fast_loop.selected if item.get_closest_marker("browser")] == []
+    browser = [item for item in fast_loop.deselected if item.get_closest_marker("browser")]
+    assert len(browser) >= 4  # the Chromium renders of the report and of the meshcat scene

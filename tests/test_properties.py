@@ -333,6 +333,7 @@ OUTPUT_KINDS = ["new", "fifo", "device", "read_only", "dash", "slash", "long"]
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
+@pytest.mark.slow
 def test_outputs_stdout_and_signals_keep_the_contract(data):
     """Any input (valid or malformed) with any -o, a failing stdout or a SIGTERM while writing."""
     import errno

@@ -331,6 +331,7 @@ def test_bad_input_is_one_line(simulated, tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     """A printer's report: the firmware's routes (the targets sent as they are: Klipper's model with the
     nominal values; its values fitted), the nozzle in the effector frame, and the 3-D view of towers

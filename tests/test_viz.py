@@ -180,6 +180,7 @@ def test_html_is_written_atomically(tmp_path, robots):
     assert [p.name for p in tmp_path.iterdir()] == ["scene.html"]
 
 
+@pytest.mark.slow
 def test_live_server_is_always_stopped():
     with viz.meshcat_server() as vis:
         proc = vis.window.server_proc
