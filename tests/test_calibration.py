@@ -106,6 +106,7 @@ def test_geometry_edited_in_one_place_is_refused_by_report_and_export(fitted, tm
         assert "[geometry] and [nominal] disagree: key geometry.tool_mm" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_report_of_another_robot_is_refused(fitted, tmp_path, capsys):
     """Issue 21, item 13: --robot or --truth of another robot gave "actual error 5.9e5 µm", exit 0."""
     from deltacal.io import load_nominal, save_geometry

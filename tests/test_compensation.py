@@ -107,7 +107,8 @@ def test_refuses_targets_out_of_reach_and_near_singularities(bai):
     compensate(g, pts[-1:])
 
 
-@pytest.mark.parametrize("method", ["exact", "savoure", "bai"])
+@pytest.mark.parametrize("method", ["exact", pytest.param("savoure", marks=pytest.mark.slow),
+                                    pytest.param("bai", marks=pytest.mark.slow)])
 def test_targets_on_the_reach_limit_are_refused_never_answered_with_garbage(bai, method):
     """Issue 12: on the nominal reach limit savoure and bai wrote joints of 1e14 deg, exit 0."""
     from deltacal.compensation import linear_calibration_from_result
@@ -214,8 +215,9 @@ def test_singularity_measures_match_the_svd_reference(bai, perturbed):
         assert_allclose(c, conditioning, rtol=0, atol=1e-7)
 
 
-@pytest.mark.parametrize("method", ["exact", "savoure"])
-@pytest.mark.parametrize("min_margin", [0.0, 1.0])  # the reach limit itself, then the singularity margin
+@pytest.mark.parametrize("method", [pytest.param("exact", marks=pytest.mark.slow), "savoure"])
+# the reach limit itself, then the singularity margin
+@pytest.mark.parametrize("min_margin", [pytest.param(0.0, marks=pytest.mark.slow), 1.0])
 def test_the_screen_refuses_only_what_compensate_refuses(bai, method, min_margin):
     """Issue 13: the reading pass's screen never refuses a target the exact computation accepts."""
     from deltacal.compensation import screen

@@ -51,6 +51,7 @@ def tcp_error(geometry, truth, targets: np.ndarray, payload: float, commanded_pa
     return float(np.linalg.norm(reached - targets, axis=1).max())
 
 
+@pytest.mark.slow
 def test_compliances_identified_and_compensated(session, tmp_path):
     start, truth, measured, rigid_truth, rigid_measured, targets = session
     elastic = identify(start, measured, "complete", options=FitOptions(compliance=True))

@@ -27,6 +27,8 @@ def demo_from_elsewhere(tmp_path_factory):
     return cwd / "out", proc
 
 
+@pytest.mark.slow
+@pytest.mark.browser
 def test_demo_runs_from_any_folder_and_writes_results(demo_from_elsewhere):
     out, proc = demo_from_elsewhere
     summary = json.loads((out / "demo.json").read_text())
@@ -40,7 +42,7 @@ def test_demo_runs_from_any_folder_and_writes_results(demo_from_elsewhere):
     assert len(summary["validation"]) == 2 * (1 + 4 * 3)
 
 
-@pytest.mark.parametrize("seed", [2015, 31])
+@pytest.mark.parametrize("seed", [2015, pytest.param(31, marks=pytest.mark.slow)])
 def test_demo_figures(tmp_path, seed):
     summary = run_demo(tmp_path, seed=seed, views=False)
     complete = _row(summary, "tool 200 mm", "complete", "exact")

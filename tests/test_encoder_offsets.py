@@ -52,6 +52,7 @@ def _motion_from_truth(nominal, truth, result, q):
     return vector_from_rotation(R), t
 
 
+@pytest.mark.slow
 def test_large_offsets_with_free_frames_keep_the_gauge_and_the_file(bai):
     motions = {}
     for offsets in ((0.0, 0.0, 0.0), (5.0, -3.0, 2.0), (7.0, 7.0, 7.0)):
@@ -75,7 +76,8 @@ def test_large_offsets_with_free_frames_keep_the_gauge_and_the_file(bai):
         assert np.max(np.abs(motions[offsets][1] - motions[(0.0, 0.0, 0.0)][1])) < 0.03
 
 
-@pytest.mark.parametrize("offsets", [(12.0, -9.0, 10.0), (20.0, 20.0, 20.0)])
+@pytest.mark.parametrize("offsets", [pytest.param((12.0, -9.0, 10.0), marks=pytest.mark.slow),
+                                     (20.0, 20.0, 20.0)])
 def test_offsets_of_ten_degrees_and_more_are_identified_in_the_base_frame(bai, offsets):
     truth, meas, _ = _measured(bai, offsets, stations=False)
     found = encoder_offsets(bai.geometry(), meas, free=False)
@@ -93,6 +95,7 @@ def test_offsets_of_tens_of_degrees_are_found_first(bai):
     assert np.max(np.abs(found - (truth.encoder_offset - bai.geometry().encoder_offset))) < np.radians(1.0)
 
 
+@pytest.mark.slow
 def test_report_truth_of_a_free_frame_calibration_compares_in_its_gauge(bai):
     """Issue 21, item 4: "largest actual error 884 µm" while the robot was right to 6 µm."""
     truth, meas, _ = _measured(bai, (5.0, -3.0, 2.0), stations=True)

@@ -102,6 +102,7 @@ def printer(tmp_path_factory):
             "calibration": calibration, "klipper": klipper}
 
 
+@pytest.mark.slow
 def test_exported_values_read_as_klipper_reads_them_and_beat_klippers_own(printer, capsys):
     out = printer["folder"] / "calibrated.cfg"
     assert main(["export", str(printer["calibration"]), "--controller", "klipper", "-o", str(out),

@@ -349,7 +349,10 @@ def controller_inverse(tcp: np.ndarray, b, a, L, l, phi, tool) -> np.ndarray:  #
     return theta
 
 
-@pytest.mark.parametrize(("robot", "seed"), [("bai2015", 11), ("flexpicker", 12)])
+@pytest.mark.parametrize(("robot", "seed"), [
+    pytest.param("bai2015", 11, marks=pytest.mark.slow),
+    ("flexpicker", 12),
+])
 def test_real_path_follows_the_intended_lines(tmp_path, robot, seed):
     """Nominal controller, corrected targets: the real TCP path stays within 1 µm of the program's."""
     nominal = load_nominal(MODELS / f"{robot}.toml")

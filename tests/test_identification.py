@@ -143,7 +143,7 @@ def test_classical_noise_free_recovery_of_large_errors(bai):
 
 
 # ------------------------------------------------------------------------ noise
-@pytest.mark.parametrize("name", ["complete", "classical"])
+@pytest.mark.parametrize("name", [pytest.param("complete", marks=pytest.mark.slow), "classical"])
 def test_reported_sigma_is_honest(bai, name):
     """Over 5 seeds, the base parameters are within 3 reported σ of the truth (≥ 95 %; 99.7 %
     for a normal law) and the variance factor is 1: over 40 seeds the mean Mahalanobis
@@ -245,6 +245,7 @@ def test_distances_do_not_depend_on_the_measurement_frame(bai):
 
 
 # ------------------------------------------------------------------- end to end
+@pytest.mark.slow
 def test_end_to_end_on_the_pinocchio_robot(flexpicker):
     """A FlexPicker-sized robot (not the one the code was tuned on), simulated on the
     Pinocchio closed-loop model: 60 poses measured with σ 5 µm and 0.003 deg, the tool
@@ -319,6 +320,7 @@ def test_one_blunder_is_flagged_and_only_it(bai):
     assert "line 19" in result.report(lines)
 
 
+@pytest.mark.slow
 def test_distance_sigma_is_honest(bai):
     """Distances sharing a measured position are correlated (Bai's all pairs C(n, 2)); the
     whitened least squares reports σ that match the scatter of the estimates.

@@ -135,7 +135,8 @@ def test_a_robot_moved_rigidly_moves_its_plate_with_it(bai):
     assert np.max(np.abs(after.rotation - G @ before.rotation)) < 1e-12
 
 
-@pytest.mark.parametrize("yaw_deg", [35.0, 178.0, -95.0])
+@pytest.mark.parametrize("yaw_deg", [35.0, pytest.param(178.0, marks=pytest.mark.slow),
+                                     pytest.param(-95.0, marks=pytest.mark.slow)])
 def test_closed_form_start_at_any_yaw(bai, yaw_deg):
     truth, meas = scenario(bai, 2, ("smr_centre",), orientation=False)
     frame = InstrumentFrame.from_vectors(np.radians([1.5, 0.0, yaw_deg]), [-2500.0, 1800.0, 400.0])
@@ -157,6 +158,7 @@ KINDS = [
 
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
+@pytest.mark.slow
 def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(robot, kind, request):
     """Same accuracy (within 10 %) as the same measurements in {O}, on the mean over three robots.
 
@@ -235,8 +237,9 @@ def assert_absorbed(free, in_base):
     assert free.iterations <= in_base.iterations + 2
 
 
-@pytest.mark.parametrize("robot", ["bai", "flexpicker"])
-@pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
+@pytest.mark.parametrize("robot", ["bai", pytest.param("flexpicker", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("kind", [pytest.param(KINDS[0], marks=pytest.mark.slow), KINDS[1]],
+                         ids=[k[0] for k in KINDS])
 def test_a_free_frame_fit_converges_from_measurements_in_any_frame(robot, kind, request):
     """The robot's rotations, which the complete model mimics only to a few 0.1 % of their effect.
 
@@ -258,7 +261,7 @@ def test_a_free_frame_fit_converges_from_measurements_in_any_frame(robot, kind, 
             assert_absorbed(free, in_base)
 
 
-@pytest.mark.parametrize("model", ["complete", "bai42"])
+@pytest.mark.parametrize("model", ["complete", pytest.param("bai42", marks=pytest.mark.slow)])
 def test_what_the_frame_takes_is_held_among_positions_not_tilts_nor_offsets(bai, model):
     """Holding an axis tilt or an encoder offset would deny its real deviation (bai2015, seed 3)."""
     rng = np.random.default_rng(3)

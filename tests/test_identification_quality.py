@@ -58,6 +58,7 @@ def test_reflector_written_without_its_point_column(session, tmp_path, capsys):
     assert "implausible" in err and "point 'smr_centre', not 'tcp'" in err
 
 
+@pytest.mark.slow
 def test_two_reflector_labels_swapped(session, tmp_path, capsys):
     _, _, two = session
     swapped = replace(two, point=["smr_offset" if p == "smr_centre" else "smr_centre" for p in two.point])
@@ -78,6 +79,7 @@ def test_radians_in_the_degree_columns(session, tmp_path, capsys):
     assert code == 1 and not out.exists() and "hold radians" in err
 
 
+@pytest.mark.slow
 def test_accept_poor_fit_writes_with_a_warning(session, tmp_path, capsys):
     _, _, two = session
     swapped = replace(two, point=["smr_offset" if p == "smr_centre" else "smr_centre" for p in two.point])
@@ -86,6 +88,7 @@ def test_accept_poor_fit_writes_with_a_warning(session, tmp_path, capsys):
     assert "warning:" in err and "swapped" in err
 
 
+@pytest.mark.slow
 def test_a_moderate_excess_is_reported_not_refused(session, tmp_path, capsys):
     """σ given 0.7 of the real noise: s0² about 2, unmodelled-looking, and no other reading fits better."""
     bai, reflector, _ = session

@@ -26,6 +26,7 @@ def tool_poses(bai):
     return start, simulate_measurements(truth, q, rng, Metrology())
 
 
+@pytest.mark.slow
 def test_the_classical_model_is_refused_naming_the_complete_model(tool_poses, tmp_path, capsys):
     start, measurements = tool_poses
     with pytest.raises(PoorFitError) as caught:

@@ -114,6 +114,7 @@ def test_basic_recovers_a_klipper_shaped_printer(kossel):
     assert error_stats(printer, found, kossel.step_distance, WORKSPACE).max_3d < 2e-5
 
 
+@pytest.mark.slow
 def test_enhanced_recovers_arms_too(kossel):
     k0 = KlipperDelta.from_printer(kossel)
     truth = KlipperDelta(k0.delta_radius + 0.7, k0.angle + np.radians([0.3, -0.2, 0.0]),

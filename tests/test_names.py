@@ -107,6 +107,7 @@ def test_measurements_with_names_read_back(tmp_path_factory, points, stations):
 
 @NAMES
 @given(stations=st.lists(names, min_size=1, max_size=3, unique=True), point=names)
+@pytest.mark.slow
 def test_a_calibration_with_any_names_reads_back_equal(fitted, tmp_path_factory, stations, point):
     folder = tmp_path_factory.mktemp("cal")
     cal = calibration_from_result(fitted)
@@ -164,6 +165,7 @@ def test_control_characters_in_files_are_refused_by_row_and_column_or_key(tmp_pa
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_unicode_stations_and_points_go_through_every_command(tmp_path, capsys):
     """simulate and identify wrote bare TOML keys: compensate, report and export then failed."""
     robot = tmp_path / "robot.toml"

@@ -333,6 +333,7 @@ def test_improved_compensation_error_is_second_order():
     assert_allclose(left[0] / left[1], 100.0, rtol=0.05)
 
 
+@pytest.mark.slow
 def test_reproduction_script(tmp_path):
     summary = load_script().run(tmp_path, seed=2006)
     on_disk = json.loads((tmp_path / "savoure2006.json").read_text())

@@ -84,6 +84,7 @@ def test_the_chunked_selection_is_the_dense_one(bai, monkeypatch, model, measure
     np.testing.assert_allclose(small.blocks, design.blocks, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_the_memory_of_a_selection_stays_within_its_estimate(bai, monkeypatch):
     """What require_memory is told is an upper bound of what the selection allocates; the
     dense formulation took about N × r² more (the information of every candidate)."""

@@ -80,6 +80,7 @@ def plan():
     return plan_object(PRINTER, FIRMWARE)
 
 
+@pytest.mark.slow
 def test_evidence_narrows_a_well_built_printers_tolerances_and_its_error(plan):
     """Well-built printers (seeds none was tuned on): the kit's tolerances shrink, and the error with them.
 

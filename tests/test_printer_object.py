@@ -162,6 +162,7 @@ def test_distances_add_what_probe_heights_cannot_identify(printer, firmware):
     assert plan.log_det > plan.log_det_probe
 
 
+@pytest.mark.slow
 def test_greedy_selection_beats_random_measurable_sets(printer, firmware, plan):
     """The chosen pairs' D-criterion is above that of measurable sets chosen at random (same constraints)."""
     rows = model_rows(printer, firmware)
@@ -323,6 +324,7 @@ def test_feature_levels_follow_the_caliper_and_the_printable_height():
         levels(Workspace(radius=115.0, height=24.0, top_z=24.0), 200.0)
 
 
+@pytest.mark.slow
 def test_a_shorter_caliper_gets_a_lower_object_it_can_measure(printer, firmware):
     short = plan_object(printer, firmware, caliper=150.0)
     assert set(np.unique(short.features[:, 2])) <= set(levels(printer.workspace, 150.0))

@@ -16,6 +16,7 @@ from functools import cache
 from pathlib import Path
 
 import numpy as np
+import pytest
 from conftest import MODELS, workspace_points
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
@@ -269,6 +270,7 @@ def run_cli(files: dict[str, bytes], argv: list[str], output: str) -> None:
 MALFORMED = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
+@pytest.mark.slow
 @MALFORMED
 @given(st.data())
 def test_malformed_measurements_never_crash_nor_write(data):
@@ -279,6 +281,7 @@ def test_malformed_measurements_never_crash_nor_write(data):
             "out.toml")
 
 
+@pytest.mark.slow
 @MALFORMED
 @given(st.data())
 def test_malformed_robot_files_never_crash_nor_write(data):
@@ -289,6 +292,7 @@ def test_malformed_robot_files_never_crash_nor_write(data):
             "out.toml")
 
 
+@pytest.mark.slow
 @MALFORMED
 @given(st.data())
 def test_malformed_calibration_files_never_crash_nor_write(data):
@@ -299,6 +303,7 @@ def test_malformed_calibration_files_never_crash_nor_write(data):
             "joints.csv")
 
 
+@pytest.mark.slow
 @MALFORMED
 @given(st.data())
 def test_malformed_targets_never_crash_nor_write(data):
@@ -328,6 +333,7 @@ OUTPUT_KINDS = ["new", "fifo", "device", "read_only", "dash", "slash", "long"]
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
+@pytest.mark.slow
 def test_outputs_stdout_and_signals_keep_the_contract(data):
     """Any input (valid or malformed) with any -o, a failing stdout or a SIGTERM while writing."""
     import errno

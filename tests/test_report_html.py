@@ -88,6 +88,7 @@ def tables_of(text: str) -> dict[str, list[list[tuple[str, str | None]]]]:
     return {k: [r for r in v if r] for k, v in parser.tables.items()}
 
 
+@pytest.mark.slow
 def test_numbers_in_the_page_are_the_calibration_files(simulated):
     text = (simulated / "report.html").read_text(encoding="utf-8")
     data = tomllib.loads((simulated / "cal.toml").read_text(encoding="utf-8"))["calibration"]
@@ -115,6 +116,7 @@ def test_numbers_in_the_page_are_the_calibration_files(simulated):
     assert "Largest predicted σ" in text and 'id="fig-accuracy"' in text and 'id="fig-error"' in text
 
 
+@pytest.mark.slow
 def test_the_page_is_self_contained_phone_ready_and_printable(simulated):
     text = (simulated / "report.html").read_text(encoding="utf-8")
     frame = re.search(r'srcdoc="([^"]*)"', text)
@@ -231,6 +233,8 @@ def probe(report: Path, folder: Path, width: int, proxy: int | None = None, phon
 
 
 @needs_chromium
+@pytest.mark.slow
+@pytest.mark.browser
 def test_chromium_renders_every_figure_and_the_scene_without_any_request(simulated):
     from PIL import Image
 
@@ -269,6 +273,8 @@ def test_chromium_renders_every_figure_and_the_scene_without_any_request(simulat
 
 
 @needs_chromium
+@pytest.mark.slow
+@pytest.mark.browser
 def test_a_phone_sees_the_page_without_sideways_scrolling(simulated):
     info = probe(simulated / "report.html", simulated, 600, phone=True)
     assert info["width"] == 375
@@ -298,6 +304,7 @@ def test_a_free_instrument_frame_is_shown(tmp_path):
     assert 'id="fig-residuals-index"' in text
 
 
+@pytest.mark.slow
 def test_bad_input_is_one_line(simulated, tmp_path, capsys):
     cal = simulated / "cal.toml"
     out = tmp_path / "r.html"
@@ -324,6 +331,7 @@ def test_bad_input_is_one_line(simulated, tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.slow
 def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     """A printer's report: the firmware's routes (the targets sent as they are: Klipper's model with the
     nominal values; its values fitted), the nozzle in the effector frame, and the 3-D view of towers

@@ -35,6 +35,7 @@ def summary(script, tmp_path_factory):
     return json.loads((out / "bai2015.json").read_text()), out
 
 
+@pytest.mark.slow
 def test_outputs_written(summary):
     s, out = summary
     for name in ("bai2015.json", "bai2015_fig6.png", "bai2015_fig7.png"):
@@ -44,6 +45,7 @@ def test_outputs_written(summary):
         assert key in s
 
 
+@pytest.mark.slow
 def test_ranks_and_the_four_unidentifiable(summary):
     s, _ = summary
     assert s["rank_model18"] == 18
@@ -57,6 +59,7 @@ def test_ranks_and_the_four_unidentifiable(summary):
     assert ident["rank_model36_one_reflector"] == 32
 
 
+@pytest.mark.slow
 def test_null_space_is_bai_eq19(summary):
     # fourth relation of Eq. 19: Σ Δβ03_i is seen only as (La/e) Σ LΔβ0_i
     s, _ = summary
@@ -74,6 +77,7 @@ def test_null_space_is_bai_eq19(summary):
     assert set(ident["null_space_parameters"]) == expected
 
 
+@pytest.mark.slow
 def test_kappa_rule(summary):
     s, _ = summary
     assert s["n_selected"] == {"rough": 5, "model18": 8, "model32": 9}
@@ -83,6 +87,7 @@ def test_kappa_rule(summary):
     assert set(s["n_selected_by_phase"]["rough_scaled"]) == {5}
 
 
+@pytest.mark.slow
 def test_rough_step_table2(summary):
     s, _ = summary
     t2 = s["table2"]
@@ -96,6 +101,7 @@ def test_rough_step_table2(summary):
     assert_allclose(t2["offsets_deg"], t2["true_offsets_deg"], atol=0.15)
 
 
+@pytest.mark.slow
 def test_table5_improves_step_by_step(summary):
     s, _ = summary
     t5 = s["table5"]
@@ -113,6 +119,7 @@ def test_table5_improves_step_by_step(summary):
     assert t5["C32_exact"]["dv_registered"] < 0.03
 
 
+@pytest.mark.slow
 def test_one_call_matches_two_steps(summary):
     s, _ = summary
     for model, row in s["one_call"].items():

@@ -56,6 +56,7 @@ def test_noise_free_simulation_is_the_forward_kinematics(truth, readings):
         assert np.max(np.abs(rows.residual)) < 1e-9
 
 
+@pytest.mark.slow
 def test_noise_statistics(truth, readings):
     reps = 150  # 3000 measurements, 9000 coordinates
     q = np.tile(readings, (reps, 1))

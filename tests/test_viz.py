@@ -180,6 +180,7 @@ def test_html_is_written_atomically(tmp_path, robots):
     assert [p.name for p in tmp_path.iterdir()] == ["scene.html"]
 
 
+@pytest.mark.slow
 def test_live_server_is_always_stopped():
     with viz.meshcat_server() as vis:
         proc = vis.window.server_proc
@@ -232,6 +233,7 @@ def test_view_command_reads_a_truth_file_and_rejects_bad_input(tmp_path, robots,
     assert "--exaggerate" in capsys.readouterr().err and not missing.exists()
 
 
+@pytest.mark.slow
 def test_view_command_serves_until_ctrl_c_and_stops_the_server(tmp_path):
     script = (
         "import sys\n"
@@ -295,6 +297,8 @@ def red_mask(image: np.ndarray) -> np.ndarray:
 
 
 @needs_chromium
+@pytest.mark.slow
+@pytest.mark.browser
 def test_render_shows_the_robot_and_its_plate_apart_from_the_ghost(tmp_path, nominal, robots):
     nominal_geometry, true_geometry = robots
     from PIL import Image
@@ -469,6 +473,8 @@ def test_view_command_shows_a_printer_file(tmp_path, capsys):
 
 
 @needs_chromium
+@pytest.mark.slow
+@pytest.mark.browser
 def test_render_shows_the_printer_and_its_effector_apart_from_the_ghost(tmp_path, printer):
     kossel, nominal_geometry, true_geometry = printer
     from PIL import Image
