@@ -49,3 +49,12 @@ def test_an_unknown_name_is_an_attribute_error():
         warnings.simplefilter("error")
         with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
             deltacal.no_such_name  # noqa: B018
+
+
+@pytest.mark.parametrize("name", ["load_robot", "load_controller", "load_printer"])
+def test_io_readers_of_either_kind_moved_up_and_warn(name):
+    import deltacal.io
+
+    with pytest.warns(DeprecationWarning, match=rf"deltacal\.io\.{name} is now deltacal\.[\w.]+\.{name}"):
+        value = getattr(deltacal.io, name)
+    assert value.__name__ == name

@@ -7,6 +7,9 @@ and column). Every writer writes a temporary file in the destination folder and
 renames it, so a failure never leaves a half-written output.
 """
 
+import importlib
+import warnings
+
 from .atomic import atomic_output, atomic_write_bytes, atomic_write_text
 from .calibration import (
     calibration_from_result,
@@ -118,3 +121,21 @@ __all__ = [
     "write_measurements",
     "write_poses",
 ]
+
+#: Readers io held before that now stand above both robot kinds (a robot file or controller of
+#: either kind) or in the printer's wing: still found here, with a DeprecationWarning, for one
+#: release. Loaded by name, so io imports nothing above it.
+_FORMER = {
+    "load_robot": "deltacal.robots",
+    "load_controller": "deltacal.robots",
+    "load_printer": "deltacal.printer.robot_file",
+}
+
+
+def __getattr__(name: str) -> object:
+    home = _FORMER.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(f"{__name__}.{name} is now {home}.{name}; {__name__}.{name} goes in the next release",
+                  DeprecationWarning, stacklevel=2)
+    return getattr(importlib.import_module(home), name)
