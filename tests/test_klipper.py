@@ -196,9 +196,6 @@ def test_an_edited_block_is_ignored_as_klipper_does(tmp_path, kossel):
          r"section \[stepper_b\], key full_steps_per_rotation: value 202 must be a multiple of 4"),
         ("rotation_distance: 40\nendstop_pin: ^P1.25", "rotation_distance: 40\ngear_ratio: 5-1",
          r"section \[stepper_c\], key gear_ratio: value '5-1' is not a list of ratios"),
-        ("[include mainsail.cfg]", "[include fluidd.cfg]",
-         r"printer.cfg: line 2: include file .*fluidd.cfg' does "
-                                                           r"not exist"),
         ("[stepper_c]", "[stepper_d]", r"section \[stepper_c\]: missing required key 'rotation_distance'"),
         ("max_accel: 3000", "max_accel 3000", r"printer.cfg: line 11: not an option .* 'max_accel 3000'"),
     ],

@@ -43,9 +43,12 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
         check_input(path)
     check_output(args.output, inputs)
     firmware = KLIPPER.read_config(args.controller)
-    probe, pairs, distance = _read(files[0], files[1:], firmware, printer.step_distance)
+    heights = read_probe_heights(files[0])
+    probe = _readings(firmware, heights.commanded, printer.step_distance, files[0])
+    pairs, distance = _read_distances(files[1:], firmware, printer.step_distance)
     data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
-                               height_sigma=args.sigma_height, distance_sigma=args.sigma_distance)
+                               height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,
+                               trigger_height=heights.heights)
     result = identify_printer(printer.geometry(), data, model, method="linear" if args.linear else "iterated",
                               tolerances=Tolerances.printer_kit(),
                               tolerance_scale=args.tolerance_scale or "evidence")
@@ -55,18 +58,16 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     return 0
 
 
-def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel,
-          step_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Readings of the probe heights and of the printed pairs, and the distances measured."""
-    heights = read_probe_heights(probe_file)
-    probe = _readings(firmware, heights.commanded, step_distance, probe_file)
+def _read_distances(distance_files: list[str], firmware: FirmwareModel,
+                    step_distance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Readings of the printed pairs, and the distances measured."""
     pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
     for path in distance_files:
         printed = read_printed_distances(path)
         both = _readings(firmware, printed.pairs.reshape(-1, 3), step_distance, path)
         pairs.append(both.reshape(-1, 2, 3))
         distance.append(printed.distance)
-    return probe, np.concatenate(pairs), np.concatenate(distance)
+    return np.concatenate(pairs), np.concatenate(distance)
 
 
 def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: float,
@@ -88,7 +89,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--probe-offset", type=lambda t: np.asarray(three_numbers(t, "X,Y,Z in mm")),
                    default=np.zeros(3), metavar="X,Y,Z",
                    help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "
-                        "(default 0,0,0: the nozzle is the probe)")
+                        "(default 0,0,0: the nozzle is the probe; a probe file's trigger_height_mm is that "
+                        "point's height above the bed at the trigger)")
     p.add_argument("--sigma-height", type=sigma, default=0.01, metavar="MM",
                    help="a printer: σ of a probe height [mm] (default 0.01)")
     p.add_argument("--sigma-distance", type=sigma, default=0.02, metavar="MM",

@@ -4,6 +4,7 @@ Commands (files in mm and deg; see docs/conventions.md for formats):
 
 * ``deltacal demo``: the whole job on a simulated robot (plan, measure, identify,
   compensate, validate).
+* ``deltacal import printer.cfg -o DIR`` (or ``klippy.log -o probe.csv``)
 * ``deltacal identify NOMINAL MEASUREMENTS --model M -o CAL``
 * ``deltacal compensate CAL TARGETS -o JOINTS``
 * ``deltacal export CAL --mjcf ROBOT.xml``
@@ -44,7 +45,7 @@ from ..exceptions import DeltacalError, UsageError
 #: The subcommands' modules, in the order ``--help`` lists them. They (and numpy, and the
 #: library under them) are imported when the parser is built, not with this module, so that
 #: ``deltacal --version`` answers at once; :mod:`.common` likewise, where it is used.
-SUBCOMMANDS = ("demo", "identify", "compensate", "report", "export", "plan", "simulate", "view")
+SUBCOMMANDS = ("demo", "import_", "identify", "compensate", "report", "export", "plan", "simulate", "view")
 
 
 def build_parser() -> argparse.ArgumentParser:

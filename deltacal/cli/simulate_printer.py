@@ -111,7 +111,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     noise = SIGMA_HEIGHT if args.sigma_height is None else args.sigma_height
     robot = f"the true printer ({args.truth})" if args.truth is not None else "the perturbed printer"
     with _rows_named(probe_file, template.lines, xy, robot):
-        probe = probe_heights(truth, firmware, step, xy, noise, rng, offset)
+        probe = probe_heights(truth, firmware, step, xy, noise, rng, offset, trigger_height=template.heights)
     _check_travel(firmware, step, probe, probe_file, template.lines)
     pairs, measured = None, None
     if distance_file is not None:
@@ -123,7 +123,8 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
             measured = printed_distances(truth, firmware, step, pairs, noise, rng)
     if args.truth is None:
         save_geometry(truth, truth_path(args.output))
-    write_probe_heights(args.output, probe[:, :2], probe[:, 2])
+    write_probe_heights(args.output, probe[:, :2], probe[:, 2],
+                        trigger_height=template.trigger_height if template.trigger_height.size else None)
     if pairs is not None and measured is not None:
         write_printed_distances(args.distances_output, pairs, measured)
     _report(args, len(probe), None if measured is None else len(measured))

@@ -6,7 +6,8 @@ commanded (the caller turns commanded positions into readings through the firmwa
 model); here they are equations of the printer's full geometry:
 
 * a probe height: the probe point (the nozzle, or the nozzle plus ``probe_offset`` in the
-  effector frame) touches the bed, ``z(q) = 0``, σ ``height_sigma``;
+  effector frame) is at its trigger height above the bed, ``z(q) = h`` (h = 0 unless given per
+  row: a probe's ``z_offset``), σ ``height_sigma``;
 * a distance between two printed features: ``|p(q1) − p(q2)| = d``, σ ``distance_sigma``, with
   p the nozzle;
 * a nozzle position an instrument measured in its own frame (a tracker's, a CMM's), σ
@@ -73,6 +74,8 @@ class PrinterMeasurements:
         positions: Readings at which an instrument measured the nozzle [mm], (K, 3).
         measured: The nozzle positions it measured, in its own frame [mm], (K, 3).
         position_sigma: σ of each measured coordinate [mm].
+        trigger_height: The probe point's height above the bed at each probe's trigger [mm], (N,)
+            (empty: 0 on every row).
     """
 
     probe: np.ndarray
@@ -84,9 +87,16 @@ class PrinterMeasurements:
     positions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     measured: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     position_sigma: float = POSITION_SIGMA
+    trigger_height: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         probe = np.asarray(self.probe, dtype=float).reshape(-1, 3)
+        trigger = np.asarray(self.trigger_height, dtype=float).reshape(-1)
+        if trigger.size == 0:
+            trigger = np.zeros(probe.shape[0])
+        if trigger.shape[0] != probe.shape[0] or not np.all(np.isfinite(trigger)):
+            raise ValueError(f"{trigger.shape[0]} trigger heights for {probe.shape[0]} probe heights")
+        object.__setattr__(self, "trigger_height", trigger)
         pairs = np.asarray(self.pairs, dtype=float).reshape(-1, 2, 3)
         distance = np.asarray(self.distance, dtype=float).reshape(-1)
         if distance.shape[0] != pairs.shape[0]:
@@ -136,7 +146,7 @@ def residuals_and_regressor(
     """
     tool = geometry.tool
     z, Jz = _point_rows(geometry, model, data.probe, tool + data.probe_offset)
-    rows = [(-z[:, 2] / data.height_sigma, Jz[:, 2] / data.height_sigma)]
+    rows = [((data.trigger_height - z[:, 2]) / data.height_sigma, Jz[:, 2] / data.height_sigma)]
     if data.distance.size:
         M = data.distance.shape[0]
         p, J = _point_rows(geometry, model, data.pairs.reshape(-1, 3), tool)

@@ -1,7 +1,9 @@
 """A printer's measurement files (conventions, "Linear Delta printers"): probe heights and printed distances.
 
 * probe heights: ``x_mm,y_mm,z_mm``, the commanded nozzle position at which the probe triggered on
-  the bed;
+  the bed, and optionally ``trigger_height_mm``: the height of the probe point (the nozzle, or the
+  nozzle plus ``--probe-offset``) above the bed when it triggered (a probe's ``z_offset``; an
+  empty cell or no column: 0);
 * distances: ``x1_mm,y1_mm,z1_mm,x2_mm,y2_mm,z2_mm,distance_mm``, the distance measured between two
   features of a printed object, printed at those commanded positions.
 
@@ -24,6 +26,8 @@ from ..io.tables import TARGET_COLUMNS, _format_rows, data_row, read_csv_table
 
 #: The columns of a probe heights file; the last is the one measured.
 PROBE_COLUMNS = TARGET_COLUMNS
+#: The optional column of a probe heights file: the probe point's height above the bed at its trigger.
+TRIGGER_COLUMN = "trigger_height_mm"
 #: The columns of a distances file; the last is the one measured.
 PAIR_COLUMNS = ["x1_mm", "y1_mm", "z1_mm", "x2_mm", "y2_mm", "z2_mm"]
 DISTANCE_COLUMNS = [*PAIR_COLUMNS, "distance_mm"]
@@ -36,10 +40,20 @@ class ProbeHeights:
     Attributes:
         commanded: Commanded positions [mm], (N, 3).
         lines: The line of each row in the file it was read from (empty when not read), (N,).
+        trigger_height: The probe point's height above the bed when it triggered [mm], (N,) (empty:
+            0 on every row).
     """
 
     commanded: np.ndarray
     lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    trigger_height: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def heights(self) -> np.ndarray:
+        """The trigger height of every row [mm], (N,): 0 where the file gives none."""
+        if self.trigger_height.size == 0:
+            return np.zeros(len(self.commanded))
+        return np.nan_to_num(self.trigger_height, nan=0.0)
 
 
 @dataclass(frozen=True)
@@ -57,10 +71,11 @@ class PrintedDistances:
     lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
 
-def _read(path: str | Path, given: list[str], measured: str, what: str, filled: bool = True):
+def _read(path: str | Path, given: list[str], measured: str, what: str, filled: bool = True,
+          optional: tuple[str, ...] = ()):
     """The table of a printer's file, its measured column filled in on every row (``filled``)."""
     source = str(path)
-    table = read_csv_table(path, given, [measured])
+    table = read_csv_table(path, given, [measured, *optional])
     if not filled:
         if measured not in table.numbers:
             table.numbers[measured] = np.full(len(table.lines), np.nan)
@@ -78,7 +93,7 @@ def _read(path: str | Path, given: list[str], measured: str, what: str, filled: 
 
 
 def read_probe_heights(path: str | Path, filled: bool = True) -> ProbeHeights:
-    """Read a probe heights CSV (``x_mm,y_mm,z_mm``, every ``z_mm`` filled in).
+    """Read a probe heights CSV (``x_mm,y_mm,z_mm``, every ``z_mm`` filled in; ``trigger_height_mm`` too).
 
     Args:
         path: The file.
@@ -87,8 +102,11 @@ def read_probe_heights(path: str | Path, filled: bool = True) -> ProbeHeights:
     Raises:
         InputError: naming the file, line, row, column and value of the first bad cell.
     """
-    table = _read(path, PROBE_COLUMNS[:2], PROBE_COLUMNS[2], "height at which the probe triggered", filled)
-    return ProbeHeights(np.column_stack([table.numbers[c] for c in PROBE_COLUMNS]), np.asarray(table.lines))
+    table = _read(path, PROBE_COLUMNS[:2], PROBE_COLUMNS[2], "height at which the probe triggered", filled,
+                  (TRIGGER_COLUMN,))
+    trigger = table.numbers.get(TRIGGER_COLUMN, np.zeros(0))
+    return ProbeHeights(np.column_stack([table.numbers[c] for c in PROBE_COLUMNS]), np.asarray(table.lines),
+                        np.asarray(trigger, dtype=float))
 
 
 def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDistances:
@@ -120,17 +138,24 @@ def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDist
     return PrintedDistances(pairs, distance, lines)
 
 
-def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.ndarray | None = None) -> Path:
+def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.ndarray | None = None,
+                        trigger_height: np.ndarray | None = None) -> Path:
     """Write probe heights atomically; without ``heights`` a template (``z_mm`` empty) at the (x, y) given.
 
     Args:
         path: The file.
         commanded: Commanded positions (N, 3) or (N, 2) [mm].
-        heights: The trigger heights [mm], (N,); None: the ``z_mm`` column left to fill in.
+        heights: The commanded z at which the probe triggered [mm], (N,); None: the ``z_mm`` column
+            left to fill in.
+        trigger_height: The ``trigger_height_mm`` column [mm], (N,); None: no such column.
     """
     commanded = np.atleast_2d(np.asarray(commanded, dtype=float))
     z = np.full(len(commanded), np.nan) if heights is None else np.asarray(heights, dtype=float).reshape(-1)
-    return atomic_write_text(path, _format_rows([commanded[:, 0], commanded[:, 1], z], PROBE_COLUMNS))
+    columns, header = [commanded[:, 0], commanded[:, 1], z], list(PROBE_COLUMNS)
+    if trigger_height is not None:
+        columns.append(np.asarray(trigger_height, dtype=float).reshape(-1))
+        header.append(TRIGGER_COLUMN)
+    return atomic_write_text(path, _format_rows(columns, header))
 
 
 def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.ndarray | None = None) -> Path:

@@ -140,8 +140,8 @@ def nozzle_positions(truth: DeltaGeometry, firmware: FirmwareModel, step_distanc
 def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float, xy: np.ndarray,
                   sigma_mm: float, rng: np.random.Generator,
                   probe_offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
-                  max_iter: int = 30) -> np.ndarray:
-    """Commanded nozzle positions at which the probe touches the true bed (z = 0), with trigger noise.
+                  max_iter: int = 30, trigger_height: np.ndarray | None = None) -> np.ndarray:
+    """Commanded nozzle positions at which the probe triggers over the true bed (z = 0), with trigger noise.
 
     Args:
         truth: The true printer (the true bed is z = 0).
@@ -152,6 +152,8 @@ def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: 
         rng: Random generator.
         probe_offset: The probe's tip relative to the nozzle, in the effector frame [mm], (3,).
         max_iter: Secant iterations at most.
+        trigger_height: The probe tip's height above the bed at each trigger [mm], (N,) (None: 0,
+            the tip touches the bed).
 
     Returns:
         Commanded positions (x, y, z) [mm], (N, 3).
@@ -162,10 +164,12 @@ def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: 
     xy = np.atleast_2d(np.asarray(xy, dtype=float))
     tip = truth.tool + np.asarray(probe_offset, dtype=float)
 
-    def height(z: np.ndarray) -> np.ndarray:
-        return nozzle_positions(truth, firmware, step_distance, np.column_stack([xy, z]), tip)[:, 2]
+    goal = np.zeros(len(xy)) if trigger_height is None else np.asarray(trigger_height, float).reshape(-1)
 
-    z0 = -np.asarray(probe_offset, dtype=float)[2] * np.ones(len(xy))
+    def height(z: np.ndarray) -> np.ndarray:
+        return nozzle_positions(truth, firmware, step_distance, np.column_stack([xy, z]), tip)[:, 2] - goal
+
+    z0 = goal - np.asarray(probe_offset, dtype=float)[2]
     z1 = z0 + 1.0
     h0, h1 = height(z0), height(z1)
     for _ in range(max_iter):

@@ -11,11 +11,18 @@ What Klipper does with the file (``klippy/configfile.py``), and so what deltacal
 * the ``SAVE_CONFIG`` block at the end (after the ``#*# <---- SAVE_CONFIG ---->`` header, every
   line prefixed ``#*# ``) is read after the rest. An option both in it and in the rest keeps the
   rest's value (Klipper comments the block's copy out; ``SAVE_CONFIG`` itself comments out the
-  rest's copy when it writes): deltacal warns. A block with other lines after its header, or
-  ``#*#`` lines before it, is ignored with a warning, as Klipper does.
+  rest's copy when it writes): deltacal warns where the section is one it reads
+  (:data:`READ_SECTIONS`; the ``[extruder]`` PID keys both places hold, say, stay quiet). A block
+  with other lines after its header, or ``#*#`` lines before it, is ignored with a warning, as
+  Klipper does.
 
-Only ``[printer]`` and ``[stepper_a]`` .. ``[stepper_c]`` are interpreted (:mod:`.model` gives each
-value's meaning); every other section is left alone. Errors are one line naming the file, section,
+Unlike Klipper, an include file that does not exist (a configuration copied off the printer
+without its ``mainsail.cfg``, ``macros.cfg``, or a dangling link) is skipped, all of them named in
+one warning; a key the delta kinematics need and cannot find then names them as where it may be.
+
+Only ``[printer]``, ``[stepper_a]`` .. ``[stepper_c]`` and ``[delta_calibrate]`` are interpreted
+(:mod:`.model` gives each value's meaning, :mod:`.saved` the saved measurements'); every other
+section is left alone. Errors are one line naming the file, section,
 key and value.
 """
 
@@ -43,6 +50,8 @@ AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW
                    "auto-generated.\n#*#\n")
 #: The three towers' sections, in Klipper's order.
 STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
+#: The sections deltacal reads (a duplicate key in another section is Klipper's business alone).
+READ_SECTIONS = ("printer", *STEPPERS, "delta_calibrate")
 
 #: A Klipper configuration's ``[printer]`` section header, on a line of its own.
 _PRINTER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
@@ -58,11 +67,20 @@ class KlipperConfig:
         source: The main file.
         sections: Section name -> option (lower case) -> value text.
         origin: (section, option) -> the file its value came from.
+        missing: The include files that do not exist: (the including file, its line, the path).
     """
 
     source: str
     sections: dict[str, dict[str, str]] = field(default_factory=dict)
     origin: dict[tuple[str, str], str] = field(default_factory=dict)
+    missing: list[tuple[str, int, str]] = field(default_factory=list)
+
+    def missing_hint(self) -> str:
+        """Where a value not found may be: `` (it may be in the missing include X, Y)``, or ""."""
+        if not self.missing:
+            return ""
+        names = ", ".join(os.path.basename(path) for _, _, path in self.missing)
+        return f" (it may be in the missing include{'s' if len(self.missing) > 1 else ''} {names})"
 
     def error(self, section: str, option: str, detail: str) -> InputError:
         """A one-line error naming the file the option came from, its section and key."""
@@ -76,8 +94,8 @@ class KlipperConfig:
     def text(self, section: str, option: str) -> str:
         """An option's text; a missing one is an error naming the section and key."""
         if not self.has(section, option):
-            raise InputError(f"missing required key {option!r} (Klipper's delta kinematics needs it)",
-                             self.source, f"section [{section}]")
+            raise InputError(f"missing required key {option!r} (Klipper's delta kinematics needs it)"
+                             f"{self.missing_hint()}", self.source, f"section [{section}]")
         return self.sections[section][option]
 
     def number(self, section: str, option: str, default: float | None = None, above: float | None = None,
@@ -129,6 +147,13 @@ def read_klipper_config(path: str | Path) -> KlipperConfig:
             config.sections.setdefault(section, {}).update(options)
             for option in options:
                 config.origin[(section, option)] = f"{source} (SAVE_CONFIG block)"
+    if config.missing:
+        base = os.path.dirname(source)
+        where = ", ".join(f"{os.path.relpath(path, base)} (line {line}"
+                          f"{'' if parent == source else ' of ' + os.path.relpath(parent, base)})"
+                          for parent, line, path in config.missing)
+        warn(f"{source}: include file{'s' if len(config.missing) > 1 else ''} not found, skipped (a "
+             f"configuration copied off the printer?): {where}", InputWarning, stacklevel=2)
     return config
 
 
@@ -180,6 +205,8 @@ def _strip_duplicates(block: str, config: KlipperConfig, source: str) -> str:
         if config.has(section, option):
             duplicate = True
             lines[n] = "#" + line
+            if section not in READ_SECTIONS:
+                continue
             warn(f"{source}: section [{section}], key {option}: set both in the configuration and in its "
                  f"SAVE_CONFIG block; Klipper keeps the configuration's value "
                  f"{config.sections[section][option]!r}, so does deltacal", InputWarning, stacklevel=4)
@@ -214,8 +241,11 @@ def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str],
     pattern = os.path.join(os.path.dirname(filename), spec)
     found = sorted(glob.glob(pattern))
     if not found and not glob.has_magic(pattern):
-        raise InputError(f"include file {pattern!r} does not exist", filename, f"line {number}")
+        found = [pattern]
     for name in found:
+        if not os.path.exists(name):  # absent, or a link to nothing
+            config.missing.append((filename, number, name))
+            continue
         _parse(_read_text(name, filename), name, config, visited)
 
 
@@ -248,7 +278,15 @@ def load_klipper(path: str | Path) -> KlipperDelta:
     Raises:
         InputError: naming the file, section, key and value of the first problem found.
     """
-    config = read_klipper_config(path)
+    return klipper_from_config(read_klipper_config(path))
+
+
+def klipper_from_config(config: KlipperConfig) -> KlipperDelta:
+    """Klipper's delta model from a configuration already read (:func:`load_klipper`).
+
+    Raises:
+        InputError: naming the file, section, key and value of the first problem found.
+    """
     kinematics = config.text("printer", "kinematics").strip()
     if kinematics != "delta":
         raise config.error("printer", "kinematics", f"value {kinematics!r}: deltacal reads Klipper's linear "
@@ -259,14 +297,15 @@ def load_klipper(path: str | Path) -> KlipperDelta:
     angles, arms, endstops, steps = [], [], [], []
     for stepper, angle in zip(STEPPERS, DEFAULT_ANGLES_DEG, strict=True):
         if stepper not in config.sections:
-            raise InputError(f"missing section [{stepper}] (a delta printer has three towers)", config.source)
+            raise InputError(f"missing section [{stepper}] (a delta printer has three towers)"
+                             f"{config.missing_hint()}", config.source)
         angles.append(config.number(stepper, "angle", angle))
         arms.append(config.number(stepper, "arm_length", arm_a, above=radius))
         endstops.append(config.number(stepper, "position_endstop", endstop_a))
         steps.append(_step_distance(config, stepper))
     try:
         return KlipperDelta(radius, np.radians(angles), np.array(arms), np.array(endstops), np.array(steps),
-                            name=Path(path).name)
+                            name=Path(config.source).name)
     except GeometryError as exc:
         raise InputError(str(exc), config.source) from None
 

@@ -1,0 +1,177 @@
+"""A printer as its ``printer.cfg`` finds it: the robot file and the measurements Klipper saved.
+
+``deltacal import printer.cfg`` (conventions, "Printers as they are found"): the robot file
+(``kind = "linear"``) of exactly the printer Klipper's model of the configuration describes, and,
+when the SAVE_CONFIG block holds a ``[delta_calibrate]`` section, its measurements in deltacal's
+files (:mod:`.saved`):
+
+* per tower: ``rod_length_mm`` = ``arm_length``; ``endstop_height_mm`` = ``position_endstop +
+  sqrt(arm_length² − delta_radius²) + nozzle drop``; ``step_distance_mm`` = Klipper's step
+  distance; each a number when the three towers agree, ``[a, b, c]`` otherwise;
+  ``tower_azimuth_deg`` = each ``angle``;
+* ``tower_radius_mm`` = ``delta_radius`` + the effector radius; ``nozzle_mm`` = ``[0, 0, −drop]``;
+  the effector radius, the rod spacing and the nozzle drop are not in a configuration: given
+  (measured), or defaults that the file names;
+* ``[workspace]``: ``radius_mm`` = ``print_radius``, else ``[delta_calibrate] radius``, else
+  Klipper's default (``delta_radius``), never beyond Klipper's own bound ``min(arm_length) −
+  delta_radius``; ``height_mm`` = Klipper's height up to which the full radius is printable
+  (``min(carriage top − arm_length)``, its ``limit_z``);
+* probe heights: the commanded positions (through the configuration's values) of the steps of
+  each ``heightN_pos`` and ``manual_heightN_pos``, with the trigger height ``heightN`` (0 for a
+  manual height: the nozzle touched the bed there); distances: those of ``distanceN_pos1`` and
+  ``distanceN_pos2``, with ``distanceN``.
+
+Units: mm and deg in the file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ....exceptions import InputError
+from ....io.atomic import atomic_write_text
+from ....io.toml import _toml_value
+from ...measurement_files import write_printed_distances, write_probe_heights
+from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
+from .model import DEFAULT_ANGLES_DEG, KlipperDelta
+from .saved import SavedCalibration, read_saved_calibration
+
+#: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
+DEFAULT_EFFECTOR_RADIUS = 30.0
+DEFAULT_ROD_SPACING = 50.0
+DEFAULT_NOZZLE_DROP = 30.0
+#: The files :func:`write_import` writes in its folder.
+OUTPUT_FILES = ("printer.toml", "probe.csv", "distances.csv")
+
+
+@dataclass(frozen=True)
+class ImportedPrinter:
+    """A printer read from its Klipper configuration.
+
+    Attributes:
+        text: The robot file's text.
+        klipper: Klipper's model of the configuration.
+        saved: The measurements its ``[delta_calibrate]`` holds.
+        probe: Commanded nozzle positions of the saved heights [mm], (N, 3).
+        pairs: Commanded positions of the saved distances' ends ``x1..z2`` [mm], (M, 6).
+        defaults: What was taken by default (effector radius, rod spacing, nozzle drop), as said.
+    """
+
+    text: str
+    klipper: KlipperDelta
+    saved: SavedCalibration
+    probe: np.ndarray
+    pairs: np.ndarray
+    defaults: tuple[str, ...]
+
+
+def import_klipper(path: str | Path, effector_radius: float | None = None, rod_spacing: float | None = None,
+                   nozzle_drop: float | None = None) -> ImportedPrinter:
+    """The robot file and the saved measurements of a ``printer.cfg``.
+
+    Args:
+        path: The configuration.
+        effector_radius: Effector centre to each ball pair's midpoint [mm] (default 30).
+        rod_spacing: Between a pair's two balls [mm] (default 50).
+        nozzle_drop: The nozzle below the effector's ball plane [mm] (default 30).
+
+    Raises:
+        InputError: the configuration's first problem, or values no printer can have.
+    """
+    config = read_klipper_config(path)
+    klipper = klipper_from_config(config)
+    given = {"effector radius": (effector_radius, DEFAULT_EFFECTOR_RADIUS),
+             "rod spacing": (rod_spacing, DEFAULT_ROD_SPACING),
+             "nozzle drop": (nozzle_drop, DEFAULT_NOZZLE_DROP)}
+    defaults = tuple(f"{what} {default:g} mm" for what, (value, default) in given.items() if value is None)
+    a, c, drop = (default if value is None else float(value) for value, default in given.values())
+    saved = read_saved_calibration(config)
+    probe = _positions(klipper, saved.height_steps, config, "height")
+    ends = _positions(klipper, saved.pair_steps.reshape(-1, 3), config, "distance")
+    text = _robot_text(config, klipper, a, c, drop, defaults)
+    return ImportedPrinter(text, klipper, saved, probe, ends.reshape(-1, 6), defaults)
+
+
+def _positions(klipper: KlipperDelta, steps: np.ndarray, config: KlipperConfig, what: str) -> np.ndarray:
+    """Klipper's nozzle positions at steps below the endstops; steps no rods meet are named."""
+    positions = klipper.positions(steps, check=False)
+    bad = np.flatnonzero(~np.all(np.isfinite(positions), axis=1))
+    if bad.size:
+        raise InputError(f"the saved {what} at steps {steps[bad[0]].tolist()} is out of the reach of this "
+                         "configuration's values (another printer's measurements?)", config.source,
+                         "section [delta_calibrate]")
+    return positions
+
+
+def _robot_text(config: KlipperConfig, klipper: KlipperDelta, effector_radius: float, rod_spacing: float,
+                nozzle_drop: float, defaults: tuple[str, ...]) -> str:
+    """The robot file (``kind = "linear"``) of Klipper's model of the configuration."""
+    rho = klipper.delta_radius
+    endstop = klipper.position_endstop + np.sqrt(klipper.arm_length**2 - rho**2) + nozzle_drop
+    angles = [config.number(s, "angle", d) for s, d in zip(STEPPERS, DEFAULT_ANGLES_DEG, strict=True)]
+    radius, radius_note = _printable_radius(config, klipper)
+    height = math.floor(float(np.min(klipper.carriage_top - klipper.arm_length)) * 1e6) / 1e6
+    if height <= 0.0:
+        raise InputError(f"Klipper's full-radius height min(position_endstop + sqrt(arm_length^2 - "
+                         f"delta_radius^2) - arm_length) is {height:g} mm: no printable volume above the bed",
+                         config.source, "sections [stepper_a..c], key position_endstop")
+    source = Path(config.source)
+    lines = [f"# Imported by deltacal from {source.name}: Klipper's model of that configuration.",
+             *([f"# Not in a Klipper configuration, taken by default: {', '.join(defaults)} (measure them "
+                "and give --effector-radius, --rod-spacing, --nozzle-drop)."] if defaults else []),
+             f"name = {_toml_value(source.stem)}",
+             f"description = {_toml_value(f'imported from {source.name} (delta_radius {rho:g} mm)')}",
+             'kind = "linear"', "", "[geometry]",
+             f"tower_radius_mm = {rho + effector_radius!r}   # delta_radius + effector radius",
+             f"effector_radius_mm = {effector_radius!r}",
+             f"rod_length_mm = {_per_tower(klipper.arm_length)}   # arm_length",
+             f"rod_spacing_mm = {rod_spacing!r}",
+             f"tower_azimuth_deg = {_toml_value([float(v) for v in angles])}   # angle",
+             f"nozzle_mm = {_toml_value([0.0, 0.0, -nozzle_drop])}",
+             f"endstop_height_mm = {_per_tower(endstop)}   # position_endstop + sqrt(arm_length^2 - "
+             "delta_radius^2) + nozzle drop",
+             f"step_distance_mm = {_per_tower(klipper.step_distance)}", "", "[workspace]",
+             f"radius_mm = {radius!r}   # {radius_note}",
+             f"height_mm = {height!r}   # Klipper's full-radius height (radius tapered above)"]
+    return "\n".join(lines) + "\n"
+
+
+def _per_tower(values: np.ndarray) -> str:
+    """A number when the three towers agree, ``[a, b, c]`` otherwise (TOML)."""
+    towers = [float(v) for v in values]
+    return _toml_value(towers[0] if towers[0] == towers[1] == towers[2] else towers)
+
+
+def _printable_radius(config: KlipperConfig, klipper: KlipperDelta) -> tuple[float, str]:
+    """The printable radius [mm] and where it came from."""
+    if config.has("printer", "print_radius"):
+        radius, note = config.number("printer", "print_radius", above=0.0), "print_radius"
+    elif config.has("delta_calibrate", "radius"):
+        radius, note = config.number("delta_calibrate", "radius", above=0.0), "[delta_calibrate] radius"
+    else:
+        radius, note = klipper.delta_radius, "Klipper's default print_radius (delta_radius)"
+    bound = float(np.min(klipper.arm_length)) - klipper.delta_radius
+    if radius > bound:
+        return bound, f"{note} {radius:g} mm, held to Klipper's bound min(arm_length) - delta_radius"
+    return radius, note
+
+
+def write_import(imported: ImportedPrinter, out_dir: str | Path) -> list[Path]:
+    """Write ``printer.toml`` and, with saved measurements, ``probe.csv`` and ``distances.csv``.
+
+    Returns:
+        The files written.
+    """
+    out = Path(out_dir)
+    written = [atomic_write_text(out / OUTPUT_FILES[0], imported.text)]
+    saved = imported.saved
+    if saved.height.size:
+        written.append(write_probe_heights(out / OUTPUT_FILES[1], imported.probe[:, :2], imported.probe[:, 2],
+                                           trigger_height=saved.height))
+    if saved.distance.size:
+        written.append(write_printed_distances(out / OUTPUT_FILES[2], imported.pairs, saved.distance))
+    return written
