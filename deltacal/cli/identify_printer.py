@@ -56,7 +56,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
 
 
 def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel,
-          step_distance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+          step_distance: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Readings of the probe heights and of the printed pairs, and the distances measured."""
     heights = read_probe_heights(probe_file)
     probe = _readings(firmware, heights.commanded, step_distance, probe_file)
@@ -69,7 +69,7 @@ def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel,
     return probe, np.concatenate(pairs), np.concatenate(distance)
 
 
-def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: float,
+def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.ndarray | float,
               source: str) -> np.ndarray:
     """The readings the firmware commanded for positions; a position it cannot reach is named by row."""
     readings = firmware.inverse(commanded, step_distance, check=False)
