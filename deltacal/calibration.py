@@ -30,6 +30,7 @@ from .identification.columns import COMPLIANCE, COMPLIANCE_NAMES, FRAME, GEOMETR
 from .identification.frames import InstrumentFrame, axes_motion
 from .identification.options import Method
 from .identification.result import IdentificationResult, ResidualStats
+from .towers import written_per_tower
 
 #: The unit of a base parameter's value and σ: a length, an angle or an actuator's compliance.
 BaseUnit = Literal["mm", "rad", "rad/Nm"]
@@ -293,12 +294,14 @@ class Calibration:
         Raises:
             InputError: naming both keys (see docs/errors.md).
         """
-        if self.geometry.step_distance != self.nominal.step_distance:
+        steps = [self.geometry.step_distance, self.nominal.step_distance]
+        known = [v for v in steps if v is not None]
+        if len(known) == 1 or (len(known) == 2 and not np.array_equal(known[0], known[1])):
+            written = [None if v is None else written_per_tower(v) for v in steps]
             raise InputError(
-                f"[geometry] and [nominal] disagree: key geometry.step_distance_mm = "
-                f"{self.geometry.step_distance}, but key nominal.step_distance_mm = "
-                f"{self.nominal.step_distance} "
-                "(the readings of both count steps in one step distance; edit both)", self.source)
+                f"[geometry] and [nominal] disagree: key geometry.step_distance_mm = {written[0]}, but key "
+                f"nominal.step_distance_mm = {written[1]} (the readings of both count steps in the same step "
+                "distances; edit both)", self.source)
         predicted = self.predicted_geometry()
         for name, key, unit in _SECTION_KEYS:
             got = np.asarray(getattr(self.geometry, name), dtype=float)

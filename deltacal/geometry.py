@@ -40,6 +40,7 @@ from .rotations import rotation_about_y as rotation_about_y  # re-exported: old 
 from .rotations import rotation_from_vector as rotation_from_vector
 from .rotations import skew as skew
 from .rotations import vector_from_rotation as vector_from_rotation
+from .towers import per_tower
 
 #: Names of the three coordinates, used in error names.
 AXES = ("x", "y", "z")
@@ -328,8 +329,9 @@ class DeltaGeometry:
         masses: Masses of the moving bodies (all zero: a kinematic robot).
         compliance: Compliance c_i of each actuator [rad/N m], (3,): the true arm angle is ``reading +
             encoder_offset + c_i tau_i``, tau_i the gravity torque (:mod:`~.kinematics.statics`); 0: rigid.
-        step_distance: A prismatic chain's nominal step distance [mm]: a reading is the steps below the
-            endstop times it (None: not known; always None for a revolute chain).
+        step_distance: A prismatic chain's nominal step distance of each tower [mm], (3,) (a number
+            broadcasts): a tower's reading is its steps below the endstop times its own (None: not
+            known; always None for a revolute chain).
     """
 
     limb_azimuth: np.ndarray
@@ -346,7 +348,7 @@ class DeltaGeometry:
     joint_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
     masses: Masses = field(default_factory=Masses)
     compliance: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    step_distance: float | None = None
+    step_distance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.chain, Chain):
@@ -391,11 +393,10 @@ class DeltaGeometry:
         if np.any(self.joint_scale <= 0.0):
             raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
         if self.step_distance is not None:
-            steps = self.chain.counts_steps
-            if not steps or not (math.isfinite(self.step_distance) and self.step_distance > 0):
+            if not self.chain.counts_steps:
                 raise GeometryError(f"step_distance must be a prismatic chain's positive length, got "
                                     f"{self.step_distance!r} ({self.chain.name})")
-            object.__setattr__(self, "step_distance", float(self.step_distance))
+            object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
 
     @property
     def joint(self) -> str:

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from .controller import CommandModel, Controller
 from .geometry import NominalDelta
 from .io.controller_file import load_controller_file
@@ -32,7 +34,8 @@ def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:
     return load_nominal(path)
 
 
-def load_controller(path: str | Path, step_distance: float | None = None) -> Controller | CommandModel:
+def load_controller(path: str | Path,
+                    step_distance: np.ndarray | float | None = None) -> Controller | CommandModel:
     """Read a controller file, a robot file as its nominal controller, or a printer's firmware configuration.
 
     A firmware's configuration (Klipper's ``printer.cfg``: a name ending in ``.cfg``, or a
@@ -43,8 +46,8 @@ def load_controller(path: str | Path, step_distance: float | None = None) -> Con
     Args:
         path: The file.
         step_distance: For a firmware's configuration: the step distance a printer's readings count
-            in [mm] (the printer's nominal one); by default the configuration's own, which must
-            then be the same on the three towers.
+            in [mm] (the printer's nominal one: each tower's (3,), or one number for the three); by
+            default the configuration's own, which must then be the same on the three towers.
 
     Raises:
         InputError: naming the file and the key (and value) of the first problem found.

@@ -154,7 +154,8 @@ def test_a_calibrated_config_whose_towers_step_differently_serves_compensate(pri
 
 def test_the_step_distance_is_kept_in_the_calibration(printer):
     calibration = load_calibration(printer["calibration"])
-    assert calibration.geometry.step_distance == calibration.nominal.step_distance == STEP
+    steps = [calibration.geometry.step_distance, calibration.nominal.step_distance]
+    assert steps[0].tolist() == steps[1].tolist() == STEP.tolist()
     start = KlipperDelta.from_geometry(calibration.nominal)
     assert np.allclose(values_of(start), values_of(printer["firmware"]), rtol=0.0, atol=1e-9)
 

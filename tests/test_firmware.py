@@ -118,7 +118,7 @@ def test_corrected_targets_through_klipper_land_on_the_targets(kossel, tmp_path,
 
 def test_klippers_home_and_readings_count_in_the_printers_step_distance(kossel, tmp_path):
     firmware = firmware_of(kossel, tmp_path)
-    assert firmware.step_distance == 40.0 / 3200.0 and firmware.name == "printer.cfg"
+    assert firmware.step_distance.tolist() == [40.0 / 3200.0] * 3 and firmware.name == "printer.cfg"
     assert_allclose(firmware.inverse(firmware.home[None]), 0.0, atol=1e-9)  # every carriage at its endstop
     # readings in another step distance: the same steps, so the same commands
     other = KlipperController(firmware.firmware, 0.01)
@@ -166,7 +166,7 @@ def test_a_printers_transmission_angle_is_its_rods_to_the_tower(kossel):
     # and compensation refuses a pose with a rod within 3 deg of square to its tower (2 deg here)
     tower_b = (kossel.tower_radius - kossel.effector_radius) * np.array([math.cos(math.radians(330.0)),
                                                                         math.sin(math.radians(330.0))])
-    nozzle = tower_b * (1.0 - kossel.rod_length * math.cos(math.radians(2.0)) / np.linalg.norm(tower_b))
+    nozzle = tower_b * (1.0 - kossel.rod_length[1] * math.cos(math.radians(2.0)) / np.linalg.norm(tower_b))
     with pytest.raises(UnreachableError) as caught:
         compensate(kossel.geometry(), np.array([[nozzle[0], nozzle[1], 10.0]]))
     assert caught.value.reason == UnreachableError.SINGULAR
@@ -300,7 +300,7 @@ def test_a_config_whose_towers_step_differently_is_refused(tmp_path):
     with pytest.raises(InputError, match=r"calibrated.cfg: sections \[stepper_a..c\], key rotation_distance: "
                                          r"the towers' step distances differ \(0.0125, 0.01253125, 0.0125"):
         load_controller(cfg)
-    assert load_controller(cfg, step_distance=0.0125).step_distance == 0.0125
+    assert load_controller(cfg, step_distance=0.0125).step_distance.tolist() == [0.0125] * 3
     # detected by its [printer] section as well as by its name
     other = tmp_path / "printer.conf"
     other.write_text(PRINTER_CFG)

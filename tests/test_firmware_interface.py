@@ -42,7 +42,8 @@ def test_klipper_is_the_known_firmware_and_delegates(kossel, tmp_path):
     start = KLIPPER.start(kossel.geometry())
     assert_allclose(start.position_endstop, reference.position_endstop, atol=1e-9, rtol=0)
     controller = KLIPPER.controller(nominal, kossel.step_distance)
-    assert isinstance(controller, KlipperController) and controller.step_distance == kossel.step_distance
+    assert isinstance(controller, KlipperController)
+    assert np.array_equal(controller.step_distance, kossel.step_distance)
     cfg = KLIPPER.save_config(tmp_path / "printer.cfg", nominal, title="nominal", complete=True)
     assert config_firmware(cfg) is KLIPPER and config_firmware(MODELS / "kossel.toml") is None
     assert cfg.read_text() == klipper_config_text(nominal, title="nominal", complete=True)
@@ -95,4 +96,4 @@ def test_towers_stepping_differently_need_the_step_distance(kossel, tmp_path):
     cfg = KLIPPER.save_config(tmp_path / "odd.cfg", odd, complete=True)
     with pytest.raises(InputError, match=r"sections \[stepper_a..c\], key rotation_distance: the towers'"):
         KLIPPER.load_controller(cfg)
-    assert KLIPPER.load_controller(cfg, 0.0125).step_distance == 0.0125  # type: ignore[attr-defined]
+    assert KLIPPER.load_controller(cfg, 0.0125).step_distance.tolist() == [0.0125] * 3  # type: ignore[attr-defined]

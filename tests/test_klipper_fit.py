@@ -35,7 +35,7 @@ def kossel() -> NominalLinearDelta:
     return load_printer(MODELS / "kossel.toml")
 
 
-def klipper_shaped(klipper: KlipperDelta, step_distance: float) -> DeltaGeometry:
+def klipper_shaped(klipper: KlipperDelta, step_distance: np.ndarray | float) -> DeltaGeometry:
     """A printer Klipper's model describes exactly: vertical towers, parallelograms, nozzle at the effector.
 
     Tower radius ρ + a with an effector radius a (each parallelogram keeps the effector level, so its
@@ -50,7 +50,8 @@ def klipper_shaped(klipper: KlipperDelta, step_distance: float) -> DeltaGeometry
         errors[f"limb{i + 1}.axis_point.z"] = float(klipper.carriage_top[i] - height)
         for rod in ("rod1", "rod2"):
             errors[f"limb{i + 1}.{rod}.length"] = float(klipper.arm_length[i] - 269.0)
-        errors[f"limb{i + 1}.joint_scale"] = float(klipper.step_distance[i] / step_distance - 1.0)
+        nominal_step = np.broadcast_to(step_distance, 3)[i]
+        errors[f"limb{i + 1}.joint_scale"] = float(klipper.step_distance[i] / nominal_step - 1.0)
     return nominal.geometry().with_errors(errors)
 
 

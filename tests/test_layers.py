@@ -43,6 +43,7 @@ LAYERS = {
     "geometry": 10,
     "chains": 10,
     "rotations": 10,
+    "towers": 10,  # values held per tower of a linear Delta
     "resources": 5,
     "options": 0,  # the options values' shared plumbing: imports nothing of deltacal
     "exceptions": 0,

@@ -215,7 +215,7 @@ def test_pinocchio_finds_no_working_assembly_above_the_carriages(kossel):
 def test_kossel_file_reads_as_the_spec_says(kossel):
     assert isinstance(load_robot(MODELS / "kossel.toml"), NominalLinearDelta)
     assert kossel.tower_radius - kossel.effector_radius == pytest.approx(134.4)  # Klipper's delta_radius
-    assert kossel.rod_length == 269.0 and kossel.step_distance == 0.0125
+    assert kossel.rod_length.tolist() == [269.0] * 3 and kossel.step_distance.tolist() == [0.0125] * 3
     assert_allclose(np.degrees(kossel.tower_azimuth), [210.0, 330.0, 90.0])
     assert kossel.workspace is not None and kossel.workspace.bottom_z == 0.0
     assert kossel.workspace.top_z == kossel.workspace.height == 200.0
@@ -271,7 +271,7 @@ def test_printer_file_errors_name_key_and_value(tmp_path, old, new, message):
 def test_a_printer_file_is_refused_where_a_rotary_robot_is_expected(tmp_path):
     path = tmp_path / "p.toml"
     path.write_text(GOOD)
-    assert load_printer(path).endstop_height == 558.62
+    assert load_printer(path).endstop_height.tolist() == [558.62] * 3
     with pytest.raises(InputError, match="key kind: a linear Delta printer's file"):
         load_nominal(path)
     with pytest.raises(InputError, match="key kind: not a linear Delta printer's file"):

@@ -74,13 +74,13 @@ def run_klipper(args: argparse.Namespace) -> int:
     return 0
 
 
-def _step_distance(known: float | None, config: KlipperDelta | None, args: argparse.Namespace,
-                   key: str) -> float:
-    """The printer's nominal step distance: the calibration's, else the configuration's (equal towers)."""
+def _step_distance(known: np.ndarray | None, config: KlipperDelta | None, args: argparse.Namespace,
+                   key: str) -> np.ndarray:
+    """The printer's nominal step distances (3,): the calibration's, else the configuration's (equal)."""
     if known is not None:
         return known
     if config is not None and np.all(config.step_distance == config.step_distance[0]):
-        return float(config.step_distance[0])
+        return np.array(config.step_distance)
     raise InputError("no step_distance_mm: the step distance the printer's readings count in is not known "
                      "(identify the printer again, or give --config printer.cfg with one rotation_distance "
                      "on its three towers)", str(args.calibration), f"key {key}")

@@ -59,7 +59,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
 
 
 def _read_distances(distance_files: list[str], firmware: FirmwareModel,
-                    step_distance: float) -> tuple[np.ndarray, np.ndarray]:
+                    step_distance: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
     """Readings of the printed pairs, and the distances measured."""
     pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
     for path in distance_files:
@@ -70,7 +70,7 @@ def _read_distances(distance_files: list[str], firmware: FirmwareModel,
     return np.concatenate(pairs), np.concatenate(distance)
 
 
-def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: float,
+def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.ndarray | float,
               source: str) -> np.ndarray:
     """The readings the firmware commanded for positions; a position it cannot reach is named by row."""
     readings = firmware.inverse(commanded, step_distance, check=False)

@@ -165,8 +165,8 @@ def _truth(args: argparse.Namespace, printer: NominalLinearDelta) -> DeltaGeomet
     return random_true_printer(printer, np.random.default_rng(args.perturb), tolerances(), tilt).geometry
 
 
-def _check_travel(firmware: FirmwareModel, step_distance: float, commanded: np.ndarray, source: str,
-                  lines: np.ndarray) -> None:
+def _check_travel(firmware: FirmwareModel, step_distance: np.ndarray | float, commanded: np.ndarray,
+                  source: str, lines: np.ndarray) -> None:
     """Refuse, by its row, a commanded position (or pair of them) the firmware cannot reach.
 
     Out of the rods' reach, or a carriage above its endstop (a negative travel).

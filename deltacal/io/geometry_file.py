@@ -11,6 +11,7 @@ import numpy as np
 from ..chains import JOINTS, REVOLUTE, chain_of
 from ..exceptions import GeometryError, InputError
 from ..geometry import DeltaGeometry, Masses
+from ..towers import written_per_tower
 from .atomic import atomic_write_text
 from .names import check_names, check_robot_name, control_character
 from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
@@ -28,7 +29,8 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     endstop's error ``endstop_offset_mm`` (the encoder offset of a carriage) and ``joint_scale``
     (true over nominal step distance) in place of ``encoder_offset_deg``, and ``step_distance_mm``
     at the top when known: the nominal step distance its readings count steps in (what the
-    firmware's steps are converted with); a rotary robot's file is unchanged.
+    firmware's steps are converted with), a number when the three towers' are equal, else
+    ``[a, b, c]``; a rotary robot's file is unchanged.
     """
     steps = geometry.chain.counts_steps
     limbs = []
@@ -53,7 +55,7 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
     if geometry.chain != REVOLUTE:  # the default, not written: a rotary robot's file is unchanged
         out["joint"] = geometry.chain.name
         if geometry.step_distance is not None:
-            out["step_distance_mm"] = geometry.step_distance
+            out["step_distance_mm"] = written_per_tower(geometry.step_distance)
     out |= {"tool_mm": geometry.tool.tolist(), "limb": limbs}
     if geometry.points:
         out["points"] = {k: v.tolist() for k, v in geometry.points.items()}
@@ -112,7 +114,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
         if not chain.counts_steps:
             raise top.error("step_distance_mm", "a rotary robot's file (no joint = \"prismatic\") has no "
                             "step distance")
-        step_distance = top.number("step_distance_mm", positive=True)
+        step_distance = top.per_tower("step_distance_mm", positive=True)
     tool = top.vector("tool_mm", (3,))
     limbs = top.raw("limb")
     if not isinstance(limbs, list) or len(limbs) != 3 or not all(isinstance(x, Mapping) for x in limbs):

@@ -19,6 +19,7 @@ import numpy as np
 import tomli_w
 
 from ..exceptions import InputError
+from ..towers import TOWERS
 
 _PI = Decimal("3.141592653589793238462643383279502884197169399375105820974944592307816406286")
 
@@ -287,6 +288,24 @@ class _Table:
             return out
 
         return np.array(flat(value, 0), dtype=float).reshape(shape)
+
+    def per_tower(self, name: str, positive: bool = False) -> np.ndarray:
+        """A number or ``[a, b, c]`` (towers A, B, C), as one value per tower, (3,).
+
+        Raises:
+            InputError: naming the key: neither a number nor three numbers, or (``positive``) a
+                value not above zero (and its tower).
+        """
+        value = self.raw(name)
+        if not isinstance(value, list):
+            return np.full(3, self._check_number(name, value, positive))
+        if len(value) != len(TOWERS):
+            raise self.error(name, f"must be a number or [a, b, c] (towers A, B, C), got {_shown(value)}")
+        values = self.array_value(name, value, (3,))
+        for tower, v in zip(TOWERS, values, strict=True):
+            if positive and v <= 0.0:
+                raise self.error(name, f"must be positive, got {float(v)!r} on tower {tower}")
+        return values
 
     def check_unknown(self, allowed: Iterable[str]) -> None:
         allowed = set(allowed)

@@ -98,15 +98,16 @@ class PrinterRun:
 
     truth: TruePrinter
     firmware: KlipperDelta
-    step_distance: float
+    step_distance: np.ndarray | float
     probe: np.ndarray
     distances: np.ndarray
     result: IdentificationResult
     configs: dict[str, KlipperDelta] = field(default_factory=dict)
 
 
-def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: ObjectPlan, probe: np.ndarray,
-                      distances: np.ndarray, distance_sigma: float = DISTANCE_SIGMA) -> PrinterMeasurements:
+def plan_measurements(firmware: KlipperDelta, step_distance: np.ndarray | float, plan: ObjectPlan,
+                      probe: np.ndarray, distances: np.ndarray,
+                      distance_sigma: float = DISTANCE_SIGMA) -> PrinterMeasurements:
     """The planned object's measurements as the identification takes them: readings through the firmware.
 
     Args:
@@ -123,7 +124,7 @@ def plan_measurements(firmware: KlipperDelta, step_distance: float, plan: Object
                                height_sigma=PROBE_SIGMA, distance_sigma=distance_sigma)
 
 
-def klipper_calibrations(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: float,
+def klipper_calibrations(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: np.ndarray | float,
                          rng: np.random.Generator,
                          distance_sigma: float = DISTANCE_SIGMA) -> dict[str, KlipperDelta]:
     """Klipper's own calibration of a true printer: its values uncalibrated, basic and enhanced.

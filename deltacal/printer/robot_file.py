@@ -9,6 +9,7 @@ millimetres and radians.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -18,20 +19,27 @@ from ..geometry import Workspace
 from ..io.robot import _check_plausible, _is_printer_file, _points, _robot_name
 from ..io.toml import _Table, read_toml
 from ..kinematics.closed_form import VirtualDelta
+from ..towers import TOWERS
 from .robot import NominalLinearDelta
 
 #: A step distance [mm] at or above this is not a printer's (steps per mm given instead?).
 MAX_STEP_DISTANCE_MM = 1.0
-#: The ``[geometry]`` keys of a linear Delta printer's file (conventions, "Linear Delta printers").
+#: The ``[geometry]`` lengths of a linear Delta printer's file (conventions, "Linear Delta printers").
 LINEAR_LENGTH_KEYS = ("tower_radius_mm", "effector_radius_mm", "rod_length_mm", "rod_spacing_mm",
                       "endstop_height_mm")
+#: The ``[geometry]`` values that are a number or ``[a, b, c]``, one per tower (conventions,
+#: "Printers as they are found").
+PER_TOWER_KEYS = ("rod_length_mm", "endstop_height_mm", "step_distance_mm")
 
 
 def load_printer(path: str | Path) -> NominalLinearDelta:
     """Read and validate a linear Delta printer's robot file (``kind = "linear"``).
 
+    ``rod_length_mm``, ``endstop_height_mm`` and ``step_distance_mm`` are each a number or
+    ``[a, b, c]`` (towers A, B, C); each tower's value is checked as a number is.
+
     Raises:
-        InputError: naming the file and the key (and value) of the first problem found.
+        InputError: naming the file and the key (and value, and tower) of the first problem found.
     """
     source = str(path)
     top = _Table(read_toml(path), source)
@@ -41,31 +49,34 @@ def load_printer(path: str | Path) -> NominalLinearDelta:
     geo = top.table("geometry")
     assert geo is not None
     geo.check_unknown([*LINEAR_LENGTH_KEYS, "tower_azimuth_deg", "nozzle_mm", "step_distance_mm"])
-    lengths = {key: geo.number(key, positive=True) for key in LINEAR_LENGTH_KEYS}
-    for key, value in lengths.items():
-        _check_plausible(geo, key, value)
-    step = geo.number("step_distance_mm", positive=True)
-    if step >= MAX_STEP_DISTANCE_MM:
-        raise geo.error("step_distance_mm", f"{step!r} mm per step is not a printer's (steps per mm "
-                                            "given? the step distance is mm per step, such as 0.0125)")
+    lengths = {key: geo.per_tower(key, positive=True) if key in PER_TOWER_KEYS else
+               geo.number(key, positive=True) for key in LINEAR_LENGTH_KEYS}
+    for key in lengths:
+        for tower, value in _each_tower(geo, key):
+            _check_on_tower(tower, _check_plausible, geo, key, value)
+    step = geo.per_tower("step_distance_mm", positive=True)
+    for tower, value in _each_tower(geo, "step_distance_mm"):
+        if value >= MAX_STEP_DISTANCE_MM:
+            raise geo.error("step_distance_mm", f"{value!r} mm per step{tower} is not a printer's (steps per "
+                                                "mm given? the step distance is mm per step, such as 0.0125)")
     azimuth_deg = geo.vector("tower_azimuth_deg", (3,))
     if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
         raise geo.error("tower_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
-    reach = lengths["tower_radius_mm"] - lengths["effector_radius_mm"]
-    if lengths["rod_length_mm"] <= reach:
-        raise geo.error("rod_length_mm", f"rods of {lengths['rod_length_mm']} mm cannot reach the effector "
-                                         f"from towers {reach} mm away (tower_radius_mm - "
-                                         "effector_radius_mm)")
+    reach = float(lengths["tower_radius_mm"]) - float(lengths["effector_radius_mm"])
+    for tower, rod in _each_tower(geo, "rod_length_mm"):
+        if rod <= reach:
+            raise geo.error("rod_length_mm", f"rods of {rod} mm{tower} cannot reach the effector from "
+                                             f"towers {reach} mm away (tower_radius_mm - effector_radius_mm)")
     try:
         printer = NominalLinearDelta(
             name=_robot_name(top),
             description=top.string("description", ""),
-            tower_radius=lengths["tower_radius_mm"],
-            effector_radius=lengths["effector_radius_mm"],
-            rod_length=lengths["rod_length_mm"],
-            rod_spacing=lengths["rod_spacing_mm"],
+            tower_radius=float(lengths["tower_radius_mm"]),
+            effector_radius=float(lengths["effector_radius_mm"]),
+            rod_length=np.asarray(lengths["rod_length_mm"]),
+            rod_spacing=float(lengths["rod_spacing_mm"]),
             tower_azimuth=np.radians(azimuth_deg),
-            endstop_height=lengths["endstop_height_mm"],
+            endstop_height=np.asarray(lengths["endstop_height_mm"]),
             step_distance=step,
             tool=geo.vector("nozzle_mm", (3,)),
             points=_points(top, source),
@@ -76,6 +87,26 @@ def load_printer(path: str | Path) -> NominalLinearDelta:
     if printer.workspace is not None:
         _check_printable_reachable(printer, source)
     return printer
+
+
+def _each_tower(geo: _Table, key: str) -> list[tuple[str, float]]:
+    """A key's values with the words that name each one's tower: none when the file holds one number.
+
+    The key was read and checked already (a number, or three).
+    """
+    value = geo.raw(key)
+    if not isinstance(value, list):
+        return [("", float(value))]
+    return [(f" (tower {tower})", float(v)) for tower, v in zip(TOWERS, value, strict=True)]
+
+
+def _check_on_tower(tower: str, check: Callable[[_Table, str, float], None], geo: _Table, key: str,
+                    value: float) -> None:
+    """Run a one-value check, its message naming the tower (``tower``: the words, or "")."""
+    try:
+        check(geo, key, value)
+    except InputError as exc:
+        raise InputError(f"{exc.detail}{tower}", exc.source, exc.location) from None
 
 
 def _printable(top: _Table) -> Workspace | None:

@@ -129,7 +129,7 @@ def random_printer(nominal: NominalLinearDelta, rng: np.random.Generator,
     return random_true_printer(nominal, rng, tolerances, bed_tilt_deg, bed_height).geometry
 
 
-def nozzle_positions(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float,
+def nozzle_positions(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: np.ndarray | float,
                      commanded: np.ndarray, point: np.ndarray | None = None) -> np.ndarray:
     """Where a plate point (default: the nozzle) of the truth is at commanded positions [mm], (N, 3)."""
     commanded = np.atleast_2d(np.asarray(commanded, dtype=float))
@@ -137,8 +137,8 @@ def nozzle_positions(truth: DeltaGeometry, firmware: FirmwareModel, step_distanc
     return pose.point(truth.tool if point is None else point)
 
 
-def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float, xy: np.ndarray,
-                  sigma_mm: float, rng: np.random.Generator,
+def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: np.ndarray | float,
+                  xy: np.ndarray, sigma_mm: float, rng: np.random.Generator,
                   probe_offset: np.ndarray | tuple[float, float, float] = (0.0, 0.0, 0.0),
                   max_iter: int = 30, trigger_height: np.ndarray | None = None) -> np.ndarray:
     """Commanded nozzle positions at which the probe triggers over the true bed (z = 0), with trigger noise.
@@ -186,8 +186,8 @@ def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: 
     return np.column_stack([xy, z1 + rng.normal(0.0, sigma_mm, len(xy)) if sigma_mm > 0.0 else z1])
 
 
-def printed_distances(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: float, pairs: np.ndarray,
-                      sigma_mm: float, rng: np.random.Generator) -> np.ndarray:
+def printed_distances(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: np.ndarray | float,
+                      pairs: np.ndarray, sigma_mm: float, rng: np.random.Generator) -> np.ndarray:
     """True distances between features printed at commanded positions, with caliper noise [mm], (M,).
 
     Args:

@@ -57,10 +57,12 @@ class FirmwareModel(Protocol):
     def positions(self, steps: np.ndarray, check: bool = True) -> np.ndarray:
         """The firmware's nozzle positions at steps below the endstops, (N, 3) -> (N, 3) [mm]."""
 
-    def inverse(self, targets: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+    def inverse(self, targets: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
         """The readings (steps × the printer's ``step_distance`` [mm]) for nozzle targets, (N, 3) [mm]."""
 
-    def forward(self, readings: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
+    def forward(self, readings: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
         """Nozzle positions at readings (travels counted in ``step_distance`` [mm]), (N, 3) [mm]."""
 
 
@@ -107,7 +109,7 @@ class Firmware(ABC, Generic[ModelT]):
         """The values of a printer's geometry at its tolerances' centre (a fit's start)."""
 
     @abstractmethod
-    def controller(self, model: ModelT, step_distance: float) -> CommandModel:
+    def controller(self, model: ModelT, step_distance: np.ndarray | float) -> CommandModel:
         """The firmware with these values as the controller of readings counted in ``step_distance`` [mm]."""
 
     @abstractmethod
@@ -127,8 +129,9 @@ class Firmware(ABC, Generic[ModelT]):
         """
 
     @abstractmethod
-    def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: float, workspace: Workspace,
-            hold_step_distance: bool = False, first_layer_weight: float = 0.0) -> FirmwareFit:
+    def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
+            workspace: Workspace, hold_step_distance: bool = False,
+            first_layer_weight: float = 0.0) -> FirmwareFit:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -145,14 +148,17 @@ class Firmware(ABC, Generic[ModelT]):
         """Write :meth:`config_text` to ``path`` atomically; returns the path."""
         return atomic_write_text(path, self.config_text(model, source, title, notes, complete))
 
-    def load_controller(self, path: str | Path, step_distance: float | None = None) -> CommandModel:
+    def load_controller(self, path: str | Path,
+                        step_distance: np.ndarray | float | None = None) -> CommandModel:
         """The firmware as a controller, from its configuration file.
 
         Args:
             path: The configuration file.
             step_distance: The step distance the printer's readings count in [mm] (the printer's
-                nominal one); by default the configuration's own, which must then be the same on
-                the three towers.
+                nominal one: each tower's (3,), or one number for the three); by default the
+                configuration's own, which must then be the same on the three towers (a
+                configuration whose towers differ may be one fitted to a calibration, no longer
+                the printer's nominal one).
 
         Raises:
             InputError: the file's first problem, or towers stepping differently without

@@ -9,7 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
+import numpy as np
+
 from ....geometry import DeltaGeometry, Workspace
+from ....towers import per_tower
 from ..base import Firmware
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper
 from .fit import KlipperFit, fit_klipper
@@ -41,17 +44,21 @@ class Klipper(Firmware[KlipperDelta]):
         """:meth:`KlipperDelta.from_geometry <.model.KlipperDelta.from_geometry>`."""
         return KlipperDelta.from_geometry(geometry)
 
-    def controller(self, model: KlipperDelta, step_distance: float) -> KlipperController:
-        """:class:`~.model.KlipperController` of the values, readings counted in ``step_distance`` [mm]."""
-        return KlipperController(model, step_distance)
+    def controller(self, model: KlipperDelta, step_distance: np.ndarray | float) -> KlipperController:
+        """:class:`~.model.KlipperController` of the values, readings counted in ``step_distance`` [mm].
+
+        ``step_distance`` is each tower's (3,), or one number for the three.
+        """
+        return KlipperController(model, per_tower("step_distance", step_distance))
 
     def config_text(self, model: KlipperDelta, source: str | Path | KlipperConfig | None = None,
                     title: str = "", notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> str:
         """:func:`~.config.klipper_config_text`."""
         return klipper_config_text(model, source, title, notes, complete)
 
-    def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: float, workspace: Workspace,
-            hold_step_distance: bool = False, first_layer_weight: float = 0.0) -> KlipperFit:
+    def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
+            workspace: Workspace, hold_step_distance: bool = False,
+            first_layer_weight: float = 0.0) -> KlipperFit:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            first_layer_weight=first_layer_weight)

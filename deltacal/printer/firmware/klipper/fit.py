@@ -145,7 +145,7 @@ def first_layer(workspace: Workspace, per_radius: int = 12, ring: int = 48) -> n
     return printable_grid(disc, per_radius, 1, ring)
 
 
-def nozzle_errors(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: float,
+def nozzle_errors(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: np.ndarray | float,
                   targets: np.ndarray) -> np.ndarray:
     """Where the real nozzle lands minus the target, Klipper commanding each target [mm], (N, 3)."""
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
@@ -153,7 +153,7 @@ def nozzle_errors(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance:
     return exact.forward(geometry, q).point(geometry.tool) - targets
 
 
-def error_stats(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: float,
+def error_stats(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: np.ndarray | float,
                 workspace: Workspace, grid: np.ndarray | None = None, part_frame: bool = False) -> ErrorStats:
     """3-D errors over the printable volume and the first layer's flatness of Klipper's values [mm].
 
@@ -186,8 +186,8 @@ def _steps(name: str, value: float) -> float:
     return h * value if name.startswith("step_distance") else h
 
 
-def _residuals(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: float, targets: np.ndarray,
-               columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
+def _residuals(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: np.ndarray | float,
+               targets: np.ndarray, columns: list[int]) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (3N,) and their Jacobian in the chosen values (3N, k)."""
     q = klipper.inverse(targets, step_distance)
     pose = exact.forward(geometry, q)
@@ -209,7 +209,7 @@ def _residuals(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: fl
 def fit_klipper(
     geometry: DeltaGeometry,
     start: KlipperDelta,
-    step_distance: float,
+    step_distance: np.ndarray | float,
     workspace: Workspace,
     hold_step_distance: bool = False,
     grid: np.ndarray | None = None,
@@ -325,7 +325,7 @@ def error_budget(
     bed_rotation: np.ndarray,
     bed_translation: np.ndarray,
     start: KlipperDelta,
-    step_distance: float,
+    step_distance: np.ndarray | float,
     workspace: Workspace,
     hold_step_distance: bool = False,
     mode: str = "alone",

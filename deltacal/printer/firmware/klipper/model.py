@@ -26,7 +26,6 @@ horizontal nozzle offset.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
@@ -36,6 +35,7 @@ from ....chains import PRISMATIC
 from ....exceptions import GeometryError, UnreachableError
 from ....geometry import DeltaGeometry, radial_vectors
 from ....kinematics.closed_form import VirtualDelta
+from ....towers import per_tower
 from ...robot import NominalLinearDelta
 
 #: Klipper's tower angles when a ``[stepper_*]`` gives none [deg] (towers A, B, C).
@@ -91,10 +91,10 @@ class KlipperDelta:
             raise GeometryError(f"Klipper's model has no horizontal nozzle offset; the nozzle is at "
                                 f"{printer.tool.tolist()} mm in the effector frame")
         radius = printer.tower_radius - printer.effector_radius
-        carriage_top = printer.endstop_height + float(printer.tool[2])
+        carriage_top = printer.endstop_height + float(printer.tool[2])  # per tower
         endstop = carriage_top - np.sqrt(printer.rod_length**2 - radius**2)
-        return cls(radius, np.array(printer.tower_azimuth), np.full(3, printer.rod_length),
-                   np.full(3, endstop), np.full(3, printer.step_distance), name or printer.name)
+        return cls(radius, np.array(printer.tower_azimuth), np.array(printer.rod_length), endstop,
+                   np.array(printer.step_distance), name or printer.name)
 
     @classmethod
     def from_geometry(cls, geometry: DeltaGeometry, name: str = "") -> KlipperDelta:
@@ -122,7 +122,7 @@ class KlipperDelta:
         radius = float(np.mean(np.linalg.norm(point[:, :2], axis=1)))
         arm = geometry.rod_length.mean(axis=1)
         return cls(radius, np.mod(np.arctan2(point[:, 1], point[:, 0]), 2.0 * np.pi), arm,
-                   point[:, 2] - np.sqrt(arm**2 - radius**2), np.full(3, geometry.step_distance),
+                   point[:, 2] - np.sqrt(arm**2 - radius**2), np.array(geometry.step_distance),
                    name or geometry.name)
 
     @cached_property
@@ -161,8 +161,12 @@ class KlipperDelta:
                 raise UnreachableError.from_mask(bad, targets)
         return steps
 
-    def inverse(self, targets: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
-        """Deltacal's readings (steps × the printer's nominal ``step_distance``) for targets, (N, 3) [mm]."""
+    def inverse(self, targets: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
+        """Deltacal's readings (steps × the printer's nominal ``step_distance``) for targets, (N, 3) [mm].
+
+        ``step_distance`` is each tower's (3,), or one number for the three.
+        """
         return self.steps(targets, check) * step_distance
 
     @cached_property
@@ -194,8 +198,9 @@ class KlipperDelta:
         """
         return self.virtual.forward(steps, check=check)
 
-    def forward(self, readings: np.ndarray, step_distance: float, check: bool = True) -> np.ndarray:
-        """Nozzle positions at deltacal's readings (travels in the printer's ``step_distance``) [mm]."""
+    def forward(self, readings: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
+        """Nozzle positions at deltacal's readings (travels in the towers' ``step_distance``), (N, 3) [mm]."""
         return self.positions(np.atleast_2d(np.asarray(readings, dtype=float)) / step_distance, check)
 
 
@@ -211,20 +216,20 @@ class KlipperController:
 
     Attributes:
         firmware: Klipper's model, from its configuration.
-        step_distance: The step distance the readings count in [mm] (the printer's nominal one:
-            ``NominalLinearDelta.step_distance``, the one its identification read measurements in).
+        step_distance: The step distance each tower's readings count in [mm], (3,) (a number
+            broadcasts): the printer's nominal ones, ``NominalLinearDelta.step_distance``, those its
+            identification read measurements in.
     """
 
     firmware: KlipperDelta
-    step_distance: float
+    step_distance: np.ndarray
 
     #: How the controller moves between two targets: Klipper plans each move as a straight line
     #: in its Cartesian frame and its kinematics maps every step on the way (delta.py).
     interpolation = "cartesian"
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.step_distance) and self.step_distance > 0.0):
-            raise GeometryError(f"step_distance must be a positive length, got {self.step_distance!r}")
+        object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
 
     @property
     def name(self) -> str:
