@@ -1,7 +1,8 @@
 """``deltacal plan PRINTER.toml --object --controller printer.cfg -o DIR``: the printed calibration object.
 
 Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe
-grid, ``z_mm`` to fill in) and ``DIR/distances.csv`` (the pairs of features to measure,
+grid, ``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its
+results on the console) and ``DIR/distances.csv`` (the pairs of features to measure,
 ``distance_mm`` to fill in), and prints what was planned: what the probe heights alone identify of
 the complete model and what the object's distances add.
 """
@@ -13,6 +14,7 @@ from pathlib import Path
 
 from ..exceptions import UsageError
 from ..io import write_stl
+from ..io.atomic import atomic_write_text
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import write_printed_distances, write_probe_heights
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
@@ -22,7 +24,7 @@ from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.
-OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv")
+OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv", "probe.gcode")
 #: Largest probe grid: 9 across the bed, whose round mesh keeps 49 points (the budget: at most 49 heights).
 MAX_PROBE_GRID = 9
 
@@ -70,7 +72,7 @@ def refuse_object_options(args: argparse.Namespace) -> None:
 
 
 def run_object(args: argparse.Namespace) -> int:
-    """Run ``deltacal plan --object``: write the three files, print what was planned, return 0."""
+    """Run ``deltacal plan --object``: write the files, print what was planned, return 0."""
     given = [name for name in POSE_OPTIONS if getattr(args, name) is not None]
     if given:
         raise UsageError(f"--{given[0].replace('_', '-')} applies to pose planning, not to --object")
@@ -93,16 +95,18 @@ def run_object(args: argparse.Namespace) -> int:
     write_stl(outputs[0], mesh)
     write_probe_heights(outputs[1], plan.probe)
     write_printed_distances(outputs[2], plan.pair_positions)
+    atomic_write_text(outputs[3], KLIPPER.probe_program(
+        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
     print(_report(plan, printer, mesh, caliper))
-    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points) and {outputs[2]} "
-          f"({len(plan.pairs)} distances)")
+    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes them) "
+          f"and {outputs[2]} ({len(plan.pairs)} distances)")
     return 0
 
 
 def _outputs(folder: Path, inputs: tuple[str, ...]) -> list[Path]:
-    """The three output paths in ``folder``, checked (the folder is made later if its parent exists)."""
+    """The output paths in ``folder``, checked (the folder is made later if its parent exists)."""
     if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: --object writes three files in a folder; this is a file")
+        raise UsageError(f"{folder}: --object writes {len(OBJECT_FILES)} files in a folder; this is a file")
     outputs = [folder / name for name in OBJECT_FILES]
     if folder.exists():
         for path in outputs:
@@ -119,8 +123,9 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float)
     heights = sorted({float(z) for z in plan.features[:, 2]})
     lengths = plan.lengths
     lines = [
-        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); probe each and "
-        "write the commanded z at which the probe triggered in probe.csv",
+        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); run probe.gcode "
+        "(G28, then PROBE at each) and read its console back, or write the commanded z at which the probe "
+        "triggered in probe.csv",
         f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
         f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
         f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
