@@ -89,12 +89,14 @@ def run_object(args: argparse.Namespace) -> int:
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
-    mesh = plan.mesh()
+    mesh = plan.labelled_mesh()
     if not folder.exists():
         folder.mkdir()
     write_stl(outputs[0], mesh)
     write_probe_heights(outputs[1], plan.probe)
-    write_printed_distances(outputs[2], plan.pair_positions)
+    names = plan.names
+    write_printed_distances(outputs[2], plan.pair_positions,
+                            balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
     atomic_write_text(outputs[3], KLIPPER.probe_program(
         plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
     print(_report(plan, printer, mesh, caliper))
@@ -127,7 +129,9 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float)
         "(G28, then PROBE at each) and read its console back, or write the commanded z at which the probe "
         "triggered in probe.csv",
         f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
-        f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
+        f"{', '.join(f'{z:g}' for z in heights)} mm, each labelled 1 to {len(plan.features)} on a tile "
+        "beside it; "
+        f"{len(mesh.faces)} facets, "
         f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
         "the bed's centre: the slicer must not move it)",
         f"distances: {len(plan.pairs)} pairs of ball centres, {lengths.min():.1f} to {lengths.max():.1f} mm "
