@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 from conftest import kossel_printer_cfg
 from numpy.testing import assert_allclose
 
@@ -66,18 +67,6 @@ def test_klipper_probe_program_probes_each_point_in_order():
     assert all(line.startswith(f"G1 Z{PROBE_CLEARANCE:.3f} ") for line in after)
     with pytest.raises(ValueError, match="clearance"):
         KLIPPER.probe_program(grid, clearance=0.0)
-
-
-def test_plan_writes_the_probe_program_of_probe_csv(tmp_path, capsys):
-    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
-    out = tmp_path / "plan"
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(out),
-                 "--distances", "12"]) == 0
-    assert "probe.gcode" in capsys.readouterr().out
-    probe = read_probe_heights(out / "probe.csv", filled=False)
-    probed = probed_points((out / "probe.gcode").read_text())
-    assert len(probed) == len(probe.commanded) == 49
-    assert_allclose(probed[:, :2], probe.commanded[:, :2], rtol=0, atol=5e-4)
 
 
 # ------------------------------------------------------------------ the labelled object
@@ -179,3 +168,51 @@ def test_labels_that_contradict_the_positions_are_refused(tmp_path, text, messag
     path.write_text(text)
     with pytest.raises(InputError, match=message):
         read_printed_distances(path)
+
+
+# ------------------------------------------------------------------ the sheet
+LABEL_TEXT = re.compile(r'<text class="label" data-ball="(\d+)" x="(-?[\d.]+)" y="(-?[\d.]+)"[^>]*>'
+                        r'([^<]+)</text>')
+BALL = re.compile(r'<circle class="ball" data-ball="(\d+)" cx="(-?[\d.]+)" cy="(-?[\d.]+)"')
+PAIR_ROW = re.compile(r'<tr class="pair"><td>(\d+)</td><td>([^<]+)</td><td>([^<]+)</td><td>([\d.]+)</td>')
+
+
+@pytest.mark.slow
+def test_plan_writes_the_probe_program_and_the_sheet_of_its_files(tmp_path, capsys):
+    """probe.gcode probes probe.csv's points; sheet.html shows the labels where object.stl has them and
+    lists the pairs of distances.csv."""
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    out = tmp_path / "plan"
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "probe.gcode" in printed and "sheet.html" in printed
+    probe = read_probe_heights(out / "probe.csv", filled=False)
+    probed = probed_points((out / "probe.gcode").read_text())
+    assert len(probed) == len(probe.commanded) == 49
+    assert_allclose(probed[:, :2], probe.commanded[:, :2], rtol=0, atol=5e-4)
+    page = (out / "sheet.html").read_text()
+    assert "<script" not in page and not re.search(r'(src|href)="', page)  # self-contained, nothing fetched
+    assert re.findall(r"https?://[^\"]+", page) == ["http://www.w3.org/2000/svg"]
+    balls = {int(k): np.array([float(x), -float(y)]) for k, x, y in BALL.findall(page)}
+    labels = [(int(k), np.array([float(x), -float(y)]), name) for k, x, y, name in LABEL_TEXT.findall(page)]
+    # the STL's tiles: every part no higher than a tile, centred where the sheet writes its name
+    mesh = trimesh.load(out / "object.stl", force="mesh")
+    tiles = [part for part in mesh.split(only_watertight=False)
+             if part.bounds[1, 2] <= TILE_THICKNESS + RELIEF + 1e-5]
+    assert np.all(edge_uses(mesh) == 2)  # the STL as written: closed
+    assert len(tiles) == len(labels) == len(balls)
+    tile_centres = np.array([0.5 * (t.bounds[0, :2] + t.bounds[1, :2]) for t in tiles])
+    for ball, centre, _ in labels:
+        assert np.min(np.linalg.norm(tile_centres - centre, axis=1)) < 1e-3  # float32 STL
+        nearest = min(balls, key=lambda k: np.linalg.norm(balls[k] - centre))
+        assert nearest == ball
+    # the table: the pairs of distances.csv, in its order, with the same labels and positions
+    read = read_printed_distances(out / "distances.csv", filled=False)
+    rows = PAIR_ROW.findall(page)
+    assert [int(r[0]) for r in rows] == list(range(1, len(read.pairs) + 1))
+    assert [(r[1], r[2]) for r in rows] == read.balls
+    names = {name: balls[ball] for ball, _, name in labels}
+    for (_, one, two, nominal), pair in zip(rows, read.pairs, strict=True):
+        assert_allclose(names[one], pair[:2], atol=1e-3)
+        assert_allclose(names[two], pair[3:5], atol=1e-3)
+        assert abs(float(nominal) - np.linalg.norm(pair[:3] - pair[3:])) <= 0.005

@@ -2,9 +2,10 @@
 
 Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe
 grid, ``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its
-results on the console) and ``DIR/distances.csv`` (the pairs of features to measure,
-``distance_mm`` to fill in), and prints what was planned: what the probe heights alone identify of
-the complete model and what the object's distances add.
+results on the console), ``DIR/distances.csv`` (the pairs of features to measure, the labels of
+their balls, ``distance_mm`` to fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view
+with the labels and the pairs in the order of distances.csv), and prints what was planned: what
+the probe heights alone identify of the complete model and what the object's distances add.
 """
 
 from __future__ import annotations
@@ -20,11 +21,12 @@ from ..printer.measurement_files import write_printed_distances, write_probe_hei
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.plan import ObjectPlan, plan_object
 from ..printer.robot import NominalLinearDelta
+from ..printer.sheet import sheet_html
 from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.
-OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv", "probe.gcode")
+OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv", "probe.gcode", "sheet.html")
 #: Largest probe grid: 9 across the bed, whose round mesh keeps 49 points (the budget: at most 49 heights).
 MAX_PROBE_GRID = 9
 
@@ -51,7 +53,7 @@ def add_object_arguments(p: argparse.ArgumentParser) -> None:
     """The ``--object`` options of ``plan``."""
     p.add_argument("--object", action="store_true",
                    help="a linear Delta printer: plan the probe grid and the object to print and measure "
-                        "(-o DIR gets object.stl, probe.csv and distances.csv)")
+                        "(-o DIR gets object.stl, probe.csv, probe.gcode, distances.csv and sheet.html)")
     p.add_argument("--controller", metavar="printer.cfg",
                    help="--object: the firmware's configuration (Klipper) the probing and the print are "
                         "commanded with")
@@ -99,9 +101,12 @@ def run_object(args: argparse.Namespace) -> int:
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
     atomic_write_text(outputs[3], KLIPPER.probe_program(
         plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
+    assert printer.workspace is not None  # plan_object refused a printer without one
+    atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
+                                             "object's distances", printer.tower_azimuth))
     print(_report(plan, printer, mesh, caliper))
-    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes them) "
-          f"and {outputs[2]} ({len(plan.pairs)} distances)")
+    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes them), "
+          f"{outputs[2]} ({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")
     return 0
 
 
