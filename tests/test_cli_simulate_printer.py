@@ -51,8 +51,10 @@ def test_plan_simulate_identify(planned, tmp_path, capsys):
     template = read_probe_heights(planned / "plan" / "probe.csv", filled=False)
     filled = read_probe_heights(probe)
     np.testing.assert_array_equal(filled.commanded[:, :2], template.commanded[:, :2])
-    pairs = read_printed_distances(planned / "plan" / "distances.csv", filled=False).pairs
-    np.testing.assert_array_equal(read_printed_distances(distances).pairs, pairs)
+    planned_pairs = read_printed_distances(planned / "plan" / "distances.csv", filled=False)
+    simulated = read_printed_distances(distances)
+    np.testing.assert_array_equal(simulated.pairs, planned_pairs.pairs)
+    assert simulated.balls == planned_pairs.balls and len(simulated.balls) == len(simulated.pairs)
     out = tmp_path / "cal.toml"
     assert main(["identify", str(KOSSEL), str(probe), str(distances), "--controller",
                  str(planned / "printer.cfg"), "-o", str(out)]) == 0

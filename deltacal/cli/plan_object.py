@@ -1,9 +1,11 @@
 """``deltacal plan PRINTER.toml --object --controller printer.cfg -o DIR``: the printed calibration object.
 
 Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe
-grid, ``z_mm`` to fill in) and ``DIR/distances.csv`` (the pairs of features to measure,
-``distance_mm`` to fill in), and prints what was planned: what the probe heights alone identify of
-the complete model and what the object's distances add.
+grid, ``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its
+results on the console), ``DIR/distances.csv`` (the pairs of features to measure, the labels of
+their balls, ``distance_mm`` to fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view
+with the labels and the pairs in the order of distances.csv), and prints what was planned: what
+the probe heights alone identify of the complete model and what the object's distances add.
 """
 
 from __future__ import annotations
@@ -13,16 +15,18 @@ from pathlib import Path
 
 from ..exceptions import UsageError
 from ..io import write_stl
+from ..io.atomic import atomic_write_text
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import write_printed_distances, write_probe_heights
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.plan import ObjectPlan, plan_object
 from ..printer.robot import NominalLinearDelta
+from ..printer.sheet import sheet_html
 from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, positive_float
 
 #: The files ``plan --object`` writes in its folder.
-OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv")
+OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv", "probe.gcode", "sheet.html")
 #: Largest probe grid: 9 across the bed, whose round mesh keeps 49 points (the budget: at most 49 heights).
 MAX_PROBE_GRID = 9
 
@@ -49,7 +53,7 @@ def add_object_arguments(p: argparse.ArgumentParser) -> None:
     """The ``--object`` options of ``plan``."""
     p.add_argument("--object", action="store_true",
                    help="a linear Delta printer: plan the probe grid and the object to print and measure "
-                        "(-o DIR gets object.stl, probe.csv and distances.csv)")
+                        "(-o DIR gets object.stl, probe.csv, probe.gcode, distances.csv and sheet.html)")
     p.add_argument("--controller", metavar="printer.cfg",
                    help="--object: the firmware's configuration (Klipper) the probing and the print are "
                         "commanded with")
@@ -70,7 +74,7 @@ def refuse_object_options(args: argparse.Namespace) -> None:
 
 
 def run_object(args: argparse.Namespace) -> int:
-    """Run ``deltacal plan --object``: write the three files, print what was planned, return 0."""
+    """Run ``deltacal plan --object``: write the files, print what was planned, return 0."""
     given = [name for name in POSE_OPTIONS if getattr(args, name) is not None]
     if given:
         raise UsageError(f"--{given[0].replace('_', '-')} applies to pose planning, not to --object")
@@ -87,22 +91,29 @@ def run_object(args: argparse.Namespace) -> int:
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
-    mesh = plan.mesh()
+    mesh = plan.labelled_mesh()
     if not folder.exists():
         folder.mkdir()
     write_stl(outputs[0], mesh)
     write_probe_heights(outputs[1], plan.probe)
-    write_printed_distances(outputs[2], plan.pair_positions)
+    names = plan.names
+    write_printed_distances(outputs[2], plan.pair_positions,
+                            balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
+    atomic_write_text(outputs[3], KLIPPER.probe_program(
+        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
+    assert printer.workspace is not None  # plan_object refused a printer without one
+    atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
+                                             "object's distances", printer.tower_azimuth))
     print(_report(plan, printer, mesh, caliper))
-    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points) and {outputs[2]} "
-          f"({len(plan.pairs)} distances)")
+    print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes them), "
+          f"{outputs[2]} ({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")
     return 0
 
 
 def _outputs(folder: Path, inputs: tuple[str, ...]) -> list[Path]:
-    """The three output paths in ``folder``, checked (the folder is made later if its parent exists)."""
+    """The output paths in ``folder``, checked (the folder is made later if its parent exists)."""
     if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: --object writes three files in a folder; this is a file")
+        raise UsageError(f"{folder}: --object writes {len(OBJECT_FILES)} files in a folder; this is a file")
     outputs = [folder / name for name in OBJECT_FILES]
     if folder.exists():
         for path in outputs:
@@ -119,10 +130,13 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float)
     heights = sorted({float(z) for z in plan.features[:, 2]})
     lengths = plan.lengths
     lines = [
-        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); probe each and "
-        "write the commanded z at which the probe triggered in probe.csv",
+        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); run probe.gcode "
+        "(G28, then PROBE at each) and read its console back, or write the commanded z at which the probe "
+        "triggered in probe.csv",
         f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
-        f"{', '.join(f'{z:g}' for z in heights)} mm; {len(mesh.faces)} facets, "
+        f"{', '.join(f'{z:g}' for z in heights)} mm, each labelled 1 to {len(plan.features)} on a tile "
+        "beside it; "
+        f"{len(mesh.faces)} facets, "
         f"height {mesh.bounds[1, 2]:g} mm; print object.stl where it stands (printer coordinates, origin at "
         "the bed's centre: the slicer must not move it)",
         f"distances: {len(plan.pairs)} pairs of ball centres, {lengths.min():.1f} to {lengths.max():.1f} mm "

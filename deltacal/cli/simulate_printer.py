@@ -113,10 +113,10 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     with _rows_named(probe_file, template.lines, xy, robot):
         probe = probe_heights(truth, firmware, step, xy, noise, rng, offset, trigger_height=template.heights)
     _check_travel(firmware, step, probe, probe_file, template.lines)
-    pairs, measured = None, None
+    pairs, measured, balls = None, None, None
     if distance_file is not None:
         printed = read_printed_distances(distance_file, filled=False)
-        pairs = printed.pairs
+        pairs, balls = printed.pairs, printed.balls or None
         noise = SIGMA_DISTANCE if args.sigma_distance is None else args.sigma_distance
         _check_travel(firmware, step, pairs, distance_file, printed.lines)
         with _rows_named(distance_file, printed.lines, pairs, robot):
@@ -126,7 +126,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     write_probe_heights(args.output, probe[:, :2], probe[:, 2],
                         trigger_height=template.trigger_height if template.trigger_height.size else None)
     if pairs is not None and measured is not None:
-        write_printed_distances(args.distances_output, pairs, measured)
+        write_printed_distances(args.distances_output, pairs, measured, balls)  # the template's labels kept
     _report(args, len(probe), None if measured is None else len(measured))
     return 0
 

@@ -5,7 +5,9 @@
   nozzle plus ``--probe-offset``) above the bed when it triggered (a probe's ``z_offset``; an
   empty cell or no column: 0);
 * distances: ``x1_mm,y1_mm,z1_mm,x2_mm,y2_mm,z2_mm,distance_mm``, the distance measured between two
-  features of a printed object, printed at those commanded positions.
+  features of a printed object, printed at those commanded positions; optional ``ball1,ball2``, the
+  labels printed beside the two balls (``plan --object`` writes them before ``distance_mm``), read
+  back and checked: two different balls on a row, one label for one position throughout the file.
 
 ``plan --object`` writes both as templates, the measured column (``z_mm``, ``distance_mm``) empty
 for the user to fill in; a file read with that column still empty is refused, naming its first
@@ -22,7 +24,7 @@ import numpy as np
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_write_text
-from ..io.tables import TARGET_COLUMNS, _format_rows, data_row, read_csv_table
+from ..io.tables import TARGET_COLUMNS, _format_rows, _quoted, data_row, read_csv_table
 
 #: The columns of a probe heights file; the last is the one measured.
 PROBE_COLUMNS = TARGET_COLUMNS
@@ -31,6 +33,8 @@ TRIGGER_COLUMN = "trigger_height_mm"
 #: The columns of a distances file; the last is the one measured.
 PAIR_COLUMNS = ["x1_mm", "y1_mm", "z1_mm", "x2_mm", "y2_mm", "z2_mm"]
 DISTANCE_COLUMNS = [*PAIR_COLUMNS, "distance_mm"]
+#: The optional columns of a distances file: the labels of the pair's balls on the printed object.
+BALL_COLUMNS = ["ball1", "ball2"]
 
 
 @dataclass(frozen=True)
@@ -64,18 +68,20 @@ class PrintedDistances:
         pairs: Commanded positions of each pair's features ``x1, y1, z1, x2, y2, z2`` [mm], (M, 6).
         distance: The measured distances [mm], (M,).
         lines: The line of each row in the file it was read from (empty when not read), (M,).
+        balls: The labels of each pair's balls (``ball1``, ``ball2``), empty when the file has none.
     """
 
     pairs: np.ndarray
     distance: np.ndarray
     lines: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    balls: list[tuple[str, str]] = field(default_factory=list)
 
 
 def _read(path: str | Path, given: list[str], measured: str, what: str, filled: bool = True,
-          optional: tuple[str, ...] = ()):
+          optional: tuple[str, ...] = (), texts: tuple[str, ...] = ()):
     """The table of a printer's file, its measured column filled in on every row (``filled``)."""
     source = str(path)
-    table = read_csv_table(path, given, [measured, *optional])
+    table = read_csv_table(path, given, [measured, *optional, *texts], text_columns=texts)
     if not filled:
         if measured not in table.numbers:
             table.numbers[measured] = np.full(len(table.lines), np.nan)
@@ -112,16 +118,21 @@ def read_probe_heights(path: str | Path, filled: bool = True) -> ProbeHeights:
 def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDistances:
     """Read a distances CSV (``x1_mm..z2_mm,distance_mm``, every distance filled in and positive).
 
+    The optional ``ball1,ball2`` columns (the balls' labels) go together and are checked
+    (:func:`_check_balls`).
+
     Args:
         path: The file.
         filled: False: a template (``distance_mm`` absent or empty on some rows: NaN there).
 
     Raises:
         InputError: naming the file, line, row, column and value of the first bad cell; a pair whose
-            two features are at the same commanded position; a distance not above zero.
+            two features are at the same commanded position; a distance not above zero; labels
+            that contradict the positions.
     """
     source = str(path)
-    table = _read(path, PAIR_COLUMNS, "distance_mm", "distance measured between the features", filled)
+    table = _read(path, PAIR_COLUMNS, "distance_mm", "distance measured between the features", filled,
+                  texts=tuple(BALL_COLUMNS))
     pairs = np.column_stack([table.numbers[c] for c in PAIR_COLUMNS])
     distance = table.numbers["distance_mm"]
     lines = np.asarray(table.lines)
@@ -135,7 +146,44 @@ def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDist
         k = int(same[0])
         raise InputError(f"both features of the pair are at {pairs[k, :3].tolist()} mm: a distance needs two "
                          "places", source, f"{data_row(lines[k], k + 1)}, columns x1_mm..z2_mm")
-    return PrintedDistances(pairs, distance, lines)
+    balls = _check_balls(table.text, pairs, lines, source)
+    return PrintedDistances(pairs, distance, lines, balls)
+
+
+def _check_balls(text: dict[str, list[str]], pairs: np.ndarray, lines: np.ndarray,
+                 source: str) -> list[tuple[str, str]]:
+    """The labels of each pair's balls, checked against the positions; empty without the columns.
+
+    Both columns or neither; each row names two balls, different; a label always at the same
+    commanded position and a position always under the same label.
+
+    Raises:
+        InputError: naming the row and column of the first label that contradicts the file.
+    """
+    present = [c for c in BALL_COLUMNS if c in text]
+    if not present:
+        return []
+    if len(present) == 1:
+        absent = next(c for c in BALL_COLUMNS if c not in text)
+        raise InputError(f"columns ball1, ball2 go together; missing {absent}", source, "line 1")
+    at: dict[str, tuple[float, ...]] = {}
+    named: dict[tuple[float, ...], str] = {}
+    balls = list(zip(text["ball1"], text["ball2"], strict=True))
+    for k, pair in enumerate(balls):
+        row = data_row(lines[k], k + 1)
+        for end, label in enumerate(pair):
+            column = BALL_COLUMNS[end]
+            position = tuple(float(v) for v in pairs[k, 3 * end:3 * end + 3])
+            if not label:
+                raise InputError("empty ball label (ball1 and ball2 name the pair's balls)", source,
+                                 f"{row}, column {column}")
+            if at.setdefault(label, position) != position:
+                raise InputError(f"ball {label} is at {list(at[label])} mm on an earlier row and at "
+                                 f"{list(position)} mm here", source, f"{row}, column {column}")
+            if named.setdefault(position, label) != label:
+                raise InputError(f"the ball at {list(position)} mm is {named[position]} on an earlier row "
+                                 f"and {label} here", source, f"{row}, column {column}")
+    return balls
 
 
 def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.ndarray | None = None,
@@ -158,14 +206,25 @@ def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.nda
     return atomic_write_text(path, _format_rows(columns, header))
 
 
-def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.ndarray | None = None) -> Path:
+def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.ndarray | None = None,
+                            balls: list[tuple[str, str]] | None = None) -> Path:
     """Write printed distances atomically; without ``distance`` a template (``distance_mm`` empty).
 
     Args:
         path: The file.
         pairs: Commanded positions of each pair's features [mm], (M, 6).
         distance: The measured distances [mm], (M,); None: the column left to fill in.
+        balls: The labels of each pair's balls, written as ``ball1,ball2`` before ``distance_mm``;
+            None: no such columns.
     """
     pairs = np.atleast_2d(np.asarray(pairs, dtype=float)).reshape(-1, 6)
     d = np.full(len(pairs), np.nan) if distance is None else np.asarray(distance, dtype=float).reshape(-1)
-    return atomic_write_text(path, _format_rows([*pairs.T, d], DISTANCE_COLUMNS))
+    if balls is None:
+        return atomic_write_text(path, _format_rows([*pairs.T, d], DISTANCE_COLUMNS))
+    if len(balls) != len(pairs):
+        raise ValueError(f"{len(balls)} pairs of labels for {len(pairs)} pairs")
+    lines = [",".join([*PAIR_COLUMNS, *BALL_COLUMNS, "distance_mm"])]
+    for row, (one, two), value in zip(pairs, balls, d, strict=True):
+        fields = [repr(float(v)) for v in row] + [_quoted(one), _quoted(two)]
+        lines.append(",".join([*fields, "" if np.isnan(value) else repr(float(value))]))
+    return atomic_write_text(path, "\n".join(lines) + "\n")

@@ -19,7 +19,7 @@ Units: mm and rad.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -29,6 +29,7 @@ from ..geometry import Tolerances
 from ..identifiability import BaseParameters
 from .firmware.klipper.model import KlipperDelta
 from .identification import PrinterMeasurements, measured_combinations, residuals_and_regressor
+from .labels import BallLabel, labels_mesh, place_labels
 from .object import (
     CALIPER_RANGE,
     MAX_DISTANCES,
@@ -59,6 +60,7 @@ class ObjectPlan:
         log_det_probe: The same for the probe heights alone.
         probe_only: What the probe heights alone identify (``None`` with model-free rows).
         with_distances: What the probe heights and the distances identify (``None`` likewise).
+        labels: Each feature's label, in the order of ``features`` (:mod:`.labels`).
     """
 
     probe: np.ndarray
@@ -68,6 +70,12 @@ class ObjectPlan:
     log_det_probe: float
     probe_only: BaseParameters | None = None
     with_distances: BaseParameters | None = None
+    labels: tuple[BallLabel, ...] = ()
+
+    @property
+    def names(self) -> list[str]:
+        """The name printed beside each feature, in the order of ``features``."""
+        return [label.name for label in self.labels]
 
     @property
     def pair_positions(self) -> np.ndarray:
@@ -80,8 +88,16 @@ class ObjectPlan:
         return np.linalg.norm(self.features[self.pairs[:, 0]] - self.features[self.pairs[:, 1]], axis=1)
 
     def mesh(self):
-        """The object to print (a ``trimesh.Trimesh``, mm, in the printer's coordinates)."""
+        """The features: balls on their posts (a ``trimesh.Trimesh``, mm, in the printer's coordinates)."""
         return object_mesh(self.features)
+
+    def labelled_mesh(self):
+        """The object to print: the features and their labels' tiles, none touching another [mm]."""
+        import trimesh
+
+        if not self.labels:
+            return self.mesh()
+        return trimesh.util.concatenate([self.mesh(), labels_mesh(self.labels)])
 
     def added_names(self) -> list[str]:
         """Parameters the distances add to what the probe heights identify (their base parameters)."""
@@ -200,7 +216,8 @@ def plan_object(
         rows: The rows of the selection (default: the complete model, :func:`model_rows`).
 
     Raises:
-        PlanningError: no workspace, too many distances, a feature out of the firmware's reach.
+        PlanningError: no workspace, too many distances, a feature out of the firmware's reach, no
+            room for a label.
     """
     if printer.workspace is None:
         raise PlanningError("the printer's robot file has no [workspace]: the printable cylinder is needed")
@@ -224,8 +241,10 @@ def plan_object(
     rows_chosen = pair_rows[chosen]
     log_det_probe = float(np.linalg.slogdet(information)[1])
     log_det = float(np.linalg.slogdet(information + rows_chosen.T @ rows_chosen)[1])
-    plan = ObjectPlan(probe=probe, features=centres[used], pairs=index[pairs[chosen]], log_det=log_det,
-                      log_det_probe=log_det_probe)
+    features = centres[used]
+    plan = ObjectPlan(probe=probe, features=features, pairs=index[pairs[chosen]], log_det=log_det,
+                      log_det_probe=log_det_probe,
+                      labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius))
     if complete:
         plan = _with_identifiability(plan, printer, firmware)
     return plan
@@ -240,4 +259,4 @@ def _with_identifiability(plan: ObjectPlan, printer: NominalLinearDelta,
     ends = firmware.inverse(plan.pair_positions.reshape(-1, 3), step).reshape(-1, 2, 3)
     alone = measured_combinations(geometry, PrinterMeasurements(probe))
     both = measured_combinations(geometry, PrinterMeasurements(probe, ends, plan.lengths))
-    return ObjectPlan(plan.probe, plan.features, plan.pairs, plan.log_det, plan.log_det_probe, alone, both)
+    return replace(plan, probe_only=alone, with_distances=both)

@@ -10,6 +10,7 @@ subpackage has the same parts:
   firmware as a controller of the printer's readings;
 * ``fit``: the values that fit an identified printer best over the printable volume;
 * ``calibrate``: its own calibration, emulated from its algorithm, for the comparison;
+* ``probing``: its program that probes the bed at given points, its results on the console;
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
 Klipper (:mod:`.klipper`) is the first. :func:`firmwares` lists them; :func:`config_firmware`

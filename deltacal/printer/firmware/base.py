@@ -13,7 +13,9 @@ firmware gives through one :class:`Firmware`:
   :class:`~deltacal.controller.targets.CommandModel`: what corrected targets and G-code go
   through), also from its configuration file (:meth:`Firmware.load_controller`);
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
-* the values that fit an identified geometry best (:meth:`Firmware.fit`).
+* the values that fit an identified geometry best (:meth:`Firmware.fit`);
+* a program in its own dialect that probes the bed at given points and says each result on its
+  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights.
 
 deltacal's readings of a printer are the carriages' travels below the endstops counted in the
 printer's nominal step distance: reading = steps × that step distance. Units: mm, the models'
@@ -35,6 +37,10 @@ from ...io.atomic import atomic_write_text
 
 if TYPE_CHECKING:
     from ..robot import NominalLinearDelta
+
+#: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
+#: ``horizontal_move_z`` default).
+PROBE_CLEARANCE = 5.0
 
 
 class FirmwareModel(Protocol):
@@ -141,6 +147,20 @@ class Firmware(ABC, Generic[ModelT]):
             workspace: The printable cylinder.
             hold_step_distance: Keep the start's step distances.
             first_layer_weight: Weight of the first layer's height errors (0: the volume alone).
+        """
+
+    @abstractmethod
+    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+        """A program that homes, then probes the bed at each point in order, each result on the console.
+
+        The nozzle is moved above each point at ``clearance`` and the firmware's probing command
+        run there; between points it rises back to ``clearance``. The points' x, y are written as
+        the firmware echoes them (to the micrometre), so that its log names the same points.
+
+        Args:
+            points: The commanded nozzle positions to probe [mm], (N, 2) or (N, 3) (z ignored).
+            title: A first comment line (what the points are).
+            clearance: The nozzle's height above the bed while it moves between points [mm].
         """
 
     def save_config(self, path: str | Path, model: ModelT, source: str | Path | None = None, title: str = "",

@@ -1,7 +1,8 @@
 """Klipper behind the firmware interface (:class:`~..base.Firmware`): a thin layer over its modules.
 
 Each method delegates: the configuration to :mod:`.config`, the model and the controller to
-:mod:`.model`, the fit to :mod:`.fit`. :data:`KLIPPER` is the one instance. Units: mm, angles in rad.
+:mod:`.model`, the fit to :mod:`.fit`, the probe program to :mod:`.probing`. :data:`KLIPPER` is the one
+instance. Units: mm, angles in rad.
 """
 
 from __future__ import annotations
@@ -13,10 +14,11 @@ import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import Firmware
+from ..base import PROBE_CLEARANCE, Firmware
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper
 from .fit import KlipperFit, fit_klipper
 from .model import KlipperController, KlipperDelta
+from .probing import klipper_probe_program
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
@@ -62,6 +64,10 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            first_layer_weight=first_layer_weight)
+
+    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+        """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
+        return klipper_probe_program(points, title, clearance)
 
 
 #: Klipper, the firmware.
