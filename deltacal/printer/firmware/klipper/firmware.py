@@ -9,10 +9,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
+import numpy as np
+
+from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ..base import Firmware
-from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper
+from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
+from .macros import read_macros
 from .model import KlipperController, KlipperDelta
 
 if TYPE_CHECKING:
@@ -55,6 +59,18 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            first_layer_weight=first_layer_weight)
+
+    def dialect(self, path: str | Path) -> Dialect:
+        """Klipper's reading of G-code with ``printer.cfg``.
+
+        G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
+        increment when either holds); a ``P`` on an arc is never read (``gcode_arcs.py``); G28
+        leaves every carriage at its endstop; the macros are ``printer.cfg``'s
+        (:func:`~.macros.read_macros`).
+        """
+        home = load_klipper(path).positions(np.zeros((1, 3)))[0]
+        return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
+                       macros=read_macros(read_klipper_config(path)))
 
 
 #: Klipper, the firmware.
