@@ -38,7 +38,7 @@ MOVING_COMMANDS = frozenset((
     "G2", "G3", "G29", "G30", "G38.2", "G38.3", "G38.4", "G38.5", "PROBE", "PROBE_ACCURACY",
     "PROBE_CALIBRATE", "BED_MESH_CALIBRATE", "DELTA_CALIBRATE", "DELTA_ANALYZE", "Z_TILT_ADJUST",
     "QUAD_GANTRY_LEVEL", "SCREWS_TILT_CALCULATE", "BED_TILT_CALIBRATE", "MANUAL_PROBE",
-    "Z_ENDSTOP_CALIBRATE", "SET_KINEMATIC_POSITION", "FORCE_MOVE", "RESUME", "SET_GCODE_OFFSET",
+    "Z_ENDSTOP_CALIBRATE", "SET_KINEMATIC_POSITION", "FORCE_MOVE", "RESUME",
 ))
 #: A placeholder for the value of a Jinja expression.
 _EXPRESSION = "\x00"
@@ -113,7 +113,7 @@ class _MacroReader:
             return
         parts = _PARTS.split(text)
         cmd = "".join(parts[:3]).strip()
-        params = {parts[i]: parts[i + 1].strip() for i in range(3, len(parts) - 1, 2)}
+        params = {parts[i]: parts[i + 1].strip().lstrip("=").strip() for i in range(3, len(parts) - 1, 2)}
         if _EXPRESSION in cmd or not cmd:
             reading.unknowable(f"a Jinja expression gives the command {line.text.strip()!r}")
             return
@@ -131,7 +131,7 @@ class _MacroReader:
                 reading.unknowable("RESTORE_GCODE_STATE under a Jinja condition")
             move = {"MOVE": 1.0} if params.get("MOVE", "0") not in ("0", "") else {}
             reading.steps.append((MacroStep.RESTORE, move, params.get("NAME", "default")))
-        elif cmd in MOVING_COMMANDS:
+        elif cmd in MOVING_COMMANDS or cmd == "SET_GCODE_OFFSET" and params.get("MOVE", "0") not in ("0", ""):
             reading.unknowable(f"{cmd} leaves the nozzle where only the printer knows")
 
     def nested(self, cmd: str, line: _Line, reading: _Reading, calling: tuple[str, ...]) -> None:
