@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -25,6 +26,7 @@ from ..compensation import METHODS, screen
 from ..controller import CommandModel
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
+from ..gcode.dialect import Dialect
 from ..io import (
     CommandsWriter,
     JointsWriter,
@@ -33,6 +35,7 @@ from ..io import (
     lines_text,
     load_calibration,
 )
+from ..printer.firmware import config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
@@ -133,12 +136,24 @@ def _program(args: argparse.Namespace) -> int:
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
     segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
+    dialect = _dialect(args.controller)
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
-                     lambda fraction, _: progress.update(fraction, "program"), home=controller.home)
+                     lambda fraction, _: progress.update(fraction, "program"), home=controller.home,
+                     dialect=dialect)
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
           f"(moves split every {segment:g} mm at most)")
     return 0
+
+
+def _dialect(path: str) -> Dialect | None:
+    """The controller's reading of G-code: its firmware's (a printer's configuration), or None (generic)."""
+    firmware = config_firmware(path)
+    if firmware is None:
+        return None
+    with warnings.catch_warnings():  # the configuration's warnings were said when it was read
+        warnings.simplefilter("ignore")
+        return firmware.dialect(path)
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:

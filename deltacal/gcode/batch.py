@@ -20,6 +20,7 @@ from itertools import chain
 import numpy as np
 
 from ..exceptions import AssemblyError, InputError, UnreachableError
+from .homing import blend_from_home
 from .moves import MoveText, SingleMove
 
 #: Points corrected at once (one call of ``correct``).
@@ -78,6 +79,7 @@ class Batch:
         self.items: list[str | _Single | _Segments | _Start] = []
         self.points: list = []
         self.relative = False
+        self.home: tuple[int, int, tuple] | None = None  # rows of a move from the home, and the home
 
     def full(self) -> bool:
         """Whether the batch should be flushed now."""
@@ -91,6 +93,13 @@ class Batch:
         """The position where the program starts: corrected, not written (G91 increments start there)."""
         self.points.append(tuple(point))
         self.items.append(_Start())
+
+    def home_move(self, home, end: bool = False) -> None:
+        """The rows of a move from the controller's home begin (or, ``end``, end) here."""
+        if not end:
+            self.home = (len(self.points), -1, tuple(home))
+        elif self.home is not None:
+            self.home = (self.home[0], len(self.points), self.home[2])
 
     def single(self, move: SingleMove, number: int) -> None:
         """The move of line ``number``, sent whole (``filter_lines`` does this inline)."""
@@ -138,10 +147,13 @@ class Batch:
         self.items.clear()
         self.points.clear()
         self.relative = False
+        self.home = None
         return "".join(out)
 
     def _corrected(self, points: np.ndarray) -> np.ndarray:
         """``correct(points)``, its refusals named by the lines of the points."""
+        if self.home is not None:
+            return self._corrected_from_home(points)
         try:
             sent = np.asarray(self.correct(points), dtype=float)
         except (UnreachableError, AssemblyError) as exc:
@@ -151,6 +163,33 @@ class Batch:
         bad = ~np.all(np.isfinite(sent), axis=1)
         if np.any(bad):
             raise self._refusal(points, list(np.flatnonzero(bad)), "not corrected (a non-finite target)")
+        return sent
+
+    def _corrected_from_home(self, points: np.ndarray) -> np.ndarray:
+        """:meth:`_corrected` of a batch with a move from the home (:mod:`.homing`)."""
+        assert self.home is not None
+        r0, r1, home = self.home
+        r1 = len(points) if r1 < 0 else r1
+        rows = np.r_[0:r0, r1:len(points)]
+        sent = np.empty_like(points)
+        try:
+            sent[r0:r1] = blend_from_home(self.correct, points[r0:r1], home)
+        except (UnreachableError, AssemblyError) as exc:
+            raise self._refusal(points, [r0 + int(i) for i in exc.indices], _words(exc)) from None
+        if rows.size:
+            sent[rows] = self._rows(points, rows)
+        return sent
+
+    def _rows(self, points: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``correct`` of some rows of the batch, its refusals named by their lines."""
+        try:
+            sent = np.asarray(self.correct(points[rows]), dtype=float)
+        except (UnreachableError, AssemblyError) as exc:
+            raise self._refusal(points, [int(rows[i]) for i in exc.indices], _words(exc)) from None
+        bad = ~np.all(np.isfinite(sent), axis=1)
+        if np.any(bad):
+            raise self._refusal(points, [int(rows[i]) for i in np.flatnonzero(bad)],
+                                "not corrected (a non-finite target)")
         return sent
 
     def _lines(self) -> list[int]:

@@ -74,6 +74,9 @@ from pathlib import Path
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
 from .batch import CHUNK_LINES, CHUNK_POINTS, XYZ_DECIMALS, Batch, Correct, Progress
+from .dialect import GENERIC, ArcP, Dialect
+from .homing import FromHome
+from .macros import apply_macro
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
@@ -163,7 +166,8 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
-                 start=None, source: str = "G-code", home=None) -> Iterator[str]:
+                 start=None, source: str = "G-code", home=None,
+                 dialect: Dialect | None = None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -174,7 +178,9 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start: TCP position [mm] at the program's start, or None (unknown).
         source: Name of the program in messages.
         home: Where a homing (G28) leaves the TCP [mm] (a printer's firmware: every carriage at
-            its endstop), or None: unknown after it.
+            its endstop), or None: the dialect's (unknown after it, without one).
+        dialect: The controller's reading of G-code (:class:`~deltacal.gcode.dialect.Dialect`:
+            E under G91, arcs' P, homing, macros); default :data:`~deltacal.gcode.dialect.GENERIC`.
 
     Yields:
         The output text, a chunk at a time.
@@ -188,7 +194,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         start = tuple(float(v) for v in start)
         if len(start) != 3 or not all(math.isfinite(v) for v in start):
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
-    reader = _Reader(source, float(segment_mm), start, home)
+    dialect = GENERIC if dialect is None else dialect
+    reader = _Reader(source, float(segment_mm), start, dialect if home is None else dialect.with_home(home))
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source)
     if start is not None:
@@ -203,14 +210,16 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             if plan.relative:
                 batch.relative = True
         elif isinstance(plan, SplitMove):
-            path, text = plan.path, plan.text
-            k0 = 0
-            while k0 < path.n:  # a long move goes out in pieces, never more than a chunk at once
-                k1 = min(path.n, k0 + batch.room())
-                batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
-                k0 = k1
-                if batch.full():
-                    yield batch.flush()
+            yield from _split_out(batch, plan, number)
+        elif isinstance(plan, FromHome):  # the first move after a homing, in a chunk of its own
+            if items:
+                yield batch.flush()
+            batch.home_move(plan.home)
+            if isinstance(plan.plan, SingleMove):
+                batch.single(plan.plan, number)
+            else:
+                yield from _split_out(batch, plan.plan, number)
+            batch.home_move(plan.home, end=True)
         else:  # KEPT
             items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
@@ -218,9 +227,21 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     yield batch.flush()
 
 
+def _split_out(batch: Batch, plan: SplitMove, number: int) -> Iterator[str]:
+    """A split move into the batch: a long move goes out in pieces, never more than a chunk at once."""
+    path, text = plan.path, plan.text
+    k0 = 0
+    while k0 < path.n:
+        k1 = min(path.n, k0 + batch.room())
+        batch.split(path.points(k0, k1), number, text, k0, k1, path.n)
+        k0 = k1
+        if batch.full():
+            yield batch.flush()
+
+
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
-                 progress: Progress | None = None, home=None) -> None:
+                 progress: Progress | None = None, home=None, dialect: Dialect | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -231,6 +252,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         start: TCP position [mm] at the program's start (X, Y, Z), or None.
         progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
         home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
+        dialect: The controller's reading of G-code (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -238,7 +260,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     opened: list = []
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
-    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home)
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, dialect)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
@@ -260,18 +282,21 @@ def _split(line: str) -> tuple[str, str, str]:
 class _Reader:
     """Reads the program line by line: the state, and the plan of each move."""
 
-    def __init__(self, source: str, segment_mm: float, start, home=None) -> None:
+    def __init__(self, source: str, segment_mm: float, start, dialect: Dialect = GENERIC) -> None:
         self.source = source
         self.segment_mm = segment_mm
-        self.state = ModalState(start)
-        self.home = None if home is None else tuple(float(v) for v in home)
+        self.state = ModalState(start, dialect.g91_moves_e)
+        self.start = start
+        self.dialect = dialect
+        self.macros = bool(dialect.macros)
+        self.home = dialect.home
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
     def fail(self, number: int, detail: str) -> InputError:
         """The error for line ``number``."""
         return InputError(detail, self.source, f"line {number}")
 
-    def line(self, number: int, line: str) -> Plan:
+    def line(self, number: int, line: str) -> Plan | FromHome:
         """The plan of a line (:meth:`plain` first reads what it can of the plainest moves)."""
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
@@ -285,6 +310,11 @@ class _Reader:
                 if len(given) == len(words):  # else a word given twice: refused below
                     return self.plan(number, given, "", comment or "", ending or "")
         s = line.lstrip()
+        if self.macros and s and s[0] != ";":
+            effect = self.dialect.macro(s)
+            if effect is not None:  # the controller's macro: where it leaves the nozzle
+                apply_macro(self.state, effect, number, self.home, self.start)
+                return KEPT
         if not s or s[0] not in _READ:
             return KEPT
         m = _M_LINE.match(s)
@@ -314,7 +344,7 @@ class _Reader:
         start = st.pos
         g, f1, x, y, z, e, f2, ending = match.groups()
         if st.relative or start[2] is None or start[0] is None or start[1] is None or \
-                (f1 is not None and f2 is not None):
+                (f1 is not None and f2 is not None) or st.homed:
             return None
         end = (float(x), float(y), start[2] if z is None else float(z))
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
@@ -323,7 +353,7 @@ class _Reader:
         linear = g[-1] == "1"
         st.motion = _LINEAR if linear else _RAPID
         st.pos = end
-        st.homed = 0
+        st.fresh = False
         if ending:
             self.newline = ending
         f = f1 if f2 is None else f2
@@ -352,7 +382,7 @@ class _Reader:
             words.append(("*", code[checksum:].strip()))
         return words
 
-    def dispatch(self, number: int, words, code: str, comment: str, ending: str) -> Plan:
+    def dispatch(self, number: int, words, code: str, comment: str, ending: str) -> Plan | FromHome:
         """Update the state from a line's words; the plan of its move, if it has one."""
         st = self.state
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
@@ -363,14 +393,15 @@ class _Reader:
         if any(g in _HOMING for g in gs):
             if self.home is not None and all(g == 28.0 for g in gs if g in _HOMING):
                 st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
+                st.homed_by, st.at_home = "the homing", True
             else:
-                st.pos, st.unknown_since = (None, None, None), number
+                st.pos, st.unknown_since, st.unknown_why = (None, None, None), number, ""
             return KEPT
         if not gs and not any(w[0] in "XYZIJRE" for w in words):
             return KEPT  # a numbered line without motion, F alone ...
         return self.g_line(number, gs, words, comment, ending)
 
-    def g_line(self, number: int, gs: list[float], words, comment: str, ending: str) -> Plan:
+    def g_line(self, number: int, gs: list[float], words, comment: str, ending: str) -> Plan | FromHome:
         """A line of G words and axis words: modes, G92, a move, or a line to keep."""
         st = self.state
         axes = {w[0] for w in words} & set("XYZ")
@@ -427,7 +458,7 @@ class _Reader:
         self.state.e_pos = self.number(number, "E", given["E"])
         return KEPT
 
-    def move(self, number: int, words, gs: list[float], comment: str, ending: str) -> Plan:
+    def move(self, number: int, words, gs: list[float], comment: str, ending: str) -> Plan | FromHome:
         """The plan of a G0/G1/G2/G3 line, its words checked."""
         arc = self.state.motion in _ARCS
         allowed = _ARC_WORDS if arc else _MOVE_WORDS
@@ -436,6 +467,9 @@ class _Reader:
             if letter == "*":
                 raise self.fail(number, f"checksum {value!r} on a move line: checksums and line numbers "
                                         "belong to the serial link; remove them from the file")
+            if letter == "P" and arc and self.dialect.arc_p is ArcP.IGNORED:
+                self.number(number, letter, value)
+                continue  # the controller never reads it (Klipper's gcode_arcs.py)
             if letter not in allowed:
                 raise self.fail(number, f"word {letter}{value} on {'an arc' if arc else 'a move'} line "
                                         "is not supported by the filter")
@@ -447,8 +481,21 @@ class _Reader:
                                     *(f"G{g:g}" for g in gs if g in _MODES)) if x)
         return self.plan(number, given, head, comment, ending)
 
-    def plan(self, number: int, given: dict[str, str], head: str, comment: str, ending: str) -> Plan:
-        """The plan of a move whose numbers are checked: kept (no XYZ), sent whole, or split."""
+    def plan(self, number: int, given: dict[str, str], head: str, comment: str,
+             ending: str) -> Plan | FromHome:
+        """The plan of a move whose numbers are checked: kept (no XYZ), sent whole, or split.
+
+        The first move after a homing is a :class:`~deltacal.gcode.homing.FromHome` of its plan.
+        """
+        plan = self.plan_move(number, given, head, comment, ending)
+        st = self.state
+        if st.at_home and plan is not KEPT:
+            st.at_home = False
+            return FromHome(plan, self.home)  # type: ignore[arg-type]
+        return plan
+
+    def plan_move(self, number: int, given: dict[str, str], head: str, comment: str, ending: str) -> Plan:
+        """:meth:`plan`, without the homing."""
         st = self.state
         if ending:
             self.newline = ending
@@ -468,6 +515,7 @@ class _Reader:
             end = st.pos = (start[0] if x is None else float(x), start[1] if y is None else float(y),
                             start[2] if z is None else float(z))
         st.homed = 0
+        st.fresh = False
         if e_text is not None:
             st.extrude(float(e_text), e_mode)
         tail = (f" F{given['F']}" if "F" in given else "") + (f" S{given['S']}" if "S" in given else "")
@@ -499,8 +547,8 @@ class _Reader:
         st = self.state
         pos = st.pos
         if st.relative and st.homed:  # the controller stands at its own home, not at a corrected point
-            raise self.fail(number, f"relative move (G91) right after the homing on line {st.homed}: give an "
-                                    "absolute move (G90) first")
+            raise self.fail(number, f"relative move (G91) right after {st.homed_by} on line {st.homed}: give "
+                                    "an absolute move (G90) first")
         if st.relative:
             end = [None if p is None else p + float(given.get(a, 0.0))
                    for p, a in zip(pos, "XYZ", strict=True)]
@@ -511,9 +559,11 @@ class _Reader:
         if None in end:
             missing = [axis for axis, v in zip("XYZ", end, strict=True) if v is None]
             since = "at the start" if st.unknown_since == 0 else \
-                f"since the homing on line {st.unknown_since}"
+                f"since {st.unknown_why or 'the homing'} on line {st.unknown_since}"
             hint = "give them on the first move, or the start position (--start X,Y,Z)" \
                 if st.unknown_since == 0 else "give X, Y and Z on the first move after it (absolute, G90)"
+            if st.unknown_why and st.fresh:
+                hint += ", or where the macro leaves the nozzle (--start X,Y,Z)"
             raise self.fail(number, f"move before X, Y and Z are all known ({', '.join(missing)} unknown "
                                     f"{since}): {hint}")
         st.pos = tuple(end)

@@ -62,13 +62,21 @@ class ModalState:
         motion: The motion mode, or None before the first G0/G1/G2/G3.
         plane: The plane of arcs.
         unknown_since: Line of the homing that made the position unknown (0: the start).
-        homed: Line of a homing that left the TCP at the controller's home, until a move (0: none).
+        unknown_why: What made it unknown there ("": a homing or probing line; else a macro).
+        homed: Line of a homing (or a macro) that left the controller at a point of its own (its
+            home, a macro's literal move) rather than a corrected one, until a move (0: none).
+        homed_by: What left it there ("the homing", "the macro START_PRINT").
+        at_home: Whether that point is the home (every carriage at its endstop).
+        fresh: Whether no move has been read yet.
+        g91_moves_e: The controller's rule: G91 makes E relative, G90 leaves M83's (Klipper).
+        saved: Modes and positions saved by name (a macro's SAVE_GCODE_STATE).
     """
 
     __slots__ = ("pos", "relative", "m83", "m83_ended", "extrusion", "e_pos", "motion", "plane",
-                 "unknown_since", "homed")
+                 "unknown_since", "unknown_why", "homed", "homed_by", "at_home", "fresh", "g91_moves_e",
+                 "saved")
 
-    def __init__(self, start) -> None:
+    def __init__(self, start, g91_moves_e: bool = False) -> None:
         self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
         self.relative = False
         self.m83 = False
@@ -78,7 +86,13 @@ class ModalState:
         self.motion: Motion | None = None
         self.plane = Plane.XY
         self.unknown_since = 0
+        self.unknown_why = ""
         self.homed = 0
+        self.homed_by = "the homing"
+        self.at_home = False
+        self.fresh = True
+        self.g91_moves_e = g91_moves_e
+        self.saved: dict[str, tuple] = {}
 
     def set_extruder(self, relative: bool) -> None:
         """M83 (``relative``) or M82: the extruder's mode, on a line of its own."""
@@ -94,7 +108,9 @@ class ModalState:
 
     def _update_extrusion(self) -> None:
         """:attr:`extrusion` from the distance and extruder modes."""
-        if self.relative:
+        if self.g91_moves_e:
+            self.extrusion = Extrusion.RELATIVE if self.relative or self.m83 else Extrusion.ABSOLUTE
+        elif self.relative:
             self.extrusion = Extrusion.RELATIVE if self.m83 else Extrusion.AMBIGUOUS
         elif self.m83:
             self.extrusion = Extrusion.AMBIGUOUS if self.m83_ended else Extrusion.RELATIVE

@@ -15,7 +15,9 @@ firmware gives through one :class:`Firmware`:
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
 * the values that fit an identified geometry best (:meth:`Firmware.fit`);
 * a program in its own dialect that probes the bed at given points and says each result on its
-  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights.
+  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights;
+* its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
+  leaves the nozzle, the macros its configuration defines.
 
 deltacal's readings of a printer are the carriages' travels below the endstops counted in the
 printer's nominal step distance: reading = steps × that step distance. Units: mm, the models'
@@ -32,6 +34,7 @@ import numpy as np
 
 from ...controller.targets import CommandModel
 from ...exceptions import InputError
+from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 
@@ -194,3 +197,15 @@ class Firmware(ABC, Generic[ModelT]):
                                  self.step_distance_keys)
             step_distance = float(steps[0])
         return self.controller(model, step_distance)
+
+    def dialect(self, path: str | Path) -> Dialect:
+        """The firmware's reading of G-code with the configuration file ``path``.
+
+        A firmware without rules of its own reads G-code as
+        :data:`~deltacal.gcode.dialect.GENERIC` does (ambiguities refused), with where its
+        homing leaves the nozzle: its model's position with every carriage at its endstop.
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])

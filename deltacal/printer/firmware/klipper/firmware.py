@@ -12,11 +12,13 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
-from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper
+from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
+from .macros import read_macros
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program
 
@@ -68,6 +70,18 @@ class Klipper(Firmware[KlipperDelta]):
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
+
+    def dialect(self, path: str | Path) -> Dialect:
+        """Klipper's reading of G-code with ``printer.cfg``.
+
+        G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
+        increment when either holds); a ``P`` on an arc is never read (``gcode_arcs.py``); G28
+        leaves every carriage at its endstop; the macros are ``printer.cfg``'s
+        (:func:`~.macros.read_macros`).
+        """
+        home = load_klipper(path).positions(np.zeros((1, 3)))[0]
+        return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
+                       macros=read_macros(read_klipper_config(path)))
 
 
 #: Klipper, the firmware.

@@ -1,0 +1,170 @@
+"""Programs as Klipper reads them: its macros, G91 and E, arcs' P, and the first move after a homing.
+
+The configuration is Klipper's own example delta with its sample START_PRINT and END_PRINT
+(tests/data/klipper/printer.cfg, GPLv3 like Klipper); the programs are excerpts of the shape real
+slicers write (OrcaSlicer's spiral lift, ideaMaker's start).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from decimal import Decimal
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import MODELS
+from numpy.testing import assert_allclose
+
+from deltacal import InputError
+from deltacal.controller import corrected_targets
+from deltacal.exceptions import UnreachableError
+from deltacal.gcode import filter_lines
+from deltacal.gcode.dialect import GENERIC, ArcP
+from deltacal.gcode.homing import HOME_BLEND_MM, HOME_ZONE_MM
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
+from deltacal.printer.robot_file import load_printer
+from deltacal.printer.simulation import nozzle_positions, random_printer
+
+CONFIG = Path(__file__).parent / "data" / "klipper" / "printer.cfg"
+XYZ = re.compile(r"^G1 X(-?\d+\.\d{4}) Y(-?\d+\.\d{4}) Z(-?\d+\.\d{4})", re.MULTILINE)
+
+
+def shifted(points: np.ndarray) -> np.ndarray:
+    """A correction standing for a controller's: a fixed shift [mm]."""
+    return points + np.array([0.1, -0.2, 0.05])
+
+
+def run(lines: list[str], correct=shifted, **kwargs) -> str:
+    return "".join(filter_lines([line + "\n" for line in lines], correct, **kwargs))
+
+
+def sent(out: str) -> np.ndarray:
+    return np.array(XYZ.findall(out), dtype=float).reshape(-1, 3)
+
+
+@pytest.fixture(scope="module")
+def klipper():
+    return KLIPPER.dialect(CONFIG)
+
+
+def test_klipper_dialect_of_a_configuration(klipper):
+    assert klipper.g91_moves_e and klipper.arc_p is ArcP.IGNORED
+    assert_allclose(klipper.home, KLIPPER.read_config(CONFIG).positions(np.zeros((1, 3)))[0])
+    assert klipper.home[2] > 290.0  # position_endstop 297.05: the nozzle at the top
+    assert not GENERIC.g91_moves_e and GENERIC.arc_p is ArcP.REFUSED and not GENERIC.macros
+    assert set(klipper.macros) == {"START_PRINT", "END_PRINT", "PRINT_START", "PURGE", "START_PURGED", "PARK",
+                                   "HEAT_ONLY"}
+    assert not klipper.macros["HEAT_ONLY"].moves  # heating under a condition leaves the position
+    assert "G28 under a Jinja condition" in klipper.macros["PRINT_START"].unknown
+    assert not klipper.macros["START_PURGED"].unknown  # nested PURGE, called in lower case
+
+
+def test_a_start_macro_leaves_the_nozzle_where_its_moves_end(klipper):
+    program = ["START_PRINT EXTRUDER_TEMP=220 BED_TEMP=60", "G1 X30 Y40 F3000", "G1 X31 Y40 E0.5"]
+    with pytest.raises(InputError, match=r"line 2: move before X, Y and Z are all known \(Z unknown at the "):
+        run(program)  # a generic controller knows no macro
+    out = run(program, dialect=klipper)
+    home = np.array(klipper.home)
+    start = np.array([home[0], home[1], 0.15])  # G28, G1 Z5, G1 Z0.15: the sample's moves
+    n = math.ceil(math.dist(start, (30.0, 40.0, 0.15)) / 5.0)
+    points = sent(out)
+    assert len(points) == n + 1
+    path = start + np.outer(np.arange(1, n + 1) / n, [30.0, 40.0, 0.15] - start)
+    assert_allclose(points[:n], shifted(path), atol=1e-4)
+    assert out.splitlines()[0] == program[0]  # the macro's line kept as it is
+
+
+def test_a_macro_whose_end_is_unknown_is_named_with_start(klipper):
+    program = ["PRINT_START Z=5", "G1 X10 Y10 F3000"]
+    with pytest.raises(InputError, match=r"line 2: .*Z unknown since the macro PRINT_START \(G28 under a "
+                                         r"Jinja condition\) on line 1.*\(--start X,Y,Z\)"):
+        run(program, dialect=klipper)
+    out = run(program, dialect=klipper, start=(0.0, 0.0, 5.0))
+    assert_allclose(sent(out)[-1], shifted(np.array([[10.0, 10.0, 5.0]]))[0], atol=1e-4)
+
+
+def test_nested_macros_modes_and_saved_states(klipper):
+    # START_PURGED: G28, PURGE (G92 E0, moves, G92 E0), M83: E is relative after it, the nozzle at X60 Y-60
+    out = run(["START_PURGED", "G1 X60 Y60 E10 F1200"], dialect=klipper)
+    e = [Decimal(v) for v in re.findall(r" E(-?\d+\.\d+)", out)]
+    assert len(e) == math.ceil(120.0 / 5.0) and sum(e) == Decimal("10")  # relative shares
+    # PARK: G91 lift inside SAVE/RESTORE_GCODE_STATE: G90 again after it, the nozzle 20 mm higher
+    with pytest.raises(InputError, match=r"relative move \(G91\) right after the macro PARK on line 3"):
+        run(["G90", "G1 X0 Y0 Z10", "PARK", "G91", "G1 X1"], dialect=klipper)
+    out = run(["G90", "G1 X0 Y0 Z10", "PARK", "G1 X0 Y0 Z0"], dialect=klipper)
+    assert len(sent(out)) == 1 + math.ceil(30.0 / 5.0)  # from Z30 down to Z0
+
+
+def test_g91_makes_e_relative_in_klipper():
+    # ideaMaker: absolute E (M82), then G91 for a lift and a retraction, without M83
+    program = ["G90", "M82", "G92 E0", "G1 X0 Y0 Z10 F3000", "G91", "G1 X12 E2.4 F1200", "G90"]
+    with pytest.raises(InputError, match="line 6: E is split here, but its mode is ambiguous"):
+        run(program)
+    out = run(program, dialect=KLIPPER.dialect(CONFIG))
+    e = [Decimal(v) for v in re.findall(r" E(-?\d+\.\d+)", out)]
+    assert len(e) == 3 and sum(e) == Decimal("2.4")  # shares of an increment, as Klipper reads G91's E
+
+
+def test_orca_spiral_lift_is_klippers_full_turn(klipper):
+    # OrcaSlicer / Bambu Studio's spiral z-hop: a G3 from the current point to itself, P1
+    program = ["G90", "M83", "G1 X10 Y20 Z0.6 F3000", "G17", "G3 Z.8 I.044 J-1.216 P1  F30000",
+               "G1 X12 Y22 Z.8", "G1 Z.6"]
+    with pytest.raises(InputError, match="line 5: word P1 on an arc line is not supported"):
+        run(program)
+    out = run(program, dialect=klipper, correct=lambda p: p.copy())
+    arc = sent(out)[1:-2]
+    centre = np.array([10.044, 20.0 - 1.216])
+    assert_allclose(np.hypot(*(arc[:, :2] - centre).T), math.hypot(0.044, 1.216), atol=2e-4)
+    angles = np.unwrap(np.arctan2(arc[:, 1] - centre[1], arc[:, 0] - centre[0]))
+    start_angle = math.atan2(1.216, -0.044)
+    assert_allclose(angles[-1] - start_angle, 2.0 * math.pi, atol=1e-3)  # one turn, counter-clockwise
+    assert np.all(np.diff(angles) > 0.0) and np.all(np.diff(arc[:, 2]) > 0.0)
+    assert_allclose(arc[-1], [10.0, 20.0, 0.8], atol=1e-9)
+    assert " P1" not in out and "F30000" in out
+
+
+@pytest.fixture(scope="module")
+def printer_route():
+    printer = load_printer(MODELS / "kossel.toml")
+    truth = random_printer(printer, np.random.default_rng(0))
+    firmware = KLIPPER.nominal(printer)
+    controller = KLIPPER.controller(firmware, printer.step_distance)
+    return truth, firmware, controller, printer.step_distance
+
+
+def test_the_first_move_after_homing_starts_at_the_real_home(printer_route):
+    truth, firmware, controller, step = printer_route
+    home = controller.home
+
+    def correct(points):
+        return corrected_targets(truth, controller, points).commands
+
+    with pytest.raises(UnreachableError):  # just below the controller's home: no corrected target
+        correct(np.array([[home[0], home[1], home[2] - 0.2]]))
+    out = run(["G28", "G1 Z0 F500"], correct, segment_mm=0.2, home=home)  # ideaMaker's travel down
+    points = sent(out)
+    n = len(points)
+    assert n == math.ceil(home[2] / 0.2 - 1e-9)
+    down = home[2] * (1.0 - np.arange(1, n + 1) / n)
+    intended = np.column_stack([np.full(n, home[0]), np.full(n, home[1]), down])
+    along = home[2] - intended[:, 2]
+    as_is = np.all(np.abs(points - intended) < 1e-4, axis=1)
+    first = int(np.argmin(as_is))  # the points sent as they are: the first ones, a few
+    assert as_is[0] and not as_is[first:].any() and first < HOME_ZONE_MM / 0.2
+    full = along > along[first] + HOME_BLEND_MM + 0.2
+    assert_allclose(points[full], correct(intended[full]), atol=0.6e-4)  # then corrected in full
+    real = nozzle_positions(truth, firmware, step, points)
+    assert_allclose(real[full], intended[full], atol=1e-3)  # on the intended line
+    assert_allclose(real[-1], [home[0], home[1], 0.0], atol=1e-3)
+
+
+def test_a_refusal_far_from_home_stays_a_refusal(printer_route):
+    truth, _, controller, _ = printer_route
+
+    def correct(points):
+        return corrected_targets(truth, controller, points).commands
+
+    with pytest.raises(InputError, match="line 2: point .* of this move is"):
+        run(["G28", "G1 X400 Y0 Z0 F500"], correct, home=controller.home)
