@@ -59,7 +59,10 @@ or M83 on a line of G words (read by some firmwares, not by others); a number th
 no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
 without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
 not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
-:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines); a command, as written, that
+the controller's ``limits`` refuse (a printer's firmware: Klipper's "Move out of range"), gathered
+over the whole program and refused at its end by the first one's line, with the configuration key
+and the value that admit them all.
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -70,6 +73,7 @@ import math
 import re
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
@@ -77,6 +81,9 @@ from .batch import CHUNK_LINES, CHUNK_POINTS, XYZ_DECIMALS, Batch, Correct, Prog
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
+
+if TYPE_CHECKING:
+    from ..controller.limits import CommandLimits
 
 __all__ = [
     "ARC_RADIUS_TOLERANCE_MM",
@@ -163,7 +170,8 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
-                 start=None, source: str = "G-code", home=None) -> Iterator[str]:
+                 start=None, source: str = "G-code", home=None,
+                 limits: CommandLimits | None = None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -175,6 +183,9 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         source: Name of the program in messages.
         home: Where a homing (G28) leaves the TCP [mm] (a printer's firmware: every carriage at
             its endstop), or None: unknown after it.
+        limits: The controller's limits on its commands (a firmware's), or None: every command, as
+            written, is checked; those refused are gathered over the whole program and refused at
+            its end, by the first one's line, with the key and value that admit them all.
 
     Yields:
         The output text, a chunk at a time.
@@ -190,7 +201,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
     reader = _Reader(source, float(segment_mm), start, home)
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
-    batch = Batch(correct, source)
+    batch = Batch(correct, source, limits)
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
@@ -216,11 +227,14 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
             yield batch.flush()
     yield batch.flush()
+    refusal = None if batch.refused is None else batch.refused.error(source)
+    if refusal is not None:
+        raise refusal
 
 
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
-                 progress: Progress | None = None, home=None) -> None:
+                 progress: Progress | None = None, home=None, limits: CommandLimits | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -231,6 +245,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         start: TCP position [mm] at the program's start (X, Y, Z), or None.
         progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
         home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
+        limits: The controller's limits on its commands, or None (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -238,7 +253,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     opened: list = []
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
-    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home)
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, limits)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
