@@ -112,7 +112,9 @@ def test_exported_values_read_as_klipper_reads_them_and_beat_klippers_own(printe
     sections = re.findall(r"^\[(.+)\]$", text, flags=re.M)
     assert sections == ["printer", "stepper_a", "stepper_b", "stepper_c"]
     keys = {line.split(":")[0] for line in text.splitlines() if line and line[0] not in "#["}
-    assert keys == {"delta_radius", "angle", "arm_length", "position_endstop", "rotation_distance"}
+    # minimum_z_position where the corrected bed needs it (test_exported_minimum_z_position_admits_...)
+    assert keys - {"minimum_z_position"} == {"delta_radius", "angle", "arm_length", "position_endstop",
+                                             "rotation_distance"}
     merged = printer["folder"] / "merged.cfg"
     merged.write_text(_merged(printer["config"].read_text(), text))
     exported = load_klipper(merged)
@@ -181,3 +183,54 @@ def test_refusals(printer, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"{bare}: key step_distance_mm: no step_distance_mm" in err
     assert not any(tmp_path.glob("o.*"))
+
+
+def test_without_config_rotation_distance_is_not_guessed(printer, tmp_path, capsys):
+    """A 32-microstep printer's rotation_distance is not half its own because 16 microsteps were assumed."""
+    cal, out = str(printer["calibration"]), tmp_path / "o.cfg"
+    assert main(["export", cal, "--controller", "klipper", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "give --config printer.cfg" in err
+    assert "--keep-rotation-distance" in err
+    assert not out.exists()
+    # the same printer (step distance 0.0125 mm) driven at 32 microsteps: rotation_distance 80
+    thirty_two = tmp_path / "printer32.cfg"
+    thirty_two.write_text(printer["config"].read_text().replace("microsteps: 16\nrotation_distance: 40",
+                                                                "microsteps: 32\nrotation_distance: 80"))
+    assert np.all(load_klipper(thirty_two).step_distance == STEP)
+    # keeping the printer's own: none written, and its rotation_distance stays what it was
+    assert main(["export", cal, "--controller", "klipper", "-o", str(out), "--keep-rotation-distance"]) == 0
+    text = out.read_text()
+    assert "rotation_distance:" not in text and "# no rotation_distance for stepper_a" in text
+    merged = tmp_path / "merged.cfg"
+    merged.write_text(_merged(thirty_two.read_text(), text))
+    assert np.all(load_klipper(merged).step_distance == STEP)
+    # with the configuration, its microstepping
+    assert main(["export", cal, "--controller", "klipper", "-o", str(out), "--config", str(thirty_two),
+                 "--keep-rotation-distance"]) == 0
+    assert re.findall(r"rotation_distance: (\S+)", out.read_text()) == ["80.000000"] * 3
+
+
+def test_exported_minimum_z_position_admits_the_corrected_first_layer(printer, tmp_path, capsys):
+    """The true bed is below the exported values' z 0: the cfg written admits the corrected first layer."""
+    out = tmp_path / "calibrated.cfg"
+    assert main(["export", str(printer["calibration"]), "--controller", "klipper", "-o", str(out),
+                 "--config", str(printer["config"]), "--robot", str(printer["robot"])]) == 0
+    assert "minimum_z_position " in capsys.readouterr().out
+    value = float(re.findall(r"^minimum_z_position: (\S+)$", out.read_text(), flags=re.M)[0])
+    assert value < 0.0
+    merged, bare = tmp_path / "merged.cfg", tmp_path / "bare.cfg"
+    merged.write_text(_merged(printer["config"].read_text(), out.read_text()))
+    bare.write_text("\n".join(line for line in merged.read_text().splitlines()
+                              if not line.startswith("minimum_z_position")) + "\n")
+    layer = printable_grid(VOLUME, per_radius=6, layers=1, ring=24)
+    layer[:, 2] = 0.0
+    csv = tmp_path / "bed.csv"
+    csv.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x:.4f},{y:.4f},{z:.4f}\n" for x, y, z in layer))
+    command = ["compensate", str(printer["calibration"]), str(csv), "-o", str(tmp_path / "sent.csv"),
+               "--controller"]
+    assert main([*command, str(bare)]) == 1
+    assert "set [printer] minimum_z_position: " in capsys.readouterr().err
+    assert main([*command, str(merged)]) == 0
+    z_cmd = np.loadtxt(tmp_path / "sent.csv", delimiter=",", skiprows=1)[:, 5]
+    assert value < np.min(z_cmd) < 0.0

@@ -166,14 +166,18 @@ def test_writer_round_trip(kossel, tmp_path):
     assert "rotation_distance: " in text and "[stepper_c]" in text and "kinematics" not in text
 
 
-def test_writer_without_source_says_what_it_assumed(kossel, tmp_path):
+def test_writer_without_source_writes_no_rotation_distance(kossel, tmp_path):
+    """Without the printer's microstepping, rotation_distance cannot be known: none is written."""
     fitted = odd_klipper(kossel)
     text = klipper_config_text(fitted)
-    assert "200 full steps x 16 microsteps" in text
+    assert "rotation_distance:" not in text
+    assert "# no rotation_distance for stepper_a, stepper_b, stepper_c: its microsteps are not known" in text
     cfg = tmp_path / "printer.cfg"
-    steppers = "".join(f"[stepper_{t}]\nmicrosteps: 16\n" for t in "abc")
+    steppers = "".join(f"[stepper_{t}]\nmicrosteps: 32\nrotation_distance: 40\n" for t in "abc")
     cfg.write_text("[printer]\nkinematics: delta\n" + steppers + text)
-    assert_allclose(load_klipper(cfg).step_distance, fitted.step_distance, rtol=1e-6, atol=0)
+    back = load_klipper(cfg)  # the printer's own stepping stays: 40 mm over 200 x 32 steps
+    assert_allclose(back.step_distance, np.full(3, 40.0 / 6400.0), rtol=1e-15, atol=0)
+    assert_allclose(back.arm_length, fitted.arm_length, rtol=0, atol=5e-7)
 
 
 def test_error_budget_removed(kossel):

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
+from deltacal.cli import main
 from deltacal.io import load_calibration
 from deltacal.printer.demo import ROWS, SEED, printer_table
 from deltacal.printer.firmware.klipper.config import load_klipper
@@ -76,3 +78,80 @@ def test_printer_demo_corrected_program_differs_only_in_moves(demo):
                       if line.startswith(("G0 ", "G1 "))])
     assert len(moves) > 10 * sum(line.startswith(("G0 ", "G1 ", "G2 ")) for line in source)
     assert np.all(np.isfinite(moves))
+
+
+def _moves(path) -> np.ndarray:
+    """Every G0/G1 end of a program the demo wrote (X Y Z on each) [mm], (N, 3)."""
+    return np.array([[float(w[1:]) for w in line.split()[1:4]] for line in path.read_text().splitlines()
+                     if line.startswith(("G0 ", "G1 "))])
+
+
+def test_printer_demo_corrected_program_is_within_its_printer_cfg(demo):
+    """Every move of part_corrected.gcode is one the demo's own printer.cfg accepts (Klipper's limits).
+
+    Its first layer goes below Klipper's z 0 (the true bed is lower than the nominal values put it):
+    printer.cfg holds the minimum_z_position that admits it.
+    """
+    cfg = load_klipper(demo[0] / "printer.cfg")
+    moves = _moves(demo[0] / "part_corrected.gcode")
+    assert np.min(moves[:, 2]) < 0.0
+    assert cfg.minimum_z_position < np.min(moves[:, 2])
+    assert cfg.outside(moves).tolist() == [0] * len(moves)
+
+
+def test_compensate_refuses_a_program_its_cfg_refuses_by_line_with_key_and_value(demo, tmp_path, capsys):
+    """The demo's calibration with Klipper's default minimum_z_position: refused; the value asked works."""
+    out = demo[0]
+    text = (out / "printer.cfg").read_text()
+    assert "minimum_z_position:" in text
+    default = tmp_path / "default.cfg"
+    default.write_text("\n".join(line for line in text.splitlines() if "minimum_z_position" not in line)
+                       + "\n")
+    program = out / "part.gcode"
+    command = ["compensate", str(out / "printer_calibration.toml"), str(program), "--controller",
+               str(default), "-o", str(tmp_path / "sent.gcode")]
+    assert main(command) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    written = _moves(out / "part_corrected.gcode")  # the same moves, corrected the same way
+    lowest = np.min(written[:, 2])
+    match = re.search(rf"error: {re.escape(str(program))}: line (\d+): corrected Z (-[0-9.]+) mm is below "
+                      r"minimum_z_position 0 of default.cfg: set \[printer\] minimum_z_position: (-[0-9.]+); "
+                      r"(\d+) commands refused in all", err)
+    assert match is not None, err
+    line, first, value, count = int(match[1]), float(match[2]), float(match[3]), int(match[4])
+    assert program.read_text().splitlines()[line - 1].startswith(("G0 ", "G1 ", "G2 "))
+    assert count == np.sum(written[:, 2] < 0.0)
+    assert first in np.round(written[written[:, 2] < 0.0, 2], 4)
+    assert lowest - 0.01 <= value <= lowest
+    assert not (tmp_path / "sent.gcode").exists()
+    # the value asked for admits the program: the same corrected program comes out
+    with_value = default.read_text().replace("[printer]\n", f"[printer]\nminimum_z_position: {value}\n")
+    default.write_text(with_value)
+    assert main(command) == 0
+    assert (tmp_path / "sent.gcode").read_text() == (out / "part_corrected.gcode").read_text()
+
+
+def test_compensate_refuses_csv_targets_its_cfg_refuses_by_row(demo, tmp_path, capsys):
+    """Targets on the bed: those Klipper's default minimum_z_position refuses are named by their row."""
+    out = demo[0]
+    default = tmp_path / "default.cfg"
+    default.write_text("\n".join(line for line in (out / "printer.cfg").read_text().splitlines()
+                                 if "minimum_z_position" not in line) + "\n")
+    targets = tmp_path / "targets.csv"
+    grid = [(x, y, z) for z in (50.0, 0.0) for x in (-60.0, 0.0, 60.0) for y in (-60.0, 0.0, 60.0)]
+    targets.write_text("x_mm,y_mm,z_mm\n" + "".join(f"{x},{y},{z}\n" for x, y, z in grid))
+    base = ["compensate", str(out / "printer_calibration.toml"), str(targets), "-o"]
+    assert main([*base, str(tmp_path / "ok.csv"), "--controller", str(out / "printer.cfg")]) == 0
+    z_cmd = np.loadtxt(tmp_path / "ok.csv", delimiter=",", skiprows=1)[:, 5]
+    below = np.flatnonzero(z_cmd < 0.0)
+    assert below.size and np.all(below >= 9)  # the bed's rows, not those at z 50
+    capsys.readouterr()
+    assert main([*base, str(tmp_path / "sent.csv"), "--controller", str(default)]) == 1
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1, err
+    first = int(below[0])
+    assert (f"{targets}: line {first + 2} (data row {first + 1}): corrected Z {z_cmd[first]:.4f} mm is below "
+            "minimum_z_position 0 of default.cfg: set [printer] minimum_z_position: ") in err
+    assert f"{below.size} commands refused in all" in err or below.size == 1
+    assert not (tmp_path / "sent.csv").exists()

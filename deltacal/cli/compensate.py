@@ -23,7 +23,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..compensation import METHODS, screen
-from ..controller import CommandModel
+from ..controller import CommandModel, RefusedCommands
 from ..exceptions import InputError, UnreachableError, UsageError
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
 from ..gcode.dialect import Dialect
@@ -39,7 +39,7 @@ from ..printer.firmware import config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .progress import Progress
-from .workers import Job, shared_values, solved_in_order
+from .workers import Job, Refused, shared_values, solved_in_order
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,14 +81,24 @@ def run(args: argparse.Namespace) -> int:
             raise _unreachable(*refused, targets_file, _frame_hint(args, frames)) from refused[0]
         writer = JointsWriter if controller is None else CommandsWriter
         job = Job(geometry, controller, args.method, linear, args.payload, writer)
+        limits = None if controller is None else controller.limits
+        beyond = None if limits is None else RefusedCommands(limits)
         with writer(args.output) as out:
             for chunk, values in solved_in_order(job, targets_file.chunks(), to_base, targets_file.rows):
                 if isinstance(values, UnreachableError):
                     if not values.indices:
                         raise values
                     raise _unreachable(values, chunk, targets_file, _frame_hint(args, frames)) from values
-                out.write_encoded(values, len(chunk))
+                if isinstance(values, Refused):  # gathered over the whole file, refused at its end
+                    assert beyond is not None
+                    beyond.check(values.commands, chunk.lines[values.indices],
+                                 lambda k, c=chunk, v=values: c.where(int(v.indices[k])))
+                elif beyond is None or not beyond.count:
+                    out.write_encoded(values, len(chunk))
                 progress.update(0.1 + 0.9 * chunk.read / size, f"{out.rows:,} targets")
+            refusal = None if beyond is None else beyond.error(targets_file.source)
+            if refusal is not None:
+                raise refusal
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {args.controller}")
     print(f"wrote {out.rows} {what} to {args.output}")
@@ -140,7 +150,7 @@ def _program(args: argparse.Namespace) -> int:
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
                      lambda fraction, _: progress.update(fraction, "program"), home=controller.home,
-                     dialect=dialect)
+                     dialect=dialect, limits=controller.limits)
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
           f"(moves split every {segment:g} mm at most)")
     return 0

@@ -47,6 +47,11 @@ def run_klipper(args: argparse.Namespace) -> int:
     config = KLIPPER.read_config(args.config) if args.config is not None else None
     step = _step_distance(calibration.geometry.step_distance, config, args,
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
+    if args.config is None and not args.keep_rotation_distance:
+        raise UsageError("--controller klipper: rotation_distance is the step distance times each tower's "
+                         "full_steps_per_rotation x microsteps, which the calibration does not hold: give "
+                         "--config printer.cfg (the configuration the printer runs), or "
+                         "--keep-rotation-distance to keep the printer's own rotation_distance")
     geometry, nominal = calibration.geometry, calibration.nominal
     try:
         start = config if config is not None else KLIPPER.start(replace(nominal, step_distance=step))
@@ -66,7 +71,12 @@ def run_klipper(args: argparse.Namespace) -> int:
     except ConvergenceError as exc:
         raise InputError(f"Klipper's values could not be fitted: {exc}", str(args.calibration)) from None
     lines = _summary(fit.before, fit.after, budget, workspace, where, fit.held, args.config is not None)
-    KLIPPER.save_config(args.output, fit.klipper, args.config,
+    values = KLIPPER.admit_bed(fit.klipper, geometry, step, workspace.radius)
+    if values is not fit.klipper:
+        lines.append(f"minimum_z_position {values.minimum_z_position:g} mm: the true bed is below these "
+                     f"values' z 0 over radius {workspace.radius:g} mm; a corrected first layer goes there "
+                     "(compensate --controller)")
+    KLIPPER.save_config(args.output, values, args.config,
                         title=f"Klipper delta values fitted by deltacal to {args.calibration}",
                         notes=lines)
     print(f"wrote the Klipper values that best fit {args.calibration} to {args.output}")

@@ -54,17 +54,42 @@ class Job:
         except UnreachableError as exc:
             return exc
 
-    def solve(self, targets: np.ndarray, text: np.ndarray | None) -> bytes | UnreachableError:
-        """The chunk's rows as the output file holds them (readings or corrected targets), or its refusal."""
+    def solve(self, targets: np.ndarray, text: np.ndarray | None) -> bytes | UnreachableError | Refused:
+        """The chunk's rows as the output file holds them (readings or corrected targets), or its refusal.
+
+        Corrected targets are checked, as written, against the controller's limits (a firmware's):
+        those refused come back instead of the rows.
+        """
         values = self.values(targets)
-        return values if isinstance(values, UnreachableError) else self.writer.encode(text, targets, values)
+        if isinstance(values, UnreachableError):
+            return values
+        limits = None if self.controller is None else self.controller.limits
+        if limits is not None:
+            written = np.rint(values * 10.0**self.writer.DECIMALS) / 10.0**self.writer.DECIMALS
+            bad = np.flatnonzero(limits.outside(written))
+            if bad.size:
+                return Refused(bad, written[bad])
+        return self.writer.encode(text, targets, values)
+
+
+@dataclass(frozen=True)
+class Refused:
+    """Commands of a chunk, as written, that the controller's limits refuse.
+
+    Attributes:
+        indices: Their rows in the chunk, (k,).
+        commands: The commands [mm], (k, 3).
+    """
+
+    indices: np.ndarray
+    commands: np.ndarray
 
 
 #: The job of the forked workers (set in the parent before the pool starts).
 _WORKER_JOB: Job | None = None
 
 
-def _solve_in_worker(targets: np.ndarray, text: np.ndarray | None) -> bytes | UnreachableError:
+def _solve_in_worker(targets: np.ndarray, text: np.ndarray | None) -> bytes | UnreachableError | Refused:
     assert _WORKER_JOB is not None
     return _WORKER_JOB.solve(targets, text)
 
@@ -82,7 +107,7 @@ def _workers(rows: int) -> int:
 
 
 def solved_in_order(job: Job, chunks: Iterable, to_base: Callable[[np.ndarray], np.ndarray] | None,
-                    rows: int) -> Iterator[tuple[Any, bytes | UnreachableError]]:
+                    rows: int) -> Iterator[tuple[Any, bytes | UnreachableError | Refused]]:
     """``(chunk, its output rows or its refusal)`` for each chunk of targets, in the file's order."""
     def base(chunk) -> np.ndarray:
         return chunk.targets if to_base is None else to_base(chunk.targets)

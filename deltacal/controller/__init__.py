@@ -4,13 +4,16 @@
   controller, a PLC's Delta transform or a firmware runs (conventions, "Controllers").
 * :mod:`.targets`: :func:`corrected_targets`, the targets to send it so the real TCP lands on the
   targets (exact compensation, then the controller's forward model of those readings).
+* :mod:`.limits`: :class:`CommandLimits`, the limits a controller puts on its commands, and
+  :class:`RefusedCommands`, those of a file it refuses.
 * :mod:`.fit`: :func:`fit_controller`, the joint offsets or per-limb values that best represent an
   identified robot over a workspace.
 """
 
 from .fit import FIT_KINDS, ControllerFit, fit_controller
+from .limits import CommandLimits, RefusedCommands
 from .model import Controller
 from .targets import CommandModel, CorrectedTargets, corrected_targets
 
-__all__ = ["FIT_KINDS", "CommandModel", "Controller", "ControllerFit", "CorrectedTargets",
-           "corrected_targets", "fit_controller"]
+__all__ = ["FIT_KINDS", "CommandLimits", "CommandModel", "Controller", "ControllerFit", "CorrectedTargets",
+           "RefusedCommands", "corrected_targets", "fit_controller"]

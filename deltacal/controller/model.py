@@ -67,6 +67,8 @@ class Controller:
     interpolation = "cartesian"
     #: Where a homing puts the TCP: not known for a rotary Delta (its controller's own routine).
     home = None
+    #: The limits it puts on its commands: none known (its own cell's).
+    limits = None
 
     def __post_init__(self) -> None:
         for key in (*LIMB_VALUES, "tool"):

@@ -23,6 +23,7 @@ from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import COMMAND_MARGIN
+from .limits import CommandLimits
 
 
 class CommandModel(Protocol):
@@ -36,6 +37,7 @@ class CommandModel(Protocol):
         interpolation: How it moves between two targets (``"cartesian"``: a straight line in its
             own Cartesian frame, what the G-code route corrects for).
         home: The TCP position a homing (G28) leaves it at [mm], (3,), or None if not known.
+        limits: The limits it puts on the commands it takes (a firmware's), or None if none known.
     """
 
     @property
@@ -52,6 +54,9 @@ class CommandModel(Protocol):
 
     @property
     def home(self) -> np.ndarray | None: ...  # noqa: D102
+
+    @property
+    def limits(self) -> CommandLimits | None: ...  # noqa: D102
 
     def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
         """The TCP target whose inverse is ``readings``, (N, 3) -> (N, 3) [mm] (NaN rows unchecked)."""

@@ -19,6 +19,7 @@ from itertools import chain
 
 import numpy as np
 
+from ..controller.limits import CommandLimits, RefusedCommands
 from ..exceptions import AssemblyError, InputError, UnreachableError
 from .homing import blend_from_home
 from .moves import MoveText, SingleMove
@@ -70,11 +71,13 @@ class Batch:
             one point, corrected, not written).
         points: The points of the items [mm], in their order.
         relative: Whether an item writes increments (G91).
+        refused: The written commands the controller's limits refuse, or None (no limits known).
     """
 
-    def __init__(self, correct: Correct, source: str) -> None:
+    def __init__(self, correct: Correct, source: str, limits: CommandLimits | None = None) -> None:
         self.correct = correct
         self.source = source
+        self.refused = None if limits is None else RefusedCommands(limits)
         self.previous: np.ndarray | None = None  # the controller's last position, in 1e-4 mm
         self.items: list[str | _Single | _Segments | _Start] = []
         self.points: list = []
@@ -123,6 +126,8 @@ class Batch:
             flat = chain.from_iterable(self.points)  # faster than np.array of a list of tuples
             points = np.fromiter(flat, dtype=float, count=3 * len(self.points)).reshape(-1, 3)
             units = np.rint(self._corrected(points) * _SCALE).astype(np.int64)
+            if self.refused is not None:  # the commands as written, as the controller reads them
+                self.refused.check(units / _SCALE, np.array(self._lines()))
             xyz = _xyz(units)
             if self.relative:
                 before = units[:1] if self.previous is None else self.previous[None, :]

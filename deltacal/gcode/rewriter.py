@@ -59,7 +59,10 @@ or M83 on a line of G words (read by some firmwares, not by others); a number th
 no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
 without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
 not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
-:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines); a command, as written, that
+the controller's ``limits`` refuse (a printer's firmware: Klipper's "Move out of range"), gathered
+over the whole program and refused at its end by the first one's line, with the configuration key
+and the value that admit them all.
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -70,6 +73,7 @@ import math
 import re
 from collections.abc import Iterable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
@@ -80,6 +84,9 @@ from .macros import apply_macro
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
+
+if TYPE_CHECKING:
+    from ..controller.limits import CommandLimits
 
 __all__ = [
     "ARC_RADIUS_TOLERANCE_MM",
@@ -167,7 +174,7 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
                  start=None, source: str = "G-code", home=None,
-                 dialect: Dialect | None = None) -> Iterator[str]:
+                 dialect: Dialect | None = None, limits: CommandLimits | None = None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -181,6 +188,9 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             its endstop), or None: the dialect's (unknown after it, without one).
         dialect: The controller's reading of G-code (:class:`~deltacal.gcode.dialect.Dialect`:
             E under G91, arcs' P, homing, macros); default :data:`~deltacal.gcode.dialect.GENERIC`.
+        limits: The controller's limits on its commands (a firmware's), or None: every command, as
+            written, is checked; those refused are gathered over the whole program and refused at
+            its end, by the first one's line, with the key and value that admit them all.
 
     Yields:
         The output text, a chunk at a time.
@@ -197,7 +207,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     dialect = GENERIC if dialect is None else dialect
     reader = _Reader(source, float(segment_mm), start, dialect if home is None else dialect.with_home(home))
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
-    batch = Batch(correct, source)
+    batch = Batch(correct, source, limits)
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
@@ -225,6 +235,9 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
             yield batch.flush()
     yield batch.flush()
+    refusal = None if batch.refused is None else batch.refused.error(source)
+    if refusal is not None:
+        raise refusal
 
 
 def _split_out(batch: Batch, plan: SplitMove, number: int) -> Iterator[str]:
@@ -241,7 +254,8 @@ def _split_out(batch: Batch, plan: SplitMove, number: int) -> Iterator[str]:
 
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
-                 progress: Progress | None = None, home=None, dialect: Dialect | None = None) -> None:
+                 progress: Progress | None = None, home=None, dialect: Dialect | None = None,
+                 limits: CommandLimits | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -253,6 +267,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
         home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
         dialect: The controller's reading of G-code (see :func:`filter_lines`).
+        limits: The controller's limits on its commands, or None (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -260,7 +275,8 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     opened: list = []
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
-    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, dialect)
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, dialect,
+                          limits)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:

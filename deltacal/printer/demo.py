@@ -44,6 +44,7 @@ from .comparison import (
 )
 from .firmware.klipper.firmware import KLIPPER
 from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
+from .firmware.klipper.model import KlipperDelta
 from .measurement_files import write_printed_distances, write_probe_heights
 from .plan import plan_object
 from .robot import less_bed_motion
@@ -75,13 +76,14 @@ def part_gcode(heights: tuple[float, ...]) -> str:
     return "\n".join([*lines, ""])
 
 
-def _part(run: PrinterRun, out_dir: Path, quick: bool) -> dict[str, float]:
+def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: KlipperDelta) -> dict[str, float]:
     """Correct the part's program for Klipper's nominal values; each method's largest error along it [mm].
 
     The corrected program's moves (as written, 0.1 µm) go through Klipper's nominal values to the
     true printer; the other methods command the intended points with their values. Each method's
     errors are taken less the bed motion that fits them best (the part's shape, not its place), at
     the points within the printable volume (not the travel from the home position down to the part).
+    Every command written is one ``limits`` (the demo's ``printer.cfg``) accepts, or the filter refuses it.
     """
     source, corrected = out_dir / "part.gcode", out_dir / "part_corrected.gcode"
     atomic_write_text(source, part_gcode((0.2, 50.0) if quick else (0.2, 10.0, 30.0, 60.0, 100.0)))
@@ -92,7 +94,7 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool) -> dict[str, float]:
         intended.append(np.array(points))
         return corrected_targets(run.result.geometry, controller, points).commands
 
-    filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home)
+    filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home, limits=limits)
     targets = np.concatenate(intended)
     sent = np.array(_XYZ.findall(corrected.read_text()), dtype=float)
     if sent.shape != targets.shape:
@@ -105,6 +107,21 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool) -> dict[str, float]:
     errors[GCODE] = nozzle_positions(truth, run.firmware, run.step_distance, sent) - targets
     return {name: float(np.max(np.linalg.norm(less_bed_motion(targets, e)[0], axis=1)))
             for name, e in errors.items()}
+
+
+def _admit_bed(run: PrinterRun, cfg: Path) -> KlipperDelta:
+    """``printer.cfg`` rewritten with the ``minimum_z_position`` the corrected bed needs; its values.
+
+    The true bed is lower than Klipper's nominal model puts it where the corrected first layer goes
+    below Klipper's z 0; the lowest Z commanded on the printable disk sets the key
+    (:meth:`~deltacal.printer.firmware.base.Firmware.admit_bed`).
+    """
+    admitted = KLIPPER.admit_bed(run.firmware, run.result.geometry, run.step_distance, WORKSPACE.radius)
+    if admitted is not run.firmware:
+        KLIPPER.save_config(cfg, admitted, title=NOMINAL_TITLE, complete=True,
+                            notes=[f"minimum_z_position admits the bed corrected by deltacal over radius "
+                                   f"{WORKSPACE.radius:g} mm (part_corrected.gcode)"])
+    return KLIPPER.read_config(cfg)
 
 
 def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: bool = False,
@@ -147,7 +164,7 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
                         f"{FIRST_LAYER_WEIGHT:g})")
     figures = evaluate(run)
     progress("evaluated every method on the true printer (printer_calibrated.cfg written)")
-    part = _part(run, out_dir, quick)
+    part = _part(run, out_dir, quick, _admit_bed(run, cfg))
     progress("corrected part.gcode for Klipper's nominal values (part_corrected.gcode)")
     rows = [{"method": name, **figures["less bed motion"][name].as_dict(),
              "raw_max_3d_mm": figures["raw"][name].max_3d, "part_max_mm": part[name]} for name in ROWS]

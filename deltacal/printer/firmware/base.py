@@ -9,6 +9,9 @@ firmware gives through one :class:`Firmware`:
 * its model with those values (:class:`FirmwareModel`): a commanded nozzle position to steps
   below the endstops and back; the model of the perfect printer (:meth:`Firmware.nominal`) and of
   an identified geometry at its tolerances' centre (:meth:`Firmware.start`);
+* its limits on the commands it takes, as its configuration sets them (:meth:`FirmwareModel.outside`,
+  :meth:`FirmwareModel.refusal`: a :class:`~deltacal.controller.limits.CommandLimits`), so that
+  every command deltacal writes for it is one it accepts, and a refusal names the key to change;
 * the firmware as the controller of the printer's readings (:meth:`Firmware.controller`, a
   :class:`~deltacal.controller.targets.CommandModel`: what corrected targets and G-code go
   through), also from its configuration file (:meth:`Firmware.load_controller`);
@@ -26,13 +29,14 @@ angles in rad (the configuration files' in the firmware's own units).
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
 import numpy as np
 
-from ...controller.targets import CommandModel
+from ...controller.targets import CommandModel, corrected_targets
 from ...exceptions import InputError
 from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
@@ -44,6 +48,31 @@ if TYPE_CHECKING:
 #: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
 #: ``horizontal_move_z`` default).
 PROBE_CLEARANCE = 5.0
+
+
+#: Spacing of the bed's points :meth:`Firmware.admit_bed` corrects [mm].
+BED_GRID_MM = 5.0
+#: Margin below the lowest corrected bed point of the lowest Z admitted [mm].
+BED_MARGIN_MM = 0.01
+
+
+def bed_grid(radius: float, spacing: float = BED_GRID_MM) -> np.ndarray:
+    """Points on the bed (z = 0) over a disk: the centre and rings every ``spacing``, the last at ``radius``.
+
+    Args:
+        radius: The disk's radius [mm].
+        spacing: Between rings and between a ring's points, at most [mm].
+
+    Returns:
+        The points [mm], (N, 3).
+    """
+    rings = max(1, math.ceil(radius / spacing))
+    points = [np.zeros((1, 3))]
+    for r in np.linspace(radius / rings, radius, rings):
+        n = max(6, math.ceil(2.0 * math.pi * r / spacing))
+        t = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+        points.append(np.column_stack([r * np.cos(t), r * np.sin(t), np.zeros(n)]))
+    return np.concatenate(points)
 
 
 class FirmwareModel(Protocol):
@@ -73,6 +102,15 @@ class FirmwareModel(Protocol):
     def forward(self, readings: np.ndarray, step_distance: np.ndarray | float,
                 check: bool = True) -> np.ndarray:
         """Nozzle positions at readings (travels counted in ``step_distance`` [mm]), (N, 3) [mm]."""
+
+    def outside(self, commands: np.ndarray) -> np.ndarray:
+        """Which of the firmware's limits each command breaks, (N, 3) [mm] -> (N,) integers (0: none)."""
+
+    def refusal(self, commands: np.ndarray) -> str:
+        """One line on refused commands: the limit, and the configuration key and value that admit them."""
+
+    def with_minimum_z(self, minimum_z: float) -> FirmwareModel:
+        """The same values with the lowest Z the firmware accepts set to ``minimum_z`` [mm]."""
 
 
 class FirmwareFit(Protocol):
@@ -165,6 +203,28 @@ class Firmware(ABC, Generic[ModelT]):
             title: A first comment line (what the points are).
             clearance: The nozzle's height above the bed while it moves between points [mm].
         """
+
+    def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: float,
+                  radius: float) -> ModelT:
+        """The values with the lowest Z lowered, if need be, to admit the corrected bed.
+
+        Where the true bed (z = 0 of an identified printer) is lower than the firmware's model puts
+        it, a corrected first layer is commanded below the firmware's z = 0. The bed's disk of
+        ``radius`` (rings and points every :data:`BED_GRID_MM`) is corrected through the firmware;
+        the lowest Z commanded, less :data:`BED_MARGIN_MM`, rounded down to 0.01 mm, becomes the lowest
+        Z accepted when it is below the model's.
+
+        Args:
+            model: The firmware's values (what a program is corrected for).
+            geometry: The identified printer (its true bed is z = 0).
+            step_distance: The step distance its readings count in [mm].
+            radius: The printable radius [mm].
+        """
+        controller = self.controller(model, step_distance)
+        commands = corrected_targets(geometry, controller, bed_grid(radius)).commands
+        lowest = math.floor((float(np.min(commands[:, 2])) - BED_MARGIN_MM) * 100.0) / 100.0
+        low = model.outside(np.array([[0.0, 0.0, lowest]])) != 0
+        return model.with_minimum_z(lowest) if bool(low[0]) else model  # type: ignore[return-value]
 
     def save_config(self, path: str | Path, model: ModelT, source: str | Path | None = None, title: str = "",
                     notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> Path:

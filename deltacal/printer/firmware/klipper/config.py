@@ -303,9 +303,16 @@ def klipper_from_config(config: KlipperConfig) -> KlipperDelta:
         arms.append(config.number(stepper, "arm_length", arm_a, above=radius))
         endstops.append(config.number(stepper, "position_endstop", endstop_a))
         steps.append(_step_distance(config, stepper))
+    print_radius = config.number("printer", "print_radius", above=0.0) \
+        if config.has("printer", "print_radius") else None
+    minimum_z = config.number("printer", "minimum_z_position", 0.0)
+    if minimum_z > min(endstops):  # Klipper's maxval: the lowest position_endstop
+        raise config.error("printer", "minimum_z_position", f"value {minimum_z:g} must be at most "
+                           f"{min(endstops):g}, the lowest position_endstop (Klipper refuses it)")
     try:
         return KlipperDelta(radius, np.radians(angles), np.array(arms), np.array(endstops), np.array(steps),
-                            name=Path(config.source).name)
+                            name=Path(config.source).name, print_radius=print_radius,
+                            minimum_z_position=minimum_z)
     except GeometryError as exc:
         raise InputError(str(exc), config.source) from None
 
@@ -345,7 +352,7 @@ def _gear_ratio(config: KlipperConfig, stepper: str) -> float:
 #: Decimals written: lengths [mm] and angles [deg].
 MM_DECIMALS = 6
 DEG_DECIMALS = 4
-#: The microstepping assumed when no source configuration gives one.
+#: The microstepping a complete configuration is written with when no source configuration gives one.
 DEFAULT_MICROSTEPS = 16
 #: The ``[printer]`` options a complete configuration adds to the values (Klipper requires the
 #: kinematics and the limits; velocity [mm/s], acceleration [mm/s²]).
@@ -368,14 +375,15 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
     """Klipper's values as ``printer.cfg`` text: ``[printer]`` and ``[stepper_a..c]``.
 
     Writes ``delta_radius`` and each tower's ``angle`` [deg, 4 decimals], ``arm_length``,
-    ``position_endstop`` and ``rotation_distance`` [mm, 6 decimals]. ``rotation_distance`` is the
-    step distance times the source configuration's ``full_steps_per_rotation × microsteps × gear
-    ratio``; without a source (or without ``microsteps`` in it), 200 full steps × 16 microsteps.
-    Only keys Klipper knows; read back by :func:`load_klipper` they give the same values to the
-    written decimals.
+    ``position_endstop`` and ``rotation_distance`` [mm, 6 decimals], and ``[printer]``'s
+    ``print_radius`` and ``minimum_z_position`` where the values set them. ``rotation_distance`` is
+    the step distance times the source configuration's ``full_steps_per_rotation × microsteps × gear
+    ratio``. Only keys Klipper knows; read back by :func:`load_klipper` they give the same values to
+    the written decimals.
 
-    By default only those keys, to replace the printer's own (the header says so; an assumed
-    microstepping is said in a comment). With ``complete``, a whole configuration of Klipper's
+    By default only those keys, to replace the printer's own (the header says so); without a
+    source's microstepping no ``rotation_distance`` is written (a comment says the printer's own
+    stays): it cannot be known. With ``complete``, a whole configuration of Klipper's
     delta kinematics that Klipper and :func:`load_klipper` read: ``kinematics``, ``max_velocity``
     and ``max_accel`` (:data:`PRINTER_OPTIONS`) added to ``[printer]``, each tower's microstepping
     (the source's, or 200 full steps × 16 microsteps) written, and every value written exactly
@@ -395,22 +403,33 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
         lines.append("# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, "
                      "if any).")
     lines += [f"# {note}".rstrip() for note in notes]
-    assumed = []
+    unknown = []
     body = ["", "[printer]", *(f"{key}: {value}" for key, value in PRINTER_OPTIONS if complete),
-            f"delta_radius: {_number(klipper.delta_radius, MM_DECIMALS, complete)}"]
+            f"delta_radius: {_number(klipper.delta_radius, MM_DECIMALS, complete)}",
+            *_limits(klipper, complete)]
     for i, stepper in enumerate(STEPPERS):
         factor, guess = _rotation_factor(config, stepper)
-        if guess:
-            assumed.append(stepper)
+        rotation = f"rotation_distance: {_number(klipper.step_distance[i] * factor, MM_DECIMALS, complete)}"
+        if guess and not complete:
+            unknown.append(stepper)
         body += ["", f"[{stepper}]", *(_stepping(config, stepper) if complete else []),
                  f"angle: {_number(math.degrees(klipper.angle[i]), DEG_DECIMALS, complete)}",
                  f"arm_length: {_number(klipper.arm_length[i], MM_DECIMALS, complete)}",
                  f"position_endstop: {_number(klipper.position_endstop[i], MM_DECIMALS, complete)}",
-                 f"rotation_distance: {_number(klipper.step_distance[i] * factor, MM_DECIMALS, complete)}"]
-    if assumed and not complete:
-        lines.append(f"# rotation_distance of {', '.join(assumed)} assumes {DEFAULT_FULL_STEPS} full steps x "
-                     f"{DEFAULT_MICROSTEPS} microsteps (no source configuration gave its microsteps)")
+                 *([] if guess and not complete else [rotation])]
+    if unknown:
+        lines.append(f"# no rotation_distance for {', '.join(unknown)}: its microsteps are not known (no "
+                     "source configuration gave them); keep the printer's own")
     return "\n".join(lines + body) + "\n"
+
+
+def _limits(klipper: KlipperDelta, complete: bool) -> list[str]:
+    """``[printer]``'s limits where not Klipper's defaults: ``print_radius``, ``minimum_z_position``."""
+    lines = [] if klipper.print_radius is None else \
+        [f"print_radius: {_number(klipper.print_radius, MM_DECIMALS, complete)}"]
+    if klipper.minimum_z_position != 0.0:
+        lines.append(f"minimum_z_position: {_number(klipper.minimum_z_position, MM_DECIMALS, complete)}")
+    return lines
 
 
 def _number(value: float, decimals: int, exact: bool) -> str:

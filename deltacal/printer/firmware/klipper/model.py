@@ -22,6 +22,15 @@ reading = steps × that step distance. Units: mm (angles of the dataclass in rad
 In deltacal's terms Klipper's model is the perfect printer (:meth:`KlipperDelta.from_printer`) with
 ``ρ = R − a`` (tower radius minus effector radius), ``ℓ = l``, ``E = H + nozzle_z`` and no
 horizontal nozzle offset.
+
+Klipper's limits (``DeltaKinematics.check_move``): a move is refused ("Move out of range") when its
+end, as Klipper parsed it, has Z below ``minimum_z_position`` (default 0), Z above ``max_z``, the lowest
+``position_endstop``, or a horizontal radius beyond ``max_xy = min(print_radius (default
+delta_radius), min ℓ_i − ρ, ratio_to_xy(12))``, tapered above ``limit_z = min(E_i − ℓ_i)`` (where the
+arms stand vertical) to ``max_z − Z``. A move that ends at the home position's X, Y exactly, between
+``minimum_z_position`` and the home's Z, is a homing move and passes. Only a move's end is checked,
+and only a move that changes X, Y or Z (by 1e-9 mm or more). Before homing Klipper refuses every
+such move ("Must home first"): a program's commands are judged as a homed printer takes them.
 """
 
 from __future__ import annotations
@@ -42,6 +51,12 @@ from ...robot import NominalLinearDelta
 DEFAULT_ANGLES_DEG = (210.0, 330.0, 90.0)
 #: Klipper's full steps per rotation when a ``[stepper_*]`` gives none.
 DEFAULT_FULL_STEPS = 200
+#: Klipper's ``SLOW_RATIO``: the radius is limited where a tower moves 4 × this much faster than XY.
+SLOW_RATIO = 3.0
+#: The step of a limit's value a refusal asks for [mm] (rounded away from the commands).
+LIMIT_STEP_MM = 0.01
+#: Codes of :meth:`KlipperDelta.outside`: the limit a command breaks (0: none), in the order checked.
+BELOW_MIN_Z, ABOVE_MAX_Z, BEYOND_RADIUS, BEYOND_TAPER = 1, 2, 3, 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,6 +70,8 @@ class KlipperDelta:
         position_endstop: e_i [mm], (3,).
         step_distance: d_i, carriage travel per (micro)step [mm], (3,).
         name: A name (the configuration file).
+        print_radius: ``[printer] print_radius`` [mm], or None (Klipper's default: ``delta_radius``).
+        minimum_z_position: ``[printer] minimum_z_position`` [mm] (Klipper's default 0).
     """
 
     delta_radius: float
@@ -63,6 +80,8 @@ class KlipperDelta:
     position_endstop: np.ndarray
     step_distance: np.ndarray = field(default_factory=lambda: np.full(3, 0.0125))
     name: str = ""
+    print_radius: float | None = None
+    minimum_z_position: float = 0.0
 
     def __post_init__(self) -> None:
         for key in ("angle", "arm_length", "position_endstop", "step_distance"):
@@ -78,6 +97,11 @@ class KlipperDelta:
                                 f"got {self.arm_length.tolist()}")
         if np.any(self.step_distance <= 0.0):
             raise GeometryError(f"step_distance must be positive, got {self.step_distance.tolist()}")
+        radius = self.print_radius
+        if radius is not None and not (math.isfinite(radius) and radius > 0.0):
+            raise GeometryError(f"print_radius must be a positive length, got {self.print_radius!r}")
+        if not math.isfinite(self.minimum_z_position):
+            raise GeometryError(f"minimum_z_position must be finite, got {self.minimum_z_position!r}")
 
     @classmethod
     def from_printer(cls, printer: NominalLinearDelta, name: str = "") -> KlipperDelta:
@@ -203,6 +227,118 @@ class KlipperDelta:
         """Nozzle positions at deltacal's readings (travels in the towers' ``step_distance``), (N, 3) [mm]."""
         return self.positions(np.atleast_2d(np.asarray(readings, dtype=float)) / step_distance, check)
 
+    @cached_property
+    def max_z(self) -> float:
+        """Klipper's highest Z: the lowest ``position_endstop`` [mm]."""
+        return float(np.min(self.position_endstop))
+
+    @cached_property
+    def limit_z(self) -> float:
+        """Z above which Klipper tapers the radius: ``min(E_i − ℓ_i)`` [mm]."""
+        return float(np.min(self.carriage_top - self.arm_length))
+
+    @cached_property
+    def reach_radius(self) -> float:
+        """The radius the arms allow Klipper, print_radius aside [mm]: ``min(min ℓ − ρ, ratio_to_xy(12))``.
+
+        ``ratio_to_xy(r) = r sqrt(min ℓ² / (r² + 1) − h²) + h − ρ``, h half the smallest step distance:
+        where a tower moves ``r`` times faster than the effector (delta.py).
+        """
+        arm, half = float(np.min(self.arm_length)), 0.5 * float(np.min(self.step_distance))
+        ratio = 4.0 * SLOW_RATIO
+        ratio_xy = ratio * math.sqrt(arm**2 / (ratio**2 + 1.0) - half**2) + half - self.delta_radius
+        return min(arm - self.delta_radius, ratio_xy)
+
+    @cached_property
+    def max_radius(self) -> float:
+        """Klipper's build radius: ``min(print_radius, reach_radius)`` [mm]."""
+        return min(self.delta_radius if self.print_radius is None else self.print_radius, self.reach_radius)
+
+    @cached_property
+    def home_position(self) -> np.ndarray:
+        """Where homing leaves the nozzle: every carriage at its endstop [mm], (3,)."""
+        home = self.positions(np.zeros((1, 3)))[0]
+        home.setflags(write=False)
+        return home
+
+    def with_minimum_z(self, minimum_z: float) -> KlipperDelta:
+        """The same values with ``minimum_z_position`` = ``minimum_z`` [mm]."""
+        return replace(self, minimum_z_position=float(minimum_z))
+
+    def outside(self, commands: np.ndarray) -> np.ndarray:
+        """Which limit each command (a move's end, as Klipper reads it) breaks: 0 none, else a code.
+
+        Klipper's ``check_move``, vectorised: :data:`BELOW_MIN_Z`, :data:`ABOVE_MAX_Z`,
+        :data:`BEYOND_RADIUS`, :data:`BEYOND_TAPER` (the first that applies, in that order).
+
+        Args:
+            commands: Nozzle commands [mm], (N, 3).
+
+        Returns:
+            The codes, (N,) integers.
+        """
+        commands = np.atleast_2d(np.asarray(commands, dtype=float))
+        x, y, z = commands.T
+        xy2 = x**2 + y**2
+        max_xy2 = self.max_radius**2
+        limit_xy2 = np.where(z > self.limit_z, np.minimum(max_xy2, (self.max_z - z) ** 2), max_xy2)
+        home = self.home_position
+        homing = (x == home[0]) & (y == home[1]) & (z >= self.minimum_z_position) & (z <= home[2])
+        codes = np.select([z < self.minimum_z_position, z > self.max_z, xy2 > max_xy2, xy2 > limit_xy2],
+                          [BELOW_MIN_Z, ABOVE_MAX_Z, BEYOND_RADIUS, BEYOND_TAPER], 0)
+        codes[homing & (codes != BELOW_MIN_Z)] = 0
+        return codes
+
+    def refusal(self, commands: np.ndarray) -> str:
+        """What Klipper refuses of commands outside its limits, and the key and value that admit them.
+
+        Names the first command's limit (and then each other limit broken); a value to set admits
+        every command given that breaks its limit, rounded to :data:`LIMIT_STEP_MM` away from them.
+
+        Args:
+            commands: Commands :meth:`outside` refuses [mm], (N, 3), the first the one to name.
+        """
+        commands = np.atleast_2d(np.asarray(commands, dtype=float))
+        codes = self.outside(commands)
+        parts = []
+        for code in dict.fromkeys(codes[codes != 0].tolist()):
+            parts.append(self._refusal(int(code), commands[codes == code]))
+        return "; also ".join(parts) if parts else "inside Klipper's limits"
+
+    def _refusal(self, code: int, commands: np.ndarray) -> str:
+        """One limit's refusal: the first command, the limit, what admits them all."""
+        of = f" of {self.name}" if self.name else ""
+        x, y, z = commands[0]
+        radius = math.hypot(x, y)
+        if code == BELOW_MIN_Z:
+            need = _step_below(float(np.min(commands[:, 2])))
+            return (f"corrected Z {z:.4f} mm is below minimum_z_position {self.minimum_z_position:g}{of}: "
+                    f"set [printer] minimum_z_position: {need:.2f}")
+        if code == ABOVE_MAX_Z:
+            return (f"corrected Z {z:.4f} mm is above {self.max_z:g}, the lowest position_endstop{of} "
+                    "(Klipper's top): no key admits it (position_endstop is the printer's height): lower the "
+                    "program's moves")
+        if code == BEYOND_RADIUS:
+            need = -_step_below(-float(np.max(np.hypot(commands[:, 0], commands[:, 1]))))
+            if need <= self.reach_radius:
+                now = f"{self.print_radius:g}" if self.print_radius is not None else \
+                    f"{self.delta_radius:g} (delta_radius, the default)"
+                return (f"corrected point's radius {radius:.4f} mm is beyond print_radius {now}{of}: "
+                        f"set [printer] print_radius: {need:.2f}")
+            return (f"corrected point's radius {radius:.4f} mm is beyond {self.reach_radius:.2f} mm, the "
+                    f"arms' reach in Klipper's model{of}: no key admits it: keep the program within it")
+        return (f"corrected point at radius {radius:.4f} mm, Z {z:.4f} mm is beyond Klipper's radius taper "
+                f"near the top{of} (radius at most {self.max_z:g} - Z above Z {self.limit_z:.2f}): no key "
+                "admits it: lower the move or bring it nearer the centre")
+
+
+def _step_below(value: float) -> float:
+    """The multiple of :data:`LIMIT_STEP_MM` at or below ``value``, as its 2-decimal text reads back."""
+    need = math.floor(value / LIMIT_STEP_MM) * LIMIT_STEP_MM
+    while float(f"{need:.2f}") > value:
+        need -= LIMIT_STEP_MM
+    return float(f"{need:.2f}")
+
 
 @dataclass(frozen=True, eq=False)
 class KlipperController:
@@ -249,7 +385,12 @@ class KlipperController:
     @cached_property
     def home(self) -> np.ndarray:
         """Where Klipper puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
-        return self.firmware.positions(np.zeros((1, 3)))[0]
+        return self.firmware.home_position
+
+    @property
+    def limits(self) -> KlipperDelta:
+        """Klipper's limits on its commands: its model's (:meth:`KlipperDelta.outside`)."""
+        return self.firmware
 
     def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """The readings Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
