@@ -204,7 +204,7 @@ class Firmware(ABC, Generic[ModelT]):
             clearance: The nozzle's height above the bed while it moves between points [mm].
         """
 
-    def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: float,
+    def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
                   radius: float) -> ModelT:
         """The values with the lowest Z lowered, if need be, to admit the corrected bed.
 

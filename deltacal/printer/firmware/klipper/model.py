@@ -35,6 +35,7 @@ such move ("Must home first"): a program's commands are judged as a homed printe
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
