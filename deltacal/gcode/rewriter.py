@@ -73,7 +73,8 @@ from pathlib import Path
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
-from .batch import CHUNK_LINES, CHUNK_POINTS, XYZ_DECIMALS, Batch, Correct, Progress
+from .batch import CHUNK_LINES, CHUNK_POINTS, MAX_COORDINATE_MM, XYZ_DECIMALS, Batch, Correct, Progress
+from .marker import is_marker
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
@@ -85,6 +86,8 @@ __all__ = [
     "CHUNK_POINTS",
     "DEFAULT_SEGMENT_MM",
     "E_DECIMALS",
+    "MAX_COORDINATE_MM",
+    "MIN_SEGMENT_MM",
     "SUFFIXES",
     "XYZ_DECIMALS",
     "filter_gcode",
@@ -101,6 +104,12 @@ SUFFIXES = (".gcode", ".gco", ".g", ".nc")
 #: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most. Kit printers
 #: through Klipper (Tolerances.printer_kit, 3 seeds): 0.3-1.3 µm at 5 mm, 5-15 µm at 20 mm.
 DEFAULT_SEGMENT_MM = 5.0
+#: Shortest segment asked for [mm]: 100 times the output's resolution (0.1 µm), whose rounding
+#: (0.09 µm at most) shorter segments' own bend never reaches (0.1-0.15 µm at 5 mm already, as the
+#: length squared); and below it a program grows without useful bound (1e-9 mm: 10^6 lines a µm).
+MIN_SEGMENT_MM = 0.01
+#: A UTF-8 byte-order mark, as read (kept in the output, the line after it read as senders do).
+_BOM = "\ufeff"
 #: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
 ARC_TOLERANCE_RATIO = 1e-3
 #: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
@@ -118,6 +127,8 @@ _PLAIN = re.compile(rf"(G0?[01]) (?:F({_NUM}) )?X({_NUM}) Y({_NUM})(?: Z({_NUM})
                     rf"(?: F({_NUM}))?(\r\n|\n|\r)?")
 _FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
 _M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
+#: M codes whose parameter is text (a message, a file name): a G in it is not a command.
+_TEXT_M = frozenset(("23", "28", "30", "32", "117", "118"))
 #: First letters of a line the filter reads (others are kept without reading them).
 _READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
 _HOMING = (28.0, 29.0, 30.0, 38.2, 38.3, 38.4, 38.5)
@@ -163,7 +174,7 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
-                 start=None, source: str = "G-code", home=None) -> Iterator[str]:
+                 start=None, source: str = "G-code", home=None, marker: str | None = None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -175,6 +186,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         source: Name of the program in messages.
         home: Where a homing (G28) leaves the TCP [mm] (a printer's firmware: every carriage at
             its endstop), or None: unknown after it.
+        marker: A comment written as the output's first line (after a byte-order mark), with the
+            first line's ending (:func:`~deltacal.gcode.marker.marker_line`), or None.
 
     Yields:
         The output text, a chunk at a time.
@@ -184,16 +197,21 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     """
     if not (isinstance(segment_mm, int | float) and math.isfinite(segment_mm) and segment_mm > 0):
         raise ValueError(f"segment_mm must be a positive number of mm, got {segment_mm!r}")
+    if segment_mm < MIN_SEGMENT_MM:
+        raise ValueError(f"segment_mm {segment_mm:g} is below {MIN_SEGMENT_MM:g} mm, 100 times the "
+                         "output's resolution: shorter segments follow the rounding, not the path")
     if start is not None:
         start = tuple(float(v) for v in start)
-        if len(start) != 3 or not all(math.isfinite(v) for v in start):
-            raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
+        if len(start) != 3 or not all(abs(v) <= MAX_COORDINATE_MM for v in start):
+            raise ValueError(f"start must be three finite numbers X, Y, Z within ±{MAX_COORDINATE_MM:g} mm, "
+                             f"got {start!r}")
     reader = _Reader(source, float(segment_mm), start, home)
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source)
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
+    lines = _opened(iter(lines), marker, items)
     for number, line in enumerate(lines, 1):
         plain_match = match_plain(line)  # the plainest move first, at the least cost
         plan = (plain_match is not None and plain(plain_match)) or read(number, line)
@@ -220,7 +238,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
 
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
-                 progress: Progress | None = None, home=None) -> None:
+                 progress: Progress | None = None, home=None, marker: str | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -231,6 +249,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         start: TCP position [mm] at the program's start (X, Y, Z), or None.
         progress: Called as ``progress(fraction, "")`` after each chunk (the fraction of the file read).
         home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
+        marker: The output's first line, a comment, or None (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -238,7 +257,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     opened: list = []
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
-    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home)
+    blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, marker)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
@@ -248,12 +267,39 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                 progress(min(done / size, 1.0), "")
 
 
+def _opened(lines: Iterator[str], marker: str | None, items: list) -> Iterator[str]:
+    """The program's lines, the first without its UTF-8 byte-order mark.
+
+    The mark and the marker line go to ``items``, the output's start. The mark is kept byte for
+    byte; the line after it is read as a sender (OctoPrint, Pronterface ...) sends it: without it.
+    """
+    first = next(lines, None)
+    opening = ""
+    if first is not None and first.startswith(_BOM):
+        opening, first = _BOM, first[1:]
+    if marker is not None:
+        ending = "" if first is None else _split(first)[2]
+        opening += marker + (ending or "\n")
+    if opening:
+        items.append(opening)
+    if first is not None:
+        yield first
+    yield from lines
+
+
 def _split(line: str) -> tuple[str, str, str]:
     """(code, comment, ending) of a line: the comment from ';' on, the ending LF, CR LF, CR or ""."""
     ending = "\r\n" if line.endswith("\r\n") else "\n" if line.endswith("\n") else \
         "\r" if line.endswith("\r") else ""
     body = line[: len(line) - len(ending)]
     cut = body.find(";")
+    if cut > 0 and "(" in body[:cut]:  # a ';' within a '(...)' comment is the comment's
+        inside, cut = False, -1
+        for k, c in enumerate(body):
+            if c == ";" and not inside:
+                cut = k
+                break
+            inside = (inside or c == "(") and c != ")"
     return (body, "", ending) if cut < 0 else (body[:cut], body[cut:], ending)
 
 
@@ -286,9 +332,16 @@ class _Reader:
                     return self.plan(number, given, "", comment or "", ending or "")
         s = line.lstrip()
         if not s or s[0] not in _READ:
+            if s[:1] == "/":
+                self.block_delete(number, s)
+            elif is_marker(s):
+                raise self.fail(number, f"the program is already corrected ({s.strip()!r}): correct the "
+                                        "program it was made from")
             return KEPT
         m = _M_LINE.match(s)
         if m is not None:  # M codes are kept as they are; M82 and M83 set the extruder's mode
+            if ("G" in s or "g" in s) and m.group(1) not in _TEXT_M:
+                self.command_then_g(number, s)
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
             return KEPT
@@ -296,6 +349,7 @@ class _Reader:
         parens = ""
         if "(" in code:
             parens = " ".join(_PARENS.findall(code))
+            self.after_semicolon(number, code)
             code = _PARENS.sub(" ", code)
             if "(" in code:
                 raise self.fail(number, "a '(' comment is not closed on its line")
@@ -303,6 +357,42 @@ class _Reader:
         if read is None:
             return KEPT
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
+
+    def block_delete(self, number: int, s: str) -> None:
+        """Refuse a block-delete line (``/G1 ...``) the filter would read.
+
+        Whether it runs is the controller's switch: LinuxCNC runs it while the switch is off;
+        Klipper and Marlin run none (an unknown command).
+        """
+        rest = s[1:].lstrip()
+        m = _M_LINE.match(rest)
+        if rest[:1] in _READ and (m is None or m.group(1) in ("82", "83")):
+            raise self.fail(number, "a block-delete line ('/'): whether it runs depends on the controller's "
+                                    "block-delete switch: remove the '/' or the line")
+
+    def command_then_g(self, number: int, s: str) -> None:
+        """Refuse a G word after an M code on its line (``M83 G1 X40``).
+
+        Marlin and Klipper read the first command alone (the rest are its parameters: Klipper's
+        ``gcode.py`` takes the first letter and number as the command); LinuxCNC and grbl run both.
+        """
+        code = _PARENS.sub(" ", _split(s)[0])
+        words = _WORD.findall(code[: code.find("*")] if "*" in code else code)
+        if all(value for _, value in words) and any(letter in "Gg" for letter, _ in words):
+            g, m = (next(f"{a.upper()}{v}" for a, v in words if a in c) for c in ("Gg", "Mm"))
+            raise self.fail(number, f"{g} after {m} on one line: Marlin and Klipper read only the first "
+                                    f"command, LinuxCNC and grbl both: put {g} on a line of its own")
+
+    def after_semicolon(self, number: int, code: str) -> None:
+        """Refuse words after a ``(...;...)`` comment.
+
+        Klipper ends the line at the ';'; Marlin (with its parenthesis comments) and LinuxCNC
+        read on.
+        """
+        for found in _PARENS.finditer(code):
+            if ";" in found.group() and code[found.end():].strip():
+                raise self.fail(number, f"words after the comment {found.group()!r}: Klipper ends the line "
+                                        "at its ';', others read on: put the comment at the end")
 
     def plain(self, match: re.Match) -> SingleMove | None:
         """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
@@ -477,8 +567,10 @@ class _Reader:
             if None in start:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
                                         "move before it")
+            self.far(number, start, end)
             path = self.arc(number, start, end, given)
         elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
+            self.far(number, start, end)
             path = StraightPath(start, end, self.segment_mm)
         if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
             e = f" E{e_text}" if e_text is not None else ""
@@ -493,6 +585,15 @@ class _Reader:
         text = MoveText.of(st.relative, code, head, tail, comment, (ending, self.newline), e_text, e_mode,
                            e_start)
         return SplitMove(path, text)
+
+    def far(self, number: int, start, end) -> None:
+        """Refuse a move to be cut whose ends are beyond any robot's reach.
+
+        A move sent whole is refused with its point, by the batch, before it is corrected.
+        """
+        if not all(abs(v) <= MAX_COORDINATE_MM for v in (*start, *end)):
+            raise self.fail(number, f"move from {list(start)} to {list(end)} mm: beyond "
+                                    f"±{MAX_COORDINATE_MM:g} mm, out of reach of any robot")
 
     def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
         """The move's end [mm]; the position becomes it."""
