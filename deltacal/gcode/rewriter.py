@@ -37,7 +37,8 @@ What is rewritten, and how:
 - **Kept byte for byte and in order**: every other line: comments, blank lines, M codes (M82 and
   M83 are read), dwell G4, G90/G91/G17/G21 alone, G92 E, T words, firmware commands that are not
   G-code words (``EXCLUDE_OBJECT_START NAME=a``), line endings (LF, CRLF) and bytes that are not
-  UTF-8.
+  UTF-8. A UTF-8 byte-order mark is kept at the start, and the line after it read as senders send
+  it, without the mark. A ``;`` inside a ``(...)`` comment is the comment's.
 
 Position: X, Y and Z are unknown at the start unless ``start`` gives them, and again after a
 homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the real robot then
@@ -59,7 +60,12 @@ or M83 on a line of G words (read by some firmwares, not by others); a number th
 no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
 without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
 not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
-:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines).
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines), or a coordinate beyond
+:data:`MAX_COORDINATE_MM`; a G word after an M code on its line (``M83 G1 X40``: Marlin and
+Klipper read the first command alone, LinuxCNC and grbl both); a block-delete line (``/G1 ...``)
+that would be read (it runs or not by the controller's switch); words after a ``(...;...)``
+comment (Klipper ends the line at the ``;``); a line that starts with
+:data:`~deltacal.gcode.marker.MARKER` (the program is already corrected).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -69,6 +75,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable, Iterator
+from itertools import chain
 from pathlib import Path
 
 from ..exceptions import InputError
@@ -282,9 +289,7 @@ def _opened(lines: Iterator[str], marker: str | None, items: list) -> Iterator[s
         opening += marker + (ending or "\n")
     if opening:
         items.append(opening)
-    if first is not None:
-        yield first
-    yield from lines
+    return lines if first is None else chain((first,), lines)  # in C: no cost per line
 
 
 def _split(line: str) -> tuple[str, str, str]:
