@@ -143,10 +143,7 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     out can be another assembly than the working one (readings that would put the real robot
     millimetres away); those targets are refused.
     """
-    bad = ~np.all(np.isfinite(q), axis=1)
-    low, high = geometry.chain.reading_range
-    with np.errstate(invalid="ignore"):
-        bad |= np.any((q < low) | (q > high), axis=1)
+    bad = _beyond_range(geometry, q)
     ok = np.flatnonzero(~bad)
     while ok.size:
         try:
@@ -159,6 +156,13 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
         bad[ok[miss]] = True
         break
     return bad
+
+
+def _beyond_range(geometry: DeltaGeometry, q: np.ndarray) -> np.ndarray:
+    """Readings not finite or beyond the chain's :attr:`~deltacal.chains.Chain.reading_range`, (N,) bool."""
+    low, high = geometry.chain.reading_range
+    with np.errstate(invalid="ignore"):
+        return ~np.all(np.isfinite(q), axis=1) | np.any((q < low) | (q > high), axis=1)
 
 
 #: Least transmission angle (arm to rod) of a commanded pose [rad] (:data:`COMMAND_MARGIN`).
@@ -182,10 +186,16 @@ def _refuse_unsafe(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
                    min_margin: float) -> None:
     """Refuse readings that miss their targets (:func:`check_readings`) or are near a singularity.
 
+    Readings beyond the chain's range (an arm past its stops, a carriage above its endstop) put
+    the target out of the robot's reach, and are refused as such.
+
     Raises:
-        UnreachableError: naming the targets (:attr:`~UnreachableError.CHECK_FAILED` or
-            :attr:`~UnreachableError.SINGULAR`).
+        UnreachableError: naming the targets (:attr:`~UnreachableError.OUT_OF_REACH`,
+            :attr:`~UnreachableError.CHECK_FAILED` or :attr:`~UnreachableError.SINGULAR`).
     """
+    beyond = _beyond_range(geometry, q)
+    if np.any(beyond):
+        raise UnreachableError.from_mask(beyond, targets, UnreachableError.OUT_OF_REACH)
     failed = check_readings(geometry, targets, q, method)
     if np.any(failed):
         raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from conftest import MODELS
 
-from deltacal import Tolerances
+from deltacal import Tolerances, __version__
 from deltacal.cli import main
 from deltacal.io import load_nominal
 from deltacal.io.geometry_file import save_geometry
@@ -29,7 +29,8 @@ def test_a_program_is_corrected_for_the_nominal_controller(tmp_path, capsys):
     program.write_text("G21\nG90\n; a comment\nG1 X0 Y0 Z-800 F3000\nG1 X60 Y-30 Z-820\nM400\n")
     assert main(["compensate", str(cal), str(program), "--controller", str(robot), "-o", str(out),
                  "--segment-mm", "10"]) == 0
-    lines = out.read_text().splitlines()
+    marker, *lines = out.read_text().splitlines()  # the first line says the program is corrected
+    assert marker == f"; corrected by deltacal {__version__} for {robot} with {cal}"
     assert lines[:3] == ["G21", "G90", "; a comment"] and lines[-1] == "M400"
     moves = np.array([[float(v) for v in re.findall(r"[XYZ](-?[\d.]+)", line)] for line in lines[3:-1]])
     assert len(moves) == 1 + 7  # 67.1 mm in segments of at most 10 mm

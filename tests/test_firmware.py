@@ -135,7 +135,7 @@ def test_refusals_named_by_index(kossel):
     firmware = firmware_of(kossel)
     targets = printable(kossel, 6, np.random.default_rng(5))
     for k, where, reason in [(1, [400.0, 0.0, 10.0], UnreachableError.OUT_OF_REACH),  # beyond the rods
-                             (4, [0.0, 0.0, 350.0], UnreachableError.CHECK_FAILED)]:  # above the endstops
+                             (4, [0.0, 0.0, 350.0], UnreachableError.OUT_OF_REACH)]:  # above the endstops
         far = targets.copy()
         far[k] = where
         with pytest.raises(UnreachableError) as caught:

@@ -25,7 +25,14 @@ import numpy as np
 from ..compensation import METHODS, screen
 from ..controller import CommandModel, RefusedCommands
 from ..exceptions import InputError, UnreachableError, UsageError
-from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, is_gcode_path
+from ..gcode import (
+    DEFAULT_SEGMENT_MM,
+    MAX_COORDINATE_MM,
+    MIN_SEGMENT_MM,
+    filter_gcode,
+    is_gcode_path,
+    marker_line,
+)
 from ..gcode.dialect import Dialect
 from ..io import (
     CommandsWriter,
@@ -136,6 +143,15 @@ def _program(args: argparse.Namespace) -> int:
     if args.frame != "base":
         raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
                          "instrument applies to a targets CSV")
+    segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
+    if segment < MIN_SEGMENT_MM:
+        raise UsageError(f"--segment-mm {segment:g}: below {MIN_SEGMENT_MM:g} mm (100 times the output's 0.1 "
+                         "µm resolution) the segments follow the rounding, not the path, and the program "
+                         "grows without use")
+    if args.start is not None and not all(abs(v) <= MAX_COORDINATE_MM for v in args.start):
+        start = ",".join(f"{v:g}" for v in args.start)
+        raise UsageError(f"--start {start}: beyond ±{MAX_COORDINATE_MM:g} mm, out of reach of any robot "
+                         "(the TCP's position in mm)")
     calibration = load_calibration(args.calibration)
     _warn_rigid_route(args, calibration.geometry.compliance)
     controller = _controller(args, calibration.geometry)
@@ -145,12 +161,12 @@ def _program(args: argparse.Namespace) -> int:
 
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
-    segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
     dialect = _dialect(args.controller)
+    marker = marker_line(args.controller, args.calibration)
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
                      lambda fraction, _: progress.update(fraction, "program"), home=controller.home,
-                     dialect=dialect, limits=controller.limits)
+                     dialect=dialect, limits=controller.limits, marker=marker)
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
           f"(moves split every {segment:g} mm at most)")
     return 0

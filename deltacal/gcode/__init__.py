@@ -6,8 +6,10 @@
 * :mod:`.moves`: the plan of a line (kept, a move sent whole, or split) and a split move's text.
 * :mod:`.path`: a move's intended path (lines and XY arcs) cut into the points sent.
 * :mod:`.batch`: a chunk of output, its points corrected once per chunk.
+* :mod:`.marker`: the first line of a corrected program, which says it is one.
 """
 
+from .marker import MARKER, marker_line
 from .rewriter import (
     ARC_RADIUS_TOLERANCE_MM,
     ARC_TOLERANCE_RATIO,
@@ -15,6 +17,8 @@ from .rewriter import (
     CHUNK_POINTS,
     DEFAULT_SEGMENT_MM,
     E_DECIMALS,
+    MAX_COORDINATE_MM,
+    MIN_SEGMENT_MM,
     SUFFIXES,
     XYZ_DECIMALS,
     filter_gcode,
@@ -30,10 +34,14 @@ __all__ = [
     "CHUNK_POINTS",
     "DEFAULT_SEGMENT_MM",
     "E_DECIMALS",
+    "MARKER",
+    "MAX_COORDINATE_MM",
+    "MIN_SEGMENT_MM",
     "SUFFIXES",
     "XYZ_DECIMALS",
     "filter_gcode",
     "filter_lines",
     "is_gcode_path",
+    "marker_line",
     "read_lines",
 ]

@@ -31,6 +31,9 @@ CHUNK_LINES = 50_000
 #: Decimals of the XYZ written [mm]: 1e-4 mm, rounding within 0.05 µm per axis.
 XYZ_DECIMALS = 4
 _SCALE = 10**XYZ_DECIMALS
+#: Largest coordinate sent to ``correct`` [mm] (1 km: no robot's reach); a point beyond is refused
+#: as out of reach before it is computed (the kinematics would overflow on squares of 1e154).
+MAX_COORDINATE_MM = 1e6
 
 #: ``correct(points)`` -> targets to send, both (N, 3) [mm].
 Correct = Callable[[np.ndarray], np.ndarray]
@@ -157,6 +160,10 @@ class Batch:
 
     def _corrected(self, points: np.ndarray) -> np.ndarray:
         """``correct(points)``, its refusals named by the lines of the points."""
+        far = ~np.all(np.abs(points) <= MAX_COORDINATE_MM, axis=1)
+        if np.any(far):
+            raise self._refusal(points, list(np.flatnonzero(far)),
+                                f"out of reach of the robot (beyond ±{MAX_COORDINATE_MM:g} mm)")
         if self.home is not None:
             return self._corrected_from_home(points)
         try:

@@ -37,7 +37,8 @@ What is rewritten, and how:
 - **Kept byte for byte and in order**: every other line: comments, blank lines, M codes (M82 and
   M83 are read), dwell G4, G90/G91/G17/G21 alone, G92 E, T words, firmware commands that are not
   G-code words (``EXCLUDE_OBJECT_START NAME=a``), line endings (LF, CRLF) and bytes that are not
-  UTF-8.
+  UTF-8. A UTF-8 byte-order mark is kept at the start, and the line after it read as senders send
+  it, without the mark. A ``;`` inside a ``(...)`` comment is the comment's.
 
 Position: X, Y and Z are unknown at the start unless ``start`` gives them, and again after a
 homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the real robot then
@@ -59,10 +60,14 @@ or M83 on a line of G words (read by some firmwares, not by others); a number th
 no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
 without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
 not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
-:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines); a command, as written, that
-the controller's ``limits`` refuse (a printer's firmware: Klipper's "Move out of range"), gathered
-over the whole program and refused at its end by the first one's line, with the configuration key
-and the value that admit them all.
+:class:`~deltacal.exceptions.UnreachableError`, mapped to the lines), or a coordinate beyond
+:data:`MAX_COORDINATE_MM`; a command, as written, that the controller's ``limits`` refuse (a
+printer's firmware: Klipper's "Move out of range"), gathered over the whole program and refused at
+its end by the first one's line, with the configuration key and the value that admit them all; a G
+word after an M code on its line (``M83 G1 X40``: Marlin and Klipper read the first command alone,
+LinuxCNC and grbl both); a block-delete line (``/G1 ...``) that would be read (it runs or not by the
+controller's switch); words after a ``(...;...)`` comment (Klipper ends the line at the ``;``); a
+line that starts with :data:`~deltacal.gcode.marker.MARKER` (the program is already corrected).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -72,15 +77,17 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable, Iterator
+from itertools import chain
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
-from .batch import CHUNK_LINES, CHUNK_POINTS, XYZ_DECIMALS, Batch, Correct, Progress
+from .batch import CHUNK_LINES, CHUNK_POINTS, MAX_COORDINATE_MM, XYZ_DECIMALS, Batch, Correct, Progress
 from .dialect import GENERIC, ArcP, Dialect
 from .homing import FromHome
 from .macros import apply_macro
+from .marker import is_marker
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
@@ -95,6 +102,8 @@ __all__ = [
     "CHUNK_POINTS",
     "DEFAULT_SEGMENT_MM",
     "E_DECIMALS",
+    "MAX_COORDINATE_MM",
+    "MIN_SEGMENT_MM",
     "SUFFIXES",
     "XYZ_DECIMALS",
     "filter_gcode",
@@ -111,6 +120,12 @@ SUFFIXES = (".gcode", ".gco", ".g", ".nc")
 #: at 20 mm and 7-9 µm at 50 mm; a program grows by one line per 5 mm of travel at most. Kit printers
 #: through Klipper (Tolerances.printer_kit, 3 seeds): 0.3-1.3 µm at 5 mm, 5-15 µm at 20 mm.
 DEFAULT_SEGMENT_MM = 5.0
+#: Shortest segment asked for [mm]: 100 times the output's resolution (0.1 µm), whose rounding
+#: (0.09 µm at most) shorter segments' own bend never reaches (0.1-0.15 µm at 5 mm already, as the
+#: length squared); and below it a program grows without useful bound (1e-9 mm: 10^6 lines a µm).
+MIN_SEGMENT_MM = 0.01
+#: A UTF-8 byte-order mark, as read (kept in the output, the line after it read as senders do).
+_BOM = "\ufeff"
 #: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
 ARC_TOLERANCE_RATIO = 1e-3
 #: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
@@ -128,6 +143,8 @@ _PLAIN = re.compile(rf"(G0?[01]) (?:F({_NUM}) )?X({_NUM}) Y({_NUM})(?: Z({_NUM})
                     rf"(?: F({_NUM}))?(\r\n|\n|\r)?")
 _FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
 _M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
+#: M codes whose parameter is text (a message, a file name): a G in it is not a command.
+_TEXT_M = frozenset(("23", "28", "30", "32", "117", "118"))
 #: First letters of a line the filter reads (others are kept without reading them).
 _READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
 _HOMING = (28.0, 29.0, 30.0, 38.2, 38.3, 38.4, 38.5)
@@ -173,8 +190,8 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
-                 start=None, source: str = "G-code", home=None,
-                 dialect: Dialect | None = None, limits: CommandLimits | None = None) -> Iterator[str]:
+                 start=None, source: str = "G-code", home=None, dialect: Dialect | None = None,
+                 limits: CommandLimits | None = None, marker: str | None = None) -> Iterator[str]:
     """The filtered program, as blocks of text, from its lines (a generator: nothing is read ahead).
 
     Args:
@@ -191,6 +208,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
         limits: The controller's limits on its commands (a firmware's), or None: every command, as
             written, is checked; those refused are gathered over the whole program and refused at
             its end, by the first one's line, with the key and value that admit them all.
+        marker: A comment written as the output's first line (after a byte-order mark), with the
+            first line's ending (:func:`~deltacal.gcode.marker.marker_line`), or None.
 
     Yields:
         The output text, a chunk at a time.
@@ -200,10 +219,14 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     """
     if not (isinstance(segment_mm, int | float) and math.isfinite(segment_mm) and segment_mm > 0):
         raise ValueError(f"segment_mm must be a positive number of mm, got {segment_mm!r}")
+    if segment_mm < MIN_SEGMENT_MM:
+        raise ValueError(f"segment_mm {segment_mm:g} is below {MIN_SEGMENT_MM:g} mm, 100 times the "
+                         "output's resolution: shorter segments follow the rounding, not the path")
     if start is not None:
         start = tuple(float(v) for v in start)
-        if len(start) != 3 or not all(math.isfinite(v) for v in start):
-            raise ValueError(f"start must be three finite numbers X, Y, Z [mm], got {start!r}")
+        if len(start) != 3 or not all(abs(v) <= MAX_COORDINATE_MM for v in start):
+            raise ValueError(f"start must be three finite numbers X, Y, Z within ±{MAX_COORDINATE_MM:g} mm, "
+                             f"got {start!r}")
     dialect = GENERIC if dialect is None else dialect
     reader = _Reader(source, float(segment_mm), start, dialect if home is None else dialect.with_home(home))
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
@@ -211,6 +234,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
+    lines = _opened(iter(lines), marker, items)
     for number, line in enumerate(lines, 1):
         plain_match = match_plain(line)  # the plainest move first, at the least cost
         plan = (plain_match is not None and plain(plain_match)) or read(number, line)
@@ -255,7 +279,7 @@ def _split_out(batch: Batch, plan: SplitMove, number: int) -> Iterator[str]:
 def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                  segment_mm: float = DEFAULT_SEGMENT_MM, start=None,
                  progress: Progress | None = None, home=None, dialect: Dialect | None = None,
-                 limits: CommandLimits | None = None) -> None:
+                 limits: CommandLimits | None = None, marker: str | None = None) -> None:
     """Write the program ``source`` with every move corrected to ``destination``, atomically.
 
     Args:
@@ -268,6 +292,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
         home: Where a homing (G28) leaves the TCP [mm], or None (see :func:`filter_lines`).
         dialect: The controller's reading of G-code (see :func:`filter_lines`).
         limits: The controller's limits on its commands, or None (see :func:`filter_lines`).
+        marker: The output's first line, a comment, or None (see :func:`filter_lines`).
 
     Raises:
         InputError: a refused line, naming the file and the line.
@@ -276,7 +301,7 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
     path = Path(source)
     size = max(path.stat().st_size, 1) if path.is_file() else 1
     blocks = filter_lines(read_lines(source, opened), correct, segment_mm, start, str(source), home, dialect,
-                          limits)
+                          limits, marker)
     with atomic_output(destination) as tmp, open(tmp, "w", encoding="utf-8", errors="surrogateescape",
                                                  newline="") as out:
         for block in blocks:
@@ -286,12 +311,37 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                 progress(min(done / size, 1.0), "")
 
 
+def _opened(lines: Iterator[str], marker: str | None, items: list) -> Iterator[str]:
+    """The program's lines, the first without its UTF-8 byte-order mark.
+
+    The mark and the marker line go to ``items``, the output's start. The mark is kept byte for
+    byte; the line after it is read as a sender (OctoPrint, Pronterface ...) sends it: without it.
+    """
+    first = next(lines, None)
+    opening = ""
+    if first is not None and first.startswith(_BOM):
+        opening, first = _BOM, first[1:]
+    if marker is not None:
+        ending = "" if first is None else _split(first)[2]
+        opening += marker + (ending or "\n")
+    if opening:
+        items.append(opening)
+    return lines if first is None else chain((first,), lines)  # in C: no cost per line
+
+
 def _split(line: str) -> tuple[str, str, str]:
     """(code, comment, ending) of a line: the comment from ';' on, the ending LF, CR LF, CR or ""."""
     ending = "\r\n" if line.endswith("\r\n") else "\n" if line.endswith("\n") else \
         "\r" if line.endswith("\r") else ""
     body = line[: len(line) - len(ending)]
     cut = body.find(";")
+    if cut > 0 and "(" in body[:cut]:  # a ';' within a '(...)' comment is the comment's
+        inside, cut = False, -1
+        for k, c in enumerate(body):
+            if c == ";" and not inside:
+                cut = k
+                break
+            inside = (inside or c == "(") and c != ")"
     return (body, "", ending) if cut < 0 else (body[:cut], body[cut:], ending)
 
 
@@ -332,9 +382,16 @@ class _Reader:
                 apply_macro(self.state, effect, number, self.home, self.start)
                 return KEPT
         if not s or s[0] not in _READ:
+            if s[:1] == "/":
+                self.block_delete(number, s)
+            elif is_marker(s):
+                raise self.fail(number, f"the program is already corrected ({s.strip()!r}): correct the "
+                                        "program it was made from")
             return KEPT
         m = _M_LINE.match(s)
         if m is not None:  # M codes are kept as they are; M82 and M83 set the extruder's mode
+            if ("G" in s or "g" in s) and m.group(1) not in _TEXT_M:
+                self.command_then_g(number, s)
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
             return KEPT
@@ -342,6 +399,7 @@ class _Reader:
         parens = ""
         if "(" in code:
             parens = " ".join(_PARENS.findall(code))
+            self.after_semicolon(number, code)
             code = _PARENS.sub(" ", code)
             if "(" in code:
                 raise self.fail(number, "a '(' comment is not closed on its line")
@@ -349,6 +407,42 @@ class _Reader:
         if read is None:
             return KEPT
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
+
+    def block_delete(self, number: int, s: str) -> None:
+        """Refuse a block-delete line (``/G1 ...``) the filter would read.
+
+        Whether it runs is the controller's switch: LinuxCNC runs it while the switch is off;
+        Klipper and Marlin run none (an unknown command).
+        """
+        rest = s[1:].lstrip()
+        m = _M_LINE.match(rest)
+        if rest[:1] in _READ and (m is None or m.group(1) in ("82", "83")):
+            raise self.fail(number, "a block-delete line ('/'): whether it runs depends on the controller's "
+                                    "block-delete switch: remove the '/' or the line")
+
+    def command_then_g(self, number: int, s: str) -> None:
+        """Refuse a G word after an M code on its line (``M83 G1 X40``).
+
+        Marlin and Klipper read the first command alone (the rest are its parameters: Klipper's
+        ``gcode.py`` takes the first letter and number as the command); LinuxCNC and grbl run both.
+        """
+        code = _PARENS.sub(" ", _split(s)[0])
+        words = _WORD.findall(code[: code.find("*")] if "*" in code else code)
+        if all(value for _, value in words) and any(letter in "Gg" for letter, _ in words):
+            g, m = (next(f"{a.upper()}{v}" for a, v in words if a in c) for c in ("Gg", "Mm"))
+            raise self.fail(number, f"{g} after {m} on one line: Marlin and Klipper read only the first "
+                                    f"command, LinuxCNC and grbl both: put {g} on a line of its own")
+
+    def after_semicolon(self, number: int, code: str) -> None:
+        """Refuse words after a ``(...;...)`` comment.
+
+        Klipper ends the line at the ';'; Marlin (with its parenthesis comments) and LinuxCNC
+        read on.
+        """
+        for found in _PARENS.finditer(code):
+            if ";" in found.group() and code[found.end():].strip():
+                raise self.fail(number, f"words after the comment {found.group()!r}: Klipper ends the line "
+                                        "at its ';', others read on: put the comment at the end")
 
     def plain(self, match: re.Match) -> SingleMove | None:
         """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
@@ -541,8 +635,10 @@ class _Reader:
             if None in start:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
                                         "move before it")
+            self.far(number, start, end)
             path = self.arc(number, start, end, given)
         elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
+            self.far(number, start, end)
             path = StraightPath(start, end, self.segment_mm)
         if path is None or path.n == 1:  # sent whole (also when the start is unknown: all XYZ given)
             e = f" E{e_text}" if e_text is not None else ""
@@ -557,6 +653,15 @@ class _Reader:
         text = MoveText.of(st.relative, code, head, tail, comment, (ending, self.newline), e_text, e_mode,
                            e_start)
         return SplitMove(path, text)
+
+    def far(self, number: int, start, end) -> None:
+        """Refuse a move to be cut whose ends are beyond any robot's reach.
+
+        A move sent whole is refused with its point, by the batch, before it is corrected.
+        """
+        if not all(abs(v) <= MAX_COORDINATE_MM for v in (*start, *end)):
+            raise self.fail(number, f"move from {list(start)} to {list(end)} mm: beyond "
+                                    f"±{MAX_COORDINATE_MM:g} mm, out of reach of any robot")
 
     def target(self, number: int, given: dict[str, str]) -> tuple[float, float, float]:
         """The move's end [mm]; the position becomes it."""
