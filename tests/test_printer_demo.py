@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from deltacal.cli import main
+from deltacal.gcode.marker import MARKER
 from deltacal.io import load_calibration
 from deltacal.printer.demo import ROWS, SEED, printer_table
 from deltacal.printer.firmware.klipper.config import load_klipper
@@ -69,9 +70,13 @@ def test_printer_demo_g_code_route_beats_klippers_calibration(demo):
 
 
 def test_printer_demo_corrected_program_differs_only_in_moves(demo):
-    """The corrected part is the part's program with its moves split and corrected; nothing else changed."""
+    """The corrected part is the part's program with its moves split and corrected; nothing else changed.
+
+    Its first line is the marker that says it is corrected (for the demo's printer.cfg and calibration).
+    """
     source = (demo[0] / "part.gcode").read_text().splitlines()
-    corrected = (demo[0] / "part_corrected.gcode").read_text().splitlines()
+    marker, *corrected = (demo[0] / "part_corrected.gcode").read_text().splitlines()
+    assert marker.startswith(MARKER) and marker.endswith("for printer.cfg with printer_calibration.toml")
     kept = [line for line in corrected if not line.startswith(("G0 ", "G1 "))]
     assert kept == [line for line in source if not line.startswith(("G0 ", "G1 ", "G2 "))]
     moves = np.array([[float(w[1:]) for w in line.split()[1:4]] for line in corrected
@@ -129,7 +134,10 @@ def test_compensate_refuses_a_program_its_cfg_refuses_by_line_with_key_and_value
     with_value = default.read_text().replace("[printer]\n", f"[printer]\nminimum_z_position: {value}\n")
     default.write_text(with_value)
     assert main(command) == 0
-    assert (tmp_path / "sent.gcode").read_text() == (out / "part_corrected.gcode").read_text()
+    sent, demo = ((tmp_path / "sent.gcode").read_text().splitlines(),
+                  (out / "part_corrected.gcode").read_text().splitlines())
+    assert sent[0].startswith(MARKER) and demo[0].startswith(MARKER)  # each names its own files
+    assert sent[1:] == demo[1:]
 
 
 def test_compensate_refuses_csv_targets_its_cfg_refuses_by_row(demo, tmp_path, capsys):

@@ -6,6 +6,7 @@
 * :mod:`.moves`: the plan of a line (kept, a move sent whole, or split) and a split move's text.
 * :mod:`.path`: a move's intended path (lines and XY arcs) cut into the points sent.
 * :mod:`.batch`: a chunk of output, its points corrected once per chunk.
+* :mod:`.source`: a program's text as read (its name, its lines with their endings, a byte-order mark).
 * :mod:`.marker`: the first line of a corrected program, which says it is one.
 """
 

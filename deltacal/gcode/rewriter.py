@@ -77,7 +77,6 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable, Iterator
-from itertools import chain
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -90,6 +89,7 @@ from .macros import apply_macro
 from .marker import is_marker
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
+from .source import SUFFIXES, is_gcode_path, line_ending, opened_lines, read_lines
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
 
 if TYPE_CHECKING:
@@ -112,8 +112,6 @@ __all__ = [
     "read_lines",
 ]
 
-#: File name endings read as G-code (in any case).
-SUFFIXES = (".gcode", ".gco", ".g", ".nc")
 #: Longest segment sent to the controller [mm]. The bend of a segment grows as its length squared:
 #: on the two demo robots with Bai's errors, the real path strays from the intended line by at most
 #: 0.09-0.15 µm at 5 mm (of which 0.07 µm is the output's rounding), 0.3-0.4 µm at 10 mm, 1.2-1.5 µm
@@ -124,8 +122,6 @@ DEFAULT_SEGMENT_MM = 5.0
 #: (0.09 µm at most) shorter segments' own bend never reaches (0.1-0.15 µm at 5 mm already, as the
 #: length squared); and below it a program grows without useful bound (1e-9 mm: 10^6 lines a µm).
 MIN_SEGMENT_MM = 0.01
-#: A UTF-8 byte-order mark, as read (kept in the output, the line after it read as senders do).
-_BOM = "\ufeff"
 #: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
 ARC_TOLERANCE_RATIO = 1e-3
 #: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
@@ -158,35 +154,6 @@ _ARCS = (Motion.CLOCKWISE, Motion.COUNTER_CLOCKWISE)
 _ABSOLUTE, _AMBIGUOUS = Extrusion.ABSOLUTE, Extrusion.AMBIGUOUS
 #: Builds a SingleMove without the call of its __new__ (half its cost, on most lines of a program).
 _new_tuple = tuple.__new__
-
-
-def is_gcode_path(path: str | Path) -> bool:
-    """Whether a targets file is read as G-code: its name ends in one of :data:`SUFFIXES`."""
-    return Path(path).suffix.lower() in SUFFIXES
-
-
-def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
-    """The file's lines, one at a time, each with its line ending; bytes kept (surrogateescape).
-
-    Args:
-        path: The G-code file.
-        opened: If given, the open file is appended to it (to ask how far the reading is).
-
-    Raises:
-        InputError: the file cannot be read.
-    """
-    try:
-        f = open(path, encoding="utf-8", errors="surrogateescape", newline="")
-    except FileNotFoundError:
-        raise InputError("file not found", str(path)) from None
-    except IsADirectoryError:
-        raise InputError("is a folder, not a file", str(path)) from None
-    except OSError as exc:
-        raise InputError(f"cannot read file ({exc.strerror})", str(path)) from None
-    with f:
-        if opened is not None:
-            opened.append(f)
-        yield from f
 
 
 def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEFAULT_SEGMENT_MM,
@@ -234,7 +201,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
-    lines = _opened(iter(lines), marker, items)
+    lines = opened_lines(iter(lines), marker, items)
     for number, line in enumerate(lines, 1):
         plain_match = match_plain(line)  # the plainest move first, at the least cost
         plan = (plain_match is not None and plain(plain_match)) or read(number, line)
@@ -311,28 +278,9 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                 progress(min(done / size, 1.0), "")
 
 
-def _opened(lines: Iterator[str], marker: str | None, items: list) -> Iterator[str]:
-    """The program's lines, the first without its UTF-8 byte-order mark.
-
-    The mark and the marker line go to ``items``, the output's start. The mark is kept byte for
-    byte; the line after it is read as a sender (OctoPrint, Pronterface ...) sends it: without it.
-    """
-    first = next(lines, None)
-    opening = ""
-    if first is not None and first.startswith(_BOM):
-        opening, first = _BOM, first[1:]
-    if marker is not None:
-        ending = "" if first is None else _split(first)[2]
-        opening += marker + (ending or "\n")
-    if opening:
-        items.append(opening)
-    return lines if first is None else chain((first,), lines)  # in C: no cost per line
-
-
 def _split(line: str) -> tuple[str, str, str]:
     """(code, comment, ending) of a line: the comment from ';' on, the ending LF, CR LF, CR or ""."""
-    ending = "\r\n" if line.endswith("\r\n") else "\n" if line.endswith("\n") else \
-        "\r" if line.endswith("\r") else ""
+    ending = line_ending(line)
     body = line[: len(line) - len(ending)]
     cut = body.find(";")
     if cut > 0 and "(" in body[:cut]:  # a ';' within a '(...)' comment is the comment's

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..controller import corrected_targets
-from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode
+from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, marker_line
 from ..io import atomic_write_text, save_calibration, write_stl
 from .comparison import (
     BASIC,
@@ -94,7 +94,8 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: KlipperDelta) -> 
         intended.append(np.array(points))
         return corrected_targets(run.result.geometry, controller, points).commands
 
-    filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home, limits=limits)
+    filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home, limits=limits,
+                 marker=marker_line("printer.cfg", "printer_calibration.toml"))
     targets = np.concatenate(intended)
     sent = np.array(_XYZ.findall(corrected.read_text()), dtype=float)
     if sent.shape != targets.shape:
