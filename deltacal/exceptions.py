@@ -63,8 +63,9 @@ class UnreachableError(DeltacalError):
         reason: Why: one of :data:`UnreachableError.REASONS` (``"out_of_reach"``,
             ``"singular"``, ``"check_failed"``, ``"other_assembly"``: reached only in another
             assembly than the one the robot is in when it comes from its workspace; for corrected
-            targets, ``"controller_out_of_reach"`` and ``"controller_singular"``: the controller's own model cannot command the joints
-            that put the real robot there). Callers branch on it, never on the message.
+            targets, ``"controller_out_of_reach"`` and ``"controller_singular"``: the controller's
+            own model cannot command the joints that put the real robot there). Callers branch
+            on it, never on the message.
     """
 
     OUT_OF_REACH = "out_of_reach"
