@@ -61,22 +61,28 @@ class UnreachableError(DeltacalError):
         indices: Indices, in the batch, of the failing targets.
         targets: The failing targets [mm], shape (k, 3).
         reason: Why: one of :data:`UnreachableError.REASONS` (``"out_of_reach"``,
-            ``"singular"``, ``"check_failed"``; for corrected targets, ``"controller_out_of_reach"``
-            and ``"controller_singular"``: the controller's own model cannot command the joints
-            that put the real robot there). Callers branch on it, never on the message.
+            ``"singular"``, ``"check_failed"``, ``"other_assembly"``: reached only in another
+            assembly than the one the robot is in when it comes from its workspace; for corrected
+            targets, ``"controller_out_of_reach"`` and ``"controller_singular"``: the controller's
+            own model cannot command the joints that put the real robot there). Callers branch
+            on it, never on the message.
     """
 
     OUT_OF_REACH = "out_of_reach"
     SINGULAR = "singular"
     CHECK_FAILED = "check_failed"
+    OTHER_ASSEMBLY = "other_assembly"
     CONTROLLER_OUT_OF_REACH = "controller_out_of_reach"
     CONTROLLER_SINGULAR = "controller_singular"
-    REASONS = (OUT_OF_REACH, SINGULAR, CHECK_FAILED, CONTROLLER_OUT_OF_REACH, CONTROLLER_SINGULAR)
+    REASONS = (OUT_OF_REACH, SINGULAR, CHECK_FAILED, OTHER_ASSEMBLY, CONTROLLER_OUT_OF_REACH,
+               CONTROLLER_SINGULAR)
     #: the words used for each reason in messages
     WORDS = {
         OUT_OF_REACH: "out of reach of the robot",
         SINGULAR: "too close to a singularity",
         CHECK_FAILED: "not reached by the joints computed (the output check failed)",
+        OTHER_ASSEMBLY: ("reached only in another assembly of the rods (the robot coming along a straight "
+                         "line from its workspace centre does not get there)"),
         CONTROLLER_OUT_OF_REACH: ("not commandable through the controller's model (its model has no "
                                   "knee-out assembly at the joints that put the robot there)"),
         CONTROLLER_SINGULAR: "too close to a singularity of the controller's model",

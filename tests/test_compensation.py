@@ -292,3 +292,40 @@ def test_readings_of_another_assembly_are_refused(tmp_path):
     with pytest.raises(UnreachableError) as info:
         compensate(g, targets)
     assert info.value.indices == [1, 2] and info.value.reason == UnreachableError.CHECK_FAILED
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [15])
+def test_only_readings_of_the_assembly_the_robot_comes_in_are_written(tmp_path, seed):
+    """Targets at the outer rim (radius 650-900 mm, z -250 to -370) on robots calibrated from 60 poses.
+
+    The truth is the robot coming along the straight line from its workspace centre, followed
+    in 5 mm steps of the exact kinematics: every reading compensate writes is that one, and the
+    targets the working assembly does not get to are refused as another assembly's.
+    """
+    from deltacal.cli import main
+    from deltacal.io import load_calibration
+    from deltacal.kinematics.continuation import inverse_along
+    from deltacal.kinematics.workspace import default_workspace
+
+    robot = str(MODELS / "bai2015.toml")
+    p, m, cal = (str(tmp_path / n) for n in ("p.csv", "m.csv", "cal.toml"))
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "60", "--seed", str(seed), "-o", p]) == 0
+    points = ["--points", "smr_centre,smr_offset"]
+    assert main(["simulate", robot, p, "--perturb", str(seed), *points, "-o", m]) == 0
+    assert main(["identify", robot, m, "-o", cal]) == 0
+    g = load_calibration(cal).geometry
+    r, z, azimuth = np.meshgrid(np.arange(650.0, 901.0, 50.0), np.arange(-250.0, -371.0, -30.0),
+                                np.radians([0.0, 40.0, 75.0]))
+    targets = np.stack([r * np.cos(azimuth), r * np.sin(azimuth), z], axis=-1).reshape(-1, 3)
+    written, refused = [], []
+    for k, target in enumerate(targets):
+        try:
+            written.append((k, compensate(g, target[None])[0]))
+        except UnreachableError as exc:
+            refused.append(exc.reason)
+    truth_q = inverse_along(g, default_workspace(g).centre, targets[[k for k, _ in written]], step=5.0)
+    apart = np.degrees(np.abs(np.array([q for _, q in written]) - truth_q)).max(axis=1)
+    assert np.all(apart < 1e-6), apart[~(apart < 1e-6)]  # NaN (the robot does not get there) fails too
+    assert UnreachableError.OTHER_ASSEMBLY in refused
+    assert len(written) >= 10

@@ -473,6 +473,7 @@ def inverse(
     start: np.ndarray | None = None,
     tol: float = TOLERANCE,
     max_iter: int = 30,
+    check: bool = True,
 ) -> np.ndarray:
     """Readings that put a plate point (default: the TCP) of the real robot at targets.
 
@@ -488,12 +489,13 @@ def inverse(
         start: Warm-start readings [rad], shape (N, 3).
         tol: Threshold on the rod residuals [mm].
         max_iter: Newton iterations at most.
+        check: Raise for the targets not reached (else their rows are NaN).
 
     Returns:
         Readings [rad], shape (N, 3) ([mm] for a prismatic chain).
 
     Raises:
-        UnreachableError: naming the targets out of reach or where Newton failed.
+        UnreachableError: naming the targets out of reach or where Newton failed (with ``check``).
     """
     target = np.atleast_2d(np.asarray(target, dtype=float))
     tool = geometry.tool if point_in_plate is None else np.asarray(point_in_plate, dtype=float)
@@ -531,5 +533,7 @@ def inverse(
         out[b] = q.T
     bad = ~(done & (residual < 1e3 * tol))
     if np.any(bad):
-        raise UnreachableError.from_mask(bad, target)
+        if check:
+            raise UnreachableError.from_mask(bad, target)
+        out[bad] = np.nan
     return out
