@@ -6,7 +6,6 @@ import csv
 import os
 import tomllib
 import warnings
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +14,7 @@ from conftest import kossel_printer_cfg
 from numpy.testing import assert_allclose
 
 from deltacal import Tolerances
+from deltacal.chains import PRISMATIC
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError, InputWarning
 from deltacal.io import load_calibration, load_geometry
@@ -25,7 +25,6 @@ from deltacal.printer.firmware.klipper.importer import import_klipper
 from deltacal.printer.firmware.klipper.model import KlipperController
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
 from deltacal.printer.measurement_files import read_probe_heights, write_probe_heights
-from deltacal.printer.robot import NominalLinearDelta
 from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
@@ -94,23 +93,41 @@ def test_klippers_examples_import_and_command_the_nozzle_exactly(tmp_path, name)
     assert np.max(np.abs(nozzle - targets)) < 1e-9
 
 
-def test_the_written_values_follow_the_spec_per_tower():
+def test_the_written_values_follow_the_spec_per_tower(tmp_path):
     imported = import_klipper(AS_FOUND, effector_radius=25.0, rod_spacing=40.0, nozzle_drop=20.0)
-    # the per-tower file waits for per-tower robot files: its text is checked here
-    geometry = tomllib.loads(imported.text)["geometry"]
+    (tmp_path / "printer.toml").write_text(imported.text)
+    printer = load_printer(tmp_path / "printer.toml")
     rho, arm = 141.553523, 280.0
-    assert geometry["tower_radius_mm"] == rho + 25.0 and geometry["effector_radius_mm"] == 25.0
-    assert geometry["rod_length_mm"] == arm and geometry["rod_spacing_mm"] == 40.0
-    assert geometry["tower_azimuth_deg"] == [210.181908, 329.784204, 90.0]
-    assert geometry["nozzle_mm"] == [0.0, 0.0, -20.0]
+    assert printer.tower_radius == rho + 25.0 and printer.effector_radius == 25.0
+    assert printer.rod_length.tolist() == [arm] * 3 and printer.rod_spacing == 40.0
+    assert_allclose(np.degrees(printer.tower_azimuth), [210.181908, 329.784204, 90.0], rtol=0, atol=1e-12)
+    assert printer.tool.tolist() == [0.0, 0.0, -20.0]
     endstops = np.array([372.971746, 373.433577, 373.629930])
-    assert_allclose(geometry["endstop_height_mm"], endstops + np.sqrt(arm**2 - rho**2) + 20.0, rtol=0,
-                    atol=1e-12)
-    assert geometry["step_distance_mm"] == 32.0 / (200 * 16)
-    workspace = tomllib.loads(imported.text)["workspace"]
-    assert workspace["radius_mm"] == 125.0  # print_radius
-    assert_allclose(workspace["height_mm"], np.min(endstops) + np.sqrt(arm**2 - rho**2) - arm, atol=1e-6)
+    assert_allclose(printer.endstop_height, endstops + np.sqrt(arm**2 - rho**2) + 20.0, rtol=0, atol=1e-12)
+    assert printer.step_distance.tolist() == [32.0 / (200 * 16)] * 3
+    geometry = tomllib.loads(imported.text)["geometry"]  # one number where the towers agree, else three
+    assert geometry["rod_length_mm"] == arm and geometry["step_distance_mm"] == 32.0 / (200 * 16)
+    assert len(geometry["endstop_height_mm"]) == 3
+    ws = printer.workspace
+    assert ws is not None and ws.radius == 125.0  # print_radius
+    assert_allclose(ws.height, np.min(endstops) + np.sqrt(arm**2 - rho**2) - arm, atol=1e-6)
     assert "taken by default" not in imported.text
+
+
+def test_the_flsun_robot_file_commands_the_nozzle_exactly(tmp_path):
+    """Towers whose endstops and angles differ: the imported file's nominal through printer.cfg."""
+    assert main(["import", str(AS_FOUND), "-o", str(tmp_path)]) == 0
+    printer = load_printer(tmp_path / "printer.toml")
+    klipper = load_klipper(AS_FOUND)
+    assert np.ptp(printer.endstop_height) > 0.5 and np.ptp(klipper.position_endstop) > 0.5
+    ws = printer.workspace
+    assert ws is not None
+    rng = np.random.default_rng(3)
+    r, a = ws.radius * np.sqrt(rng.random(300)), rng.uniform(0.0, 2.0 * np.pi, 300)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(0.0, ws.height, 300)])
+    readings = KlipperController(klipper, printer.step_distance).inverse(targets)
+    nozzle = exact.forward(printer.geometry(), readings).point(printer.tool)
+    assert np.max(np.abs(nozzle - targets)) < 1e-9
 
 
 # ------------------------------------------------------------------ Klipper's saved measurements
@@ -177,26 +194,30 @@ def test_import_then_identify_a_printers_saved_calibration(tmp_path, capsys):
 
 
 def test_the_saved_flsun_calibration_identifies(tmp_path):
-    """The real FLSUN QQ-S Pro's seven saved heights: identified on the library's per-tower nominal."""
+    """The real FLSUN QQ-S Pro's seven saved heights, identified on its imported per-tower nominal."""
     imported = import_klipper(AS_FOUND)
-    klipper = imported.klipper
-    geometry = tomllib.loads(imported.text)["geometry"]
-    # the per-tower robot file (branch pertower) will build this nominal from printer.toml itself
-    base = NominalLinearDelta("qqs", geometry["tower_radius_mm"], geometry["effector_radius_mm"], 280.0,
-                              geometry["rod_spacing_mm"], np.radians(geometry["tower_azimuth_deg"]),
-                              float(np.mean(geometry["endstop_height_mm"])), geometry["step_distance_mm"],
-                              np.array(geometry["nozzle_mm"])).geometry()
-    axis_point = base.axis_point.copy()
-    axis_point[:, 2] = geometry["endstop_height_mm"]
-    nominal = replace(base, axis_point=axis_point)
-    step = geometry["step_distance_mm"]
-    readings = klipper.inverse(imported.probe, step)
-    tip = nominal.tool
-    assert_allclose(exact.forward(nominal, readings).point(tip), imported.probe, atol=1e-9)
+    (tmp_path / "printer.toml").write_text(imported.text)
+    printer = load_printer(tmp_path / "printer.toml")
+    nominal = printer.geometry()
+    readings = imported.klipper.inverse(imported.probe, printer.step_distance)
+    assert_allclose(exact.forward(nominal, readings).point(nominal.tool), imported.probe, atol=1e-9)
     data = PrinterMeasurements(readings, trigger_height=imported.saved.height)
     result = identify_printer(nominal, data, "printer", tolerances=Tolerances.printer_kit(),
                               tolerance_scale="evidence")
     assert result.after.height_rms < result.before.height_rms
+
+
+def test_import_then_identify_the_saved_flsun_calibration_through_the_cli(tmp_path):
+    out, cal = tmp_path / "qqs", tmp_path / "cal.toml"
+    assert main(["import", str(AS_FOUND), "-o", str(out)]) == 0
+    assert main(["identify", str(out / "printer.toml"), str(out / "probe.csv"), "--controller", str(AS_FOUND),
+                 "-o", str(cal)]) == 0
+    result = load_calibration(cal)
+    assert result.geometry.chain is PRISMATIC
+    # the per-tower nominal was read: identification started from the file's three endstops
+    endstops = load_printer(out / "printer.toml").endstop_height
+    assert_allclose(result.nominal.axis_point[:, 2], endstops, rtol=0, atol=1e-12)
+    assert result.residuals_after.height_rms < 0.1 * result.residuals_before.height_rms
 
 
 # ------------------------------------------------------------------ probe logs

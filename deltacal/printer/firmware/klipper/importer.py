@@ -35,6 +35,7 @@ import numpy as np
 from ....exceptions import InputError
 from ....io.atomic import atomic_write_text
 from ....io.toml import _toml_value
+from ....towers import written_per_tower
 from ...measurement_files import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
@@ -141,9 +142,8 @@ def _robot_text(config: KlipperConfig, klipper: KlipperDelta, effector_radius: f
 
 
 def _per_tower(values: np.ndarray) -> str:
-    """A number when the three towers agree, ``[a, b, c]`` otherwise (TOML)."""
-    towers = [float(v) for v in values]
-    return _toml_value(towers[0] if towers[0] == towers[1] == towers[2] else towers)
+    """A per-tower value as TOML: a number when the three towers agree, ``[a, b, c]`` otherwise."""
+    return _toml_value(written_per_tower(values))
 
 
 def _printable_radius(config: KlipperConfig, klipper: KlipperDelta) -> tuple[float, str]:
