@@ -185,7 +185,8 @@ class Batch:
         rows = np.r_[0:r0, r1:len(points)]
         sent = np.empty_like(points)
         try:
-            sent[r0:r1] = blend_from_home(self.correct, points[r0:r1], home)
+            outside = None if self.refused is None else self.refused.limits.outside
+            sent[r0:r1] = blend_from_home(self.correct, points[r0:r1], home, outside)
         except (UnreachableError, AssemblyError) as exc:
             raise self._refusal(points, [r0 + int(i) for i in exc.indices], _words(exc)) from None
         if rows.size:

@@ -13,7 +13,9 @@ it, as without deltacal), then the correction is blended in linearly over
 the real home, follows the uncorrected line (off the intended one by the printer's own errors)
 and joins the intended line :data:`HOME_BLEND_MM` later. A point refused further than
 :data:`HOME_ZONE_MM` along the move is refused as any other. A move whose every point has a
-correction is sent corrected in full, as any other. Units: mm.
+correction is sent corrected in full, as any other. A point near the home whose corrected target the
+controller's limits refuse (a printer's radius tapers to its axis near the top: a few mm of
+correction across it are refused there) is taken as one without correction. Units: mm.
 """
 
 from __future__ import annotations
@@ -48,13 +50,17 @@ class FromHome:
     home: tuple[float, float, float]
 
 
-def blend_from_home(correct, points: np.ndarray, home) -> np.ndarray:
+def blend_from_home(correct, points: np.ndarray, home, outside=None) -> np.ndarray:
     """The targets to send for the points of a move from the home (see the module's documentation).
 
     Args:
         correct: ``correct(points)`` -> targets to send, both (N, 3) [mm].
         points: The move's points, in order [mm], (N, 3).
         home: The move's start, the controller's home [mm], (3,).
+        outside: The controller's limits, ``outside(commands)`` -> (N,) (0: accepted), or None. A
+            point within :data:`HOME_ZONE_MM` of the home whose corrected (or blended) target the
+            controller refuses (near the top of a printer, where its radius tapers to its axis)
+            is taken as one without correction: the blend starts after it.
 
     Returns:
         The targets to send [mm], (N, 3).
@@ -80,8 +86,6 @@ def blend_from_home(correct, points: np.ndarray, home) -> np.ndarray:
             todo = np.flatnonzero(~refused)
     else:
         raise error  # type: ignore[misc]
-    if not refused.any():
-        return sent
     path = np.vstack([np.asarray(home, dtype=float)[None, :], points])
     along = np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))  # path length from the home
     far = refused & (along > HOME_ZONE_MM)
@@ -89,6 +93,21 @@ def blend_from_home(correct, points: np.ndarray, home) -> np.ndarray:
         reason = error.reason if isinstance(error, UnreachableError) else \
             UnreachableError.CONTROLLER_OUT_OF_REACH
         raise UnreachableError.from_mask(far, points, reason)
+    blended = _blend(points, sent, refused, along)
+    near = along <= HOME_ZONE_MM
+    for _ in range(_TRIES if outside is not None else 0):  # the controller's limits near the home
+        denied = near & ~refused & (outside(blended) != 0)
+        if not denied.any():
+            break
+        refused |= denied
+        blended = _blend(points, sent, refused, along)
+    return blended
+
+
+def _blend(points: np.ndarray, sent: np.ndarray, refused: np.ndarray, along: np.ndarray) -> np.ndarray:
+    """The points up to the last refused one as they are, then the correction blended in."""
+    if not refused.any():
+        return sent
     last = int(np.flatnonzero(refused)[-1])
     weight = np.clip((along - along[last]) / HOME_BLEND_MM, 0.0, 1.0)
     weight[: last + 1] = 0.0
