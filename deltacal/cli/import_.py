@@ -2,7 +2,8 @@
 
 ``deltacal import printer.cfg -o DIR`` writes ``DIR/printer.toml`` and, from the SAVE_CONFIG
 block's ``[delta_calibrate]``, ``DIR/probe.csv`` and ``DIR/distances.csv``;
-``deltacal import klippy.log -o probe.csv`` writes the log's probe results. The kind of input is
+``deltacal import klippy.log [--config printer.cfg] -o probe.csv`` writes the log's probe results
+(Klipper's lines from 2026 need the configuration's probe offsets). The kind of input is
 told by its content: Klipper's probe results or a log's marks make a log, anything else is read as
 a configuration.
 """
@@ -13,8 +14,9 @@ import argparse
 from pathlib import Path
 
 from ..exceptions import InputError, UsageError
+from ..printer.firmware.klipper.config import read_klipper_config
 from ..printer.firmware.klipper.importer import OUTPUT_FILES, import_klipper, write_import
-from ..printer.firmware.klipper.log import is_probe_log, read_probe_log
+from ..printer.firmware.klipper.log import is_probe_log, probe_offsets, read_probe_log
 from ..printer.measurement_files import write_probe_heights
 from .common import check_input, check_output, positive_float
 
@@ -28,6 +30,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"cannot read the file ({exc.strerror})", args.input) from None
     if is_probe_log(text):
         return _run_log(args, text)
+    if args.config is not None:
+        raise UsageError(f"--config applies to a log; {args.input} is read as a printer.cfg")
     folder = Path(args.output)
     _check_outputs(folder, args.input)
     imported = import_klipper(args.input, args.effector_radius, args.rod_spacing, args.nozzle_drop)
@@ -55,11 +59,16 @@ def _run_log(args: argparse.Namespace, text: str) -> int:
     output = Path(args.output)
     if output.is_dir():
         raise UsageError(f"{output}: a log's probe results go to a file (-o probe.csv); this is a folder")
-    check_output(output, [args.input])
-    log = read_probe_log(args.input, text)
-    write_probe_heights(output, log.commanded[:, :2], log.commanded[:, 2])
+    offsets = None
+    if args.config is not None:
+        check_input(args.config)
+        offsets = probe_offsets(read_klipper_config(args.config))
+    check_output(output, [args.input] + ([args.config] if args.config else []))
+    log = read_probe_log(args.input, text, offsets)
+    write_probe_heights(output, log.commanded[:, :2], log.commanded[:, 2], log.trigger_height)
+    trigger = "" if offsets is None else f", trigger height {offsets.z:g} mm (z_offset of {args.config})"
     print(f"wrote {output}: {len(log.commanded)} probe results (lines {log.lines[0]}..{log.lines[-1]} of "
-          f"{args.input})")
+          f"{args.input}){trigger}")
     return 0
 
 
@@ -87,6 +96,9 @@ def add_parser(sub) -> None:
     p.add_argument("-o", "--output", required=True, metavar="DIR|probe.csv",
                    help="a printer.cfg: the folder to write into (made if its parent exists); a log: the "
                         "file")
+    p.add_argument("--config", metavar="printer.cfg",
+                   help="a log: the printer's configuration, for its probe's offsets ([probe] x_offset, "
+                        "y_offset, z_offset): needed by Klipper's 'probe: at X,Y bed will contact at z=Z'")
     p.add_argument("--effector-radius", type=positive_float, metavar="MM",
                    help="effector centre to each ball pair's midpoint [mm] (not in printer.cfg; default 30)")
     p.add_argument("--rod-spacing", type=positive_float, metavar="MM",

@@ -1,12 +1,21 @@
 """Klipper's probe results read from a log: ``klippy.log`` or a console saved from Mainsail or Fluidd.
 
-Each probe of Klipper's ``PROBE`` (and of every command that probes: ``DELTA_CALIBRATE``,
-``PROBE_ACCURACY``...) answers ``probe at X,Y is z=Z`` (``klippy/extras/probe.py``: ``%.3f`` for
-the toolhead's X and Y, ``%.6f`` for its Z at the trigger): the commanded nozzle position at
-which the probe triggered. A console shows the line after ``// ``, a log after its time; a result
-a fork marks as discarded (``[discarded]``, ``SKIPPED``) is left out. Klipper releases from 2026
-answer ``probe: at X,Y bed will contact at z=Z`` instead, with the probe's offsets applied: not
-read (no commanded position in it).
+Klipper answers each probe (of ``PROBE``, ``PROBE_ACCURACY``, ``DELTA_CALIBRATE``...) on its
+console and in its log (``klippy/extras/probe.py``; x, y with ``%.3f``, z with ``%.6f``):
+
+* releases before 2026: ``probe at X,Y is z=Z``, the toolhead's (commanded nozzle) position at
+  the trigger; ``PROBE`` closes with ``Result is z=Z`` (the samples' average, not read);
+* releases from 2026: ``probe: at X,Y bed will contact at z=Z``, the probe's position:
+  X, Y = the nozzle's + the probe's ``x_offset``, ``y_offset``, Z = the nozzle's - its ``z_offset``;
+  ``PROBE`` closes with ``Result: at X,Y estimate contact at z=Z`` (the samples' average, read only
+  when no sample of it is in the log).
+
+Every sample is a row, in the log's order. ``Probe samples exceed tolerance. Retrying...`` drops
+the samples Klipper drops (those of the current point), so does the error ``Probe samples exceed
+samples_tolerance``; a result a fork marks as discarded (``[discarded]``, ``SKIPPED``) is left out.
+The 2026 lines need the probe's offsets from ``printer.cfg`` (:func:`probe_offsets`); each row then
+carries the probe's ``z_offset`` as its trigger height (the nozzle's height above the bed at the
+trigger). A console shows the lines after ``// ``, a log after its time.
 """
 
 from __future__ import annotations
@@ -18,14 +27,40 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
+from .config import KlipperConfig
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
-#: Klipper's answer to a probe.
+#: Klipper's answer to a probe before 2026: the toolhead's position.
 PROBE_RESULT = re.compile(rf"probe at {_NUMBER},{_NUMBER} is z={_NUMBER}")
+#: Klipper's answer to a probe from 2026: the probe's position, its offsets applied.
+PROBE_CONTACT = re.compile(rf"probe: at {_NUMBER},{_NUMBER} bed will contact at z={_NUMBER}")
+#: ``PROBE``'s closing line from 2026: the average of its samples.
+PROBE_ESTIMATE = re.compile(rf"Result: at {_NUMBER},{_NUMBER} estimate contact at z={_NUMBER}")
+#: Lines that end a command's samples: ``PROBE``'s closing lines, ``PROBE_ACCURACY``'s.
+_CLOSING = re.compile(r"Result is z=|Result: at |PROBE_ACCURACY at |probe accuracy results:")
+#: Klipper dropping the samples of the current point.
+_DROPPED = re.compile(r"Probe samples exceed (?:tolerance\. Retrying|samples_tolerance)")
 #: What forks add to a result they do not keep.
 _DISCARDED = re.compile(r"\[discarded\]|SKIPPED", re.IGNORECASE)
 #: A line only a log or a console has: Klipper's start banner or its config dump, or a console's ``// ``.
 _LOG_MARK = re.compile(r"^(?:Start printer at|===== Config file =====|// |\$ |Args: )", re.MULTILINE)
+#: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
+PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
+
+
+@dataclass(frozen=True)
+class ProbeOffsets:
+    """A probe's offsets from the nozzle, as Klipper's configuration gives them [mm].
+
+    Attributes:
+        x: ``x_offset``.
+        y: ``y_offset``.
+        z: ``z_offset``: the nozzle's height above the bed when the probe triggers.
+    """
+
+    x: float
+    y: float
+    z: float
 
 
 @dataclass(frozen=True)
@@ -35,26 +70,52 @@ class ProbeLog:
     Attributes:
         commanded: Commanded nozzle positions at each trigger [mm], (N, 3).
         lines: The line of each result in the log, (N,).
+        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,), when the
+            probe's offsets were given; else None.
     """
 
     commanded: np.ndarray
     lines: np.ndarray
+    trigger_height: np.ndarray | None = None
+
+
+def probe_offsets(config: KlipperConfig) -> ProbeOffsets:
+    """The offsets of a configuration's probe (``[probe]``, ``[bltouch]``, ``[smart_effector]``...).
+
+    Raises:
+        InputError: no probe section, or an offset that is not a number (``z_offset`` is required).
+    """
+    for section in PROBE_SECTIONS:
+        if section in config.sections:
+            if not config.has(section, "z_offset"):
+                raise InputError("missing required key 'z_offset' (the probe's offsets are needed to read "
+                                 "Klipper's 'probe: at X,Y bed will contact at z=Z')", config.source,
+                                 f"section [{section}]")
+            return ProbeOffsets(config.number(section, "x_offset", 0.0),
+                                config.number(section, "y_offset", 0.0), config.number(section, "z_offset"))
+    raise InputError(f"no probe section ([{'], ['.join(PROBE_SECTIONS)}]): the probe's offsets are needed to "
+                     "read Klipper's 'probe: at X,Y bed will contact at z=Z'", config.source)
 
 
 def is_probe_log(text: str) -> bool:
     """Whether a file's text is a log (Klipper's or a console's), told by its content."""
-    return PROBE_RESULT.search(text) is not None or _LOG_MARK.search(text) is not None
+    return any(pattern.search(text) is not None
+               for pattern in (PROBE_RESULT, PROBE_CONTACT, PROBE_ESTIMATE, _LOG_MARK))
 
 
-def read_probe_log(path: str | Path, text: str | None = None) -> ProbeLog:
+def read_probe_log(path: str | Path, text: str | None = None,
+                   offsets: ProbeOffsets | None = None) -> ProbeLog:
     """The probe results of a log, in its order.
 
     Args:
         path: The log.
         text: Its text, if already read.
+        offsets: The probe's offsets (:func:`probe_offsets`): needed by Klipper's lines from 2026;
+            with them, every row carries the trigger height ``z_offset``.
 
     Raises:
-        InputError: the file cannot be read, or holds no probe result.
+        InputError: the file cannot be read, holds no probe result, or holds a line from 2026
+            without the offsets.
     """
     source = str(path)
     if text is None:
@@ -62,13 +123,54 @@ def read_probe_log(path: str | Path, text: str | None = None) -> ProbeLog:
             text = Path(path).read_text(encoding="utf-8", errors="replace")
         except OSError as exc:
             raise InputError(f"cannot read the log ({exc.strerror})", source) from None
-    rows, lines = [], []
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    open_from = 0  # the first row of the command whose samples are being read
     for number, line in enumerate(text.splitlines(), start=1):
-        match = PROBE_RESULT.search(line)
-        if match and not _DISCARDED.search(line[match.end():]):
-            rows.append([float(v) for v in match.groups()])
+        row = _sample(line, number, offsets, source)
+        estimate = PROBE_ESTIMATE.search(line)
+        if estimate and len(rows) == open_from and not _DISCARDED.search(line[estimate.end():]):
+            row = _from_probe([float(v) for v in estimate.groups()], number, offsets, source, "Result: at")
+        if row is not None:
+            rows.append(row)
             lines.append(number)
+        if _DROPPED.search(line):
+            rows, lines = _drop_point(rows, lines, open_from)
+        if _CLOSING.search(line):
+            open_from = len(rows)
     if not rows:
-        raise InputError("no probe result in this log (Klipper's 'probe at X,Y is z=Z' lines): probe with "
-                         "PROBE, or save the console after probing", source)
-    return ProbeLog(np.array(rows), np.array(lines, dtype=int))
+        raise InputError("no probe result in this log (Klipper's 'probe at X,Y is z=Z' or 'probe: at X,Y bed "
+                         "will contact at z=Z' lines): probe with PROBE, or save the console after probing",
+                         source)
+    heights = None if offsets is None else np.full(len(rows), offsets.z)
+    return ProbeLog(np.array(rows), np.array(lines, dtype=int), heights)
+
+
+def _sample(line: str, number: int, offsets: ProbeOffsets | None, source: str) -> list[float] | None:
+    """The commanded nozzle position of a line's probe sample, or None."""
+    for pattern in (PROBE_RESULT, PROBE_CONTACT):
+        match = pattern.search(line)
+        if match and not _DISCARDED.search(line[match.end():]):
+            values = [float(v) for v in match.groups()]
+            return values if pattern is PROBE_RESULT else _from_probe(values, number, offsets, source,
+                                                                       "probe: at")
+    return None
+
+
+def _from_probe(values: list[float], number: int, offsets: ProbeOffsets | None, source: str,
+                what: str) -> list[float]:
+    """The commanded nozzle position of the probe's position in a line from 2026."""
+    if offsets is None:
+        raise InputError(f"Klipper's '{what} X,Y ... z=Z' is the probe's position, its [probe] offsets "
+                         "applied: give the printer's configuration with --config printer.cfg", source,
+                         f"line {number}")
+    return [values[0] - offsets.x, values[1] - offsets.y, values[2] + offsets.z]
+
+
+def _drop_point(rows: list[list[float]], lines: list[int],
+                open_from: int) -> tuple[list[list[float]], list[int]]:
+    """The rows without the current point's samples (those since ``open_from`` at the last one's x, y)."""
+    keep = len(rows)
+    while keep > open_from and rows[keep - 1][:2] == rows[-1][:2]:
+        keep -= 1
+    return rows[:keep], lines[:keep]

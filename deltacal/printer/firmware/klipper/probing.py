@@ -5,8 +5,9 @@ probe triggers and answers on the console (and in ``klippy.log``), per sample, o
 ``probe at X,Y is z=Z`` (the toolhead's position at the trigger), current ones
 ``probe: at X,Y bed will contact at z=Z`` (the probe's offsets applied) and a closing
 ``Result: at X,Y estimate contact at z=Z``. Both print x, y with three decimals: the program
-writes each point's x, y the same way, so that the log names the points of probe.csv. It needs a
-``[probe]`` section (a nozzle that is the probe: offsets 0). Units: mm; feed rates in mm/min.
+writes each point's x, y the same way, so that the log names the points of probe.csv (the newer
+lines through the ``[probe]`` offsets, :mod:`.log`). It needs a probe section. Units: mm; feed
+rates in mm/min.
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ def klipper_probe_program(points: np.ndarray, title: str = "", clearance: float 
     lines = [f"; {title}" if title else "; deltacal: probe the bed",
              f"; {len(xy)} points, in the order of probe.csv; Klipper answers each PROBE on its console",
              "; (probe at X,Y is z=Z, or probe: at X,Y bed will contact at z=Z); save the console or",
-             "; klippy.log and read it back: deltacal import klippy.log -o probe.csv",
+             "; klippy.log and read it back: deltacal import klippy.log --config printer.cfg -o probe.csv",
              "G28 ; home", "G90 ; absolute positions", f"G1 Z{z} F{LIFT_FEED:.0f}"]
     for k, (x, y) in enumerate(xy, start=1):
         lines += [f"; point {k} of {len(xy)}", f"G1 X{x:.3f} Y{y:.3f} Z{z} F{TRAVEL_FEED:.0f}", "PROBE",
