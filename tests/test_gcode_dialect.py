@@ -24,6 +24,7 @@ from deltacal.exceptions import UnreachableError
 from deltacal.gcode import filter_lines
 from deltacal.gcode.dialect import GENERIC, ArcP
 from deltacal.gcode.homing import HOME_BLEND_MM, HOME_ZONE_MM
+from deltacal.gcode.marker import MARKER
 from deltacal.printer.firmware.klipper.calibrate import probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
@@ -205,7 +206,8 @@ def test_compensate_a_program_starting_with_start_print_needs_no_start(calibrate
     program.write_bytes(PROGRAM.encode())
     assert main(["compensate", str(cal), str(program), "--controller", str(CONFIG), "-o", str(out)]) == 0
     assert "corrected for the controller" in capsys.readouterr().out
-    given, written = PROGRAM.split("\r\n"), out.read_bytes().decode().split("\r\n")
+    given, (marker, *written) = PROGRAM.split("\r\n"), out.read_bytes().decode().split("\r\n")
+    assert marker.startswith(MARKER)  # the corrected program says it is one, with the program's line ending
     assert "\n" not in "".join(written)  # CRLF kept
     moves = [line for line in given if MOVE_LINE.match(line)]
     assert [line for line in written if not MOVE_LINE.match(line)] == [x for x in given if x not in moves]
@@ -239,4 +241,4 @@ def test_compensate_refuses_a_start_macro_homing_under_a_condition_naming_it_and
     assert not out.exists()
     assert main(["compensate", str(cal), str(program), "--controller", str(CONFIG), "--start", "0,0,5",
                  "-o", str(out)]) == 0
-    assert out.read_text().splitlines()[0] == "PRINT_START Z=5"
+    assert out.read_text().splitlines()[1] == "PRINT_START Z=5"  # after the marker line
