@@ -57,6 +57,7 @@ class ChainWords:
         robots: The family: ``rotary Delta robots`` or ``linear Delta printers``.
         model: An exported model's description: ``Delta robot`` or ``linear Delta printer``.
         reading_rule: What readings given on the command line must be (:attr:`Chain.option_range`).
+        reading_unit: The unit of a reading in files and messages: ``deg`` or ``mm``.
     """
 
     part: str
@@ -69,6 +70,7 @@ class ChainWords:
     robots: str
     model: str
     reading_rule: str
+    reading_unit: str
 
 
 class Chain(ABC):
@@ -187,6 +189,10 @@ class Chain(ABC):
         """Readings in the file's unit (degrees, mm) -> [rad, mm]."""
 
     @abstractmethod
+    def reading_to_file(self, q: np.ndarray) -> np.ndarray:
+        """Readings [rad, mm] -> in the file's unit (:attr:`ChainWords.reading_unit`)."""
+
+    @abstractmethod
     def limb_length(self, arm_ball: np.ndarray, rod_length: np.ndarray) -> float:
         """A robot's size [mm]: its mean arm length (axis to elbow), or a printer's mean rod length.
 
@@ -212,7 +218,7 @@ class RevoluteChain(Chain):
     words = ChainWords(
         part="arm", plate="plate", tcp="TCP", tool="tool", robot="robot", a_robot="a rotary Delta",
         a_kind="a rotary Delta", robots="rotary Delta robots", model="Delta robot",
-        reading_rule="readings must lie within ±180 deg",
+        reading_rule="readings must lie within ±180 deg", reading_unit="deg",
     )
     max_step = 0.2
     warm_radius = float(np.radians(5.0))
@@ -269,6 +275,10 @@ class RevoluteChain(Chain):
         """Degrees -> [rad]."""
         return np.radians(values)
 
+    def reading_to_file(self, q: np.ndarray) -> np.ndarray:
+        """[rad] -> degrees."""
+        return np.degrees(q)
+
     def limb_length(self, arm_ball: np.ndarray, rod_length: np.ndarray) -> float:
         """The mean distance of the arms' ball-pair midpoints from their axes' origins [mm]."""
         return float(np.mean(np.linalg.norm(arm_ball.mean(axis=1), axis=1)))
@@ -287,6 +297,7 @@ class PrismaticChain(Chain):
         part="carriage", plate="effector", tcp="nozzle", tool="nozzle", robot="printer", a_robot="a printer",
         a_kind="a linear Delta printer", robots="linear Delta printers", model="linear Delta printer",
         reading_rule="a printer's readings are carriage travels below the endstops [mm], not negative",
+        reading_unit="mm",
     )
     max_step = 50.0
     warm_radius = 20.0
@@ -344,6 +355,10 @@ class PrismaticChain(Chain):
     def reading_from_file(self, values: np.ndarray) -> np.ndarray:
         """Millimetres, as they are."""
         return values
+
+    def reading_to_file(self, q: np.ndarray) -> np.ndarray:
+        """Millimetres, as they are."""
+        return np.asarray(q, dtype=float)
 
     def limb_length(self, arm_ball: np.ndarray, rod_length: np.ndarray) -> float:
         """The mean rod length [mm] (the carriage balls are on the towers)."""

@@ -9,21 +9,35 @@ the firmware's own inverse model (the Klipper configuration they were made with)
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import InputError, UsageError
-from ..geometry import Tolerances
+from ..exceptions import AssemblyError, InputError, UsageError
+from ..geometry import DeltaGeometry, Tolerances
 from ..io import save_calibration
+from ..io.tables import data_row
+from ..kinematics import exact
 from ..printer.firmware.base import FirmwareModel
 from ..printer.firmware.klipper.firmware import KLIPPER
-from ..printer.identification import PrinterMeasurements, identify_printer
+from ..printer.identification import (
+    PrinterFitOptions,
+    PrinterMeasurements,
+    identify_printer,
+    printer_outliers,
+)
 from ..printer.measurement_files import read_printed_distances, read_probe_heights
+from ..printer.outliers import Outliers
 from ..printer.robot import NominalLinearDelta
-from .common import check_input, check_output, positive_float, sigma, three_numbers
+from ..printer.same_printer import ENDSTOP_MM, check_step_distance
+from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
 
 #: The error models of a printer.
 PRINTER_MODELS = ("printer", "klipper")
+#: Probe heights fewer than this are not checked for their spread (a few may agree by chance).
+MIN_HEIGHTS_SPREAD = 5
+#: A probe's trigger point is on the effector: within this of the nozzle along each axis [mm].
+PROBE_OFFSET_MM = 100.0
 
 
 def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
@@ -37,56 +51,168 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     for flag in ("distances", "compliance", "free_points", "pairs"):
         if getattr(args, flag):
             raise UsageError(f"--{flag.replace('_', '-')} applies to a rotary Delta's measurements")
-    files = list(args.measurements)
-    inputs = [args.nominal, args.controller, *files]
+    paths = list(args.measurements)
+    inputs = [args.nominal, args.controller, *paths]
     for path in inputs:
         check_input(path)
     check_output(args.output, inputs)
     firmware = KLIPPER.read_config(args.controller)
-    heights = read_probe_heights(files[0])
-    probe = _readings(firmware, heights.commanded, printer.step_distance, files[0])
-    pairs, distance = _read_distances(files[1:], firmware, printer.step_distance)
-    data = PrinterMeasurements(probe, pairs, distance, probe_offset=args.probe_offset,
+    check_step_distance(printer.step_distance, firmware.step_distance, args.nominal, args.controller,
+                        KLIPPER.step_distance_keys)
+    files = _read(paths[0], paths[1:], firmware, printer, args.sigma_height, float(args.probe_offset[2]))
+    data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,
-                               trigger_height=heights.heights)
-    result = identify_printer(printer.geometry(), data, model, method="linear" if args.linear else "iterated",
-                              tolerances=Tolerances.printer_kit(),
-                              tolerance_scale=args.tolerance_scale or "evidence")
+                               trigger_height=files.trigger)
+    options = PrinterFitOptions(method="linear" if args.linear else "iterated",
+                                tolerances=Tolerances.printer_kit(),
+                                tolerance_scale=args.tolerance_scale or "evidence")
+    start = printer.geometry()
+    _check_assembled(start, data, files, printer.name)
+    if not args.accept_poor_fit:
+        found = printer_outliers(start, data, model, options)
+        if found.indices.size:
+            raise _outlier_error(found, data, files)
+    result = identify_printer(start, data, model, options=options)
     save_calibration(result, args.output)
     print(result.report())
+    if result.outliers:
+        warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
+              "remove it and identify again" for k in result.outliers])
     print(f"\nwrote {args.output}")
     return 0
 
 
-def _read_distances(distance_files: list[str], firmware: FirmwareModel,
-                    step_distance: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """Readings of the printed pairs, and the distances measured."""
+@dataclass(frozen=True)
+class _Files:
+    """A printer's measurements as read, with where each came from."""
+
+    probe: np.ndarray  # readings [mm], (N, 3)
+    pairs: np.ndarray  # readings [mm], (M, 2, 3)
+    distance: np.ndarray  # [mm], (M,)
+    heights: np.ndarray  # the probe file's z_mm, (N,)
+    trigger: np.ndarray  # the probe file's trigger_height_mm, (N,) (empty without the column)
+    sources: list[tuple[str, int]]  # per measurement: its file and line
+
+    def place(self, k: int) -> tuple[str, str]:
+        """The file of measurement k and its place there (``line 8 (data row 7)``)."""
+        source, line = self.sources[k]
+        row = k + 1 - next(i for i, (s, _) in enumerate(self.sources) if s == source)
+        return source, data_row(line, row)
+
+    def where(self, k: int) -> str:
+        """``probe.csv: line 8 (data row 7)`` of measurement k."""
+        return ": ".join(self.place(k))
+
+
+def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, printer: NominalLinearDelta,
+          height_sigma: float, probe_drop: float) -> _Files:
+    """Readings of the probe heights and of the printed pairs, and the distances measured."""
+    step_distance = printer.step_distance
+    heights = read_probe_heights(probe_file)
+    _check_heights(heights.commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop)
+    probe = _readings(firmware, heights.commanded, step_distance, probe_file, heights.lines)
+    sources = [(probe_file, int(n)) for n in heights.lines]
     pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
     for path in distance_files:
         printed = read_printed_distances(path)
-        both = _readings(firmware, printed.pairs.reshape(-1, 3), step_distance, path)
+        both = _readings(firmware, printed.pairs.reshape(-1, 3), step_distance, path,
+                         np.repeat(printed.lines, 2))
         pairs.append(both.reshape(-1, 2, 3))
         distance.append(printed.distance)
-    return np.concatenate(pairs), np.concatenate(distance)
+        sources += [(path, int(n)) for n in printed.lines]
+    return _Files(probe, np.concatenate(pairs), np.concatenate(distance), heights.commanded[:, 2],
+                  heights.heights, sources)
 
 
-def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.ndarray | float,
-              source: str) -> np.ndarray:
-    """The readings the firmware commanded for positions; a position it cannot reach is named by row."""
+def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, probe_z: float) -> None:
+    """Refuse probe heights no printer gives: in another unit, or far from any bed.
+
+    The commanded height at which the probe triggers is where the firmware puts the bed (less the
+    probe's offset ``probe_z`` [mm]): beyond :data:`~deltacal.printer.same_printer.ENDSTOP_MM` from it,
+    no build's endstops are (micrometres, or another printer's file). A printer's probe heights
+    scatter by the probe's σ at least (and by tenths of a mm to mm across the bed, for its tilt and
+    its towers' errors): heights in metres span a thousandth of that.
+    """
+    far = np.flatnonzero(np.abs(z + probe_z) > ENDSTOP_MM)
+    if far.size:
+        k = int(far[0])
+        raise InputError(f"the probe triggered at z_mm = {z[k]:g}, more than {ENDSTOP_MM:g} mm from the bed "
+                         "the firmware knows: no printer's endstops are so far off (micrometres? deltacal "
+                         f"reads millimetres); {far.size} of {z.size} rows", source,
+                         f"{data_row(lines[k], k + 1)}, column z_mm")
+    if z.size < MIN_HEIGHTS_SPREAD or np.ptp(z) == 0.0 or np.ptp(z) >= sigma:
+        return
+    raise InputError(f"the probe heights span only {np.ptp(z):.3g} mm ({z.min():.6g} to {z.max():.6g}), less "
+                     f"than the probe's σ {sigma:g} mm: metres? deltacal reads millimetres", source,
+                     f"lines {int(lines[0])}-{int(lines[-1])}, column z_mm")
+
+
+def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.ndarray | float, source: str,
+              lines: np.ndarray) -> np.ndarray:
+    """The readings the firmware commanded for positions; a position it cannot reach is named by line."""
     readings = firmware.inverse(commanded, step_distance, check=False)
     bad = np.flatnonzero(~np.all(np.isfinite(readings), axis=1))
     if bad.size:
-        row = int(bad[0])
-        raise InputError(f"row {row + 1}: the firmware cannot reach the commanded position "
-                         f"{commanded[row].tolist()} mm (another printer's file?)", source)
+        k = int(bad[0])
+        raise InputError(f"the firmware cannot reach the commanded position {commanded[k].tolist()} mm "
+                         "(another printer's file?)", source, f"line {int(lines[k])}")
     return readings
+
+
+def _check_assembled(start: DeltaGeometry, data: PrinterMeasurements, files: _Files, name: str) -> None:
+    """Refuse, by file and line, the first measurement the nominal printer cannot assemble."""
+    chain, N = start.chain, data.probe.shape[0]
+    for offset, readings, per in ((0, data.probe, 1), (N, data.pairs.reshape(-1, 3), 2)):
+        if not readings.size:
+            continue
+        try:
+            exact.forward(start, readings)
+        except AssemblyError as exc:
+            i = int(exc.indices[0])
+            shown = np.round(chain.reading_to_file(readings[i]), 3).tolist()
+            raise InputError(f"the nominal {chain.words.robot} {name!r} cannot be assembled at the "
+                             f"{chain.words.part} travels {shown} {chain.words.reading_unit} the firmware "
+                             "commands there (a gross error in the row? another printer's file?); "
+                             f"{len(exc.indices)} reading(s) in all",
+                             *files.place(offset + i // per)) from None
+
+
+def _outlier_error(found: Outliers, data: PrinterMeasurements, files: _Files) -> InputError:
+    """The first measurement that does not fit the others, in one line: where, its value and the fit's."""
+    N = data.probe.shape[0]
+    k = int(found.indices[0])
+    r = float(found.residual[k])  # whitened: measured − model
+    if k < N:
+        column, value = "z_mm", float(files.heights[k])
+        expected, what = value + r * data.height_sigma, "probe height"
+    else:
+        column, value = "distance_mm", float(data.distance[k - N])
+        expected, what = value - r * data.distance_sigma, "distance"
+    others = ", ".join(files.where(int(j)) for j in found.indices[1:])
+    more = f"; {found.indices.size} measurements in all, also {others}" if found.indices.size > 1 else ""
+    return InputError(f"{column} = {value:g} mm does not fit the other measurements: they give "
+                      f"{expected:.6g} mm ({abs(value - expected):.3g} mm, {abs(r):.0f} σ of a {what} off: "
+                      f"a typo?); correct or delete the row, or keep it with --accept-poor-fit{more}",
+                      files.sources[k][0], f"{files.place(k)[1]}, column {column}")
+
+
+def probe_offset(text: str) -> np.ndarray:
+    """Argparse type of ``--probe-offset X,Y,Z`` [mm]: three numbers, each within :data:`PROBE_OFFSET_MM`."""
+    values = np.asarray(three_numbers(text, "X,Y,Z in mm"))
+    far = np.flatnonzero(np.abs(values) > PROBE_OFFSET_MM)
+    if far.size:
+        k = int(far[0])
+        raise argparse.ArgumentTypeError(
+            f"the probe's trigger point is on the effector, within {PROBE_OFFSET_MM:g} mm of the nozzle; "
+            f"{'XYZ'[k]} = {values[k]:g} mm in {text!r} (metres? micrometres? deltacal reads millimetres)")
+    return values
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``identify`` that serve printers."""
     p.add_argument("--controller", metavar="PRINTER.cfg",
                    help="a printer: the Klipper configuration the measurements were made with")
-    p.add_argument("--probe-offset", type=lambda t: np.asarray(three_numbers(t, "X,Y,Z in mm")),
+    p.add_argument("--probe-offset", type=probe_offset,
                    default=np.zeros(3), metavar="X,Y,Z",
                    help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "
                         "(default 0,0,0: the nozzle is the probe; a probe file's trigger_height_mm is that "

@@ -163,7 +163,8 @@ class VirtualDelta:
                 idx = np.flatnonzero(bad)
                 raise AssemblyError(
                     f"no assembly at {idx.size} reading(s), first: q = "
-                    f"{np.round(np.degrees(q[idx[0]]), 6).tolist()} deg (index {idx[0]})",
+                    f"{np.round(self.chain.reading_to_file(q[idx[0]]), 6).tolist()} "
+                    f"{self.chain.words.reading_unit} (index {idx[0]})",
                     idx,
                     q[idx],
                 )

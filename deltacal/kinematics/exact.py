@@ -394,7 +394,8 @@ def forward(
         known = residual[bad & np.isfinite(residual)]
         raise AssemblyError(
             f"no assembly found at {int(bad.sum())} reading(s), first: q = "
-            f"{np.round(np.degrees(q[i]), 6).tolist()} deg (index {i}, "
+            f"{np.round(geometry.chain.reading_to_file(q[i]), 6).tolist()} "
+            f"{geometry.chain.words.reading_unit} (index {i}, "
             + (f"rod residual {residual[i]:.3g} mm)" if np.isfinite(residual[i]) else
                "the rods cannot reach the plate)"),
             np.flatnonzero(bad),

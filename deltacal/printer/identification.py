@@ -34,6 +34,7 @@ from typing import Literal, TypedDict, Unpack, get_args
 import numpy as np
 
 from ..errormodels import ErrorModel, get_model
+from ..exceptions import AssemblyError, ConvergenceError
 from ..geometry import DeltaGeometry, Tolerances
 from ..identifiability import BaseParameters, base_parameters
 from ..identification.columns import build_columns
@@ -44,7 +45,8 @@ from ..kinematics import exact
 from ..observations import rigid_alignment
 from ..options import with_overrides
 from ..rotations import skew
-from .evidence import evidence_scale
+from .evidence import SCALE_RANGE, evidence_scale
+from .outliers import Outliers, find_outliers
 
 #: Probe trigger repeatability [mm] (a typical inductive or switch probe).
 HEIGHT_SIGMA = 0.01
@@ -57,6 +59,8 @@ RANK_RTOL = 1e-6
 #: Gauss-Newton stops when no kept parameter moved by more than this [mm or rad].
 STEP_TOLERANCE = 1e-9
 MAX_ITERATIONS = 20
+#: Halvings of a Gauss-Newton step that would leave a reading unassembled, at most.
+HALVINGS = 30
 
 
 @dataclass(frozen=True)
@@ -285,20 +289,16 @@ def identify_printer(
 
     Returns:
         The result: the identified geometry on the true bed (z = 0), every parameter with its
-        posterior σ; its hints say the scale of the tolerances and what only they bound.
+        posterior σ; its hints say the scale of the tolerances and what only they bound; its
+        ``outliers`` the measurements that do not fit the others (:func:`printer_outliers`: probe
+        heights, then distances, then positions, from 0), kept in the fit (the caller decides).
     """
     options = with_overrides(PrinterFitOptions, options, overrides)
-    method, tolerance_scale = options.method, options.tolerance_scale
+    method = options.method
     error_model = get_model(model) if isinstance(model, str) else model
     error_model.check_fits(start)
     given = options.tolerances or Tolerances.printer_kit()
-    if tolerance_scale == "evidence":
-        total, geometry, r, W, _ = _map_fit(start, data, error_model, error_model.prior_sigma(given), method)
-        y = r + W @ total  # the measurements about the estimate, in its linearisation
-        scale = evidence_scale(y, W, lambda s: error_model.prior_sigma(scaled_tolerances(given, s)))
-        how = "the scale the measurements make most probable"
-    else:
-        scale, how = float(tolerance_scale), "as asked"
+    scale, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
     prior = error_model.prior_sigma(used)
     measured = measured_combinations(start, data, error_model, used)
@@ -309,8 +309,18 @@ def identify_printer(
     cov = (Rinv @ Rinv.T) * np.outer(prior, prior)
     sigma = np.sqrt(np.diag(cov))
     chi2 = float(r @ r + np.sum((total / prior) ** 2))
+    variance_factor = chi2 / max(r.size - (6 if data.positions.size else 0), 1)  # the frame's 6
+    flagged = printer_outliers(start, data, error_model, options)
+    inlier_factor = variance_factor
+    if flagged.indices.size:  # the rows of the others, about the fit without the outliers
+        rows = flagged.kept[measurement_of_rows(data)]
+        inlier_factor = float(flagged.residual[rows] @ flagged.residual[rows]) / max(int(rows.sum()), 1)
     held = measured.unidentifiable_names
     hints = [f"the build tolerances scaled by {scale:.3g} ({how})"]
+    warnings = []
+    if options.tolerance_scale == "evidence" and scale >= SCALE_RANGE[1] * (1.0 - 1e-6):
+        warnings.append(f"the build tolerances scaled by {scale:.3g}, the largest searched: the measurements "
+                        "fit no printer within it (a gross error in a file? the files of another printer?)")
     if held:
         hints.append(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
                      f"combinations; the build tolerances bound the other {len(held)} ({', '.join(held)})")
@@ -320,12 +330,12 @@ def identify_printer(
         base=base_parameters(augmented, error_model.names, rtol=RANK_RTOL, prefer=error_model.names),
         values=total, sigma=sigma,
         correlation=cov / np.outer(sigma, sigma), before=_stats(r0, kind, data), after=_stats(r, kind, data),
-        outliers=[], iterations=iterations,
-        variance_factor=chi2 / max(r.size - (6 if data.positions.size else 0), 1),  # the frame's 6
+        outliers=[int(k) for k in flagged.indices], iterations=iterations,
+        variance_factor=variance_factor, inlier_variance_factor=inlier_factor,
         units=list(error_model.units), n_rows=r.size,
         residual_after=r * np.asarray(data.sigma)[kind],
         independent_rows=r.size, columns=build_columns(error_model).columns,
-        hints=tuple(hints),
+        hints=tuple(hints), warnings=tuple(warnings),
     )
 
 
@@ -347,9 +357,81 @@ def _map_fit(start: DeltaGeometry, data: PrinterMeasurements, error_model: Error
         whitened = np.vstack([W * prior, np.eye(prior.size)])  # in units of each tolerance
         step, _, _ = solve_wls(whitened, np.concatenate([r, -total / prior]))
         step = step * prior
+        for _ in range(HALVINGS):  # a step that leaves a reading unassembled is halved
+            try:
+                geometry = error_model.apply(start, total + step)
+                r, W, _ = residuals_and_regressor(geometry, error_model, data)
+                break
+            except AssemblyError:
+                step = 0.5 * step
+        else:
+            raise ConvergenceError(f"the fit left the readings unassembled after {HALVINGS} halvings of "
+                                   "its step (a measurement far from the others?)", float("nan"))
         total = total + step
-        geometry = error_model.apply(start, total)
-        r, W, _ = residuals_and_regressor(geometry, error_model, data)
         if np.max(np.abs(step)) < STEP_TOLERANCE:
             break
     return total, geometry, r, W, iterations
+
+
+def _tolerance_scale(start: DeltaGeometry, data: PrinterMeasurements, error_model: ErrorModel,
+                     given: Tolerances, options: PrinterFitOptions) -> tuple[float, str]:
+    """The factor of the tolerances the fit takes, and how it was chosen (in words)."""
+    if options.tolerance_scale != "evidence":
+        return float(options.tolerance_scale), "as asked"
+    total, _, r, W, _ = _map_fit(start, data, error_model, error_model.prior_sigma(given), options.method)
+    y = r + W @ total  # the measurements about the estimate, in its linearisation
+    scale = evidence_scale(y, W, lambda s: error_model.prior_sigma(scaled_tolerances(given, s)))
+    return scale, "the scale the measurements make most probable"
+
+
+def measurement_of_rows(data: PrinterMeasurements) -> np.ndarray:
+    """The measurement of each row (probe heights, then distances, then positions: 3 rows each), (m,)."""
+    N, M, K = data.probe.shape[0], data.distance.shape[0], data.positions.shape[0]
+    return np.concatenate([np.arange(N + M), N + M + np.repeat(np.arange(K), 3)]).astype(int)
+
+
+def measurements_kept(data: PrinterMeasurements, kept: np.ndarray) -> PrinterMeasurements:
+    """The measurements of the mask ``kept`` (over :func:`measurement_of_rows`' measurements) alone.
+
+    An instrument's positions are kept whole when fewer than 3 would be left (its frame needs 3).
+    """
+    N, M = data.probe.shape[0], data.distance.shape[0]
+    positions = kept[N + M:]
+    if 0 < int(positions.sum()) < 3:
+        positions = np.ones_like(positions)
+    return dataclasses.replace(data, probe=data.probe[kept[:N]], pairs=data.pairs[kept[N:N + M]],
+                               distance=data.distance[kept[N:N + M]], positions=data.positions[positions],
+                               measured=data.measured[positions])
+
+
+def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
+                     options: PrinterFitOptions | None = None) -> Outliers:
+    """The measurements that do not fit the others (:func:`~deltacal.printer.outliers.find_outliers`).
+
+    Each trial fit is :func:`identify_printer`'s (the tolerances' scale chosen again without the
+    suspects), and every row is tested about it.
+
+    Args:
+        start: The nominal printer.
+        data: The measurements.
+        model: The error model.
+        options: How to fit (default: :class:`PrinterFitOptions`' defaults).
+
+    Returns:
+        The outliers (indices over :func:`measurement_of_rows`' measurements) and every row's whitened
+        residual about the fit without them.
+    """
+    options = options or PrinterFitOptions()
+    error_model = get_model(model) if isinstance(model, str) else model
+    given = options.tolerances or Tolerances.printer_kit()
+
+    def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        subset = measurements_kept(data, kept)
+        scale, _ = _tolerance_scale(start, subset, error_model, given, options)
+        prior = error_model.prior_sigma(scaled_tolerances(given, scale))
+        geometry = _map_fit(start, subset, error_model, prior, options.method)[1]
+        r, W, _ = residuals_and_regressor(geometry, error_model, data)
+        return r, W * prior
+
+    _, _, kind = residuals_and_regressor(start, error_model, data)
+    return find_outliers(fit, measurement_of_rows(data), kind)

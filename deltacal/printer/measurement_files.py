@@ -26,6 +26,12 @@ from ..exceptions import InputError
 from ..io.atomic import atomic_write_text
 from ..io.tables import TARGET_COLUMNS, _format_rows, _quoted, data_row, read_csv_table
 
+#: A distance measured further than this fraction from the distance commanded between its features is
+#: no printer's: a kit's step distances are within 0.3 %, its uncalibrated nozzle within 2-4 mm.
+DISTANCE_RTOL = 0.05
+#: Units a whole distances file may be in, by the ratio of its distances to those commanded.
+OTHER_UNITS = ((0.1, "centimetres"), (0.001, "metres"), (1.0 / 25.4, "inches"), (1000.0, "micrometres"))
+
 #: The columns of a probe heights file; the last is the one measured.
 PROBE_COLUMNS = TARGET_COLUMNS
 #: The optional column of a probe heights file: the probe point's height above the bed at its trigger.
@@ -146,6 +152,7 @@ def read_printed_distances(path: str | Path, filled: bool = True) -> PrintedDist
         k = int(same[0])
         raise InputError(f"both features of the pair are at {pairs[k, :3].tolist()} mm: a distance needs two "
                          "places", source, f"{data_row(lines[k], k + 1)}, columns x1_mm..z2_mm")
+    _check_distances(distance, np.linalg.norm(pairs[:, 3:] - pairs[:, :3], axis=1), lines, source)
     balls = _check_balls(table.text, pairs, lines, source)
     return PrintedDistances(pairs, distance, lines, balls)
 
@@ -184,6 +191,27 @@ def _check_balls(text: dict[str, list[str]], pairs: np.ndarray, lines: np.ndarra
                 raise InputError(f"the ball at {list(position)} mm is {named[position]} on an earlier row "
                                  f"and {label} here", source, f"{row}, column {column}")
     return balls
+
+
+def _check_distances(distance: np.ndarray, commanded: np.ndarray, lines: np.ndarray, source: str) -> None:
+    """Refuse the first distance further from the commanded one than any printer (:data:`DISTANCE_RTOL`).
+
+    NaN (a template's empty cell) is not checked. A whole file in another unit is said so.
+    """
+    ratio = distance / commanded
+    bad = np.flatnonzero(np.abs(ratio - 1.0) > DISTANCE_RTOL)  # NaN compares False
+    if not bad.size:
+        return
+    k = int(bad[0])
+    median = float(np.nanmedian(ratio))
+    unit = next((f": {name}? deltacal reads millimetres" for factor, name in OTHER_UNITS
+                 if abs(median / factor - 1.0) <= DISTANCE_RTOL and bad.size > distance.size // 2), "")
+    off = 100.0 * abs(ratio[k] - 1.0)
+    raise InputError(f"the distance measured, {float(distance[k]):g} mm, is {off:.3g} % from the "
+                     f"{float(commanded[k]):.6g} mm commanded between the features: no printer is so far off "
+                     f"({100.0 * DISTANCE_RTOL:g} % at most){unit or ' (a typo? another file of pairs?)'}; "
+                     f"{bad.size} of {distance.size} rows", source,
+                     f"{data_row(lines[k], k + 1)}, column distance_mm")
 
 
 def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.ndarray | None = None,

@@ -1,0 +1,86 @@
+"""Whether two files are of one printer: differences no build, no calibration could make.
+
+A printer's files come in pairs: its robot file (or its calibration) and its firmware's configuration.
+Given those of two different printers, every command would compute on, and write, nonsense that looks
+right (the readings of one counted in the other's steps; corrections of one sent to the other). The
+bounds here are far beyond what a build or a calibration moves a value by:
+
+* step distance: :data:`STEP_DISTANCE_RTOL` (a kit's step distances are within 0.3 %, a tuned
+  ``rotation_distance`` within 1-2 %; another microstepping is a factor 2, another pulley 20 %);
+* a firmware's radius and arm lengths: :data:`LENGTH_RTOL` of the value (a kit's towers are placed to
+  0.3 mm and its rods to 0.1 mm, about 0.1 % of a printer's radius and rods; a calibrated radius
+  takes up the effector's and the towers' errors too, a few mm at most);
+* endstops: :data:`ENDSTOP_MM` (a kit's endstops are set to 0.5 mm; a glass plate or a new bed
+  moves them by a few mm).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import InputError
+
+#: Relative difference of two step distances beyond any build or tuning.
+STEP_DISTANCE_RTOL = 0.05
+#: Relative difference of a radius or of an arm length beyond any build or calibration.
+LENGTH_RTOL = 0.05
+#: Difference of an endstop beyond any build or calibration [mm].
+ENDSTOP_MM = 20.0
+
+
+def check_step_distance(step_distance: np.ndarray | float, config_steps: np.ndarray, robot_file: str | Path,
+                        config_file: str | Path, config_keys: str) -> None:
+    """Refuse a configuration whose towers step in another step distance than the robot file's.
+
+    Args:
+        step_distance: The robot file's nominal step distance [mm], one or one per tower (3,).
+        config_steps: The configuration's step distance of each tower [mm], (3,).
+        robot_file: The robot file, for the message.
+        config_file: The configuration, for the message.
+        config_keys: Where the configuration sets them (:attr:`Firmware.step_distance_keys`).
+
+    Raises:
+        InputError: naming both files, their keys and values.
+    """
+    steps = np.asarray(config_steps, dtype=float).reshape(-1)
+    ours = np.broadcast_to(np.asarray(step_distance, dtype=float), steps.shape)
+    apart = np.abs(steps / ours - 1.0)
+    if not np.any(apart > STEP_DISTANCE_RTOL):
+        return
+    k = int(np.argmax(apart))
+    raise InputError(f"key geometry.step_distance_mm = {ours[k]:.9g} mm (tower {'ABC'[k]}), but "
+                     f"{config_file}: {config_keys} gives {steps[k]:.9g} mm per step, "
+                     f"{steps[k] / ours[k]:.4g} times: the files of different printers (another "
+                     "microstepping? another pulley?)",
+                     str(robot_file))
+
+
+def check_same_values(name: str, ours: np.ndarray, theirs: np.ndarray, tolerance: np.ndarray | float,
+                      our_source: str, their_source: str, unit: str = "mm") -> None:
+    """Refuse two sets of values of one printer further apart than ``tolerance``.
+
+    Args:
+        name: What the values are (``"delta_radius"``).
+        ours: The first file's values, (3,) or a scalar.
+        theirs: The second file's.
+        tolerance: The largest difference a build or calibration makes, per value.
+        our_source: The first file and where in it the values come from, for the message.
+        their_source: The second.
+        unit: The values' unit.
+
+    Raises:
+        InputError: naming both values and where they come from.
+    """
+    a = np.atleast_1d(np.asarray(ours, dtype=float))
+    b = np.broadcast_to(np.atleast_1d(np.asarray(theirs, dtype=float)), a.shape)
+    tol = np.broadcast_to(np.asarray(tolerance, dtype=float), a.shape)
+    apart = np.abs(a - b) - tol
+    if not np.any(apart > 0.0):
+        return
+    k = int(np.argmax(apart))
+    tower = f" (tower {'ABC'[k]})" if a.size == 3 else ""
+    raise InputError(f"{name}{tower} is {a[k]:.6g} {unit} in {our_source} but {b[k]:.6g} {unit} in "
+                     f"{their_source}: further apart than any build could be ({tol[k]:.3g} {unit}): "
+                     "the files of different printers")
