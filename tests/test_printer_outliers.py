@@ -9,7 +9,12 @@ import pytest
 
 from deltacal.printer.comparison import plan_measurements
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.identification import identify_printer, printer_outliers
+from deltacal.printer.identification import (
+    PrinterMeasurements,
+    identify_printer,
+    measurements_kept,
+    printer_outliers,
+)
 from deltacal.printer.plan import plan_object
 from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import (
@@ -99,3 +104,13 @@ def test_a_printers_unassembled_readings_are_said_in_millimetres():
 
     with pytest.raises(AssemblyError, match=r"q = \[17454\.96, 0\.0, 0\.0\] mm \(index 0"):
         exact.forward(PRINTER.geometry(), np.array([[17454.96, 0.0, 0.0]]))
+
+
+def test_measurements_kept_keep_each_probe_rows_trigger_height():
+    """A probe row left out takes its trigger height with it (the rows' own, not the first ones)."""
+    probe = np.arange(12.0).reshape(4, 3)
+    data = PrinterMeasurements(probe, np.zeros((1, 2, 3)) + [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]], np.ones(1),
+                               trigger_height=np.array([0.1, 0.2, 0.3, 0.4]))
+    kept = measurements_kept(data, np.array([True, False, True, True, True]))
+    assert kept.probe.tolist() == probe[[0, 2, 3]].tolist()
+    assert kept.trigger_height.tolist() == [0.1, 0.3, 0.4]

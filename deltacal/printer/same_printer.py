@@ -50,8 +50,8 @@ def check_step_distance(step_distance: np.ndarray | float, config_steps: np.ndar
     if not np.any(apart > STEP_DISTANCE_RTOL):
         return
     k = int(np.argmax(apart))
-    raise InputError(f"key geometry.step_distance_mm = {ours[k]:.9g} mm (tower {'ABC'[k]}), but "
-                     f"{config_file}: {config_keys} gives {steps[k]:.9g} mm per step, "
+    raise InputError(f"key geometry.step_distance_mm = {ours[k]:.9g} mm, but {config_file}: "
+                     f"{config_keys} gives {steps[k]:.9g} mm per step (tower {'ABC'[k]}), "
                      f"{steps[k] / ours[k]:.4g} times: the files of different printers (another "
                      "microstepping? another pulley?)",
                      str(robot_file))
