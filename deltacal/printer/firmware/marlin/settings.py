@@ -31,7 +31,8 @@ from .model import DEFAULT_SEGMENTS_PER_SECOND, MarlinDelta, SoftEndstops
 
 #: A host's and Marlin's prefixes of a console line.
 _PREFIX = re.compile(r"^\s*(?:(?:Recv|Send):\s*)?(?:echo:\s*)*", re.IGNORECASE)
-_WORD = re.compile(r"([A-Za-z])\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|\S*)")
+#: A word of a report: a letter and what follows it up to white space (M503 separates its words).
+_WORD = re.compile(r"([A-Za-z])(\S*)")
 _LIMITS = re.compile(r"Min:\s*(?P<min>.*?)\s*Max:\s*(?P<max>.*)$", re.IGNORECASE)
 #: What tells an ``M503`` capture from other G-code: Marlin's ``echo:`` prefix or a report heading.
 _MARK = re.compile(r"^\s*(?:Recv:\s*)?echo:"
