@@ -9,7 +9,8 @@ printer, the first layer's height errors optionally weighted), written by Marlin
 The angle gauge is held as ``G33`` holds it, the trims' sum at 0: the fit holds tower C's angle (the
 towers' common turn is the part's), then is run again with tower C's trim moved by minus the
 trims' mean, which the other two follow; the small sum left (about 1e-5 deg) is taken off by
-turning the model. What the written values leave is computed through Marlin's model itself.
+turning the model. What the written values leave is computed with their carriage heights as
+Marlin homes them (``M666`` within its skipped steps included).
 Units: mm; trims in degrees.
 """
 
