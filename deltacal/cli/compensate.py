@@ -45,6 +45,7 @@ from ..io import (
 from ..printer.firmware import config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
+from .firmware import add_firmware_argument, controller_firmware
 from .progress import Progress
 from .workers import Job, Refused, shared_values, solved_in_order
 
@@ -188,7 +189,11 @@ def _controller(args: argparse.Namespace, geometry) -> CommandModel:
     A printer's readings count steps in its nominal step distance, the calibration's (a Klipper
     configuration's own ``rotation_distance`` may have been refitted per tower since).
     """
-    controller = load_controller(args.controller, step_distance=geometry.step_distance)
+    if args.firmware is not None:
+        firmware = controller_firmware(args.controller, args.firmware)
+        controller = firmware.load_controller(args.controller, step_distance=geometry.step_distance)
+    else:
+        controller = load_controller(args.controller, step_distance=geometry.step_distance)
     chain = controller.virtual.chain
     if chain != geometry.chain:
         raise UsageError(f"--controller {args.controller} is {chain.words.a_kind}'s, but the calibration "
@@ -269,8 +274,9 @@ def add_parser(sub) -> None:
     p.add_argument("--controller", metavar="CONTROLLER",
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
                         "send a controller running this model (a controller file, a robot file: its "
-                        "nominal controller, or a printer's Klipper configuration printer.cfg) instead of "
-                        "joint readings")
+                        "nominal controller, or a printer's firmware settings: Klipper's printer.cfg, "
+                        "Marlin's M503 capture) instead of joint readings")
+    add_firmware_argument(p)
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
                         "actuators' compliances, the readings (or a controller's corrected targets) put "

@@ -24,6 +24,7 @@ from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
 from .export_klipper import run_klipper
+from .export_marlin import run_marlin
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
@@ -66,10 +67,12 @@ def run(args: argparse.Namespace) -> int:
     """Run ``deltacal export``; returns the exit status."""
     if args.controller == "klipper":
         return run_klipper(args)
+    if args.controller == "marlin":
+        return run_marlin(args)
     if args.controller is not None:
         return run_controller(args)
     if args.config is not None or args.keep_rotation_distance:
-        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper")
+        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper|marlin")
     if args.output is not None or args.robot is not None:
         raise UsageError(f"{'-o' if args.output is not None else '--robot'} applies to --controller; "
                          "--mjcf names its own output")
@@ -90,7 +93,7 @@ def run_controller(args: argparse.Namespace) -> int:
     if args.home is not None:
         raise UsageError("--home applies to --mjcf")
     if args.config is not None or args.keep_rotation_distance:
-        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper")
+        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper|marlin")
     inputs = [p for p in (args.calibration, args.robot) if p is not None]
     for path in inputs:
         check_input(path)
@@ -171,18 +174,21 @@ def add_parser(sub) -> None:
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
-    what.add_argument("--controller", choices=(*FIT_KINDS, "klipper"),
+    what.add_argument("--controller", choices=(*FIT_KINDS, "klipper", "marlin"),
                       help="write a controller file (-o) with the joint offsets alone, or the per-limb "
                            "values, that best fit the calibration over the workspace; klipper: a printer's "
-                           "[printer] and [stepper_a..c] values (-o CALIBRATED.cfg)")
+                           "[printer] and [stepper_a..c] values (-o CALIBRATED.cfg); marlin: M665, M666 "
+                           "and M92 lines (-o CALIBRATED.gcode)")
     p.add_argument("-o", "--output", metavar="CONTROLLER.toml|CALIBRATED.cfg",
                    help="with --controller: the controller file (klipper: the Klipper values)")
-    p.add_argument("--config", metavar="PRINTER.cfg",
-                   help="with --controller klipper: the Klipper configuration the printer runs (its values "
+    p.add_argument("--config", metavar="PRINTER.cfg|SETTINGS",
+                   help="with --controller klipper|marlin: the configuration the printer runs (Marlin: its "
+                        "M503 capture, its M851 and soft endstops kept; its values "
                         "start the fit; its microsteps and gears turn step distances into rotation_distance; "
                         "default: the nominal printer's values, 200 full steps x 16 microsteps)")
     p.add_argument("--keep-rotation-distance", action="store_true",
-                   help="with --controller klipper: hold each tower's rotation_distance (the --config's, "
+                   help="with --controller klipper|marlin: hold each tower's rotation_distance (Marlin: "
+                        "M92) (the --config's, "
                         "else the nominal step distance's)")
     p.add_argument("--robot", metavar="ROBOT.toml",
                    help="with --controller: the robot file (its nominal values start the fit and hold "

@@ -22,9 +22,9 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import Workspace
 from ..io import load_calibration
+from ..printer.firmware.base import FirmwareModel
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget
-from ..printer.firmware.klipper.model import KlipperDelta
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
@@ -84,7 +84,7 @@ def run_klipper(args: argparse.Namespace) -> int:
     return 0
 
 
-def _step_distance(known: np.ndarray | None, config: KlipperDelta | None, args: argparse.Namespace,
+def _step_distance(known: np.ndarray | None, config: FirmwareModel | None, args: argparse.Namespace,
                    key: str) -> np.ndarray:
     """The printer's nominal step distances (3,): the calibration's, else the configuration's (equal)."""
     if known is not None:

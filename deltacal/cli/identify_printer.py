@@ -19,7 +19,6 @@ from ..io import save_calibration
 from ..io.tables import data_row
 from ..kinematics import exact
 from ..printer.firmware.base import FirmwareModel
-from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.identification import (
     PrinterFitOptions,
     PrinterMeasurements,
@@ -31,6 +30,7 @@ from ..printer.outliers import Outliers
 from ..printer.robot import NominalLinearDelta
 from ..printer.same_printer import ENDSTOP_MM, check_step_distance
 from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
+from .firmware import add_firmware_argument, controller_firmware
 
 #: The error models of a printer.
 PRINTER_MODELS = ("printer", "klipper")
@@ -56,9 +56,10 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     for path in inputs:
         check_input(path)
     check_output(args.output, inputs)
-    firmware = KLIPPER.read_config(args.controller)
+    kind = controller_firmware(args.controller, args.firmware)
+    firmware = kind.read_config(args.controller)
     check_step_distance(printer.step_distance, firmware.step_distance, args.nominal, args.controller,
-                        KLIPPER.step_distance_keys)
+                        kind.step_distance_keys)
     files = _read(paths[0], paths[1:], firmware, printer, args.sigma_height, float(args.probe_offset[2]))
     data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,
@@ -210,8 +211,10 @@ def probe_offset(text: str) -> np.ndarray:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``identify`` that serve printers."""
-    p.add_argument("--controller", metavar="PRINTER.cfg",
-                   help="a printer: the Klipper configuration the measurements were made with")
+    p.add_argument("--controller", metavar="SETTINGS",
+                   help="a printer: the firmware's settings the measurements were made with (Klipper's "
+                        "printer.cfg, Marlin's M503 capture)")
+    add_firmware_argument(p)
     p.add_argument("--probe-offset", type=probe_offset,
                    default=np.zeros(3), metavar="X,Y,Z",
                    help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "

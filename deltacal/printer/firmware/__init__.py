@@ -13,7 +13,7 @@ subpackage has the same parts:
 * ``probing``: its program that probes the bed at given points, its results on the console;
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
-Klipper (:mod:`.klipper`) is the first. :func:`firmwares` lists them; :func:`config_firmware`
+Klipper (:mod:`.klipper`) and Marlin (:mod:`.marlin`). :func:`firmwares` lists them; :func:`config_firmware`
 finds the one whose configuration a file is.
 """
 
@@ -28,8 +28,9 @@ from .base import Firmware
 def firmwares() -> tuple[Firmware[Any], ...]:
     """Every firmware deltacal knows, in the order their configuration files are recognised."""
     from .klipper.firmware import KLIPPER
+    from .marlin.firmware import MARLIN
 
-    return (KLIPPER,)
+    return (KLIPPER, MARLIN)
 
 
 def config_firmware(path: str | Path) -> Firmware[Any] | None:

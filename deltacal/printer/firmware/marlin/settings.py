@@ -1,0 +1,222 @@
+"""Marlin's settings as ``M503`` reports them, read into its delta model, and written back as G-code.
+
+What ``M503`` prints (``module/settings.cpp``, each ``Mxxx_report``), as a console shows it: every
+line may start with ``echo:`` (and a host's ``Recv:``); a heading is a comment line
+(``echo:; Delta config:``), a setting a command (``echo:  M665 L250.00 R124.00 H250.00 S200.00 X0.00
+Y0.00 Z0.00 A0.00 B0.00 C0.00``); deltacal reads
+
+* ``M665 L R H S X Y Z A B C`` (``gcode/calibrate/M665.cpp``; in Marlin 2.0's report ``B`` was the
+  calibration radius, read as a rod trim only beside ``A`` or ``C``);
+* ``M666 X Y Z`` (``M666.cpp``; each <= 0);
+* ``M92 X Y Z E`` (``gcode/config/M92.cpp``, steps per mm);
+* ``M851 X Y Z`` (``gcode/probe/M851.cpp``, only with a probe; else 0);
+* ``M211 S`` and the line after it, ``Min:  X Y Z  Max:  X Y Z`` (``gcode/host/M211.cpp``; without
+  it Marlin's delta defaults, :meth:`~.model.SoftEndstops.default`).
+
+A later line wins, as Marlin applies them in turn. Every other line is left alone. Errors are one
+line naming the file, the line and the key. Units: mm, trims in degrees.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ....exceptions import GeometryError, InputError
+from .model import DEFAULT_SEGMENTS_PER_SECOND, MarlinDelta, SoftEndstops
+
+#: A host's and Marlin's prefixes of a console line.
+_PREFIX = re.compile(r"^\s*(?:(?:Recv|Send):\s*)?(?:echo:\s*)*", re.IGNORECASE)
+#: A word of a report: a letter and what follows it up to white space (M503 separates its words).
+_WORD = re.compile(r"([A-Za-z])(\S*)")
+_LIMITS = re.compile(r"Min:\s*(?P<min>.*?)\s*Max:\s*(?P<max>.*)$", re.IGNORECASE)
+#: What tells an ``M503`` capture from other G-code: Marlin's ``echo:`` prefix or a report heading.
+_MARK = re.compile(r"^\s*(?:Recv:\s*)?echo:"
+                   r"|;\s*(?:Delta (?:config|settings)|Endstop adjustment|Steps per unit)"
+                   r"|^\s*M503\b|\bM851\b|\bM211\b", re.IGNORECASE | re.MULTILINE)
+_DELTA = re.compile(r"^\s*(?:Recv:\s*)?(?:echo:\s*)*M665\s", re.IGNORECASE | re.MULTILINE)
+#: The commands read, and the keys each holds.
+KEYS = {"M665": "LRHSXYZABC", "M666": "XYZ", "M92": "XYZE", "M851": "XYZ", "M211": "S"}
+
+
+@dataclass
+class MarlinSettings:
+    """The values of an ``M503`` capture, by command and key, with the line each came from.
+
+    Attributes:
+        source: The file.
+        values: Command -> key -> value.
+        lines: (command, key) -> the 1-based line of its value.
+        limits: ``Min`` and ``Max`` of ``M211``'s report, or None.
+    """
+
+    source: str
+    values: dict[str, dict[str, float]] = field(default_factory=dict)
+    lines: dict[tuple[str, str], int] = field(default_factory=dict)
+    limits: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+
+    def error(self, command: str, key: str, detail: str) -> InputError:
+        """A one-line error naming the file, the line and the key."""
+        line = self.lines.get((command, key))
+        where = f"line {line}, {command} {key}" if line else f"{command} {key}"
+        return InputError(detail, self.source, where)
+
+    def get(self, command: str, key: str, default: float | None = None) -> float:
+        """A value, or the default; a missing one without default is an error naming the command."""
+        value = self.values.get(command, {}).get(key)
+        if value is None:
+            if default is None:
+                raise InputError(f"no {command} {key} (Marlin's delta settings need it: capture M503's whole "
+                                 "report)", self.source, f"{command} {key}")
+            return default
+        return value
+
+
+def is_marlin_settings(path: str | Path) -> bool:
+    """Whether a file is an ``M503`` capture: an ``M665`` line and Marlin's ``echo:`` or its headings."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            head = f.read(1 << 16)
+    except OSError:
+        return False  # the reader of the file taken instead names the problem
+    return _DELTA.search(head) is not None and _MARK.search(head) is not None
+
+
+def read_marlin_settings(path: str | Path) -> MarlinSettings:
+    """Every value of the commands deltacal reads in an ``M503`` capture (module docstring).
+
+    Raises:
+        InputError: naming the file, line and key of a value that is not a number.
+    """
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"not a text file (byte {exc.start} is not UTF-8)", source) from None
+    settings = MarlinSettings(source)
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = _PREFIX.sub("", raw, count=1).strip()
+        body = line.lstrip(";").strip()
+        limits = _LIMITS.match(body) if body.lower().startswith("min:") else None
+        if limits:
+            settings.limits = (_xyz(limits["min"], source, number, "Min"),
+                               _xyz(limits["max"], source, number, "Max"))
+            continue
+        line = line.split(";", 1)[0].strip()
+        command = line.split(None, 1)[0].upper() if line else ""
+        if command not in KEYS:
+            continue
+        for key, value in _WORD.findall(line[len(command):]):
+            key = key.upper()
+            if key not in KEYS[command]:
+                continue
+            settings.values.setdefault(command, {})[key] = _number(value, source, number, f"{command} {key}")
+            settings.lines[(command, key)] = number
+    return settings
+
+
+def _number(text: str, source: str, line: int, where: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"value {text!r} is not a number", source, f"line {line}, {where}") from None
+    if not math.isfinite(value):
+        raise InputError(f"value {text!r} is not a finite number", source, f"line {line}, {where}")
+    return value
+
+
+def _xyz(text: str, source: str, line: int, where: str) -> tuple[float, float, float]:
+    """``X.. Y.. Z..`` of the soft endstops' report."""
+    words = {k.upper(): v for k, v in _WORD.findall(text)}
+    if not all(k in words for k in "XYZ"):
+        raise InputError(f"expected X, Y and Z, got {text.strip()!r}", source, f"line {line}, M211 {where}")
+    x, y, z = (_number(words[k], source, line, f"M211 {where} {k}") for k in "XYZ")
+    return x, y, z
+
+
+def load_marlin(path: str | Path) -> MarlinDelta:
+    """Marlin's delta model with the values of an ``M503`` capture.
+
+    Raises:
+        InputError: naming the file, line and key of the first problem found.
+    """
+    settings = read_marlin_settings(path)
+    get = settings.get
+    trims = settings.values.get("M665", {})
+    rod_b = get("M665", "B", 0.0) if ("A" in trims or "C" in trims) else 0.0
+    for key, test, words in (("L", lambda v: v > 0.0, "a positive length"), ("R", lambda v: v > 0.0,
+                             "a positive length")):
+        if not test(get("M665", key)):
+            raise settings.error("M665", key, f"value {get('M665', key):g} must be {words}")
+    for key in "XYZ":
+        if get("M666", key, 0.0) > 0.0:
+            raise settings.error("M666", key, f"value {get('M666', key):g} must be <= 0 (Marlin refuses a "
+                                 "positive endstop adjustment: ?M666 offsets must be <= 0)")
+        if get("M92", key) <= 0.0:
+            raise settings.error("M92", key, f"value {get('M92', key):g} steps per mm must be positive")
+    limits = SoftEndstops.default()
+    if settings.limits is not None:
+        low, high = settings.limits
+        limits = SoftEndstops(low, (high[0], high[1]), high[2])
+    limits = SoftEndstops(limits.minimum, limits.maximum_xy, limits.maximum_z,
+                          bool(get("M211", "S", 1.0)))
+    try:
+        return MarlinDelta(
+            radius=get("M665", "R"), rod=get("M665", "L"), height=get("M665", "H"),
+            angle_trim=np.array([get("M665", k, 0.0) for k in "XYZ"]),
+            rod_trim=np.array([get("M665", "A", 0.0), rod_b, get("M665", "C", 0.0)]),
+            endstop_adj=np.array([get("M666", k, 0.0) for k in "XYZ"]),
+            steps_per_mm=np.array([get("M92", k) for k in "XYZ"]),
+            probe_offset=np.array([get("M851", k, 0.0) for k in "XYZ"]),
+            soft_endstops=limits,
+            segments_per_second=get("M665", "S", DEFAULT_SEGMENTS_PER_SECOND),
+            extruder_steps_per_mm=settings.values.get("M92", {}).get("E"),
+            name=Path(path).name,
+        )
+    except GeometryError as exc:
+        raise InputError(str(exc), settings.source, "M665") from None
+
+
+#: Decimals written: lengths [mm] and trims [deg]; ``M92`` steps per mm.
+MM_DECIMALS = 4
+STEPS_DECIMALS = 6
+
+
+def marlin_settings_text(marlin: MarlinDelta, title: str = "", notes: list[str] | tuple[str, ...] = (),
+                         complete: bool = False) -> str:
+    """Marlin's values as G-code: ``M665``, ``M666``, ``M92`` (then ``M500`` to keep them).
+
+    Lengths and trims with 4 decimals, steps per mm with 6 (Marlin keeps floats of 7 digits).
+    ``M665 H`` is the height with the printer's ``M851 Z`` (written as a comment; with ``complete``,
+    an ``M851`` line too). With ``complete``, every value exactly (the shortest text that reads back
+    the same float) and the soft endstops as a comment ``; Min: .. Max: ..`` that
+    :func:`load_marlin` reads (Marlin's own are compiled in, ``M211`` only switches them).
+    """
+    def num(value: float, decimals: int = MM_DECIMALS) -> str:
+        return repr(float(value)) if complete else f"{value:.{decimals}f}"
+
+    def words(letters: str, values) -> str:
+        return " ".join(f"{k}{num(v)}" for k, v in zip(letters, values, strict=True))
+
+    lines = [f"; {title}" if title else "; Marlin delta values written by deltacal"]
+    lines += [f"; {note}".rstrip() for note in notes]
+    lines.append(f"; M665 H is for the probe offset M851 Z{num(marlin.probe_offset[2])}")
+    extruder = marlin.extruder_steps_per_mm
+    e = "" if extruder is None else f" E{num(extruder, STEPS_DECIMALS)}"
+    lines += [f"M665 L{num(marlin.rod)} R{num(marlin.radius)} H{num(marlin.height)} "
+              f"S{num(marlin.segments_per_second, 2)} {words('XYZ', marlin.angle_trim)} "
+              f"{words('ABC', marlin.rod_trim)}",
+              f"M666 {words('XYZ', marlin.endstop_adj)}",
+              "M92 " + " ".join(f"{k}{num(v, STEPS_DECIMALS)}" for k, v in zip("XYZ", marlin.steps_per_mm,
+                                                                               strict=True)) + e]
+    if complete:
+        limits = marlin.soft_endstops
+        top = marlin.home_height if limits.maximum_z is None else limits.maximum_z
+        lines += [f"M851 {words('XYZ', marlin.probe_offset)}", f"M211 S{int(limits.enabled)}",
+                  f"; Min: {words('XYZ', limits.minimum)}  Max: {words('XYZ', (*limits.maximum_xy, top))}"]
+    lines.append("M500 ; save to EEPROM")
+    return "\n".join(lines) + "\n"

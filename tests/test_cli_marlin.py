@@ -1,0 +1,82 @@
+"""The command line with Marlin's settings: ``--firmware`` or the content, ``compensate`` through
+Marlin's model, ``export --controller marlin`` read back as Marlin's values."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from deltacal.cli import main
+from deltacal.compensation import compensate
+from deltacal.io import load_calibration, load_geometry
+from deltacal.kinematics import exact
+from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, error_stats
+from deltacal.printer.firmware.marlin.firmware import MARLIN
+from deltacal.printer.firmware.marlin.settings import load_marlin
+from deltacal.printer.firmware.marlin.values import to_klipper
+from deltacal.printer.robot_file import load_printer
+
+KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
+PRINTER = load_printer(KOSSEL)
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """plan --object, simulate and identify through the nominal printer's M503 settings (seed 77)."""
+    folder = tmp_path_factory.mktemp("cli_marlin")
+    settings = MARLIN.save_config(folder / "m503.gcode", MARLIN.nominal(PRINTER), complete=True)
+    plan = folder / "plan"
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(settings), "-o", str(plan)]) == 0
+    assert main(["simulate", str(KOSSEL), str(plan / "probe.csv"), str(plan / "distances.csv"),
+                 "--controller", str(settings), "--firmware", "marlin", "--perturb", "77",
+                 "-o", str(folder / "probe.csv"), "--distances-output", str(folder / "distances.csv")]) == 0
+    assert main(["identify", str(KOSSEL), str(folder / "probe.csv"), str(folder / "distances.csv"),
+                 "--controller", str(settings), "-o", str(folder / "cal.toml")]) == 0
+    return folder, settings
+
+
+@pytest.mark.slow
+def test_corrected_targets_go_through_marlins_model(identified, capsys):
+    folder, settings = identified
+    targets = np.array([[0.0, 0.0, 0.2], [50.0, -40.0, 20.0], [-60.0, 30.0, 120.0]])
+    np.savetxt(folder / "t.csv", targets, delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    assert main(["compensate", str(folder / "cal.toml"), str(folder / "t.csv"), "--controller", str(settings),
+                 "--firmware", "marlin", "-o", str(folder / "c.csv")]) == 0
+    sent = np.loadtxt(folder / "c.csv", delimiter=",", skiprows=1)[:, 3:6]
+    geometry = load_calibration(folder / "cal.toml").geometry
+    readings = load_marlin(settings).inverse(sent, PRINTER.step_distance)
+    assert_allclose(exact.forward(geometry, readings).point(geometry.tool), targets, atol=1e-6)
+    assert_allclose(readings, compensate(geometry, targets), atol=1e-6)
+
+
+@pytest.mark.slow
+def test_exported_values_are_marlins_and_near_the_best(identified, capsys):
+    folder, settings = identified
+    out = folder / "calibrated.gcode"
+    assert main(["export", str(folder / "cal.toml"), "--controller", "marlin", "--config", str(settings),
+                 "--robot", str(KOSSEL), "-o", str(out)]) == 0
+    assert "wrote the Marlin values" in capsys.readouterr().out
+    lines = [line for line in out.read_text().splitlines() if not line.startswith(";")]
+    assert [line.split()[0] for line in lines] == ["M665", "M666", "M92", "M500"]
+    exported = load_marlin(out)
+    assert np.all(exported.endstop_adj <= 0.0) and abs(exported.angle_trim.sum()) < 3e-4  # 4 decimals
+    truth = load_geometry(folder / "probe.truth.toml")
+    nominal = load_marlin(settings)
+    best = MARLIN.fit(truth, nominal, PRINTER.step_distance, PRINTER.workspace,
+                      first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+    left = error_stats(truth, to_klipper(exported), PRINTER.step_distance, PRINTER.workspace, part_frame=True)
+    assert left.max_3d <= 1.25 * best.after.max_3d + 0.01
+
+
+def test_a_file_no_firmware_recognises_needs_firmware(tmp_path, capsys):
+    bare = tmp_path / "settings.gcode"
+    bare.write_text("M665 L269 R134.4 H295.6\nM92 X80 Y80 Z80\n")
+    targets = tmp_path / "t.csv"
+    targets.write_text("x_mm,y_mm,z_mm\n0,0,1\n")
+    out = tmp_path / "o.toml"
+    code = main(["identify", str(KOSSEL), str(targets), "--controller", str(bare), "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "give --firmware klipper|marlin" in err and err.count("\n") == 1
