@@ -401,7 +401,8 @@ def measurements_kept(data: PrinterMeasurements, kept: np.ndarray) -> PrinterMea
         positions = np.ones_like(positions)
     return dataclasses.replace(data, probe=data.probe[kept[:N]], pairs=data.pairs[kept[N:N + M]],
                                distance=data.distance[kept[N:N + M]], positions=data.positions[positions],
-                               measured=data.measured[positions], trigger_height=data.trigger_height[kept[:N]])
+                               measured=data.measured[positions],
+                               trigger_height=data.trigger_height[kept[:N]])
 
 
 def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
