@@ -16,7 +16,13 @@ from deltacal.printer.firmware import config_firmware, firmwares
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.firmware.marlin.firmware import MARLIN
-from deltacal.printer.firmware.marlin.model import MIN_STEPS_PER_SEGMENT, MarlinDelta
+from deltacal.printer.firmware.marlin.model import (
+    ABOVE_MAX_Z,
+    BELOW_MIN_Z,
+    BEYOND_RADIUS,
+    MIN_STEPS_PER_SEGMENT,
+    MarlinDelta,
+)
 from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.firmware.marlin.values import marlin_values, to_klipper
 from deltacal.printer.robot import NominalLinearDelta
@@ -144,6 +150,23 @@ def test_soft_endstops_and_printable_radius():
     assert default.outside(np.array([[0.0, 0.0, 296.9]])).all()  # H − M851 Z = 296.8
     switched_off = replace(marlin, soft_endstops=replace(marlin.soft_endstops, enabled=False))
     assert not switched_off.outside(outside).any()
+    assert marlin.outside(outside).tolist() == [BEYOND_RADIUS, BELOW_MIN_Z, ABOVE_MAX_Z]
+    assert "Min Z 0" in marlin.refusal(outside[1:2]) and "M211 S0" in marlin.refusal(outside[1:2])
+    lowered = marlin.with_minimum_z(-0.02)
+    assert lowered.outside(outside[1:2]).tolist() == [0] and lowered.soft_endstops.minimum[2] == -0.02
+    assert MARLIN.controller(marlin, 0.0125).limits is marlin
+
+
+def test_the_probe_program_probes_with_the_nozzle_above_each_point():
+    """G30 without X, Y probes where the probe stands: the nozzle's commanded x, y are the points'."""
+    points = np.array([[0.0, 0.0, 0.0], [10.5, -20.25, 0.0]])
+    text = MARLIN.probe_program(points, "test")
+    lines = text.splitlines()
+    assert lines[0] == "; test" and "G28 ; home" in lines
+    probes = [k for k, line in enumerate(lines) if line == "G30"]
+    assert len(probes) == 2
+    assert [lines[k - 1] for k in probes] == ["G1 X0.000 Y0.000 Z5.000 F3000",
+                                              "G1 X10.500 Y-20.250 Z5.000 F3000"]
 
 
 def test_values_are_normalised_as_g33_leaves_them(kossel):
