@@ -33,7 +33,7 @@ def kossel() -> NominalLinearDelta:
 
 
 def test_klipper_is_the_known_firmware_and_delegates(kossel, tmp_path):
-    assert isinstance(KLIPPER, Firmware) and firmwares() == (KLIPPER,) and KLIPPER.name == "klipper"
+    assert isinstance(KLIPPER, Firmware) and firmwares()[0] is KLIPPER and KLIPPER.name == "klipper"
     nominal = KLIPPER.nominal(kossel)
     reference = KlipperDelta.from_printer(kossel)
     for key in ("angle", "arm_length", "position_endstop", "step_distance"):

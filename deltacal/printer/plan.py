@@ -27,7 +27,7 @@ from ..errormodels import get_model
 from ..exceptions import PlanningError
 from ..geometry import Tolerances
 from ..identifiability import BaseParameters
-from .firmware.klipper.model import KlipperDelta
+from .firmware.base import FirmwareModel
 from .identification import PrinterMeasurements, measured_combinations, residuals_and_regressor
 from .labels import BallLabel, labels_mesh, place_labels
 from .object import (
@@ -107,7 +107,7 @@ class ObjectPlan:
         return [n for n in self.with_distances.base_names if n not in before]
 
 
-def model_rows(printer: NominalLinearDelta, firmware: KlipperDelta, model: str = "printer",
+def model_rows(printer: NominalLinearDelta, firmware: FirmwareModel, model: str = "printer",
                tolerances: Tolerances | None = None) -> RowsFunction:
     """Rows of the complete model (or ``model``) at the nominal printer, read through the firmware.
 
@@ -198,7 +198,7 @@ def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: 
 
 def plan_object(
     printer: NominalLinearDelta,
-    firmware: KlipperDelta,
+    firmware: FirmwareModel,
     count: int = MAX_DISTANCES,
     probe_count: int = 9,
     caliper: float = CALIPER_RANGE,
@@ -251,7 +251,7 @@ def plan_object(
 
 
 def _with_identifiability(plan: ObjectPlan, printer: NominalLinearDelta,
-                          firmware: KlipperDelta) -> ObjectPlan:
+                          firmware: FirmwareModel) -> ObjectPlan:
     """The plan with what the probe heights alone, and with the distances, identify (complete model)."""
     geometry = printer.geometry()
     step = printer.step_distance
