@@ -38,12 +38,15 @@ from ..io import (
 from ..printer.firmware import config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
+from .firmware_option import add_firmware_option, controller_firmware
 from .progress import Progress
 from .workers import Job, shared_values, solved_in_order
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal compensate``; returns the exit status."""
+    if args.firmware is not None and args.controller is None:
+        raise UsageError("--firmware applies with --controller (the firmware's configuration)")
     inputs = [p for p in (args.calibration, args.targets, args.controller) if p is not None]
     for path in inputs:
         check_input(path)
@@ -122,7 +125,7 @@ def _program(args: argparse.Namespace) -> int:
     if args.controller is None:
         raise UsageError(f"{args.targets}: a G-code program goes to a controller: give --controller (a "
                          "controller file, the robot file for its nominal controller, or a printer's "
-                         "Klipper printer.cfg)")
+                         "firmware configuration)")
     if args.frame != "base":
         raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
                          "instrument applies to a targets CSV")
@@ -136,7 +139,7 @@ def _program(args: argparse.Namespace) -> int:
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
     segment = DEFAULT_SEGMENT_MM if args.segment_mm is None else args.segment_mm
-    dialect = _dialect(args.controller)
+    dialect = _dialect(args)
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
                      lambda fraction, _: progress.update(fraction, "program"), home=controller.home,
@@ -146,14 +149,14 @@ def _program(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dialect(path: str) -> Dialect | None:
+def _dialect(args: argparse.Namespace) -> Dialect | None:
     """The controller's reading of G-code: its firmware's (a printer's configuration), or None (generic)."""
-    firmware = config_firmware(path)
+    firmware = controller_firmware(args) if args.firmware is not None else config_firmware(args.controller)
     if firmware is None:
         return None
     with warnings.catch_warnings():  # the configuration's warnings were said when it was read
         warnings.simplefilter("ignore")
-        return firmware.dialect(path)
+        return firmware.dialect(args.controller)
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:
@@ -162,7 +165,10 @@ def _controller(args: argparse.Namespace, geometry) -> CommandModel:
     A printer's readings count steps in its nominal step distance, the calibration's (a Klipper
     configuration's own ``rotation_distance`` may have been refitted per tower since).
     """
-    controller = load_controller(args.controller, step_distance=geometry.step_distance)
+    if args.firmware is not None:
+        controller = controller_firmware(args).load_controller(args.controller, geometry.step_distance)
+    else:
+        controller = load_controller(args.controller, step_distance=geometry.step_distance)
     chain = controller.virtual.chain
     if chain != geometry.chain:
         raise UsageError(f"--controller {args.controller} is {chain.words.a_kind}'s, but the calibration "
@@ -243,8 +249,9 @@ def add_parser(sub) -> None:
     p.add_argument("--controller", metavar="CONTROLLER",
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
                         "send a controller running this model (a controller file, a robot file: its "
-                        "nominal controller, or a printer's Klipper configuration printer.cfg) instead of "
-                        "joint readings")
+                        "nominal controller, or a printer's firmware configuration: Klipper's printer.cfg, "
+                        "RepRapFirmware's config.g) instead of joint readings")
+    add_firmware_option(p)
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
                         "actuators' compliances, the readings (or a controller's corrected targets) put "

@@ -16,11 +16,11 @@ from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
 from ..io import save_calibration
 from ..printer.firmware.base import FirmwareModel
-from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.identification import PrinterMeasurements, identify_printer
 from ..printer.measurement_files import read_printed_distances, read_probe_heights
 from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, positive_float, sigma, three_numbers
+from .firmware_option import add_firmware_option, controller_firmware
 
 #: The error models of a printer.
 PRINTER_MODELS = ("printer", "klipper")
@@ -30,7 +30,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     """Run ``deltacal identify`` for a printer robot file; returns the exit status."""
     if args.controller is None:
         raise UsageError(f"{args.nominal}: a printer's measurements are of commanded positions: give "
-                         "--controller printer.cfg (the Klipper configuration they were made with)")
+                         "--controller printer.cfg|config.g (the firmware configuration they were made with)")
     model = args.model or "printer"
     if model not in PRINTER_MODELS:
         raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODELS)}")
@@ -42,7 +42,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     for path in inputs:
         check_input(path)
     check_output(args.output, inputs)
-    firmware = KLIPPER.read_config(args.controller)
+    firmware = controller_firmware(args).read_config(args.controller)
     heights = read_probe_heights(files[0])
     probe = _readings(firmware, heights.commanded, printer.step_distance, files[0])
     pairs, distance = _read_distances(files[1:], firmware, printer.step_distance)
@@ -84,8 +84,10 @@ def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``identify`` that serve printers."""
-    p.add_argument("--controller", metavar="PRINTER.cfg",
-                   help="a printer: the Klipper configuration the measurements were made with")
+    p.add_argument("--controller", metavar="CONFIG",
+                   help="a printer: the firmware configuration the measurements were made with (Klipper's "
+                        "printer.cfg, RepRapFirmware's config.g)")
+    add_firmware_option(p)
     p.add_argument("--probe-offset", type=lambda t: np.asarray(three_numbers(t, "X,Y,Z in mm")),
                    default=np.zeros(3), metavar="X,Y,Z",
                    help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "

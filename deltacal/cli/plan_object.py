@@ -16,7 +16,6 @@ from pathlib import Path
 from ..exceptions import UsageError
 from ..io import write_stl
 from ..io.atomic import atomic_write_text
-from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import write_printed_distances, write_probe_heights
 from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.plan import ObjectPlan, plan_object
@@ -24,6 +23,7 @@ from ..printer.robot import NominalLinearDelta
 from ..printer.sheet import sheet_html
 from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, positive_float
+from .firmware_option import add_firmware_option, controller_firmware
 
 #: The files ``plan --object`` writes in its folder.
 OBJECT_FILES = ("object.stl", "probe.csv", "distances.csv", "probe.gcode", "sheet.html")
@@ -34,7 +34,8 @@ MAX_PROBE_GRID = 9
 POSE_OPTIONS = ("model", "n", "epsilon", "strategy", "measure", "points", "count", "pool", "seed", "payload",
                 "n_max")
 #: ``plan --object`` options, which pose planning does not take (with their defaults).
-OBJECT_OPTIONS = {"controller": None, "distances": None, "probe_grid": None, "caliper": None}
+OBJECT_OPTIONS = {"controller": None, "firmware": None, "distances": None, "probe_grid": None,
+                  "caliper": None}
 
 
 def probe_grid_size(text: str) -> int:
@@ -54,9 +55,10 @@ def add_object_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--object", action="store_true",
                    help="a linear Delta printer: plan the probe grid and the object to print and measure "
                         "(-o DIR gets object.stl, probe.csv, probe.gcode, distances.csv and sheet.html)")
-    p.add_argument("--controller", metavar="printer.cfg",
-                   help="--object: the firmware's configuration (Klipper) the probing and the print are "
-                        "commanded with")
+    p.add_argument("--controller", metavar="CONFIG",
+                   help="--object: the firmware's configuration (Klipper's printer.cfg, RepRapFirmware's "
+                        "config.g) the probing and the print are commanded with")
+    add_firmware_option(p)
     p.add_argument("--distances", type=int_at_most(MAX_DISTANCES, "caliper distances of the object"),
                    metavar="N", help=f"--object: distances to measure (default and most: {MAX_DISTANCES})")
     p.add_argument("--probe-grid", type=probe_grid_size, metavar="N",
@@ -87,7 +89,8 @@ def run_object(args: argparse.Namespace) -> int:
     if not isinstance(printer, NominalLinearDelta):
         raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "
                          "is a rotary Delta's (kind = 'linear' for a printer)")
-    firmware = KLIPPER.read_config(args.controller)
+    maker = controller_firmware(args)
+    firmware = maker.read_config(args.controller)
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -99,7 +102,7 @@ def run_object(args: argparse.Namespace) -> int:
     names = plan.names
     write_printed_distances(outputs[2], plan.pair_positions,
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
-    atomic_write_text(outputs[3], KLIPPER.probe_program(
+    atomic_write_text(outputs[3], maker.probe_program(
         plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "

@@ -21,7 +21,6 @@ from ..exceptions import AssemblyError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Tolerances
 from ..io import data_row, load_geometry, save_geometry
 from ..printer.firmware.base import FirmwareModel
-from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.measurement_files import (
     read_printed_distances,
     read_probe_heights,
@@ -40,13 +39,14 @@ from ..printer.simulation import (
 )
 from ..simulation import truth_path
 from .common import check_input, check_output, non_negative_float, three_numbers
+from .firmware_option import add_firmware_option, controller_firmware
 
 #: ``simulate`` options of a rotary Delta's measurements, which a printer's simulation does not take.
 ROTARY_OPTIONS = ("points", "sigma_position", "sigma_angle", "no_orientation", "repeats", "payload",
                   "compliance", "station")
 #: ``simulate`` options of a printer's simulation, which a rotary Delta's does not take.
-PRINTER_OPTIONS = ("controller", "distances_output", "sigma_height", "sigma_distance", "probe_offset",
-                   "tolerances")
+PRINTER_OPTIONS = ("controller", "firmware", "distances_output", "sigma_height", "sigma_distance",
+                   "probe_offset", "tolerances")
 #: ``--tolerances``: the build tolerances of a perturbed printer and the σ of its bed's tilts [deg].
 TOLERANCE_CLASSES = {
     "printer-kit": (Tolerances.printer_kit, KIT_BED_TILT_DEG),
@@ -60,8 +60,10 @@ SIGMA_DISTANCE = 0.02
 
 def add_printer_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``simulate`` that serve printers (default None: given or not is known)."""
-    p.add_argument("--controller", metavar="PRINTER.cfg",
-                   help="a printer: the Klipper configuration the probing and the print are commanded with")
+    p.add_argument("--controller", metavar="CONFIG",
+                   help="a printer: the firmware configuration the probing and the print are commanded with "
+                        "(Klipper's printer.cfg, RepRapFirmware's config.g)")
+    add_firmware_option(p)
     p.add_argument("--distances-output", metavar="OUT_DISTANCES.csv",
                    help="a printer: the filled distances file (with a DISTANCES.csv template)")
     p.add_argument("--sigma-height", type=non_negative_float, metavar="MM",
@@ -101,7 +103,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
         check_output(path, inputs)
     if len({p.resolve() for p in outputs}) != len(outputs):
         raise UsageError(f"the outputs {', '.join(map(str, outputs))} must be different files")
-    firmware = KLIPPER.read_config(args.controller)
+    firmware = controller_firmware(args).read_config(args.controller)
     truth = _truth(args, printer)
     step = printer.step_distance
     offset = np.zeros(3) if args.probe_offset is None else args.probe_offset

@@ -47,8 +47,8 @@ LINEAR_DELTA = 3
 OVERRIDE = "config-override.g"
 #: A line's command: an optional line number, then G/M/T and its number.
 _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
-#: A parameter: a letter, then its value (up to the next letter outside quotes).
-_PARAM = re.compile(r"([A-Za-z])\s*(\"[^\"]*\"|[^A-Za-z\"]*)")
+#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}`` whole).
+_PARAM = re.compile(r"([A-Za-z])\s*(\"[^\"]*\"|\{[^}]*\}?|[^A-Za-z\"{]*)")
 #: An M665 or M666 line recognises a file as RRF's (beside M669, the kinematics).
 _DELTA_LINE = re.compile(r"^\s*(?:N\d+\s*)?M66[59]\b", re.IGNORECASE | re.MULTILINE)
 
