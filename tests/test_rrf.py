@@ -321,3 +321,12 @@ def test_figures_on_fresh_printers(kossel, seed):
 
 def test_klipper_configs_stay_klippers():
     assert config_firmware(Path(__file__).resolve().parent / "data" / "klipper" / "printer.cfg") is KLIPPER
+
+
+def test_corrected_targets_through_a_tilted_config_land_on_the_targets(kossel):
+    rrf = load_rrf(DATA / "config.g")  # tilt, endstop adjustments, corrections, per-tower diagonals
+    truth = random_true_printer(kossel, np.random.default_rng(3), typical_kit()).geometry
+    grid = printable_grid(WORKSPACE)
+    commands = corrected_targets(truth, RRF_FIRMWARE.controller(rrf, kossel.step_distance), grid).commands
+    landed = nozzle_positions(truth, rrf, kossel.step_distance, commands)
+    assert_allclose(landed, grid, atol=1e-6, rtol=0)
