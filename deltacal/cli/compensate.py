@@ -52,6 +52,8 @@ from .workers import Job, Refused, shared_values, solved_in_order
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal compensate``; returns the exit status."""
+    if args.firmware is not None and args.controller is None:
+        raise UsageError("--firmware applies with --controller (the firmware's configuration)")
     inputs = [p for p in (args.calibration, args.targets, args.controller) if p is not None]
     for path in inputs:
         check_input(path)
@@ -140,7 +142,7 @@ def _program(args: argparse.Namespace) -> int:
     if args.controller is None:
         raise UsageError(f"{args.targets}: a G-code program goes to a controller: give --controller (a "
                          "controller file, the robot file for its nominal controller, or a printer's "
-                         "Klipper printer.cfg)")
+                         "firmware configuration)")
     if args.frame != "base":
         raise UsageError("a G-code program is in the controller's frame, the robot base {O}: --frame "
                          "instrument applies to a targets CSV")
@@ -162,7 +164,7 @@ def _program(args: argparse.Namespace) -> int:
 
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
-    dialect = _dialect(args.controller)
+    dialect = _dialect(args)
     marker = marker_line(args.controller, args.calibration)
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
@@ -173,14 +175,15 @@ def _program(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dialect(path: str) -> Dialect | None:
+def _dialect(args: argparse.Namespace) -> Dialect | None:
     """The controller's reading of G-code: its firmware's (a printer's configuration), or None (generic)."""
-    firmware = config_firmware(path)
+    path, name = args.controller, args.firmware
+    firmware = controller_firmware(path, name) if name is not None else config_firmware(path)
     if firmware is None:
         return None
     with warnings.catch_warnings():  # the configuration's warnings were said when it was read
         warnings.simplefilter("ignore")
-        return firmware.dialect(path)
+        return firmware.dialect(args.controller)
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:
@@ -275,7 +278,7 @@ def add_parser(sub) -> None:
                    help="write corrected targets (x_cmd_mm,y_cmd_mm,z_cmd_mm, in the base frame {O}) to "
                         "send a controller running this model (a controller file, a robot file: its "
                         "nominal controller, or a printer's firmware settings: Klipper's printer.cfg, "
-                        "Marlin's M503 capture) instead of joint readings")
+                        "Marlin's M503 capture, RepRapFirmware's config.g) instead of joint readings")
     add_firmware_argument(p)
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "

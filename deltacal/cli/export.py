@@ -19,12 +19,14 @@ from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableEr
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
 from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
+from ..printer.firmware import firmwares
+from ..printer.firmware.klipper.firmware import KLIPPER
 from ..report.accuracy import GRID, workspace_slices
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
+from .export_firmware import run_firmware
 from .export_klipper import run_klipper
-from .export_marlin import run_marlin
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
@@ -65,14 +67,16 @@ def _home(text: str | None, chain: Chain) -> np.ndarray | None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal export``; returns the exit status."""
-    if args.controller == "klipper":
+    firmware = next((f for f in firmwares() if f.name == args.controller), None)
+    if firmware is KLIPPER:  # its route also prints each error source's share
         return run_klipper(args)
-    if args.controller == "marlin":
-        return run_marlin(args)
+    if firmware is not None:
+        return run_firmware(args, firmware)
     if args.controller is not None:
         return run_controller(args)
     if args.config is not None or args.keep_rotation_distance:
-        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper|marlin")
+        raise UsageError("--config and --keep-rotation-distance apply to --controller "
+                         f"{'|'.join(f.name for f in firmwares())}")
     if args.output is not None or args.robot is not None:
         raise UsageError(f"{'-o' if args.output is not None else '--robot'} applies to --controller; "
                          "--mjcf names its own output")
@@ -93,7 +97,8 @@ def run_controller(args: argparse.Namespace) -> int:
     if args.home is not None:
         raise UsageError("--home applies to --mjcf")
     if args.config is not None or args.keep_rotation_distance:
-        raise UsageError("--config and --keep-rotation-distance apply to --controller klipper|marlin")
+        raise UsageError("--config and --keep-rotation-distance apply to --controller "
+                         f"{'|'.join(f.name for f in firmwares())}")
     inputs = [p for p in (args.calibration, args.robot) if p is not None]
     for path in inputs:
         check_input(path)
@@ -174,18 +179,21 @@ def add_parser(sub) -> None:
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
-    what.add_argument("--controller", choices=(*FIT_KINDS, "klipper", "marlin"),
+    what.add_argument("--controller", choices=(*FIT_KINDS, *(f.name for f in firmwares())),
                       help="write a controller file (-o) with the joint offsets alone, or the per-limb "
                            "values, that best fit the calibration over the workspace; klipper: a printer's "
                            "[printer] and [stepper_a..c] values (-o CALIBRATED.cfg); marlin: M665, M666 "
-                           "and M92 lines (-o CALIBRATED.gcode)")
+                           "and M92 lines (-o CALIBRATED.gcode); rrf: RepRapFirmware's M665, M666 and M92 "
+                           "lines for config-override.g (-o CALIBRATED.g)")
     p.add_argument("-o", "--output", metavar="CONTROLLER.toml|CALIBRATED.cfg",
                    help="with --controller: the controller file (klipper: the Klipper values)")
-    p.add_argument("--config", metavar="PRINTER.cfg|SETTINGS",
-                   help="with --controller klipper|marlin: the configuration the printer runs (Marlin: its "
-                        "M503 capture, its M851 and soft endstops kept; its values "
+    p.add_argument("--config", metavar="PRINTER.cfg|M503.txt|config.g",
+                   help="with --controller klipper|marlin|rrf: the configuration the printer runs (Marlin: "
+                        "its M503 capture, its M851 and soft endstops kept; its values "
                         "start the fit; its microsteps and gears turn step distances into rotation_distance; "
-                        "default: the nominal printer's values, 200 full steps x 16 microsteps)")
+                        "default: the nominal printer's values, 200 full steps x 16 microsteps); rrf: its "
+                        "config.g or config-override.g (its values start the fit, its M350 microstepping "
+                        "goes with M92; default: the nominal printer's values, x16)")
     p.add_argument("--keep-rotation-distance", action="store_true",
                    help="with --controller klipper|marlin: hold each tower's rotation_distance (Marlin: "
                         "M92) (the --config's, "

@@ -26,8 +26,9 @@ def run(args: argparse.Namespace) -> int:
         return run_printer(args, robot)
     if len(args.measurements) != 1:
         raise UsageError(f"a rotary Delta's measurements are one CSV file, got {len(args.measurements)}")
-    if args.controller is not None:
-        raise UsageError("--controller applies to a printer's measurements (of commanded positions)")
+    if args.controller is not None or args.firmware is not None:
+        flag = "controller" if args.controller is not None else "firmware"
+        raise UsageError(f"--{flag} applies to a printer's measurements (of commanded positions)")
     if args.tolerance_scale is not None:
         raise UsageError("--tolerance-scale applies to a printer's measurements")
     args.measurements = args.measurements[0]

@@ -44,7 +44,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     """Run ``deltacal identify`` for a printer robot file; returns the exit status."""
     if args.controller is None:
         raise UsageError(f"{args.nominal}: a printer's measurements are of commanded positions: give "
-                         "--controller printer.cfg (the Klipper configuration they were made with)")
+                         "--controller printer.cfg|config.g (the firmware configuration they were made with)")
     model = args.model or "printer"
     if model not in PRINTER_MODELS:
         raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODELS)}")
@@ -213,7 +213,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``identify`` that serve printers."""
     p.add_argument("--controller", metavar="SETTINGS",
                    help="a printer: the firmware's settings the measurements were made with (Klipper's "
-                        "printer.cfg, Marlin's M503 capture)")
+                        "printer.cfg, Marlin's M503 capture, RepRapFirmware's config.g)")
     add_firmware_argument(p)
     p.add_argument("--probe-offset", type=probe_offset,
                    default=np.zeros(3), metavar="X,Y,Z",

@@ -57,7 +57,7 @@ def add_object_arguments(p: argparse.ArgumentParser) -> None:
                         "(-o DIR gets object.stl, probe.csv, probe.gcode, distances.csv and sheet.html)")
     p.add_argument("--controller", metavar="SETTINGS",
                    help="--object: the firmware's settings (Klipper's printer.cfg, Marlin's M503 "
-                        "capture) the probing and the print are commanded with")
+                        "capture, RepRapFirmware's config.g) the probing and the print are commanded with")
     add_firmware_argument(p)
     p.add_argument("--distances", type=int_at_most(MAX_DISTANCES, "caliper distances of the object"),
                    metavar="N", help=f"--object: distances to measure (default and most: {MAX_DISTANCES})")

@@ -62,7 +62,7 @@ def add_printer_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``simulate`` that serve printers (default None: given or not is known)."""
     p.add_argument("--controller", metavar="SETTINGS",
                    help="a printer: the firmware's settings (Klipper's printer.cfg, Marlin's M503 "
-                        "capture) the probing and the print are commanded with")
+                        "capture, RepRapFirmware's config.g) the probing and the print are commanded with")
     add_firmware_argument(p)
     p.add_argument("--distances-output", metavar="OUT_DISTANCES.csv",
                    help="a printer: the filled distances file (with a DISTANCES.csv template)")

@@ -5,8 +5,10 @@ does. Where controllers differ, it asks a :class:`Dialect`:
 
 * whether G91 makes E relative (:attr:`Dialect.g91_moves_e`): Klipper's ``gcode_move.py`` reads
   E as an increment when either G91 or M83 holds (``absolute_coord`` and ``absolute_extrude``),
-  so nothing is ambiguous; without the rule (:data:`GENERIC`) G91 without M83, and G90 after
-  M83, are ambiguous (firmwares differ) and a split extruding move there is refused;
+  so nothing is ambiguous; RepRapFirmware's reads E as an increment exactly when M83 holds
+  (:attr:`Dialect.e_by_m83`: G90/G91 set ``axesRelative``, M82/M83 ``drivesRelative``,
+  ``GCodes2.cpp``), so nothing is ambiguous either; without a rule (:data:`GENERIC`) G91 without
+  M83, and G90 after M83, are ambiguous (firmwares differ) and a split extruding move there is refused;
 * what a ``P`` word on an arc means (:attr:`Dialect.arc_p`): Klipper's ``gcode_arcs.py`` never
   reads it (one turn at most, a full turn where the ends meet); elsewhere it is refused;
 * where a homing (G28) leaves the TCP (:attr:`Dialect.home`);
@@ -23,7 +25,7 @@ from __future__ import annotations
 import enum
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
 __all__ = ["GENERIC", "ArcP", "Dialect", "MacroEffect", "MacroStep"]
@@ -84,6 +86,8 @@ class Dialect:
     Attributes:
         name: The controller's name (its firmware's), for messages.
         g91_moves_e: Whether G91 makes E relative and G90 leaves M83's relative E (Klipper).
+        e_by_m83: Whether E is relative exactly when M83 holds, G90 and G91 never touching it
+            (RepRapFirmware).
         arc_p: What a ``P`` word on an arc does.
         home: Where a homing (G28) leaves the TCP [mm] (X, Y, Z), or None: unknown after it.
         macros: The controller's macros by upper-case name.
@@ -94,11 +98,12 @@ class Dialect:
     arc_p: ArcP = ArcP.REFUSED
     home: tuple[float, float, float] | None = None
     macros: Mapping[str, MacroEffect] = field(default_factory=lambda: MappingProxyType({}))
+    e_by_m83: bool = False
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
         value = None if home is None else tuple(float(v) for v in home)
-        return Dialect(self.name, self.g91_moves_e, self.arc_p, value, self.macros)  # type: ignore[arg-type]
+        return replace(self, home=value)  # type: ignore[arg-type]
 
     def macro(self, line: str) -> MacroEffect | None:
         """The macro a program's line calls (by its command's name, any case), or None."""

@@ -299,7 +299,7 @@ class _Reader:
     def __init__(self, source: str, segment_mm: float, start, dialect: Dialect = GENERIC) -> None:
         self.source = source
         self.segment_mm = segment_mm
-        self.state = ModalState(start, dialect.g91_moves_e)
+        self.state = ModalState(start, dialect.g91_moves_e, dialect.e_by_m83)
         self.start = start
         self.dialect = dialect
         self.macros = bool(dialect.macros)

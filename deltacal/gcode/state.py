@@ -69,14 +69,15 @@ class ModalState:
         at_home: Whether that point is the home (every carriage at its endstop).
         fresh: Whether no move has been read yet.
         g91_moves_e: The controller's rule: G91 makes E relative, G90 leaves M83's (Klipper).
+        e_by_m83: The controller's rule: E is relative exactly when M83 holds (RepRapFirmware).
         saved: Modes and positions saved by name (a macro's SAVE_GCODE_STATE).
     """
 
     __slots__ = ("pos", "relative", "m83", "m83_ended", "extrusion", "e_pos", "motion", "plane",
                  "unknown_since", "unknown_why", "homed", "homed_by", "at_home", "fresh", "g91_moves_e",
-                 "saved")
+                 "e_by_m83", "saved")
 
-    def __init__(self, start, g91_moves_e: bool = False) -> None:
+    def __init__(self, start, g91_moves_e: bool = False, e_by_m83: bool = False) -> None:
         self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
         self.relative = False
         self.m83 = False
@@ -92,6 +93,7 @@ class ModalState:
         self.at_home = False
         self.fresh = True
         self.g91_moves_e = g91_moves_e
+        self.e_by_m83 = e_by_m83
         self.saved: dict[str, tuple] = {}
 
     def set_extruder(self, relative: bool) -> None:
@@ -108,7 +110,9 @@ class ModalState:
 
     def _update_extrusion(self) -> None:
         """:attr:`extrusion` from the distance and extruder modes."""
-        if self.g91_moves_e:
+        if self.e_by_m83:
+            self.extrusion = Extrusion.RELATIVE if self.m83 else Extrusion.ABSOLUTE
+        elif self.g91_moves_e:
             self.extrusion = Extrusion.RELATIVE if self.relative or self.m83 else Extrusion.ABSOLUTE
         elif self.relative:
             self.extrusion = Extrusion.RELATIVE if self.m83 else Extrusion.AMBIGUOUS

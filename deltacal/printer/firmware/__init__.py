@@ -9,11 +9,12 @@ subpackage has the same parts:
 * ``model``: its kinematic model (commanded position to steps and back) and its limits, and the
   firmware as a controller of the printer's readings;
 * ``fit``: the values that fit an identified printer best over the printable volume;
-* ``calibrate``: its own calibration, emulated from its algorithm, for the comparison;
+* ``calibrate``: its own calibration, emulated from its algorithm, for the comparison (Klipper's);
 * ``probing``: its program that probes the bed at given points, its results on the console;
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
-Klipper (:mod:`.klipper`) and Marlin (:mod:`.marlin`). :func:`firmwares` lists them; :func:`config_firmware`
+Klipper (:mod:`.klipper`), Marlin (:mod:`.marlin`) and RepRapFirmware (:mod:`.rrf`). :func:`firmwares`
+lists them; :func:`config_firmware`
 finds the one whose configuration a file is.
 """
 
@@ -29,8 +30,9 @@ def firmwares() -> tuple[Firmware[Any], ...]:
     """Every firmware deltacal knows, in the order their configuration files are recognised."""
     from .klipper.firmware import KLIPPER
     from .marlin.firmware import MARLIN
+    from .rrf.firmware import RRF_FIRMWARE
 
-    return (KLIPPER, MARLIN)
+    return (KLIPPER, MARLIN, RRF_FIRMWARE)
 
 
 def config_firmware(path: str | Path) -> Firmware[Any] | None:

@@ -1,0 +1,79 @@
+"""``deltacal export CAL --controller FIRMWARE --config SETTINGS -o OUT``: a firmware's values that fit best.
+
+For a firmware other than Klipper (Marlin, RepRapFirmware; Klipper's route, :mod:`.export_klipper`,
+also prints each error source's share): through the firmware interface alone
+(:class:`~deltacal.printer.firmware.base.Firmware`), its values that leave the least nozzle error
+over the printable volume of the identified printer (its true bed as z = 0), judged in the printed part's frame, with the first layer's height errors
+weighted as Klipper's export weighs them
+(:data:`~deltacal.printer.firmware.klipper.fit.EXPORT_FIRST_LAYER_WEIGHT`). The fit starts from
+``--config`` (the settings the printer runs, whose other values it keeps: RRF's print radius, its
+microstepping), else from the calibration's nominal printer. What the values leave is printed and
+kept as comments in the file.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from typing import Any
+
+from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
+from ..io import load_calibration
+from ..printer.firmware.base import Firmware
+from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
+from .common import check_input, check_output
+from .export_klipper import _step_distance, _text, _workspace
+
+
+def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
+    """Run ``export --controller NAME`` for a firmware; returns the exit status."""
+    if args.output is None:
+        raise UsageError(f"--controller {firmware.name} needs -o OUT, the firmware's values to write")
+    if args.home is not None:
+        raise UsageError("--home applies to --mjcf")
+    inputs = [p for p in (args.calibration, args.robot, args.config) if p is not None]
+    for path in inputs:
+        check_input(path)
+    check_output(args.output, inputs)
+    calibration = load_calibration(args.calibration)
+    if not calibration.geometry.chain.firmware:
+        raise UsageError(f"--controller {firmware.name}: {args.calibration} is a rotary Delta's "
+                         "calibration; a firmware's values are a printer's (--controller offsets|limbs "
+                         "serve a rotary Delta)")
+    config = firmware.read_config(args.config) if args.config is not None else None
+    step = _step_distance(calibration.geometry.step_distance, config, args,  # type: ignore[arg-type]
+                          "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
+    geometry, nominal = calibration.geometry, calibration.nominal
+    try:
+        start = config if config is not None else firmware.start(replace(nominal, step_distance=step))
+    except GeometryError as exc:
+        raise InputError(str(exc), str(args.calibration), "key nominal") from None
+    workspace, where = _workspace(args, nominal)
+    try:
+        fit = firmware.fit(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
+                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+    except UnreachableError as exc:
+        k = exc.indices[0] if exc.indices else 0
+        raise InputError(f"a target of the printable volume ({_text(workspace)}{where}) is out of the "
+                         f"firmware's reach (row {k + 1} of the fit's grid): give --robot with a "
+                         "[workspace] it reaches",
+                         str(args.robot or args.calibration), "key workspace") from None
+    except ConvergenceError as exc:
+        raise InputError(f"the firmware's values could not be fitted: {exc}", str(args.calibration)) from None
+    before, after = fit.before, fit.after  # type: ignore[attr-defined]
+    start_name = "the --config values" if config is not None else "the nominal values"
+    lines = [f"nozzle error over the printable volume ({_text(workspace)}{where}), of the printed part "
+             "(less the shift along the bed and turn about its normal, which no measurement sees):",
+             f"  these values: 3-D max {after.max_3d:.3f} mm, RMS {after.rms_3d:.3f} mm; first layer "
+             f"(z 0.2 mm) max |dz| {after.flatness:.3f} mm",
+             f"  {start_name}: 3-D max {before.max_3d:.3f} mm, RMS {before.rms_3d:.3f} mm; first layer "
+             f"max |dz| {before.flatness:.3f} mm"]
+    held = getattr(fit, "held", ())  # the values the firmware's rules hold (Marlin's tower C trim)
+    if held:
+        lines.append(f"  held (not fitted): {', '.join(held)}")
+    firmware.save_config(args.output, fit.values, args.config,
+                         title=f"{firmware.name} values fitted by deltacal to {args.calibration}",
+                         notes=lines)
+    print(f"wrote the {firmware.name} values that best fit {args.calibration} to {args.output}")
+    print("\n".join(lines))
+    return 0

@@ -1,0 +1,401 @@
+"""RepRapFirmware's ``config.g`` / ``config-override.g`` read as RRF runs it, and its lines written.
+
+RRF runs ``config.g`` line by line at start-up (``src/GCodes``): a ``;`` starts a comment outside
+a quoted string, ``(...)`` is a comment, parameter letters are read in any case, a list is
+``a:b:c``. deltacal runs the lines that set the delta kinematics, in order, later values winning:
+
+* ``M665 L R H B X Y Z`` and ``M666 X Y Z A B`` (:mod:`.model` gives each value's meaning;
+  ``LinearDeltaKinematics::Configure``): ``L`` one number or ``a:b:c``;
+* ``M92 X Y Z [S]``: steps per mm; with ``S`` the value is for that microstepping and is scaled
+  to the current one (``Platform::SetDriveStepsPerUnit``); ``M350 X Y Z`` changes the
+  microstepping (default x16) and scales the steps per mm already set (``GCodes::ChangeMicrostepping``);
+* ``M208``: the Z minimum (``S1 Z``, or ``Zmin:max``); ``M564 S``: the limits on or off;
+* ``M669 K`` (the kinematics): only 3 (linear delta) is read; ``M501`` runs ``config-override.g``
+  from the same folder where it stands (as RRF does), with a warning if it is not there.
+
+Everything else (meta commands, other codes) is left alone. A value RRF computes at run time
+(``{...}``) cannot be read: it is refused naming its line. Errors are one line naming the file,
+the line and the key.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from warnings import warn
+
+import numpy as np
+
+from ....exceptions import GeometryError, InputError, InputWarning
+from ....io.atomic import atomic_write_text
+from .model import (
+    DEFAULT_DIAGONAL,
+    DEFAULT_HOMED_HEIGHT,
+    DEFAULT_MICROSTEPPING,
+    DEFAULT_PRINT_RADIUS,
+    DEFAULT_RADIUS,
+    RRFDelta,
+)
+
+#: The M-codes deltacal runs.
+READ_CODES = (92, 208, 350, 501, 564, 665, 666, 669)
+#: ``M669 K``: RRF's kinematics number of a linear delta.
+LINEAR_DELTA = 3
+#: The file ``M501`` runs.
+OVERRIDE = "config-override.g"
+#: A line's command: an optional line number, then G/M/T and its number.
+_COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
+#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}`` whole).
+_PARAM = re.compile(r"([A-Za-z])\s*(\"[^\"]*\"|\{[^}]*\}?|[^A-Za-z\"{]*)")
+#: An M665 or M666 line recognises a file as RRF's (beside M669, the kinematics).
+_DELTA_LINE = re.compile(r"^\s*(?:N\d+\s*)?M66[59]\b", re.IGNORECASE | re.MULTILINE)
+
+
+@dataclass
+class RRFLine:
+    """One command of a configuration file.
+
+    Attributes:
+        source: The file.
+        line: Its line number (1-based).
+        code: ``"M665"``...
+        params: Letter (upper case) -> value text.
+    """
+
+    source: str
+    line: int
+    code: str
+    params: dict[str, str]
+
+    def error(self, key: str, detail: str) -> InputError:
+        """A one-line error naming the file, the line and the key."""
+        return InputError(detail, self.source, f"line {self.line}, {self.code} {key}")
+
+    def numbers(self, key: str, count: int = 1) -> list[float]:
+        """A parameter's numbers (``a:b:c`` gives several): 1 or ``count`` of them, finite."""
+        text = self.params[key].strip()
+        if "{" in text:
+            raise self.error(
+                key, f"value {text!r} is an expression RRF computes when it runs: write the number"
+            )
+        parts = text.split(":")
+        try:
+            values = [float(v) for v in parts]
+        except ValueError:
+            raise self.error(key, f"value {text!r} is not a number") from None
+        if not all(math.isfinite(v) for v in values):
+            raise self.error(key, f"value {text!r} is not a finite number")
+        if len(values) not in (1, count):
+            raise self.error(key, f"value {text!r}: give 1 or {count} numbers")
+        return values
+
+    def number(self, key: str, above: float | None = None) -> float:
+        """A parameter's one number (above ``above`` when given)."""
+        values = self.numbers(key)
+        if len(values) != 1:
+            raise self.error(key, f"value {self.params[key]!r}: give one number")
+        if above is not None and not values[0] > above:
+            raise self.error(key, f"value {self.params[key]!r} must be above {above:g}")
+        return values[0]
+
+
+def strip_comment(line: str) -> str:
+    """A line without its ``;`` comment and ``(...)`` comments (quoted strings kept)."""
+    out, quoted, depth = [], False, 0
+    for ch in line:
+        if ch == '"':
+            quoted = not quoted
+        elif not quoted and ch == ";":
+            break
+        elif not quoted and ch == "(":
+            depth += 1
+            continue
+        elif not quoted and ch == ")" and depth:
+            depth -= 1
+            continue
+        if not depth:
+            out.append(ch)
+    return "".join(out)
+
+
+def parse_line(text: str, source: str, number: int) -> RRFLine | None:
+    """A line's command and parameters, or None (no G/M/T command: a comment, a meta command)."""
+    text = strip_comment(text)
+    match = _COMMAND.match(text)
+    if match is None:
+        return None
+    code = match.group(1).upper() + str(int(match.group(2)))
+    params = {m.group(1).upper(): m.group(2).strip() for m in _PARAM.finditer(text[match.end() :])}
+    return RRFLine(source, number, code, params)
+
+
+def is_rrf_config(path: str | Path) -> bool:
+    """Whether a file is a RepRapFirmware configuration: a ``*.g`` file that sets M665 or M669."""
+    if Path(path).suffix.lower() != ".g":
+        return False
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            head = f.read(1 << 20)
+    except OSError:
+        return False
+    return _DELTA_LINE.search(head) is not None
+
+
+@dataclass
+class RRFSettings:
+    """The delta settings of a configuration as RRF leaves them after running it.
+
+    Attributes:
+        source: The file.
+        values: Key (``"M665 L"``) -> its value(s).
+        where: Key -> the line that set it last (for messages).
+        microstepping: Each tower's microstepping (M350), (3,).
+    """
+
+    source: str
+    values: dict[str, list[float]] = field(default_factory=dict)
+    where: dict[str, RRFLine] = field(default_factory=dict)
+    microstepping: list[float] = field(default_factory=lambda: [float(DEFAULT_MICROSTEPPING)] * 3)
+
+    def set(self, line: RRFLine, key: str, values: list[float]) -> None:
+        """Keep a value and the line that set it."""
+        self.values[f"{line.code} {key}"] = values
+        self.where[f"{line.code} {key}"] = line
+
+    def get(self, key: str, default: float) -> float:
+        """A key's one value, or the default."""
+        return self.values[key][0] if key in self.values else default
+
+    def error(self, key: str, detail: str) -> InputError:
+        """A one-line error naming the line that set ``key``, or the file."""
+        line = self.where.get(key)
+        if line is None:
+            return InputError(detail, self.source, f"key {key}")
+        return line.error(key.split()[1], detail)
+
+
+def read_rrf_settings(path: str | Path) -> RRFSettings:
+    """The delta settings a configuration leaves, its lines run in order (``M501`` included).
+
+    Raises:
+        InputError: naming the file, line and key of the first problem found.
+    """
+    settings = RRFSettings(str(path))
+    _run(Path(path), settings, set())
+    return settings
+
+
+def _run(path: Path, settings: RRFSettings, visited: set[Path]) -> None:
+    try:
+        text = path.read_text(encoding="utf-8").replace("\r\n", "\n")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the RepRapFirmware configuration file: {exc}", str(path)) from None
+    visited.add(path.resolve())
+    for number, raw in enumerate(text.split("\n"), start=1):
+        line = parse_line(raw, str(path), number)
+        if line is None or line.code[0] != "M" or int(line.code[1:]) not in READ_CODES:
+            continue
+        if line.code == "M501":
+            override = path.with_name(OVERRIDE)
+            if override.resolve() in visited:
+                continue
+            if not override.exists():
+                warn(
+                    f"{path}: line {number}: M501 runs {OVERRIDE}, not found beside it: its values "
+                    "(if any) are "
+                    "not read",
+                    InputWarning,
+                    stacklevel=3,
+                )
+                continue
+            _run(override, settings, visited)
+            continue
+        _apply(line, settings)
+
+
+def _apply(line: RRFLine, settings: RRFSettings) -> None:
+    """One command's effect on the settings (see the module's documentation)."""
+    p = line.params
+    if line.code == "M665":
+        if "L" in p:
+            settings.set(line, "L", line.numbers("L", 3))
+        for key in ("R", "H", "B", "X", "Y", "Z"):
+            if key in p:
+                settings.set(line, key, [line.number(key, 0.0 if key in "RB" else None)])
+    elif line.code == "M666":
+        for key in ("X", "Y", "Z", "A", "B"):
+            if key in p:
+                settings.set(line, key, [line.number(key)])
+    elif line.code == "M92":
+        scale = line.number("S", 0.0) if "S" in p else None
+        for i, key in enumerate("XYZ"):
+            if key in p:
+                value = line.number(key, 0.0)
+                if scale is not None:
+                    value *= settings.microstepping[i] / scale
+                settings.set(line, key, [value])
+    elif line.code == "M350":
+        for i, key in enumerate("XYZ"):
+            if key in p:
+                new = line.number(key, 0.0)
+                if "M92 " + key in settings.values:
+                    settings.values["M92 " + key] = [
+                        settings.values["M92 " + key][0] * new / settings.microstepping[i]
+                    ]
+                settings.microstepping[i] = new
+    elif line.code == "M208":
+        _apply_m208(line, settings)
+    elif line.code == "M564" and "S" in p:
+        settings.set(line, "S", [line.number("S")])
+    elif line.code == "M669" and "K" in p:
+        settings.set(line, "K", [line.number("K")])
+
+
+def _apply_m208(line: RRFLine, settings: RRFSettings) -> None:
+    """``M208``'s Z minimum: ``Zmin:max``, or ``S1 Z`` (a lone Z without S1 is the maximum)."""
+    if "Z" not in line.params:
+        return
+    values = line.numbers("Z", 2)
+    if len(values) == 2:
+        if not values[1] > values[0]:
+            raise line.error("Z", f"value {line.params['Z']!r}: the maximum must be above the minimum")
+        settings.set(line, "Z", [values[0]])
+    elif "S" in line.params and line.number("S") == 1:
+        settings.set(line, "Z", values)
+
+
+def rrf_from_settings(settings: RRFSettings) -> RRFDelta:
+    """RRF's delta model from the settings a configuration leaves (:func:`read_rrf_settings`).
+
+    Raises:
+        InputError: naming the file, line and key of the first problem found.
+    """
+    if "M669 K" in settings.values and settings.values["M669 K"][0] != LINEAR_DELTA:
+        raise settings.error(
+            "M669 K",
+            f"value {settings.values['M669 K'][0]:g}: deltacal reads RRF's linear delta "
+            f"printers (M669 K{LINEAR_DELTA})",
+        )
+    if "M665 L" not in settings.values and "M665 R" not in settings.values:
+        raise InputError(
+            "no M665 (the delta's rods and radius): not a linear delta's configuration", settings.source
+        )
+    for key in ("M92 X", "M92 Y", "M92 Z"):
+        if key not in settings.values:
+            raise InputError(f"no {key} (the towers' steps per mm)", settings.source)
+    diagonal = settings.values.get("M665 L", [DEFAULT_DIAGONAL])
+    steps = np.array([settings.values[k][0] for k in ("M92 X", "M92 Y", "M92 Z")])
+    try:
+        return RRFDelta(
+            diagonal=np.broadcast_to(diagonal, 3).copy(),
+            radius=settings.get("M665 R", DEFAULT_RADIUS),
+            homed_height=settings.get("M665 H", DEFAULT_HOMED_HEIGHT),
+            angle_correction=np.radians([settings.get(f"M665 {k}", 0.0) for k in "XYZ"]),
+            endstop_adjustment=np.array([settings.get(f"M666 {k}", 0.0) for k in "XYZ"]),
+            tilt=np.array([settings.get("M666 A", 0.0), settings.get("M666 B", 0.0)]) / 100.0,
+            step_distance=1.0 / steps,
+            print_radius=settings.get("M665 B", DEFAULT_PRINT_RADIUS),
+            z_min=settings.get("M208 Z", 0.0),
+            limit_axes=settings.get("M564 S", 1.0) > 0.0,
+            name=Path(settings.source).name,
+        )
+    except GeometryError as exc:
+        key = "M665 L" if "diagonal" in str(exc) else "M665 R"
+        raise settings.error(key, str(exc)) from None
+
+
+def load_rrf(path: str | Path) -> RRFDelta:
+    """RRF's delta model from a ``config.g`` or ``config-override.g``.
+
+    Raises:
+        InputError: naming the file, line and key of the first problem found.
+    """
+    return rrf_from_settings(read_rrf_settings(path))
+
+
+#: Decimals written: lengths [mm], angles [deg], tilt [%], steps per mm.
+MM_DECIMALS = 4
+DEG_DECIMALS = 4
+TILT_DECIMALS = 4
+STEPS_DECIMALS = 4
+
+
+def _number(value: float, decimals: int, exact: bool) -> str:
+    return repr(float(value)) if exact else f"{value:.{decimals}f}"
+
+
+def rrf_config_text(
+    rrf: RRFDelta,
+    source: str | Path | None = None,
+    title: str = "",
+    notes: list[str] | tuple[str, ...] = (),
+    complete: bool = False,
+) -> str:
+    """RRF's values as ``M665``, ``M666`` and ``M92`` lines for ``config-override.g`` (or ``config.g``).
+
+    Writes ``M665 L a:b:c R H B X Y Z``, ``M666 X Y Z A B`` and ``M92 X Y Z``, the steps per mm for
+    the microstepping the printer runs (``M350`` of ``source`` if it has one, else x16; ``M92``
+    carries ``S`` with it so that RRF scales it should the microstepping differ). Read back by
+    :func:`load_rrf` they give the same values to the written decimals (:data:`MM_DECIMALS`...);
+    with ``complete`` every value is written exactly (the shortest text that reads back the same
+    float), with ``M669 K3``, ``M208 S1 Z`` and ``M564 S`` for the limits.
+
+    Args:
+        rrf: The values.
+        source: The configuration the printer runs, for its microstepping.
+        title: A first comment line (what the values are).
+        notes: More comment lines, each after ``; ``.
+        complete: A whole configuration, values exact.
+    """
+    micro = (
+        read_rrf_settings(source).microstepping if source is not None else [float(DEFAULT_MICROSTEPPING)] * 3
+    )
+    if len(set(micro)) != 1:
+        raise InputError(
+            f"the towers' microstepping differs ({', '.join(f'{m:g}' for m in micro)}): "
+            "RRF's M92 S applies one to the three",
+            str(source),
+            "M350",
+        )
+    mm, deg = (lambda v: _number(v, MM_DECIMALS, complete)), (lambda v: _number(v, DEG_DECIMALS, complete))
+    lines = [f"; {title}" if title else "; RepRapFirmware delta values written by deltacal"]
+    if not complete:
+        lines.append(
+            "; Replace the M665, M666 and M92 X Y Z lines of config-override.g (or config.g) with these."
+        )
+    lines += [f"; {note}".rstrip() for note in notes]
+    if complete:
+        lines.append(f"M669 K{3}")
+    angles = np.degrees(rrf.angle_correction)
+    lines.append(
+        f"M665 L{':'.join(mm(v) for v in rrf.diagonal)} R{mm(rrf.radius)} H{mm(rrf.homed_height)} "
+        f"B{mm(rrf.print_radius)} X{deg(angles[0])} Y{deg(angles[1])} Z{deg(angles[2])}"
+    )
+    tilt = rrf.tilt * 100.0
+    lines.append(
+        f"M666 X{mm(rrf.endstop_adjustment[0])} Y{mm(rrf.endstop_adjustment[1])} "
+        f"Z{mm(rrf.endstop_adjustment[2])} A{_number(tilt[0], TILT_DECIMALS, complete)} "
+        f"B{_number(tilt[1], TILT_DECIMALS, complete)}"
+    )
+    steps = rrf.steps_per_mm
+    lines.append(
+        f"M92 X{_number(steps[0], STEPS_DECIMALS, complete)} Y{_number(steps[1], STEPS_DECIMALS, complete)} "
+        f"Z{_number(steps[2], STEPS_DECIMALS, complete)} S{micro[0]:g}"
+    )
+    if complete:
+        lines += [f"M208 S1 Z{_number(rrf.z_min, MM_DECIMALS, True)}", f"M564 S{1 if rrf.limit_axes else 0}"]
+    return "\n".join(lines) + "\n"
+
+
+def save_rrf_config(
+    path: str | Path,
+    rrf: RRFDelta,
+    source: str | Path | None = None,
+    title: str = "",
+    notes: list[str] | tuple[str, ...] = (),
+    complete: bool = False,
+) -> Path:
+    """Write :func:`rrf_config_text` to ``path`` atomically; returns the path."""
+    return atomic_write_text(path, rrf_config_text(rrf, source, title, notes, complete))

@@ -1,0 +1,104 @@
+"""RepRapFirmware behind the firmware interface (:class:`~..base.Firmware`): a thin layer over its modules.
+
+Each method delegates: the configuration to :mod:`.config`, the model and the controller to
+:mod:`.model`, the fit to :mod:`.fit`, the probe program to :mod:`.probing`. :data:`RRF_FIRMWARE`
+is the one instance. Units: mm, angles in rad.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+from ....gcode.dialect import ArcP, Dialect
+from ....geometry import DeltaGeometry, Workspace
+from ....towers import per_tower
+from ..base import PROBE_CLEARANCE, Firmware
+from .config import is_rrf_config, load_rrf, rrf_config_text
+from .fit import RRFFit, fit_rrf
+from .model import RRFController, RRFDelta
+from .probing import rrf_probe_program
+
+if TYPE_CHECKING:
+    from ...robot import NominalLinearDelta
+
+
+class RRF(Firmware[RRFDelta]):
+    """RepRapFirmware 3.x: ``config.g``, :class:`~.model.RRFDelta`, :class:`~.model.RRFController`."""
+
+    name: ClassVar[str] = "rrf"
+    step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
+
+    def is_config(self, path: str | Path) -> bool:
+        """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
+        return is_rrf_config(path)
+
+    def read_config(self, path: str | Path) -> RRFDelta:
+        """``config.g`` (or ``config-override.g``) run as RRF runs it (:func:`~.config.load_rrf`)."""
+        return load_rrf(path)
+
+    def nominal(self, printer: NominalLinearDelta) -> RRFDelta:
+        """:meth:`RRFDelta.from_printer <.model.RRFDelta.from_printer>`."""
+        return RRFDelta.from_printer(printer)
+
+    def start(self, geometry: DeltaGeometry) -> RRFDelta:
+        """:meth:`RRFDelta.from_geometry <.model.RRFDelta.from_geometry>`."""
+        return RRFDelta.from_geometry(geometry)
+
+    def controller(self, model: RRFDelta, step_distance: np.ndarray | float) -> RRFController:
+        """:class:`~.model.RRFController` of the values, readings counted in ``step_distance`` [mm]."""
+        return RRFController(model, per_tower("step_distance", step_distance))
+
+    def config_text(
+        self,
+        model: RRFDelta,
+        source: str | Path | None = None,
+        title: str = "",
+        notes: list[str] | tuple[str, ...] = (),
+        complete: bool = False,
+    ) -> str:
+        """:func:`~.config.rrf_config_text`."""
+        return rrf_config_text(model, source, title, notes, complete)
+
+    def fit(
+        self,
+        geometry: DeltaGeometry,
+        start: RRFDelta,
+        step_distance: np.ndarray | float,
+        workspace: Workspace,
+        hold_step_distance: bool = False,
+        first_layer_weight: float = 0.0,
+    ) -> RRFFit:
+        """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
+        return fit_rrf(
+            geometry,
+            start,
+            step_distance,
+            workspace,
+            hold_step_distance=hold_step_distance,
+            first_layer_weight=first_layer_weight,
+        )
+
+    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+        """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
+        return rrf_probe_program(points, title, clearance)
+
+    def dialect(self, path: str | Path) -> Dialect:
+        """RepRapFirmware's reading of G-code with ``config.g``.
+
+        E is relative exactly when M83 holds: G90/G91 set only ``axesRelative``, M82/M83
+        ``drivesRelative`` (``GCodes2.cpp``); a ``P`` on an arc sets I/O bits or a laser's power,
+        never a count of turns (``GCodes.cpp``, ``HandleArc``: one turn at most, a whole circle
+        where the ends meet), so it is read as absent; G28 runs ``homedelta.g``, whose ``G1 H1``
+        moves stop each carriage at its endstop (``OnHomingSwitchTriggered``): the nozzle is where
+        RRF's model puts those carriages (moves ``homedelta.g`` makes after them are not read).
+        No macros are read.
+        """
+        home = load_rrf(path).home_position
+        return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
+
+
+#: RepRapFirmware, the firmware.
+RRF_FIRMWARE = RRF()
