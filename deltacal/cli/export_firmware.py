@@ -3,8 +3,8 @@
 For a firmware other than Klipper (Marlin, RepRapFirmware; Klipper's route, :mod:`.export_klipper`,
 also prints each error source's share): through the firmware interface alone
 (:class:`~deltacal.printer.firmware.base.Firmware`), its values that leave the least nozzle error
-over the printable volume of the identified printer (its true bed as z = 0), judged in the printed part's frame, with the first layer's height errors
-weighted as Klipper's export weighs them
+over the printable volume of the identified printer (its true bed as z = 0), judged in the printed
+part's frame, with the first layer's height errors weighted as Klipper's export weighs them
 (:data:`~deltacal.printer.firmware.klipper.fit.EXPORT_FIRST_LAYER_WEIGHT`). The fit starts from
 ``--config`` (the settings the printer runs, whose other values it keeps: RRF's print radius, its
 microstepping), else from the calibration's nominal printer. What the values leave is printed and
