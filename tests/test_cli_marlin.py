@@ -43,7 +43,15 @@ def test_corrected_targets_go_through_marlins_model(identified, capsys):
     folder, settings = identified
     targets = np.array([[0.0, 0.0, 0.2], [50.0, -40.0, 20.0], [-60.0, 30.0, 120.0]])
     np.savetxt(folder / "t.csv", targets, delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    # the true bed is below Marlin's z 0 here: its soft endstops would clamp the first target
     assert main(["compensate", str(folder / "cal.toml"), str(folder / "t.csv"), "--controller", str(settings),
+                 "--firmware", "marlin", "-o", str(folder / "c.csv")]) == 1
+    err = capsys.readouterr().err
+    assert "line 2 (data row 1)" in err and "soft endstop Min Z 0" in err and "M211 S0" in err
+    assert not (folder / "c.csv").exists()
+    lowered = MARLIN.save_config(folder / "m503_low.gcode", load_marlin(settings).with_minimum_z(-1.0),
+                                 complete=True)
+    assert main(["compensate", str(folder / "cal.toml"), str(folder / "t.csv"), "--controller", str(lowered),
                  "--firmware", "marlin", "-o", str(folder / "c.csv")]) == 0
     sent = np.loadtxt(folder / "c.csv", delimiter=",", skiprows=1)[:, 3:6]
     geometry = load_calibration(folder / "cal.toml").geometry
@@ -79,4 +87,4 @@ def test_a_file_no_firmware_recognises_needs_firmware(tmp_path, capsys):
     out = tmp_path / "o.toml"
     code = main(["identify", str(KOSSEL), str(targets), "--controller", str(bare), "-o", str(out)])
     err = capsys.readouterr().err
-    assert code == 2 and "give --firmware klipper|marlin" in err and err.count("\n") == 1
+    assert code == 2 and "give --firmware klipper|rrf|marlin" in err and err.count("\n") == 1

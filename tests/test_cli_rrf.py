@@ -117,7 +117,7 @@ def test_an_unrecognised_controller_asks_for_firmware(tmp_path, capsys):
         main(["identify", str(KOSSEL), str(probe), "--controller", str(odd), "-o", str(tmp_path / "c.toml")])
         == 2
     )
-    assert "give --firmware klipper|rrf" in capsys.readouterr().err
+    assert "give --firmware klipper|rrf|marlin" in capsys.readouterr().err
     assert (
         main(
             [

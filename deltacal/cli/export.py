@@ -195,9 +195,8 @@ def add_parser(sub) -> None:
                         "config.g or config-override.g (its values start the fit, its M350 microstepping "
                         "goes with M92; default: the nominal printer's values, x16)")
     p.add_argument("--keep-rotation-distance", action="store_true",
-                   help="with --controller klipper|marlin: hold each tower's rotation_distance (Marlin: "
-                        "M92) (the --config's, "
-                        "else the nominal step distance's)")
+                   help="with --controller klipper|marlin|rrf: hold each tower's rotation_distance (Marlin, "
+                        "RRF: M92) (the --config's, else the nominal step distance's)")
     p.add_argument("--robot", metavar="ROBOT.toml",
                    help="with --controller: the robot file (its nominal values start the fit and hold "
                         "what the fit cannot identify; its [workspace] is the fit's; default: the "

@@ -72,8 +72,8 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
     if held:
         lines.append(f"  held (not fitted): {', '.join(held)}")
     firmware.save_config(args.output, fit.values, args.config,
-                         title=f"{firmware.name} values fitted by deltacal to {args.calibration}",
+                         title=f"{firmware.title} values fitted by deltacal to {args.calibration}",
                          notes=lines)
-    print(f"wrote the {firmware.name} values that best fit {args.calibration} to {args.output}")
+    print(f"wrote the {firmware.title} values that best fit {args.calibration} to {args.output}")
     print("\n".join(lines))
     return 0

@@ -13,7 +13,7 @@ subpackage has the same parts:
 * ``probing``: its program that probes the bed at given points, its results on the console;
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
-Klipper (:mod:`.klipper`), Marlin (:mod:`.marlin`) and RepRapFirmware (:mod:`.rrf`). :func:`firmwares`
+Klipper (:mod:`.klipper`), RepRapFirmware (:mod:`.rrf`) and Marlin (:mod:`.marlin`). :func:`firmwares`
 lists them; :func:`config_firmware`
 finds the one whose configuration a file is.
 """
@@ -32,7 +32,7 @@ def firmwares() -> tuple[Firmware[Any], ...]:
     from .marlin.firmware import MARLIN
     from .rrf.firmware import RRF_FIRMWARE
 
-    return (KLIPPER, MARLIN, RRF_FIRMWARE)
+    return (KLIPPER, RRF_FIRMWARE, MARLIN)  # RRF's config.g (by its name) before Marlin's M503 (by content)
 
 
 def config_firmware(path: str | Path) -> Firmware[Any] | None:

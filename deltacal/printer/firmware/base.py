@@ -129,10 +129,12 @@ class Firmware(ABC, Generic[ModelT]):
 
     Attributes:
         name: The firmware's name, lower case (``"klipper"``).
+        title: The name users read (``"Klipper"``).
         step_distance_keys: Where its configuration sets the towers' step distances (for messages).
     """
 
     name: ClassVar[str]
+    title: ClassVar[str]
     step_distance_keys: ClassVar[str]
 
     @abstractmethod

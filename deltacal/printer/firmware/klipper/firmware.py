@@ -30,6 +30,7 @@ class Klipper(Firmware[KlipperDelta]):
     """Klipper: ``printer.cfg``, :class:`~.model.KlipperDelta`, :class:`~.model.KlipperController`."""
 
     name: ClassVar[str] = "klipper"
+    title: ClassVar[str] = "Klipper"
     step_distance_keys: ClassVar[str] = "sections [stepper_a..c], key rotation_distance"
 
     def is_config(self, path: str | Path) -> bool:

@@ -29,6 +29,7 @@ class Marlin(Firmware[MarlinDelta]):
     """Marlin 2.x: an ``M503`` capture, :class:`~.model.MarlinDelta`, :class:`~.model.MarlinController`."""
 
     name: ClassVar[str] = "marlin"
+    title: ClassVar[str] = "Marlin"
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
 
     def is_config(self, path: str | Path) -> bool:

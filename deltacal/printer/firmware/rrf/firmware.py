@@ -29,6 +29,7 @@ class RRF(Firmware[RRFDelta]):
     """RepRapFirmware 3.x: ``config.g``, :class:`~.model.RRFDelta`, :class:`~.model.RRFController`."""
 
     name: ClassVar[str] = "rrf"
+    title: ClassVar[str] = "RepRapFirmware"
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
 
     def is_config(self, path: str | Path) -> bool:
