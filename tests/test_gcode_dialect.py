@@ -59,7 +59,8 @@ def test_klipper_dialect_of_a_configuration(klipper):
     assert_allclose(klipper.home, KLIPPER.read_config(CONFIG).positions(np.zeros((1, 3)))[0])
     assert klipper.home[2] > 290.0  # position_endstop 297.05: the nozzle at the top
     assert not GENERIC.g91_moves_e and GENERIC.arc_p is ArcP.REFUSED and not GENERIC.macros
-    assert set(klipper.macros) == {"START_PRINT", "END_PRINT", "PRINT_START", "PURGE", "START_PURGED", "PARK",
+    macros = {name for name, m in klipper.macros.items() if not m.builtin}  # not BED_MESH_CALIBRATE ...
+    assert macros == {"START_PRINT", "END_PRINT", "PRINT_START", "PURGE", "START_PURGED", "PARK",
                                    "HEAT_ONLY"}
     assert not klipper.macros["HEAT_ONLY"].moves  # heating under a condition leaves the position
     assert "G28 under a Jinja condition" in klipper.macros["PRINT_START"].unknown
@@ -88,6 +89,25 @@ def test_a_macro_whose_end_is_unknown_is_named_with_start(klipper):
         run(program, dialect=klipper)
     out = run(program, dialect=klipper, start=(0.0, 0.0, 5.0))
     assert_allclose(sent(out)[-1], shifted(np.array([[10.0, 10.0, 5.0]]))[0], atol=1e-4)
+
+
+def test_a_programs_own_probing_command_leaves_the_position_unknown(klipper):
+    # Cura's start G-code for a Klipper printer: home, a bed mesh (the nozzle ends over its last
+    # probe point), then a lift that gives Z alone: its start is not the home
+    program = ["G28", "BED_MESH_CALIBRATE", "G1 Z15.0 F4800", "G1 X0 Y0 Z0.3"]
+    with pytest.raises(InputError, match=r"line 3: move before X, Y and Z are all known \(X, Y unknown since "
+                                         r"BED_MESH_CALIBRATE \(it leaves the nozzle where only the printer"):
+        run(program, dialect=klipper)
+    out = run(["G28", "bed_mesh_calibrate PROFILE=x", "G1 X0 Y0 Z15.0 F4800", "G1 Z5"], dialect=klipper)
+    assert len(sent(out)) == 1 + 2  # straight to its end, then cut from there
+    assert out.splitlines()[1] == "bed_mesh_calibrate PROFILE=x"
+    # Klipper's own command, not a macro; PAUSE / RESUME go back where they were
+    assert not klipper.macros["PROBE"].steps and klipper.macros["PROBE"].builtin
+    out = run(["G28", "G1 X0 Y0 Z5", "PAUSE", "RESUME", "G1 Z1"], dialect=klipper)
+    assert_allclose(sent(out)[-1], shifted(np.array([[0.0, 0.0, 1.0]]))[0], atol=1e-4)
+    with pytest.raises(InputError, match="line 3: move before X, Y and Z"):
+        run(["G1 X0 Y0 Z1", "BED_MESH_CALIBRATE", "G1 Z5"], dialect=klipper)
+    assert len(sent(run(["G1 X0 Y0 Z1", "BED_MESH_CALIBRATE", "G1 Z5"]))) == 2  # generic: a mere command
 
 
 def test_nested_macros_modes_and_saved_states(klipper):

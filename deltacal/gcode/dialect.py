@@ -67,11 +67,14 @@ class MacroEffect:
         unknown: Why its end position cannot be known (a homing or a move under a Jinja
             condition, a move whose coordinates an expression gives, a probing command ...), or
             "" (known).
+        builtin: Whether it is one of the controller's own commands (``BED_MESH_CALIBRATE``), not a
+            macro of its configuration (messages name it as it is).
     """
 
     name: str
     steps: tuple[tuple[MacroStep, Mapping[str, float], str], ...] = ()
     unknown: str = ""
+    builtin: bool = False
 
     @property
     def moves(self) -> bool:

@@ -5,8 +5,9 @@ moves, the controller stands at a point of its own, as after a homing: the posit
 (the program's next absolute move starts there) and a relative move right after it is refused. A
 macro that leaves the position unknown (:attr:`~deltacal.gcode.dialect.MacroEffect.unknown`)
 makes it unknown, named in the message of the first move that needs it; before any move of the
-program, ``--start`` gives where such a macro leaves the nozzle. A macro that only heats, waits or
-sets fans changes nothing. Units: mm.
+program, ``--start`` gives where such a macro leaves the nozzle. A controller's own command that
+moves the nozzle where only the printer knows (a probing, a bed mesh) is read the same way. A
+macro that only heats, waits or sets fans changes nothing. Units: mm.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ def apply_macro(state: ModalState, effect: MacroEffect, number: int, home, start
     """
     if not effect.moves:
         return
-    by = f"the macro {effect.name}"
+    by = effect.name if effect.builtin else f"the macro {effect.name}"
     for step, values, name in effect.steps:
         _step(state, step, values, name, home)
     if effect.unknown:

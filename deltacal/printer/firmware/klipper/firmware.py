@@ -18,7 +18,7 @@ from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
-from .macros import read_macros
+from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program
 
@@ -78,11 +78,13 @@ class Klipper(Firmware[KlipperDelta]):
         G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
         increment when either holds); a ``P`` on an arc is never read (``gcode_arcs.py``); G28
         leaves every carriage at its endstop; the macros are ``printer.cfg``'s
-        (:func:`~.macros.read_macros`).
+        (:func:`~.macros.read_macros`), and a program's own probing or bed mesh command
+        (``BED_MESH_CALIBRATE``, ``PROBE`` ...) leaves the position unknown as in a macro
+        (:func:`~.macros.with_moving_commands`).
         """
         home = load_klipper(path).positions(np.zeros((1, 3)))[0]
         return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
-                       macros=read_macros(read_klipper_config(path)))
+                       macros=with_moving_commands(read_macros(read_klipper_config(path))))
 
 
 #: Klipper, the firmware.

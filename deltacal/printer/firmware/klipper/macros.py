@@ -29,7 +29,7 @@ from types import MappingProxyType
 from ....gcode.dialect import MacroEffect, MacroStep
 from .config import KlipperConfig
 
-__all__ = ["MAX_DEPTH", "MOVING_COMMANDS", "read_macros"]
+__all__ = ["MAX_DEPTH", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
 
 #: Macros nested deeper than this are not followed (their caller's end is unknown).
 MAX_DEPTH = 10
@@ -40,12 +40,33 @@ MOVING_COMMANDS = frozenset((
     "QUAD_GANTRY_LEVEL", "SCREWS_TILT_CALCULATE", "BED_TILT_CALIBRATE", "MANUAL_PROBE",
     "Z_ENDSTOP_CALIBRATE", "SET_KINEMATIC_POSITION", "FORCE_MOVE", "RESUME",
 ))
+#: Why a program's line running one of them leaves the position unknown.
+_COMMAND_UNKNOWN = "it leaves the nozzle where only the printer knows"
 #: A placeholder for the value of a Jinja expression.
 _EXPRESSION = "\x00"
 _PARTS = re.compile(r"([A-Z_]+|[A-Z*])")  # klippy/gcode.py's split of a command line
 _TRADITIONAL = re.compile(r"[A-Z][0-9]")
 _OPEN = ("if", "for", "macro", "call", "filter", "with", "raw")
 _CLOSE = ("endif", "endfor", "endmacro", "endcall", "endfilter", "endwith", "endraw")
+
+
+def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
+    """The macros, and Klipper's own commands that a program's line may run and that move the nozzle.
+
+    A program's ``BED_MESH_CALIBRATE`` or ``PROBE`` leaves the nozzle where only the printer
+    knows, as in a macro; a macro of the same name (``rename_existing``) is the macro. The G-codes
+    of :data:`MOVING_COMMANDS` (arcs, G29, G30, G38.x) are read as G-code, and ``RESUME`` in a
+    program goes back where its ``PAUSE`` left the program.
+
+    Args:
+        macros: The configuration's macros (:func:`read_macros`).
+
+    Returns:
+        Name (upper case) -> effect, the macros' first.
+    """
+    commands = {name: MacroEffect(name, unknown=_COMMAND_UNKNOWN, builtin=True)
+                for name in MOVING_COMMANDS if not _TRADITIONAL.match(name) and name != "RESUME"}
+    return MappingProxyType({**commands, **macros})
 
 
 @dataclass(frozen=True)
