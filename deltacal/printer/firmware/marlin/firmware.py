@@ -10,8 +10,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
+from types import MappingProxyType
+
 import numpy as np
 
+from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
@@ -66,6 +69,25 @@ class Marlin(Firmware[MarlinDelta]):
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
         return marlin_probe_program(points, title, clearance)
 
+    def dialect(self, path: str | Path) -> Dialect:
+        """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
+
+        G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
+        (``gcode.h``, ``set_relative_mode``: the last of the four decides); a ``P`` on an arc is
+        that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
+        ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
+        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
+        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
+        """
+        model = load_marlin(path)
+        home = (0.0, 0.0, model.home_height)
+        return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
+                       refused=MappingProxyType({33.0: G33_REFUSED}))
+
+
+#: Why a program's G33 is refused.
+G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the settings the program is "
+               "corrected for: run G33 and M500 once, capture M503 again, and remove G33 from the program")
 
 #: Marlin, the firmware.
 MARLIN = Marlin()
