@@ -174,7 +174,7 @@ def _program(args: argparse.Namespace) -> int:
 
 
 def _dialect(path: str, name: str | None = None) -> Dialect | None:
-    """The controller's reading of G-code: its firmware's (``--firmware``, else told from the file), or None."""
+    """The controller's reading of G-code: its firmware's (``--firmware``, else the file's), or None."""
     firmware = config_firmware(path) if name is None else controller_firmware(path, name)
     if firmware is None:
         return None

@@ -53,8 +53,8 @@ Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the f
 (inches: convert the program to millimetres); G92 with X, Y or Z, or with no axis (they move the
 origin the controller's targets are given in); work offsets and coordinate transforms (G10 L, G52,
 G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19), with K, or with a P the dialect
-does not read (Marlin's: whole circles, 0..100); a G code the dialect refuses (Marlin's G33); a word the filter
-would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
+does not read (Marlin's: whole circles, 0..100); a G code the dialect refuses (Marlin's G33); a word
+the filter would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
 line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); M82
 or M83 on a line of G words (read by some firmwares, not by others); a number that is not one
 (``X1.2.3``, ``X``); a split extruding move where the extruder mode is ambiguous (M83 then G90 with

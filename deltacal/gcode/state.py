@@ -33,9 +33,9 @@ class Plane(enum.Enum):
 class Extrusion(enum.Enum):
     """How an E word is read: the extruder's position (M82), an increment (M83), or either.
 
-    ``AMBIGUOUS`` where firmwares differ: M83 then G90 with no M82/M83 since (Marlin 1 and
-    Repetier keep E relative, Marlin 2 and Smoothieware make it absolute), or G91 without M83 (whether G91 makes E
-    relative).
+    ``AMBIGUOUS`` where firmwares differ: M83 then G90 with no M82/M83 since (Marlin 1
+    and Repetier keep E relative, Marlin 2 and Smoothieware make it absolute), or G91 without M83
+    (whether G91 makes E relative).
     """
 
     ABSOLUTE = "absolute"
