@@ -109,7 +109,7 @@ class Dialect:
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
         value = None if home is None else tuple(float(v) for v in home)
-        return replace(self, home=value)
+        return replace(self, home=value)  # type: ignore[arg-type]
 
     def macro(self, line: str) -> MacroEffect | None:
         """The macro a program's line calls (by its command's name, any case), or None."""

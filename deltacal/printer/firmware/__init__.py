@@ -14,7 +14,7 @@ subpackage has the same parts:
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
 Klipper (:mod:`.klipper`) and Marlin (:mod:`.marlin`). :func:`firmwares` lists them; :func:`config_firmware`
-finds the one whose configuration a file is.
+finds the one whose configuration a file is, :func:`log_firmware` the one whose probe results a log holds.
 """
 
 from __future__ import annotations
@@ -31,6 +31,11 @@ def firmwares() -> tuple[Firmware[Any], ...]:
     from .marlin.firmware import MARLIN
 
     return (KLIPPER, MARLIN)
+
+
+def log_firmware(text: str) -> Firmware[Any] | None:
+    """The firmware whose probe results (or log) a file's text is, or None."""
+    return next((firmware for firmware in firmwares() if firmware.is_probe_log(text)), None)
 
 
 def config_firmware(path: str | Path) -> Firmware[Any] | None:

@@ -1,7 +1,8 @@
 """Marlin behind the firmware interface (:class:`~..base.Firmware`): a thin layer over its modules.
 
 Each method delegates: the settings to :mod:`.settings`, the model and the controller to
-:mod:`.model`, nominal and start values to :mod:`.values`, the fit to :mod:`.fit`. :data:`MARLIN` is
+:mod:`.model`, nominal and start values to :mod:`.values`, the fit to :mod:`.fit`, the probe
+program to :mod:`.probing` and its results to :mod:`.log`. :data:`MARLIN` is
 the one instance. Units: mm, trims in degrees.
 """
 
@@ -16,8 +17,9 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
 from .fit import MarlinFit, fit_marlin
+from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
 from .probing import marlin_probe_program
 from .settings import is_marlin_settings, load_marlin, marlin_settings_text
@@ -67,6 +69,16 @@ class Marlin(Firmware[MarlinDelta]):
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
         return marlin_probe_program(points, title, clearance)
+
+    def is_probe_log(self, text: str) -> bool:
+        """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""
+        return is_marlin_probe_log(text)
+
+    def read_probe_log(self, path: str | Path, text: str | None = None,
+                       config: str | Path | None = None) -> ProbeLog:
+        """:func:`~.log.read_marlin_probe_log`, ``M851`` from the ``M503`` capture ``config``."""
+        offset = None if config is None else load_marlin(config).probe_offset
+        return read_marlin_probe_log(path, text, offset)
 
     def dialect(self, path: str | Path) -> Dialect:
         """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
