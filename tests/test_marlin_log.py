@@ -3,7 +3,7 @@
 The round trip: the program ``plan --object`` writes for Marlin, run on a simulated printer whose
 probe sits off the nozzle (``M851 X-1.5 Y2 Z-1.2``), rendered as Marlin prints it (``G30.cpp``: the
 probe's position, the bed's height under it ``run_z_probe() + M851 Z``, with Marlin's default two
-decimals), read back by ``import``.
+decimals), read back by ``import``; and an ``M503`` capture imported as a robot file.
 """
 
 from __future__ import annotations
@@ -19,7 +19,9 @@ from numpy.testing import assert_allclose
 from deltacal.cli.main import main
 from deltacal.printer.firmware import log_firmware
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
+from deltacal.kinematics import exact
 from deltacal.printer.firmware.marlin.firmware import MARLIN
+from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.measurement_files import read_probe_heights
 from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import probe_heights, random_printer, typical_kit
@@ -90,3 +92,29 @@ def test_a_marlin_console_needs_its_m503_and_g33_alone_is_named(probed, tmp_path
     assert main(["import", str(g33), "--config", str(probed[1]), "-o", str(tmp_path / "probe.csv")]) == 1
     err = capsys.readouterr().err
     assert f"{g33}: line 3: G33's results" in err and "G30" in err
+
+
+# ------------------------------------------------------------------ import M503.txt -o DIR
+M503 = Path(__file__).parent / "data" / "marlin_m503.txt"
+
+
+def test_an_m503_capture_imports_and_commands_the_nozzle_exactly(tmp_path, capsys):
+    assert main(["import", str(M503), "--effector-radius", "25", "-o", str(tmp_path / "out")]) == 0
+    assert "Marlin's model of" in capsys.readouterr().out
+    text = (tmp_path / "out" / "printer.toml").read_text()
+    assert "taken by default: rod spacing 50 mm, nozzle drop 30 mm" in text
+    printer, marlin = load_printer(tmp_path / "out" / "printer.toml"), load_marlin(M503)
+    assert_allclose(printer.rod_length, [269.10, 268.95, 269.00], atol=1e-12)  # L + A, B, C
+    assert_allclose(np.degrees(printer.tower_azimuth), [210.12, 329.80, 90.08], atol=1e-9)
+    assert_allclose(printer.step_distance, 1.0 / 80.0, atol=0.0)
+    assert printer.workspace is not None and printer.workspace.radius == 115.0  # M211's Min/Max
+    # commanding the file's nominal printer through Marlin's model puts the nozzle where commanded
+    ws = printer.workspace
+    rng = np.random.default_rng(7)
+    r, a = ws.radius * np.sqrt(rng.random(200)), rng.uniform(0.0, 2.0 * np.pi, 200)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(0.0, ws.height, 200)])
+    readings = MARLIN.controller(marlin, printer.step_distance).inverse(targets)
+    nozzle = exact.forward(printer.geometry(), readings).point(printer.tool)
+    assert np.max(np.abs(nozzle - targets)) < 1e-9
+    home = exact.forward(printer.geometry(), np.zeros((1, 3)) + marlin.homing_moves).point(printer.tool)
+    assert_allclose(home[0], [0.0, 0.0, 296.8], atol=1e-9)  # G28 with M666: H - M851 Z

@@ -14,9 +14,19 @@ import argparse
 from pathlib import Path
 
 from ..exceptions import InputError, UsageError
+from ..io.atomic import atomic_write_text
 from ..printer.firmware import log_firmware
 from ..printer.firmware.base import Firmware
-from ..printer.firmware.klipper.importer import OUTPUT_FILES, import_klipper, write_import
+from ..printer.firmware.klipper.importer import (
+    DEFAULT_EFFECTOR_RADIUS,
+    DEFAULT_NOZZLE_DROP,
+    DEFAULT_ROD_SPACING,
+    OUTPUT_FILES,
+    import_klipper,
+    write_import,
+)
+from ..printer.firmware.marlin.firmware import MARLIN
+from ..printer.firmware.marlin.importer import import_marlin
 from ..printer.measurement_files import write_probe_heights
 from .common import check_input, check_output, positive_float
 
@@ -35,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--config applies to a log; {args.input} is read as a printer.cfg")
     folder = Path(args.output)
     _check_outputs(folder, args.input)
+    if MARLIN.is_config(args.input):
+        return _run_marlin(args, folder)
     imported = import_klipper(args.input, args.effector_radius, args.rod_spacing, args.nozzle_drop)
     if not folder.exists():
         folder.mkdir()
@@ -69,6 +81,22 @@ def _run_log(args: argparse.Namespace, text: str, firmware: Firmware) -> int:
         f", trigger height {log.trigger_height[0]:g} mm (the probe's offset in {args.config})"
     print(f"wrote {output}: {len(log.commanded)} probe results of {firmware.name.capitalize()} (lines "
           f"{log.lines[0]}..{log.lines[-1]} of {args.input}){trigger}")
+    return 0
+
+
+def _run_marlin(args: argparse.Namespace, folder: Path) -> int:
+    """An ``M503`` capture into ``DIR/printer.toml``."""
+    given = {"effector radius": (args.effector_radius, DEFAULT_EFFECTOR_RADIUS),
+             "rod spacing": (args.rod_spacing, DEFAULT_ROD_SPACING),
+             "nozzle drop": (args.nozzle_drop, DEFAULT_NOZZLE_DROP)}
+    defaults = tuple(f"{what} {default:g} mm" for what, (value, default) in given.items() if value is None)
+    a, c, drop = (default if value is None else float(value) for value, default in given.values())
+    text, marlin = import_marlin(args.input, a, c, drop, defaults)
+    if not folder.exists():
+        folder.mkdir()
+    written = atomic_write_text(folder / OUTPUT_FILES[0], text)
+    taken = f"; defaults taken: {', '.join(defaults)}" if defaults else ""
+    print(f"wrote {written}: Marlin's model of {args.input} (M665 R {marlin.radius:g} mm){taken}")
     return 0
 
 
