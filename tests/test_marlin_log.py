@@ -17,9 +17,9 @@ import pytest
 from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
+from deltacal.kinematics import exact
 from deltacal.printer.firmware import log_firmware
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.kinematics import exact
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.measurement_files import read_probe_heights
