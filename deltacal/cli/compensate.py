@@ -164,7 +164,7 @@ def _program(args: argparse.Namespace) -> int:
 
     job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
-    dialect = _dialect(args)
+    dialect = _dialect(args.controller, args.firmware)
     marker = marker_line(args.controller, args.calibration)
     with Progress("compensate") as progress, shared_values(job, lines) as correct:
         filter_gcode(args.targets, args.output, correct, segment, args.start,
@@ -175,15 +175,14 @@ def _program(args: argparse.Namespace) -> int:
     return 0
 
 
-def _dialect(args: argparse.Namespace) -> Dialect | None:
-    """The controller's reading of G-code: its firmware's (a printer's configuration), or None (generic)."""
-    path, name = args.controller, args.firmware
-    firmware = controller_firmware(path, name) if name is not None else config_firmware(path)
+def _dialect(path: str, name: str | None = None) -> Dialect | None:
+    """The controller's reading of G-code: its firmware's (``--firmware``, else the file's), or None."""
+    firmware = config_firmware(path) if name is None else controller_firmware(path, name)
     if firmware is None:
         return None
     with warnings.catch_warnings():  # the configuration's warnings were said when it was read
         warnings.simplefilter("ignore")
-        return firmware.dialect(args.controller)
+        return firmware.dialect(path)
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:

@@ -14,9 +14,19 @@ import argparse
 from pathlib import Path
 
 from ..exceptions import InputError, UsageError
-from ..printer.firmware.klipper.config import read_klipper_config
-from ..printer.firmware.klipper.importer import OUTPUT_FILES, import_klipper, write_import
-from ..printer.firmware.klipper.log import is_probe_log, probe_offsets, read_probe_log
+from ..io.atomic import atomic_write_text
+from ..printer.firmware import log_firmware
+from ..printer.firmware.base import Firmware
+from ..printer.firmware.klipper.importer import (
+    DEFAULT_EFFECTOR_RADIUS,
+    DEFAULT_NOZZLE_DROP,
+    DEFAULT_ROD_SPACING,
+    OUTPUT_FILES,
+    import_klipper,
+    write_import,
+)
+from ..printer.firmware.marlin.firmware import MARLIN
+from ..printer.firmware.marlin.importer import import_marlin
 from ..printer.measurement_files import write_probe_heights
 from .common import check_input, check_output, positive_float
 
@@ -28,12 +38,15 @@ def run(args: argparse.Namespace) -> int:
         text = Path(args.input).read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise InputError(f"cannot read the file ({exc.strerror})", args.input) from None
-    if is_probe_log(text):
-        return _run_log(args, text)
+    firmware = log_firmware(text)
+    if firmware is not None:
+        return _run_log(args, text, firmware)
     if args.config is not None:
         raise UsageError(f"--config applies to a log; {args.input} is read as a printer.cfg")
     folder = Path(args.output)
     _check_outputs(folder, args.input)
+    if MARLIN.is_config(args.input):
+        return _run_marlin(args, folder)
     imported = import_klipper(args.input, args.effector_radius, args.rod_spacing, args.nozzle_drop)
     if not folder.exists():
         folder.mkdir()
@@ -50,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_log(args: argparse.Namespace, text: str) -> int:
+def _run_log(args: argparse.Namespace, text: str, firmware: Firmware) -> int:
     """A log's probe results into a probe heights file."""
     flags = ("effector_radius", "rod_spacing", "nozzle_drop")
     given = [flag for flag in flags if getattr(args, flag) is not None]
@@ -59,16 +72,31 @@ def _run_log(args: argparse.Namespace, text: str) -> int:
     output = Path(args.output)
     if output.is_dir():
         raise UsageError(f"{output}: a log's probe results go to a file (-o probe.csv); this is a folder")
-    offsets = None
     if args.config is not None:
         check_input(args.config)
-        offsets = probe_offsets(read_klipper_config(args.config))
     check_output(output, [args.input] + ([args.config] if args.config else []))
-    log = read_probe_log(args.input, text, offsets)
+    log = firmware.read_probe_log(args.input, text, args.config)
     write_probe_heights(output, log.commanded[:, :2], log.commanded[:, 2], log.trigger_height)
-    trigger = "" if offsets is None else f", trigger height {offsets.z:g} mm (z_offset of {args.config})"
-    print(f"wrote {output}: {len(log.commanded)} probe results (lines {log.lines[0]}..{log.lines[-1]} of "
-          f"{args.input}){trigger}")
+    trigger = "" if log.trigger_height is None else \
+        f", trigger height {log.trigger_height[0]:g} mm (the probe's offset in {args.config})"
+    print(f"wrote {output}: {len(log.commanded)} probe results of {firmware.name.capitalize()} (lines "
+          f"{log.lines[0]}..{log.lines[-1]} of {args.input}){trigger}")
+    return 0
+
+
+def _run_marlin(args: argparse.Namespace, folder: Path) -> int:
+    """An ``M503`` capture into ``DIR/printer.toml``."""
+    given = {"effector radius": (args.effector_radius, DEFAULT_EFFECTOR_RADIUS),
+             "rod spacing": (args.rod_spacing, DEFAULT_ROD_SPACING),
+             "nozzle drop": (args.nozzle_drop, DEFAULT_NOZZLE_DROP)}
+    defaults = tuple(f"{what} {default:g} mm" for what, (value, default) in given.items() if value is None)
+    a, c, drop = (default if value is None else float(value) for value, default in given.values())
+    text, marlin = import_marlin(args.input, a, c, drop, defaults)
+    if not folder.exists():
+        folder.mkdir()
+    written = atomic_write_text(folder / OUTPUT_FILES[0], text)
+    taken = f"; defaults taken: {', '.join(defaults)}" if defaults else ""
+    print(f"wrote {written}: Marlin's model of {args.input} (M665 R {marlin.radius:g} mm){taken}")
     return 0
 
 

@@ -7,11 +7,18 @@ does. Where controllers differ, it asks a :class:`Dialect`:
   E as an increment when either G91 or M83 holds (``absolute_coord`` and ``absolute_extrude``),
   so nothing is ambiguous; RepRapFirmware's reads E as an increment exactly when M83 holds
   (:attr:`Dialect.e_by_m83`: G90/G91 set ``axesRelative``, M82/M83 ``drivesRelative``,
-  ``GCodes2.cpp``), so nothing is ambiguous either; without a rule (:data:`GENERIC`) G91 without
+  ``GCodes2.cpp``), so nothing is ambiguous either;
+  Marlin 2's G90 and G91 set E's mode too (:attr:`Dialect.distance_sets_e`:
+  ``GcodeSuite::set_relative_mode`` clears the M82/M83 override), the last of G90, G91, M82 and
+  M83 decides; without a rule (:data:`GENERIC`) G91 without
   M83, and G90 after M83, are ambiguous (firmwares differ) and a split extruding move there is refused;
 * what a ``P`` word on an arc means (:attr:`Dialect.arc_p`): Klipper's ``gcode_arcs.py`` never
-  reads it (one turn at most, a full turn where the ends meet); elsewhere it is refused;
+  reads it (one turn at most, a full turn where the ends meet); Marlin (built with
+  ``ARC_P_CIRCLES``) turns P full circles before the arc, Z and E spread over the whole sweep
+  (``G2_G3.cpp``); elsewhere it is refused;
 * where a homing (G28) leaves the TCP (:attr:`Dialect.home`);
+* G codes the controller runs that the correction cannot follow (:attr:`Dialect.refused`, by G
+  number: Marlin's G33 changes the very values the program is corrected for);
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
   (:meth:`Dialect.command`).
@@ -40,6 +47,7 @@ class ArcP(enum.Enum):
 
     REFUSED = "refused"  #: firmwares differ: refused by the line
     IGNORED = "ignored"  #: never read (Klipper): the arc as if it had none
+    CIRCLES = "circles"  #: P full circles before the arc, an integer 0..100 (Marlin's ARC_P_CIRCLES)
 
 
 class MacroStep(enum.Enum):
@@ -94,6 +102,8 @@ class Dialect:
         arc_p: What a ``P`` word on an arc does.
         home: Where a homing (G28) leaves the TCP [mm] (X, Y, Z), or None: unknown after it.
         macros: The controller's macros by upper-case name.
+        distance_sets_e: Whether G90 and G91 set E's mode too, forgetting M82/M83 (Marlin 2).
+        refused: G codes refused by their line (G number -> why), the controller's own.
     """
 
     name: str = "generic"
@@ -102,6 +112,8 @@ class Dialect:
     home: tuple[float, float, float] | None = None
     macros: Mapping[str, MacroEffect] = field(default_factory=lambda: MappingProxyType({}))
     e_by_m83: bool = False
+    distance_sets_e: bool = False
+    refused: Mapping[float, str] = field(default_factory=lambda: MappingProxyType({}))
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""

@@ -52,12 +52,13 @@ straight to its corrected end, unsplit (its start is unknown).
 Refused, each by its line (:class:`~deltacal.exceptions.InputError` naming the file and line): G20
 (inches: convert the program to millimetres); G92 with X, Y or Z, or with no axis (they move the
 origin the controller's targets are given in); work offsets and coordinate transforms (G10 L, G52,
-G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19) or with K or P; a word the filter
-would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
+G53-G59.x, G92.x, G68, G51); arcs outside the XY plane (G18, G19), with K, or with a P the dialect
+does not read (Marlin's: whole circles, 0..100); a G code the dialect refuses (Marlin's G33); a word
+the filter would have to carry across a split (A, B, C, U, V, W, H, ...) on a move; a checksum (``*``) on a
 line the filter rewrites (checksums and line numbers belong to the serial link, not to a file); M82
 or M83 on a line of G words (read by some firmwares, not by others); a number that is not one
 (``X1.2.3``, ``X``); a split extruding move where the extruder mode is ambiguous (M83 then G90 with
-no M82/M83 since: Marlin and Repetier keep E relative, Smoothieware makes it absolute; or G91
+no M82/M83 since: Marlin 1 and Repetier keep E relative, Marlin 2 and Smoothieware make it absolute; or G91
 without M83: firmwares differ on whether G91 makes E relative) or where the extruder position is
 not known yet in absolute mode (add ``G92 E0``); a target that ``correct`` refuses (its
 :class:`~deltacal.exceptions.UnreachableError`, mapped to the lines), or a coordinate beyond
@@ -299,7 +300,7 @@ class _Reader:
     def __init__(self, source: str, segment_mm: float, start, dialect: Dialect = GENERIC) -> None:
         self.source = source
         self.segment_mm = segment_mm
-        self.state = ModalState(start, dialect.g91_moves_e, dialect.e_by_m83)
+        self.state = ModalState(start, dialect.g91_moves_e, dialect.distance_sets_e, dialect.e_by_m83)
         self.start = start
         self.dialect = dialect
         self.macros = bool(dialect.macros)
@@ -448,6 +449,9 @@ class _Reader:
         if mode is not None:  # G90 M83: Marlin reads one command a line, LinuxCNC both
             raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
                                     "put it on a line of its own")
+        for g in gs:
+            if g in self.dialect.refused:
+                raise self.fail(number, f"G{g:g}: {self.dialect.refused[g]}")
         if any(g in _HOMING for g in gs):
             if self.home is not None and all(g == 28.0 for g in gs if g in _HOMING):
                 st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
@@ -525,9 +529,11 @@ class _Reader:
             if letter == "*":
                 raise self.fail(number, f"checksum {value!r} on a move line: checksums and line numbers "
                                         "belong to the serial link; remove them from the file")
-            if letter == "P" and arc and self.dialect.arc_p is ArcP.IGNORED:
+            if letter == "P" and arc and self.dialect.arc_p is not ArcP.REFUSED:
                 self.number(number, letter, value)
-                continue  # the controller never reads it (Klipper's gcode_arcs.py)
+                if self.dialect.arc_p is ArcP.CIRCLES:
+                    given[letter] = self.circles(number, value)
+                continue  # Klipper never reads it (gcode_arcs.py)
             if letter not in allowed:
                 raise self.fail(number, f"word {letter}{value} on {'an arc' if arc else 'a move'} line "
                                         "is not supported by the filter")
@@ -638,6 +644,13 @@ class _Reader:
         st.pos = tuple(end)
         return st.pos  # type: ignore[return-value]
 
+    def circles(self, number: int, value: str) -> str:
+        """An arc's P as full circles (Marlin's ARC_P_CIRCLES): a whole number 0..100."""
+        if not (_NUMBER.fullmatch(value) and float(value).is_integer() and 0 <= float(value) <= 100):
+            raise self.fail(number, f"word P{value} on an arc: {self.dialect.name} takes P as a whole "
+                                    "number of full circles, 0 to 100")
+        return str(int(float(value)))
+
     def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
         """The chords of a G2/G3 arc from start to end."""
         st = self.state
@@ -663,6 +676,7 @@ class _Reader:
             raise self.fail(number, f"arc's end is not on its circle: radius {r0:.4f} mm at the start, "
                                     f"{r1:.4f} mm at the end")
         sweep = arc_sweep(start, end, centre, clockwise)
+        sweep += math.copysign(2.0 * math.pi * int(given.get("P", "0")), sweep)  # Marlin's P circles first
         tolerance = ARC_TOLERANCE_RATIO * self.segment_mm
         return ArcPath(start, end, centre, sweep, self.segment_mm, tolerance)
 

@@ -33,9 +33,9 @@ class Plane(enum.Enum):
 class Extrusion(enum.Enum):
     """How an E word is read: the extruder's position (M82), an increment (M83), or either.
 
-    ``AMBIGUOUS`` where firmwares differ: M83 then G90 with no M82/M83 since (Marlin and Repetier
-    keep E relative, Smoothieware makes it absolute), or G91 without M83 (whether G91 makes E
-    relative).
+    ``AMBIGUOUS`` where firmwares differ: M83 then G90 with no M82/M83 since (Marlin 1
+    and Repetier keep E relative, Marlin 2 and Smoothieware make it absolute), or G91 without M83
+    (whether G91 makes E relative).
     """
 
     ABSOLUTE = "absolute"
@@ -55,7 +55,7 @@ class ModalState:
     Attributes:
         pos: TCP position (X, Y, Z) [mm], each None while unknown.
         relative: Distance mode: True after G91 (increments), False after G90 (positions).
-        m83: Whether the extruder was last set relative (M83) rather than absolute (M82).
+        m83: Whether the extruder was last set relative (M83; with ``distance_sets_e``, G91 too).
         m83_ended: Whether G90 was read after M83 (firmwares differ on its effect).
         extrusion: How E words are read now (from ``relative``, ``m83`` and ``m83_ended``).
         e_pos: Extruder position [mm], or None while unknown.
@@ -69,15 +69,17 @@ class ModalState:
         at_home: Whether that point is the home (every carriage at its endstop).
         fresh: Whether no move has been read yet.
         g91_moves_e: The controller's rule: G91 makes E relative, G90 leaves M83's (Klipper).
+        distance_sets_e: The controller's rule: G90 and G91 set E's mode too (Marlin 2).
         e_by_m83: The controller's rule: E is relative exactly when M83 holds (RepRapFirmware).
         saved: Modes and positions saved by name (a macro's SAVE_GCODE_STATE).
     """
 
     __slots__ = ("pos", "relative", "m83", "m83_ended", "extrusion", "e_pos", "motion", "plane",
                  "unknown_since", "unknown_why", "homed", "homed_by", "at_home", "fresh", "g91_moves_e",
-                 "e_by_m83", "saved")
+                 "distance_sets_e", "e_by_m83", "saved")
 
-    def __init__(self, start, g91_moves_e: bool = False, e_by_m83: bool = False) -> None:
+    def __init__(self, start, g91_moves_e: bool = False, distance_sets_e: bool = False,
+                 e_by_m83: bool = False) -> None:
         self.pos: tuple = (None, None, None) if start is None else tuple(float(v) for v in start)
         self.relative = False
         self.m83 = False
@@ -93,6 +95,7 @@ class ModalState:
         self.at_home = False
         self.fresh = True
         self.g91_moves_e = g91_moves_e
+        self.distance_sets_e = distance_sets_e
         self.e_by_m83 = e_by_m83
         self.saved: dict[str, tuple] = {}
 
@@ -104,13 +107,15 @@ class ModalState:
     def set_distance(self, relative: bool) -> None:
         """G91 (``relative``) or G90: the distance mode (G90 after M83 makes E ambiguous)."""
         self.relative = relative
-        if not relative:
+        if self.distance_sets_e:  # Marlin 2: E follows G90/G91 until the next M82/M83
+            self.m83, self.m83_ended = relative, False
+        elif not relative:
             self.m83_ended = self.m83
         self._update_extrusion()
 
     def _update_extrusion(self) -> None:
         """:attr:`extrusion` from the distance and extruder modes."""
-        if self.e_by_m83:
+        if self.distance_sets_e or self.e_by_m83:
             self.extrusion = Extrusion.RELATIVE if self.m83 else Extrusion.ABSOLUTE
         elif self.g91_moves_e:
             self.extrusion = Extrusion.RELATIVE if self.relative or self.m83 else Extrusion.ABSOLUTE

@@ -15,7 +15,7 @@ subpackage has the same parts:
 
 Klipper (:mod:`.klipper`), RepRapFirmware (:mod:`.rrf`) and Marlin (:mod:`.marlin`). :func:`firmwares`
 lists them; :func:`config_firmware`
-finds the one whose configuration a file is.
+finds the one whose configuration a file is, :func:`log_firmware` the one whose probe results a log holds.
 """
 
 from __future__ import annotations
@@ -33,6 +33,11 @@ def firmwares() -> tuple[Firmware[Any], ...]:
     from .rrf.firmware import RRF_FIRMWARE
 
     return (KLIPPER, RRF_FIRMWARE, MARLIN)  # RRF's config.g (by its name) before Marlin's M503 (by content)
+
+
+def log_firmware(text: str) -> Firmware[Any] | None:
+    """The firmware whose probe results (or log) a file's text is, or None."""
+    return next((firmware for firmware in firmwares() if firmware.is_probe_log(text)), None)
 
 
 def config_firmware(path: str | Path) -> Firmware[Any] | None:

@@ -18,7 +18,8 @@ firmware gives through one :class:`Firmware`:
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
 * the values that fit an identified geometry best (:meth:`Firmware.fit`);
 * a program in its own dialect that probes the bed at given points and says each result on its
-  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights;
+  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
+  (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
   leaves the nozzle, the macros its configuration defines.
 
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -111,6 +113,22 @@ class FirmwareModel(Protocol):
 
     def with_minimum_z(self, minimum_z: float) -> FirmwareModel:
         """The same values with the lowest Z the firmware accepts set to ``minimum_z`` [mm]."""
+
+
+@dataclass(frozen=True)
+class ProbeLog:
+    """The probe results of a firmware's log (:meth:`Firmware.read_probe_log`).
+
+    Attributes:
+        commanded: Commanded nozzle positions at each trigger [mm], (N, 3).
+        lines: The line of each result in the log, (N,).
+        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,), when the
+            probe's offsets were given; else None.
+    """
+
+    commanded: np.ndarray
+    lines: np.ndarray
+    trigger_height: np.ndarray | None = None
 
 
 class FirmwareFit(Protocol):
@@ -204,6 +222,26 @@ class Firmware(ABC, Generic[ModelT]):
             points: The commanded nozzle positions to probe [mm], (N, 2) or (N, 3) (z ignored).
             title: A first comment line (what the points are).
             clearance: The nozzle's height above the bed while it moves between points [mm].
+        """
+
+    @abstractmethod
+    def is_probe_log(self, text: str) -> bool:
+        """Whether a file's text holds this firmware's probe results (its log, a saved console)."""
+
+    @abstractmethod
+    def read_probe_log(self, path: str | Path, text: str | None = None,
+                       config: str | Path | None = None) -> ProbeLog:
+        """The probe results of a log, in its order, as commanded nozzle positions.
+
+        Args:
+            path: The log.
+            text: Its text, if already read.
+            config: The printer's configuration file, for its probe's offsets (needed where the
+                firmware prints the probe's position rather than the nozzle's); with it, every row
+                carries the nozzle's height above the bed at the trigger.
+
+        Raises:
+            InputError: the file cannot be read or holds no result, or a result needs ``config``.
         """
 
     def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,

@@ -15,9 +15,10 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
+from .log import is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program
@@ -71,6 +72,16 @@ class Klipper(Firmware[KlipperDelta]):
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
+
+    def is_probe_log(self, text: str) -> bool:
+        """Klipper's probe results or a log's marks (:func:`~.log.is_probe_log`)."""
+        return is_probe_log(text)
+
+    def read_probe_log(self, path: str | Path, text: str | None = None,
+                       config: str | Path | None = None) -> ProbeLog:
+        """:func:`~.log.read_probe_log`, the probe's offsets from ``printer.cfg``."""
+        offsets = None if config is None else probe_offsets(read_klipper_config(config))
+        return read_probe_log(path, text, offsets)
 
     def dialect(self, path: str | Path) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.

@@ -26,7 +26,6 @@ Units: mm and deg in the file.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,8 +33,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ....io.atomic import atomic_write_text
-from ....io.toml import _toml_value
-from ....towers import written_per_tower
+from ...imported import ImportedValues, imported_robot_text
 from ...measurement_files import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
@@ -112,38 +110,16 @@ def _robot_text(config: KlipperConfig, klipper: KlipperDelta, effector_radius: f
                 nozzle_drop: float, defaults: tuple[str, ...]) -> str:
     """The robot file (``kind = "linear"``) of Klipper's model of the configuration."""
     rho = klipper.delta_radius
-    endstop = klipper.position_endstop + np.sqrt(klipper.arm_length**2 - rho**2) + nozzle_drop
     angles = [config.number(s, "angle", d) for s, d in zip(STEPPERS, DEFAULT_ANGLES_DEG, strict=True)]
-    radius, radius_note = _printable_radius(config, klipper)
-    height = math.floor(float(np.min(klipper.carriage_top - klipper.arm_length)) * 1e6) / 1e6
-    if height <= 0.0:
-        raise InputError(f"Klipper's full-radius height min(position_endstop + sqrt(arm_length^2 - "
-                         f"delta_radius^2) - arm_length) is {height:g} mm: no printable volume above the bed",
-                         config.source, "sections [stepper_a..c], key position_endstop")
-    source = Path(config.source)
-    lines = [f"# Imported by deltacal from {source.name}: Klipper's model of that configuration.",
-             *([f"# Not in a Klipper configuration, taken by default: {', '.join(defaults)} (measure them "
-                "and give --effector-radius, --rod-spacing, --nozzle-drop)."] if defaults else []),
-             f"name = {_toml_value(source.stem)}",
-             f"description = {_toml_value(f'imported from {source.name} (delta_radius {rho:g} mm)')}",
-             'kind = "linear"', "", "[geometry]",
-             f"tower_radius_mm = {rho + effector_radius!r}   # delta_radius + effector radius",
-             f"effector_radius_mm = {effector_radius!r}",
-             f"rod_length_mm = {_per_tower(klipper.arm_length)}   # arm_length",
-             f"rod_spacing_mm = {rod_spacing!r}",
-             f"tower_azimuth_deg = {_toml_value([float(v) for v in angles])}   # angle",
-             f"nozzle_mm = {_toml_value([0.0, 0.0, -nozzle_drop])}",
-             f"endstop_height_mm = {_per_tower(endstop)}   # position_endstop + sqrt(arm_length^2 - "
-             "delta_radius^2) + nozzle drop",
-             f"step_distance_mm = {_per_tower(klipper.step_distance)}", "", "[workspace]",
-             f"radius_mm = {radius!r}   # {radius_note}",
-             f"height_mm = {height!r}   # Klipper's full-radius height (radius tapered above)"]
-    return "\n".join(lines) + "\n"
-
-
-def _per_tower(values: np.ndarray) -> str:
-    """A per-tower value as TOML: a number when the three towers agree, ``[a, b, c]`` otherwise."""
-    return _toml_value(written_per_tower(values))
+    values = ImportedValues(
+        "Klipper", config.source, (rho, "delta_radius"), (klipper.arm_length, "arm_length"),
+        (np.array(angles, dtype=float), "angle"),
+        (klipper.position_endstop + np.sqrt(klipper.arm_length**2 - rho**2),
+         "position_endstop + sqrt(arm_length^2 - delta_radius^2)"),
+        (klipper.step_distance, "rotation_distance / (full_steps_per_rotation * microsteps * gear ratio)"),
+        _printable_radius(config, klipper))
+    return imported_robot_text(values, effector_radius, rod_spacing, nozzle_drop, defaults,
+                               "sections [stepper_a..c], key position_endstop")
 
 
 def _printable_radius(config: KlipperConfig, klipper: KlipperDelta) -> tuple[float, str]:

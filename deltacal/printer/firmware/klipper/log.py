@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
+from ..base import ProbeLog
 from .config import KlipperConfig
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
@@ -61,22 +62,6 @@ class ProbeOffsets:
     x: float
     y: float
     z: float
-
-
-@dataclass(frozen=True)
-class ProbeLog:
-    """The probe results of a log.
-
-    Attributes:
-        commanded: Commanded nozzle positions at each trigger [mm], (N, 3).
-        lines: The line of each result in the log, (N,).
-        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,), when the
-            probe's offsets were given; else None.
-    """
-
-    commanded: np.ndarray
-    lines: np.ndarray
-    trigger_height: np.ndarray | None = None
 
 
 def probe_offsets(config: KlipperConfig) -> ProbeOffsets:

@@ -1,21 +1,25 @@
 """Marlin behind the firmware interface (:class:`~..base.Firmware`): a thin layer over its modules.
 
 Each method delegates: the settings to :mod:`.settings`, the model and the controller to
-:mod:`.model`, nominal and start values to :mod:`.values`, the fit to :mod:`.fit`. :data:`MARLIN` is
+:mod:`.model`, nominal and start values to :mod:`.values`, the fit to :mod:`.fit`, the probe
+program to :mod:`.probing` and its results to :mod:`.log`. :data:`MARLIN` is
 the one instance. Units: mm, trims in degrees.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
 from .fit import MarlinFit, fit_marlin
+from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
 from .probing import marlin_probe_program
 from .settings import is_marlin_settings, load_marlin, marlin_settings_text
@@ -67,6 +71,35 @@ class Marlin(Firmware[MarlinDelta]):
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
         return marlin_probe_program(points, title, clearance)
 
+    def is_probe_log(self, text: str) -> bool:
+        """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""
+        return is_marlin_probe_log(text)
+
+    def read_probe_log(self, path: str | Path, text: str | None = None,
+                       config: str | Path | None = None) -> ProbeLog:
+        """:func:`~.log.read_marlin_probe_log`, ``M851`` from the ``M503`` capture ``config``."""
+        offset = None if config is None else load_marlin(config).probe_offset
+        return read_marlin_probe_log(path, text, offset)
+
+    def dialect(self, path: str | Path) -> Dialect:
+        """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
+
+        G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
+        (``gcode.h``, ``set_relative_mode``: the last of the four decides); a ``P`` on an arc is
+        that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
+        ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
+        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
+        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
+        """
+        model = load_marlin(path)
+        home = (0.0, 0.0, model.home_height)
+        return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
+                       refused=MappingProxyType({33.0: G33_REFUSED}))
+
+
+#: Why a program's G33 is refused.
+G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the settings the program is "
+               "corrected for: run G33 and M500 once, capture M503 again, and remove G33 from the program")
 
 #: Marlin, the firmware.
 MARLIN = Marlin()

@@ -12,10 +12,11 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....exceptions import InputError
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
 from .config import is_rrf_config, load_rrf, rrf_config_text
 from .fit import RRFFit, fit_rrf
 from .model import RRFController, RRFDelta
@@ -100,6 +101,16 @@ class RRF(Firmware[RRFDelta]):
         home = load_rrf(path).home_position
         return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
 
+
+    def is_probe_log(self, text: str) -> bool:
+        """RepRapFirmware's probe results are not read from a log yet: no text is its log."""
+        return False
+
+    def read_probe_log(self, path: str | Path, text: str | None = None,
+                       config: str | Path | None = None) -> ProbeLog:
+        """Refused in one line: RepRapFirmware's console is not read yet (write probe.csv's z_mm by hand)."""
+        raise InputError("RepRapFirmware's probe results are not read from a log yet: write the heights "
+                         "G30 S-1 reported into probe.csv's z_mm", str(path))
 
 #: RepRapFirmware, the firmware.
 RRF_FIRMWARE = RRF()
