@@ -241,7 +241,7 @@ def test_dialect_from_the_source(tmp_path):
     assert_allclose(dialect.home, load_rrf(DATA / "config.g").home_position)
     from deltacal.gcode.state import Extrusion, ModalState
 
-    state = ModalState((0.0, 0.0, 0.0), dialect.g91_moves_e, dialect.e_by_m83)
+    state = ModalState((0.0, 0.0, 0.0), dialect.g91_moves_e, dialect.distance_sets_e, dialect.e_by_m83)
     state.set_distance(True)  # G91 without M83: E stays absolute in RRF
     assert state.extrusion is Extrusion.ABSOLUTE
     state.set_extruder(True)
