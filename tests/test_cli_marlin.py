@@ -88,3 +88,45 @@ def test_a_file_no_firmware_recognises_needs_firmware(tmp_path, capsys):
     code = main(["identify", str(KOSSEL), str(targets), "--controller", str(bare), "-o", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and "give --firmware klipper|rrf|marlin" in err and err.count("\n") == 1
+
+
+MARLIN_PROGRAM = """; a Marlin delta program's shape: home, absolute E, an arc, a relative lift
+G28
+G90
+M82
+G92 E0
+G1 Z0.3 F3000
+G1 X20 Y0 Z0.3 F3000
+G1 X-20 Y0 E1.5 F1200
+G2 X20 Y0 I20 J0 E3.0
+M83
+G1 X0 Y20 E0.8
+G91
+G1 Z2 E-0.5
+G90
+M82
+G92 E0
+G1 X0 Y0 Z5 F3000
+"""
+
+
+@pytest.mark.slow
+def test_a_marlin_program_is_corrected_through_its_settings(identified, tmp_path, capsys):
+    """compensate PART.gcode --controller M503 --firmware marlin: Marlin's reading, its soft endstops."""
+    folder, settings = identified
+    program, out = tmp_path / "part.gcode", tmp_path / "out.gcode"
+    program.write_text(MARLIN_PROGRAM)
+    lowered = MARLIN.save_config(tmp_path / "m503_low.gcode", load_marlin(settings).with_minimum_z(-1.0),
+                                 complete=True)
+    assert main(["compensate", str(folder / "cal.toml"), str(program), "--controller", str(lowered),
+                 "--firmware", "marlin", "-o", str(out)]) == 0
+    written = out.read_text().splitlines()[1:]  # after the marker line
+    kept = [line for line in MARLIN_PROGRAM.splitlines() if not line.startswith(("G1 ", "G2 "))]
+    assert [line for line in written if not line.startswith(("G0 ", "G1 "))] == kept
+    absolute = written[:written.index("G91")]  # the moves up to the relative lift: positions
+    moves = np.array([[float(w[1:]) for w in line.split()[1:4]] for line in absolute
+                      if line.startswith("G1 X")])
+    assert len(moves) > 10 and not np.any(load_marlin(lowered).outside(moves))
+    # Marlin 2: G91 makes E relative too (G90 then M82 make it absolute again): the lift's E is -0.5
+    lift = [line for line in written if line.startswith("G1 ") and "E-0.5" in line]
+    assert len(lift) == 1
