@@ -134,8 +134,8 @@ def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float)
     lengths = plan.lengths
     lines = [
         f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); run probe.gcode "
-        "(G28, then PROBE at each) and read its console back, or write the commanded z at which the probe "
-        "triggered in probe.csv",
+        "(it homes, then probes at each) and read its console back (deltacal import LOG), or write the "
+        "commanded z at which the probe triggered in probe.csv",
         f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
         f"{', '.join(f'{z:g}' for z in heights)} mm, each labelled 1 to {len(plan.features)} on a tile "
         "beside it; "
