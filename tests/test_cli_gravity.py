@@ -96,12 +96,48 @@ def test_compensate_payload_refusals(session, capsys, extra, message):
 def test_a_payload_for_a_rigid_calibration_is_warned(session, tmp_path, capsys):
     folder, robot, meas, _ = session
     rigid = tmp_path / "rigid.toml"
-    assert main(["identify", str(robot), str(meas), "--accept-poor-fit", "-o", str(rigid)]) == 0
+    assert main(["identify", str(robot), str(meas), "--rigid", "--accept-poor-fit", "-o", str(rigid)]) == 0
     capsys.readouterr()
     write_targets(tmp_path / "t.csv", np.array([[0.0, 0.0, -600.0]]))
     assert main(["compensate", str(rigid), str(tmp_path / "t.csv"), "--payload", "3", "-o",
                  str(tmp_path / "j.csv")]) == 0
     assert "--payload 3 changes nothing" in capsys.readouterr().err
+
+
+def test_payloads_that_vary_identify_the_compliances_by_default(session, tmp_path, capsys):
+    """Measured at 0 and 3 kg with [masses] known: the calibration --compliance gives, said on stdout."""
+    _, robot, meas, cal = session
+    capsys.readouterr()
+    default = tmp_path / "default.toml"
+    assert main(["identify", str(robot), str(meas), "-o", str(default)]) == 0
+    assert "payload_kg varies from 0 to 3 kg" in capsys.readouterr().out
+    assert default.read_text() == cal.read_text()
+    assert np.all(load_calibration(default).geometry.compliance > 0.0)
+
+
+def test_rigid_is_the_opt_out(session, tmp_path, capsys):
+    _, robot, meas, _ = session
+    out = tmp_path / "c.toml"
+    assert main(["identify", str(robot), str(meas), "--rigid", "--compliance", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--rigid and --compliance: choose one" in err[0]
+    assert not out.exists()
+
+
+def test_payloads_that_vary_without_masses_are_refused(session, tmp_path, capsys):
+    """No [masses]: the rigid fit is not taken silently; the line names --compliance and --rigid."""
+    _, _, meas, _ = session
+    robot = tmp_path / "robot.toml"
+    robot.write_text((MODELS / "flexpicker.toml").read_text())
+    out = tmp_path / "c.toml"
+    out.write_text("earlier")
+    assert main(["identify", str(robot), str(meas), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert f"{meas}: column payload_kg: payload_kg varies from 0 to 3 kg but {robot} has no [masses]" \
+        in err[0]
+    assert "--compliance" in err[0] and "--rigid" in err[0]
+    assert out.read_text() == "earlier"
 
 
 def test_plan_for_the_compliances(session, tmp_path, capsys):
