@@ -169,3 +169,33 @@ def test_report_shows_the_compliances_and_a_deflection_map(session):
     assert calibration.compliance is not None
     shown = f"{1e6 * calibration.compliance[0]:.6g}"
     assert shown in page  # c1 in µrad/N m
+
+
+@pytest.mark.parametrize("cell, message", [
+    ("", "column payload_kg: empty value: a payload is the mass at the TCP [kg], 0 for none"),
+    ("-3", "column payload_kg: a payload is a mass: must be >= 0 kg, got -3"),
+])
+def test_a_bad_payload_cell_is_named_on_one_short_line(session, tmp_path, capsys, cell, message):
+    """6,000 rows, one bad payload: the line names the file, line, column and value, not every row."""
+    _, robot, meas, _ = session
+    header, *rows = meas.read_text().splitlines()
+    column = header.split(",").index("payload_kg")
+    rows = rows * 100
+    fields = rows[4].split(",")
+    fields[column] = cell
+    rows[4] = ",".join(fields)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([header, *rows]) + "\n")
+    assert main(["identify", str(robot), str(bad), "-o", str(tmp_path / "c.toml")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()  # the duplicate rows are warned
+    assert [line for line in err if not line.startswith("warning")] == [
+        f"deltacal identify: error: {bad}: line 6 (data row 5), {message}"]
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_measurements_name_the_first_bad_payload_only():
+    from deltacal.observations import Measurements
+
+    q, position = np.zeros((3, 3)), np.zeros((3, 3))
+    with pytest.raises(ValueError, match=r"got nan in row 1 \(2 in all\)$"):
+        Measurements(q=q, position=position, payload=np.array([0.0, np.nan, -1.0]))
