@@ -89,8 +89,11 @@ class Measurements:
         payload = np.zeros(M) if self.payload is None else np.asarray(self.payload, dtype=float).reshape(-1)
         if payload.shape != (M,):
             raise ValueError(f"{payload.size} payloads for {M} measurements")
-        if not np.all(np.isfinite(payload) & (payload >= 0.0)):
-            raise ValueError(f"payloads must be finite non-negative masses [kg], got {payload.tolist()}")
+        bad = np.flatnonzero(~(np.isfinite(payload) & (payload >= 0.0)))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"payloads must be finite non-negative masses [kg], got {float(payload[k])!r} "
+                             f"in row {k} ({bad.size} in all)")
         object.__setattr__(self, "payload", payload)
 
     def __len__(self) -> int:

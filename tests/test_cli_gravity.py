@@ -96,12 +96,48 @@ def test_compensate_payload_refusals(session, capsys, extra, message):
 def test_a_payload_for_a_rigid_calibration_is_warned(session, tmp_path, capsys):
     folder, robot, meas, _ = session
     rigid = tmp_path / "rigid.toml"
-    assert main(["identify", str(robot), str(meas), "--accept-poor-fit", "-o", str(rigid)]) == 0
+    assert main(["identify", str(robot), str(meas), "--rigid", "--accept-poor-fit", "-o", str(rigid)]) == 0
     capsys.readouterr()
     write_targets(tmp_path / "t.csv", np.array([[0.0, 0.0, -600.0]]))
     assert main(["compensate", str(rigid), str(tmp_path / "t.csv"), "--payload", "3", "-o",
                  str(tmp_path / "j.csv")]) == 0
     assert "--payload 3 changes nothing" in capsys.readouterr().err
+
+
+def test_payloads_that_vary_identify_the_compliances_by_default(session, tmp_path, capsys):
+    """Measured at 0 and 3 kg with [masses] known: the calibration --compliance gives, said on stdout."""
+    _, robot, meas, cal = session
+    capsys.readouterr()
+    default = tmp_path / "default.toml"
+    assert main(["identify", str(robot), str(meas), "-o", str(default)]) == 0
+    assert "payload_kg varies from 0 to 3 kg" in capsys.readouterr().out
+    assert default.read_text() == cal.read_text()
+    assert np.all(load_calibration(default).geometry.compliance > 0.0)
+
+
+def test_rigid_is_the_opt_out(session, tmp_path, capsys):
+    _, robot, meas, _ = session
+    out = tmp_path / "c.toml"
+    assert main(["identify", str(robot), str(meas), "--rigid", "--compliance", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--rigid and --compliance: choose one" in err[0]
+    assert not out.exists()
+
+
+def test_payloads_that_vary_without_masses_are_refused(session, tmp_path, capsys):
+    """No [masses]: the rigid fit is not taken silently; the line names --compliance and --rigid."""
+    _, _, meas, _ = session
+    robot = tmp_path / "robot.toml"
+    robot.write_text((MODELS / "flexpicker.toml").read_text())
+    out = tmp_path / "c.toml"
+    out.write_text("earlier")
+    assert main(["identify", str(robot), str(meas), "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert f"{meas}: column payload_kg: payload_kg varies from 0 to 3 kg but {robot} has no [masses]" \
+        in err[0]
+    assert "--compliance" in err[0] and "--rigid" in err[0]
+    assert out.read_text() == "earlier"
 
 
 def test_plan_for_the_compliances(session, tmp_path, capsys):
@@ -133,3 +169,33 @@ def test_report_shows_the_compliances_and_a_deflection_map(session):
     assert calibration.compliance is not None
     shown = f"{1e6 * calibration.compliance[0]:.6g}"
     assert shown in page  # c1 in µrad/N m
+
+
+@pytest.mark.parametrize("cell, message", [
+    ("", "column payload_kg: empty value: a payload is the mass at the TCP [kg], 0 for none"),
+    ("-3", "column payload_kg: a payload is a mass: must be >= 0 kg, got -3"),
+])
+def test_a_bad_payload_cell_is_named_on_one_short_line(session, tmp_path, capsys, cell, message):
+    """6,000 rows, one bad payload: the line names the file, line, column and value, not every row."""
+    _, robot, meas, _ = session
+    header, *rows = meas.read_text().splitlines()
+    column = header.split(",").index("payload_kg")
+    rows = rows * 100
+    fields = rows[4].split(",")
+    fields[column] = cell
+    rows[4] = ",".join(fields)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([header, *rows]) + "\n")
+    assert main(["identify", str(robot), str(bad), "-o", str(tmp_path / "c.toml")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()  # the duplicate rows are warned
+    assert [line for line in err if not line.startswith("warning")] == [
+        f"deltacal identify: error: {bad}: line 6 (data row 5), {message}"]
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_measurements_name_the_first_bad_payload_only():
+    from deltacal.observations import Measurements
+
+    q, position = np.zeros((3, 3)), np.zeros((3, 3))
+    with pytest.raises(ValueError, match=r"got nan in row 1 \(2 in all\)$"):
+        Measurements(q=q, position=position, payload=np.array([0.0, np.nan, -1.0]))

@@ -295,12 +295,12 @@ def test_readings_of_another_assembly_are_refused(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [15])
+@pytest.mark.parametrize("seed", [15, 14])
 def test_only_readings_of_the_assembly_the_robot_comes_in_are_written(tmp_path, seed):
     """Targets at the outer rim (radius 650-900 mm, z -250 to -370) on robots calibrated from 60 poses.
 
     The truth is the robot coming along the straight line from its workspace centre, followed
-    in 5 mm steps of the exact kinematics: every reading compensate writes is that one, and the
+    in 5 mm and 1 mm steps of the exact kinematics: every reading compensate writes is that one, and the
     targets the working assembly does not get to are refused as another assembly's.
     """
     from deltacal.cli import main
@@ -324,8 +324,43 @@ def test_only_readings_of_the_assembly_the_robot_comes_in_are_written(tmp_path, 
             written.append((k, compensate(g, target[None])[0]))
         except UnreachableError as exc:
             refused.append(exc.reason)
-    truth_q = inverse_along(g, default_workspace(g).centre, targets[[k for k, _ in written]], step=5.0)
-    apart = np.degrees(np.abs(np.array([q for _, q in written]) - truth_q)).max(axis=1)
-    assert np.all(apart < 1e-6), apart[~(apart < 1e-6)]  # NaN (the robot does not get there) fails too
+    for step in (5.0, 1.0):  # at 1 mm, seed 14's robot showed readings of the other assembly written
+        truth_q = inverse_along(g, default_workspace(g).centre, targets[[k for k, _ in written]], step=step)
+        apart = np.degrees(np.abs(np.array([q for _, q in written]) - truth_q)).max(axis=1)
+        assert np.all(apart < 1e-6), apart[~(apart < 1e-6)]  # NaN (the robot does not get there) fails too
     assert UnreachableError.OTHER_ASSEMBLY in refused
     assert len(written) >= 10
+
+
+@pytest.mark.slow
+def test_rim_readings_written_are_those_of_pinocchios_closed_loop_coming_from_the_workspace(tmp_path):
+    """A fresh robot (seed 31): Pinocchio's inverse, followed in 2 mm steps from the workspace centre
+    (each step started from the last assembly), gives the readings compensate writes at rim targets."""
+    from deltacal.cli import main
+    from deltacal.io import load_calibration
+    from deltacal.kinematics.workspace import default_workspace
+
+    robot, seed = str(MODELS / "bai2015.toml"), "31"
+    p, m, cal = (str(tmp_path / n) for n in ("p.csv", "m.csv", "cal.toml"))
+    assert main(["plan", robot, "--strategy", "doptimal", "--count", "60", "--seed", seed, "-o", p]) == 0
+    assert main(["simulate", robot, p, "--perturb", seed, "--points", "smr_centre,smr_offset", "-o", m]) == 0
+    assert main(["identify", robot, m, "-o", cal]) == 0
+    g = load_calibration(cal).geometry
+    centre = default_workspace(g).centre
+    azimuth = np.radians([10.0, 40.0, 100.0, 220.0])
+    targets = np.stack([850.0 * np.cos(azimuth), 850.0 * np.sin(azimuth), np.full(4, -280.0)], axis=1)
+    robot_model = DeltaMultibody(g)
+    checked = 0
+    for target in targets:
+        try:
+            written = compensate(g, target[None])[0]
+        except UnreachableError:
+            continue
+        solution = robot_model.solve_forward(exact.inverse(g, centre[None])[0], warm=False)
+        steps = int(np.ceil(np.linalg.norm(target - centre) / 2.0))
+        for k in range(1, steps + 1):
+            solution = robot_model.solve_inverse(centre + k / steps * (target - centre),
+                                                 start=solution.configuration)
+        np.testing.assert_allclose(written, solution.readings, rtol=0.0, atol=1e-8)  # rad
+        checked += 1
+    assert checked >= 2

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from ..errormodels import MODEL_NAMES
 from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
+from ..geometry import DeltaGeometry
 from ..identification import FitOptions, PoorFitError, identify
+from ..identification.compliance import payload_span
 from ..io import lines_text, read_measurement_file, save_calibration, unassembled_rows
-from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
+from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION, Measurements
 from ..printer.robot import NominalLinearDelta
 from ..robots import load_robot
 from .common import check_input, check_output, sigma, warn
@@ -37,6 +40,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--model {args.model}: a rotary Delta's models are {', '.join(MODEL_NAMES)}")
     if args.pairs is not None and not args.distances:
         raise UsageError("--pairs applies to --distances only")
+    if args.rigid and args.compliance:
+        raise UsageError("--rigid and --compliance: choose one (--rigid fits actuators that do not yield)")
     try:  # every option is checked once, by FitOptions
         options = FitOptions(
             method="linear" if args.linear else "iterated",
@@ -65,6 +70,7 @@ def run(args: argparse.Namespace) -> int:
     warn(read.warnings)
     if args.distances and np.any(measurements.has_orientation):
         warn(["orientations are ignored when identifying from distances"])
+    options = _with_compliance_default(args, options, start, read.measurements)
     try:
         result = identify(start, measurements, args.model, options=options)
     except AssemblyError as exc:
@@ -92,6 +98,29 @@ def run(args: argparse.Namespace) -> int:
               "check them, or remove them and identify again"])
     print(f"\nwrote {args.output}")
     return 0
+
+
+def _with_compliance_default(args: argparse.Namespace, options: FitOptions, start: DeltaGeometry,
+                             measurements: Measurements) -> FitOptions:
+    """The options, with the compliances identified where the payloads vary (see conventions.md).
+
+    Payloads that vary with the masses known: the compliances are identified (said on stdout);
+    with no ``[masses]``, the choice is the user's (``--compliance`` or ``--rigid``), refused
+    otherwise: a rigid fit would spread the deflections over the geometry.
+    """
+    span = payload_span(measurements)
+    if span is None or args.rigid or args.compliance or args.distances:
+        return options
+    payloads = f"payload_kg varies from {span[0]:g} to {span[1]:g} kg"
+    if start.masses.is_zero:
+        raise InputError(
+            f"{payloads} but {args.nominal} has no [masses]: a rigid fit would take the actuators' "
+            "deflections for geometry; give --compliance (the compliances from the payloads' torques alone, "
+            "the robot's own weight taken up by the geometry), the robot's [masses], or --rigid",
+            args.measurements, "column payload_kg")
+    print(f"{args.measurements}: {payloads} and {args.nominal} gives the masses: the actuators' compliances "
+          "are identified too (--rigid fits a rigid robot)")
+    return replace(options, compliance=True)
 
 
 def add_parser(sub) -> None:
@@ -124,6 +153,8 @@ def add_parser(sub) -> None:
     p.add_argument("--compliance", action="store_true",
                    help="identify the actuators' compliances c1..c3 too [rad/N m] (the robot file's [masses] "
                         "and the measurements' payload_kg give the gravity torques; measure at 0 and a "
-                        "heavy payload)")
+                        "heavy payload; the default where the payloads vary and the masses are known)")
+    p.add_argument("--rigid", action="store_true",
+                   help="fit rigid actuators even where the measurements' payloads vary")
     add_arguments(p)
     p.set_defaults(func=run)

@@ -47,3 +47,15 @@ def with_compliance(sensitivity, payload: np.ndarray):
 def with_compliance_moved(geometry: DeltaGeometry, step: np.ndarray) -> DeltaGeometry:
     """The geometry with its compliances moved by ``step`` [rad/N m], (3,)."""
     return replace(geometry, compliance=geometry.compliance + np.asarray(step, dtype=float))
+
+
+def payload_span(measurements: Measurements) -> tuple[float, float] | None:
+    """The least and greatest payload of the measurements [kg], or None when every row carries the same.
+
+    Measurements at payloads that differ see the actuators deflect by different amounts at one
+    reading: a rigid fit spreads those deflections over the geometry (conventions, "Gravity and
+    payload"), so a command identifies the compliances by default there.
+    """
+    payload = measurements.payload_kg
+    low, high = float(payload.min()), float(payload.max())
+    return None if low == high else (low, high)

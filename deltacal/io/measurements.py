@@ -83,15 +83,26 @@ def read_measurement_file(path: str | Path, point_names: list[str] | None = None
     if "rx_deg" in table.numbers:
         rv = np.radians(np.column_stack([table.numbers[c] for c in ORIENTATION_COLUMNS]))
     payload = table.numbers.get(PAYLOAD_COLUMN, np.zeros(n))
-    negative = np.flatnonzero(payload < 0.0)
-    if negative.size:
-        k = int(negative[0])
-        raise InputError(f"a payload is a mass: must be >= 0 kg, got {payload[k]!r}", str(path),
-                         f"{data_row(table.lines[k], k + 1)}, column {PAYLOAD_COLUMN}")
+    _check_payloads(payload, str(path), table.lines)
     measurements = Measurements(q=q, position=pos, point=points, rotation_vector=rv, station=stations,
                                 payload=payload)
     warnings = list(table.warnings) + _station_warnings(table.text.get("station"), measurements)
     return MeasurementFile(measurements, np.asarray(table.lines), warnings, str(path))
+
+
+def _check_payloads(payload: np.ndarray, source: str, lines: np.ndarray) -> None:
+    """Refuse the first empty or negative ``payload_kg`` cell, naming its line and value."""
+    bad = np.flatnonzero(~(payload >= 0.0))  # NaN: an empty cell
+    if not bad.size:
+        return
+    k = int(bad[0])
+    where = f"{data_row(lines[k], k + 1)}, column {PAYLOAD_COLUMN}"
+    more = f"; {bad.size} empty or negative payloads in all" if bad.size > 1 else ""
+    if np.isnan(payload[k]):
+        raise InputError(f"empty value: a payload is the mass at the TCP [kg], 0 for none{more}",
+                         source, where)
+    raise InputError(f"a payload is a mass: must be >= 0 kg, got {float(payload[k]):g}{more}",
+                     source, where)
 
 
 def _check_column_names(values: list[str], column: str, source: str, lines: np.ndarray) -> None:

@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from warnings import warn
 
 import numpy as np
 
 from ..chains import PRISMATIC, REVOLUTE
 from ..chains import ROBOT_KINDS as ROBOT_KINDS  # the kinds of robot file (kind absent: rotary)
-from ..exceptions import GeometryError, InputError, InputWarning
+from ..exceptions import GeometryError, InputError
 from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
@@ -84,19 +83,13 @@ def load_nominal(path: str | Path) -> NominalDelta:
     for key, value in zip(("base_radius_mm", "plate_radius_mm", "arm_length_mm", "rod_length_mm",
                            "rod_spacing_mm"), values.values(), strict=True):
         _check_plausible(geo, key, value)
-    azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
-    if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
-        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
-    if np.max(np.abs(azimuth_deg)) <= 2.0 * math.pi and np.ptp(azimuth_deg) > 1.0:
-        warn(
-            f"{source}: key geometry.limb_azimuth_deg: azimuths {azimuth_deg.tolist()} are within "
-            "±2π and put the limbs a few degrees apart: are these radians? deltacal reads degrees",
-            InputWarning, stacklevel=2,
-        )
-    tool = geo.vector("tool_mm", (3,))
-    points = _points(top, source)
-    workspace = _workspace(top)
+    azimuth_deg = _azimuths(geo)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
+    size = b + L + l_rod
+    tool = geo.vector("tool_mm", (3,))
+    _check_offset(geo, "tool_mm", tool, size)
+    points = _points(top, source, size)
+    workspace = _workspace(top)
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
     if l_rod <= 0.25 * L:
@@ -110,7 +103,7 @@ def load_nominal(path: str | Path) -> NominalDelta:
             tool=tool,
             points=points,
             workspace=workspace,
-            masses=_masses(top),
+            masses=_masses(top, values),
             **values,
         )
     except GeometryError as exc:
@@ -129,8 +122,11 @@ def _robot_name(top: _Table) -> str:
     return name
 
 
-def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
-    """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters)."""
+def _points(top: _Table, source: str, size: float = math.inf) -> dict[str, np.ndarray]:
+    """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters).
+
+    A point farther from the plate than ``size`` [mm], the robot's own size, is refused.
+    """
     points: dict[str, np.ndarray] = {}
     pts = top.table("points", required=False)
     if pts is not None:
@@ -139,6 +135,7 @@ def _points(top: _Table, source: str) -> dict[str, np.ndarray]:
             if k == "tcp":
                 raise pts.error(k, "'tcp' is reserved for the tool centre point")
             points[k] = pts.vector(k, (3,))
+            _check_offset(pts, k, points[k], size)
     return points
 
 
@@ -158,10 +155,54 @@ def _workspace(top: _Table) -> Workspace | None:
     return workspace
 
 
-def _masses(top: _Table) -> Masses:
-    """The optional ``[masses]`` (conventions, "Gravity and payload"); none: a massless robot."""
+def _azimuths(geo: _Table) -> np.ndarray:
+    """``limb_azimuth_deg`` [deg]: three different azimuths, not radians."""
+    azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
+    if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
+        raise geo.error("limb_azimuth_deg", f"the three azimuths must differ, got {azimuth_deg.tolist()}")
+    if np.max(np.abs(azimuth_deg)) <= 2.0 * math.pi:  # the limbs within 13 deg of each other: no Delta
+        given = ", ".join(f"{a:g}" for a in azimuth_deg)
+        meant = ", ".join(f"{np.degrees(a):.4g}" for a in azimuth_deg)
+        spread = f"{np.ptp(azimuth_deg):.3g}"
+        raise geo.error("limb_azimuth_deg", f"azimuths [{given}] put the limbs within {spread} deg of each "
+                                            f"other: radians ([{meant}] deg)? deltacal reads degrees")
+    return azimuth_deg
+
+
+def _check_offset(table: _Table, key: str, offset: np.ndarray, size: float) -> None:
+    """Refuse a tool or point offset from the plate beyond the robot's size ``size`` [mm] (units, typing)."""
+    distance = float(np.linalg.norm(offset))
+    if distance > size:
+        raise table.error(key, f"{offset.tolist()} mm is {distance:g} mm from the plate, implausible for "
+                               f"this robot (base radius + arm + rod = {size:g} mm): micrometres, a typo?")
+
+
+#: Steel [kg/m^3]: a body heavier than a solid steel one of its size is not a Delta's.
+STEEL_KG_PER_M3 = 7850.0
+
+
+def _masses(top: _Table, values: dict[str, float]) -> Masses:
+    """The optional ``[masses]`` (conventions, "Gravity and payload"); none: a massless robot.
+
+    A mass beyond a solid steel body of the robot's dimensions (an arm a fifth as thick as long, a
+    rod a twentieth, a plate as thick as its radius with the rods' spacing) is refused: grams.
+    """
     table = top.table("masses", required=False)
-    return Masses() if table is None else masses_from_table(table)
+    if table is None:
+        return Masses()
+    masses = masses_from_table(table)
+    arm, rod = 1e-3 * values["arm_length"], 1e-3 * values["rod_length"]
+    plate = 1e-3 * (values["plate_radius"] + 0.5 * values["rod_spacing"])
+    for key, mass, body, bound in (
+        ("arm_kg", masses.arm, f"an arm of {values['arm_length']:g} mm", math.pi * arm**3 / 100.0),
+        ("rod_kg", masses.rod, f"a rod of {values['rod_length']:g} mm", math.pi * rod**3 / 1600.0),
+        ("plate_kg", masses.plate, f"a plate of {values['plate_radius']:g} mm radius", math.pi * plate**3),
+    ):
+        heaviest = STEEL_KG_PER_M3 * bound
+        if mass > heaviest:
+            raise table.error(key, f"{mass:g} kg is implausible for {body} (heavier than {heaviest:.3g} kg "
+                                   "of solid steel): grams? deltacal reads kilograms")
+    return masses
 
 
 def _check_plausible(geo: _Table, key: str, value: float) -> None:

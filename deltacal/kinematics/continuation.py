@@ -6,7 +6,9 @@ solve from a far start, the inverse's or the forward kinematics', converges to w
 readings close. The robot itself is in the assembly it was led into: from its workspace, along
 its path. :func:`inverse_along` follows that path, a straight segment from a start to each
 target, in steps of at most :data:`STEP` for all targets at once, each step's Newton started
-from the last readings; a target is lost where a step finds no assembly near the last one (the
+from the last pose (readings and plate rotation: started from the plate parallel to the base,
+Newton reached the other assembly within 1 mm steps near the rim, where Pinocchio's closed loop
+followed the working one smoothly); a target is lost where a step finds no assembly near the last one (the
 segment leaves the working assembly's reach) or the readings jump (a step changed them much
 more than the previous one: Newton crossed over to another assembly). Units: mm and rad.
 """
@@ -48,7 +50,9 @@ def inverse_along(geometry: DeltaGeometry, start: np.ndarray, targets: np.ndarra
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     start = np.asarray(start, dtype=float).reshape(3)
     n = targets.shape[0]
-    q = np.repeat(exact.inverse(geometry, start[None]), n, axis=0)
+    q0, R0 = exact.inverse_with_rotation(geometry, start[None], exact.inverse(geometry, start[None]),
+                                         np.eye(3)[None])
+    q, R = np.repeat(q0, n, axis=0), np.repeat(R0, n, axis=0)
     if n == 0:
         return q
     length = np.linalg.norm(targets - start, axis=1)
@@ -60,7 +64,7 @@ def inverse_along(geometry: DeltaGeometry, start: np.ndarray, targets: np.ndarra
         if idx.size == 0:
             break
         x = start + (k / steps) * (targets[idx] - start)
-        new = exact.inverse(geometry, x, start=q[idx], check=False)
+        new, R[idx] = exact.inverse_with_rotation(geometry, x, q[idx], R[idx])  # the whole pose carried on
         change = np.max(np.abs(new - q[idx]), axis=1)
         with np.errstate(invalid="ignore"):
             lost = ~np.isfinite(change) | ((k > 1) & (change > JUMP_RATIO * last[idx] + JUMP_FLOOR))

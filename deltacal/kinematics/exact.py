@@ -500,13 +500,53 @@ def inverse(
     """
     target = np.atleast_2d(np.asarray(target, dtype=float))
     tool = geometry.tool if point_in_plate is None else np.asarray(point_in_plate, dtype=float)
+    if start is None:
+        start = VirtualDelta.from_geometry(geometry).inverse(target - tool[None], check=False)
+    out, _, reached = _solve_inverse(geometry, target, tool, start, None, tol, max_iter)
+    if not np.all(reached):
+        if check:
+            raise UnreachableError.from_mask(~reached, target)
+        out[~reached] = np.nan
+    return out
+
+
+def inverse_with_rotation(
+    geometry: DeltaGeometry, target: np.ndarray, start: np.ndarray, rotation: np.ndarray,
+    tol: float = TOLERANCE, max_iter: int = 30,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`inverse` of the TCP started from a whole pose, readings and plate rotation.
+
+    Newton from readings alone starts the plate parallel to the base; near the rim, where the
+    plate of the working assembly tilts, that start can lead to another assembly's readings.
+    Continuation (:mod:`~deltacal.kinematics.continuation`) starts each step from the last one's
+    rotation as well.
+
+    Args:
+        geometry: The robot.
+        target: Desired TCP positions in {O} [mm], (N, 3).
+        start: Warm-start readings [rad], (N, 3).
+        rotation: Warm-start plate rotations in {O}, (N, 3, 3).
+        tol: Threshold on the rod residuals [mm].
+        max_iter: Newton iterations at most.
+
+    Returns:
+        Readings [rad] (N, 3) and plate rotations (N, 3, 3); NaN rows where Newton failed.
+    """
+    target = np.atleast_2d(np.asarray(target, dtype=float))
+    q, R, reached = _solve_inverse(geometry, target, geometry.tool, start, rotation, tol, max_iter)
+    q[~reached] = np.nan
+    R[~reached] = np.nan
+    return q, R
+
+
+def _solve_inverse(geometry: DeltaGeometry, target: np.ndarray, tool: np.ndarray, start: np.ndarray,
+                   rotation: np.ndarray | None, tol: float, max_iter: int,
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Batched Newton of :func:`inverse`: readings (N, 3), plate rotations (N, 3, 3), reached (N,)."""
     N = target.shape[0]
     rods = _Rods.of(geometry)
     lever = rods.plate - tool[None]
-    if start is None:
-        q_all = VirtualDelta.from_geometry(geometry).inverse(target - tool[None], check=False)
-    else:
-        q_all = np.array(start, dtype=float).reshape(N, 3)
+    q_all = np.array(start, dtype=float).reshape(N, 3)
     residual = np.empty(N)
     done = np.empty(N, dtype=bool)
     max_step = geometry.chain.max_step
@@ -523,18 +563,18 @@ def inverse(
         return r, [q + dq, b3.matmul(b3.rotation_from_vector(dphi), R)], moved
 
     out = np.empty((N, 3))
+    out_rotation = np.empty((N, 3, 3))
     for s in range(0, N, BLOCK):
         b = slice(s, s + BLOCK)
         q0 = q_all[b].T.copy()
         n = q0.shape[1]
-        R0 = np.zeros((3, 3, n))
-        R0[0, 0] = R0[1, 1] = R0[2, 2] = 1.0
-        live = np.flatnonzero(np.isfinite(q0).all(axis=0))
-        (q, _), residual[b], done[b] = _newton(step, [q0, R0], [target[b].T], tol, max_iter, live)
+        if rotation is None:  # the plate parallel to the base
+            R0 = np.zeros((3, 3, n))
+            R0[0, 0] = R0[1, 1] = R0[2, 2] = 1.0
+        else:
+            R0 = np.array(rotation[b], dtype=float).transpose(1, 2, 0)
+        live = np.flatnonzero(np.isfinite(q0).all(axis=0) & np.isfinite(R0).all(axis=(0, 1)))
+        (q, R), residual[b], done[b] = _newton(step, [q0, R0], [target[b].T], tol, max_iter, live)
         out[b] = q.T
-    bad = ~(done & (residual < 1e3 * tol))
-    if np.any(bad):
-        if check:
-            raise UnreachableError.from_mask(bad, target)
-        out[bad] = np.nan
-    return out
+        out_rotation[b] = R.transpose(2, 0, 1)
+    return out, out_rotation, done & (residual < 1e3 * tol)
