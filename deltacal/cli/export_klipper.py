@@ -28,6 +28,7 @@ from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
+from .firmware import check_printer_values
 
 
 def run_klipper(args: argparse.Namespace) -> int:
@@ -53,6 +54,9 @@ def run_klipper(args: argparse.Namespace) -> int:
                          "--config printer.cfg (the configuration the printer runs), or "
                          "--keep-rotation-distance to keep the printer's own rotation_distance")
     geometry, nominal = calibration.geometry, calibration.nominal
+    if config is not None:
+        check_printer_values(KLIPPER, replace(geometry, step_distance=step), config, args.calibration,
+                             args.config)
     try:
         start = config if config is not None else KLIPPER.start(replace(nominal, step_distance=step))
     except GeometryError as exc:

@@ -20,6 +20,7 @@ from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from ..printer.firmware.marlin.firmware import MARLIN
 from .common import check_input, check_output
 from .export_klipper import _step_distance, _text, _workspace
+from .firmware import check_printer_values
 
 
 def run_marlin(args: argparse.Namespace) -> int:
@@ -40,6 +41,9 @@ def run_marlin(args: argparse.Namespace) -> int:
     step = _step_distance(calibration.geometry.step_distance, config, args,
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
     geometry, nominal = calibration.geometry, calibration.nominal
+    if config is not None:
+        check_printer_values(MARLIN, replace(geometry, step_distance=step), config, args.calibration,
+                             args.config)
     try:
         start = config if config is not None else MARLIN.start(replace(nominal, step_distance=step))
     except GeometryError as exc:

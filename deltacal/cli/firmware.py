@@ -1,18 +1,22 @@
 """``--firmware NAME``: which firmware's settings a printer's ``--controller`` file is.
 
 Without it the firmware is told from the file's content (:func:`~deltacal.printer.firmware.config_firmware`);
-with it, the firmware of that name among :func:`~deltacal.printer.firmware.firmwares`.
+with it, the firmware of that name among :func:`~deltacal.printer.firmware.firmwares`. A printer's
+calibration (or robot file) and its firmware's settings are checked to be of one printer
+(:func:`check_config_printer`).
 """
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..exceptions import UsageError
+from ..exceptions import GeometryError, InputError, UsageError
+from ..geometry import DeltaGeometry
 from ..printer.firmware import config_firmware, firmwares
-from ..printer.firmware.base import Firmware
+from ..printer.firmware.base import Firmware, FirmwareModel
 
 
 def firmware_names() -> tuple[str, ...]:
@@ -42,3 +46,47 @@ def controller_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
                          "Klipper printer.cfg, a Marlin M503 capture...): give --firmware "
                          f"{'|'.join(firmware_names())}")
     return firmware
+
+
+def check_config_printer(config: str | Path, name: str | None, geometry: DeltaGeometry,
+                         source: str | Path) -> None:
+    """Refuse a firmware's settings (``--controller``) of another printer than the geometry's.
+
+    Nothing is checked for a rotary Delta's geometry, or for a file that is not a firmware's settings
+    (a controller or robot file).
+
+    Args:
+        config: The settings file.
+        name: ``--firmware``, or None (told from the file).
+        geometry: The calibration's identified geometry, or a robot file's nominal one.
+        source: Where the geometry comes from, for the message.
+
+    Raises:
+        InputError: the settings' first problem, or the first value of another printer
+            (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer`).
+    """
+    if not geometry.chain.firmware:
+        return
+    firmware = controller_firmware(config, name) if name is not None else config_firmware(config)
+    if firmware is not None:
+        check_printer_values(firmware, geometry, firmware.read_config(config), source, config)
+
+
+def check_printer_values(firmware: Firmware[Any], geometry: DeltaGeometry, model: FirmwareModel,
+                         source: str | Path, config: str | Path) -> None:
+    """Refuse a firmware's values ``model`` (read from ``config``) of another printer than ``geometry``.
+
+    The geometry's values are the firmware's at its tolerances' centre
+    (:meth:`~deltacal.printer.firmware.base.Firmware.start`), in the configuration's step distance when
+    the geometry holds none (a calibration written before it was kept).
+
+    Raises:
+        InputError: naming both values (or the geometry the firmware's model cannot hold).
+    """
+    if geometry.step_distance is None:
+        geometry = replace(geometry, step_distance=model.step_distance)
+    try:
+        ours = firmware.start(geometry)
+    except GeometryError as exc:
+        raise InputError(str(exc), str(source)) from None
+    firmware.check_same_printer(ours, model, f"{source}'s geometry", str(config))

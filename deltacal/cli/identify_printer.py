@@ -60,6 +60,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     firmware = kind.read_config(args.controller)
     check_step_distance(printer.step_distance, firmware.step_distance, args.nominal, args.controller,
                         kind.step_distance_keys)
+    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
     files = _read(paths[0], paths[1:], firmware, printer, args.sigma_height, float(args.probe_offset[2]))
     data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,

@@ -91,6 +91,7 @@ def run_object(args: argparse.Namespace) -> int:
                          "is a rotary Delta's (kind = 'linear' for a printer)")
     kind = controller_firmware(args.controller, args.firmware)
     firmware = kind.read_config(args.controller)
+    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
