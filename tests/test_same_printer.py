@@ -185,3 +185,68 @@ def test_the_same_printers_exported_values_are_not_refused(calibrated, tmp_path,
                  "-o", str(tmp_path / "out.gcode")]) == 0
     assert main(["export", str(cal), "--controller", "klipper", "--config", str(complete),
                  "-o", str(tmp_path / "again.cfg")]) == 0
+
+
+# --------------------------------------------------------------------------- low messages
+def test_swapped_probe_and_distance_files_are_said_swapped(tmp_path, capsys):
+    probe, distances = tmp_path / "probe.csv", tmp_path / "d.csv"
+    probe.write_text("x_mm,y_mm,z_mm\n0,0,0.1\n50,0,0.2\n0,50,0.1\n")
+    distances.write_text("x1_mm,y1_mm,z1_mm,x2_mm,y2_mm,z2_mm,distance_mm\n0,0,8,50,0,8,50\n")
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    assert main(["identify", str(KOSSEL), str(distances), str(probe), "--controller", str(cfg),
+                 "-o", str(tmp_path / "cal.toml")]) == 1
+    err = _one_line(capsys)
+    assert f"{distances}: line 1: holds distances" in err and "the files look swapped" in err
+    assert "PRINTER.toml PROBE.csv DISTANCES.csv" in err and "did you mean" not in err
+
+
+@pytest.mark.parametrize("option", [["--firmware", "klipper"], []])
+def test_a_robot_file_as_controller_is_named_a_robot_file(tmp_path, capsys, option):
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(KOSSEL), *option,
+                 "-o", str(tmp_path / "obj")]) == 2
+    err = _one_line(capsys)
+    assert f"--controller {KOSSEL}: a deltacal robot file, not a firmware's configuration" in err
+    assert "outside any" not in err
+
+
+@pytest.mark.slow
+def test_a_short_caliper_is_said_short_with_one_that_works(tmp_path, capsys):
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", "10",
+                 "-o", str(tmp_path / "o")]) == 1
+    err = _one_line(capsys)
+    assert "a caliper of 10 mm is too short" in err and "feature levels" in err
+    works = int(err.split("(--caliper ")[1].split(";")[0])
+    assert f"{works - 1} mm is too short" in err
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", str(works - 1),
+                 "-o", str(tmp_path / "o")]) == 1
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", str(works),
+                 "-o", str(tmp_path / "o")]) == 0
+
+
+@pytest.mark.slow
+def test_without_distances_asked_the_object_plans_those_it_offers(tmp_path, capsys):
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", "80",
+                 "-o", str(tmp_path / "o")]) == 0
+    rows = (tmp_path / "o" / "distances.csv").read_text().strip().splitlines()[1:]
+    out = capsys.readouterr().out
+    assert 0 < len(rows) < 40 and f"offers {len(rows)} distances" in out and f"planned the {len(rows)}" in out
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", "80",
+                 "--distances", "40", "-o", str(tmp_path / "o2")]) == 1
+    assert f"--distances {len(rows)}, or a caliper of " in _one_line(capsys)
+
+
+@pytest.mark.parametrize("command", ["plan", "import"])
+def test_an_output_folder_whose_parent_is_missing_is_refused_before_any_work(tmp_path, capsys, command):
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    out = tmp_path / "missing" / "obj"
+    args = (["plan", str(KOSSEL), "--object", "--controller", str(cfg)] if command == "plan"
+            else ["import", str(cfg)])
+    assert main([*args, "-o", str(out)]) == 2
+    err = _one_line(capsys)
+    assert f"{out}: the folder '{out.parent}' does not exist" in err
+    assert not out.parent.exists()
+    (tmp_path / "afile").write_text("")
+    assert main([*args, "-o", str(tmp_path / "afile" / "obj")]) == 2
+    assert "a part of the path is a file, not a folder" in _one_line(capsys)

@@ -20,7 +20,7 @@ from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from ..printer.firmware.marlin.firmware import MARLIN
 from .common import check_input, check_output
 from .export_klipper import _step_distance, _text, _workspace
-from .firmware import check_printer_values
+from .firmware import check_printer_values, refuse_deltacal_file
 
 
 def run_marlin(args: argparse.Namespace) -> int:
@@ -37,6 +37,8 @@ def run_marlin(args: argparse.Namespace) -> int:
     if not calibration.geometry.chain.firmware:
         raise UsageError(f"--controller marlin: {args.calibration} is a rotary Delta's calibration; Marlin's "
                          "values are a printer's (--controller offsets|limbs serve a rotary Delta)")
+    if args.config is not None:
+        refuse_deltacal_file(args.config, "--config")
     config = MARLIN.read_config(args.config) if args.config is not None else None
     step = _step_distance(calibration.geometry.step_distance, config, args,
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")

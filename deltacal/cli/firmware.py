@@ -9,6 +9,7 @@ calibration (or robot file) and its firmware's settings are checked to be of one
 from __future__ import annotations
 
 import argparse
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -36,8 +37,10 @@ def controller_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
     """The firmware of ``--controller PATH``: the one named, else the one whose settings the file is.
 
     Raises:
-        UsageError: no name and a file no firmware recognises.
+        UsageError: a file of deltacal's own (a robot file...), or no name and a file no firmware
+            recognises.
     """
+    refuse_deltacal_file(path)
     if name is not None:
         return next(firmware for firmware in firmwares() if firmware.name == name)
     firmware = config_firmware(path)
@@ -46,6 +49,26 @@ def controller_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
                          "Klipper printer.cfg, a Marlin M503 capture...): give --firmware "
                          f"{'|'.join(firmware_names())}")
     return firmware
+
+
+def refuse_deltacal_file(path: str | Path, option: str = "--controller") -> None:
+    """A usage error if ``path``, given as a firmware's settings, is deltacal's own file (a robot file)."""
+    own = _deltacal_file(path)
+    if own is not None:
+        raise UsageError(f"{option} {path}: {own}, not a firmware's configuration: give the printer's "
+                         "settings (Klipper's printer.cfg, Marlin's M503 capture)")
+
+
+def _deltacal_file(path: str | Path) -> str | None:
+    """What file of deltacal's own ``path`` is (``"a deltacal robot file"``), or None (none of its)."""
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    kind = data.get("format")
+    if isinstance(kind, str) and kind.startswith("deltacal-"):
+        return f"a deltacal file (format = {kind!r})"
+    return "a deltacal robot file" if isinstance(data.get("geometry"), dict) else None
 
 
 def check_config_printer(config: str | Path, name: str | None, geometry: DeltaGeometry,

@@ -18,7 +18,7 @@ from ..printer.firmware.klipper.config import read_klipper_config
 from ..printer.firmware.klipper.importer import OUTPUT_FILES, import_klipper, write_import
 from ..printer.firmware.klipper.log import is_probe_log, probe_offsets, read_probe_log
 from ..printer.measurement_files import write_probe_heights
-from .common import check_input, check_output, positive_float
+from .common import check_input, check_output, check_output_folder, positive_float
 
 
 def run(args: argparse.Namespace) -> int:
@@ -33,7 +33,7 @@ def run(args: argparse.Namespace) -> int:
     if args.config is not None:
         raise UsageError(f"--config applies to a log; {args.input} is read as a printer.cfg")
     folder = Path(args.output)
-    _check_outputs(folder, args.input)
+    check_output_folder(folder, OUTPUT_FILES, [args.input], "import of a printer.cfg")
     imported = import_klipper(args.input, args.effector_radius, args.rod_spacing, args.nozzle_drop)
     if not folder.exists():
         folder.mkdir()
@@ -70,20 +70,6 @@ def _run_log(args: argparse.Namespace, text: str) -> int:
     print(f"wrote {output}: {len(log.commanded)} probe results (lines {log.lines[0]}..{log.lines[-1]} of "
           f"{args.input}){trigger}")
     return 0
-
-
-def _check_outputs(folder: Path, source: str) -> None:
-    """The output paths in ``folder`` checked (the folder is made later if its parent exists)."""
-    if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: import of a printer.cfg writes its files in a folder; this is a file")
-    outputs = [folder / name for name in OUTPUT_FILES]
-    if folder.exists():
-        for path in outputs:
-            check_output(path, [source])
-        return
-    parent = folder.parent if str(folder.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"{folder}: the output folder's parent folder does not exist")
 
 
 def add_parser(sub) -> None:
