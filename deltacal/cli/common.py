@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import InputError, UsageError
-from ..io.atomic import check_output_path
+from ..io.atomic import check_output_path, output_problem
 from ..io.names import name_problem
 
 EXIT_DATA = 1
@@ -150,6 +150,40 @@ def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> 
     for source in inputs:
         if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
             raise UsageError(f"{path}: the output would overwrite an input file")
+
+
+def check_output_folder(folder: str | Path, names: Sequence[str], inputs: Sequence[str | Path | None],
+                        what: str) -> list[Path]:
+    """The output files ``names`` in ``folder``, checked as :func:`check_output` checks one (status 2).
+
+    A folder that does not exist yet is made by the command, once its work is done: it is checked as
+    a new output in its parent (which must exist and be writable), as every other output is.
+
+    Args:
+        folder: The ``-o`` folder.
+        names: The files written there.
+        inputs: The command's inputs (none may be overwritten).
+        what: What writes there, for the message (``"plan --object"``).
+
+    Raises:
+        UsageError: naming the folder (or a file in it) and what is wrong.
+    """
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"{folder}: {what} writes {len(names)} files in a folder; this is a file")
+    outputs = [folder / name for name in names]
+    if folder.exists():
+        for path in outputs:
+            check_output(path, inputs)
+        return outputs
+    problem = output_problem(folder)
+    parent = folder.parent if str(folder.parent) else Path(".")
+    if problem is not None and not parent.exists():
+        problem = (f"the folder {str(parent)!r} does not exist ({what} makes its output folder, not the "
+                   "folders above it)")
+    if problem is not None:
+        raise UsageError(f"{folder}: {problem}")
+    return outputs
 
 
 def point_list(text: str, known: Sequence[str], option: str = "--points") -> list[str]:

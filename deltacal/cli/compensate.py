@@ -45,7 +45,7 @@ from ..io import (
 from ..printer.firmware import config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
-from .firmware import add_firmware_argument, controller_firmware
+from .firmware import add_firmware_argument, check_config_printer, controller_firmware
 from .progress import Progress
 from .workers import Job, Refused, shared_values, solved_in_order
 
@@ -186,7 +186,7 @@ def _dialect(path: str, name: str | None = None) -> Dialect | None:
 
 
 def _controller(args: argparse.Namespace, geometry) -> CommandModel:
-    """``--controller``'s model, refused if it is not of the robot's kind (rotary, or a printer's).
+    """``--controller``'s model, refused if not of the robot's kind (rotary, printer) or of another printer.
 
     A printer's readings count steps in its nominal step distance, the calibration's (a Klipper
     configuration's own ``rotation_distance`` may have been refitted per tower since).
@@ -200,6 +200,7 @@ def _controller(args: argparse.Namespace, geometry) -> CommandModel:
     if chain != geometry.chain:
         raise UsageError(f"--controller {args.controller} is {chain.words.a_kind}'s, but the calibration "
                          f"{args.calibration} is of {geometry.chain.words.a_kind}")
+    check_config_printer(args.controller, args.firmware, geometry, args.calibration)
     return controller
 
 

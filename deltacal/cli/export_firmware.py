@@ -23,6 +23,7 @@ from ..printer.firmware.base import Firmware
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from .common import check_input, check_output
 from .export_klipper import _step_distance, _text, _workspace
+from .firmware import check_printer_values, refuse_deltacal_file
 
 
 def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
@@ -40,10 +41,15 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
         raise UsageError(f"--controller {firmware.name}: {args.calibration} is a rotary Delta's "
                          "calibration; a firmware's values are a printer's (--controller offsets|limbs "
                          "serve a rotary Delta)")
+    if args.config is not None:
+        refuse_deltacal_file(args.config, "--config")
     config = firmware.read_config(args.config) if args.config is not None else None
     step = _step_distance(calibration.geometry.step_distance, config, args,  # type: ignore[arg-type]
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
     geometry, nominal = calibration.geometry, calibration.nominal
+    if config is not None:
+        check_printer_values(firmware, replace(geometry, step_distance=step), config, args.calibration,
+                             args.config)
     try:
         start = config if config is not None else firmware.start(replace(nominal, step_distance=step))
     except GeometryError as exc:

@@ -28,6 +28,7 @@ from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
+from .firmware import check_printer_values, refuse_deltacal_file
 
 
 def run_klipper(args: argparse.Namespace) -> int:
@@ -44,6 +45,8 @@ def run_klipper(args: argparse.Namespace) -> int:
     if not calibration.geometry.chain.firmware:
         raise UsageError(f"--controller klipper: {args.calibration} is a rotary Delta's calibration; "
                          "Klipper's values are a printer's (--controller offsets|limbs serve a rotary Delta)")
+    if args.config is not None:
+        refuse_deltacal_file(args.config, "--config")
     config = KLIPPER.read_config(args.config) if args.config is not None else None
     step = _step_distance(calibration.geometry.step_distance, config, args,
                           "geometry.step_distance_mm" if calibration.base else "step_distance_mm")
@@ -53,6 +56,9 @@ def run_klipper(args: argparse.Namespace) -> int:
                          "--config printer.cfg (the configuration the printer runs), or "
                          "--keep-rotation-distance to keep the printer's own rotation_distance")
     geometry, nominal = calibration.geometry, calibration.nominal
+    if config is not None:
+        check_printer_values(KLIPPER, replace(geometry, step_distance=step), config, args.calibration,
+                             args.config)
     try:
         start = config if config is not None else KLIPPER.start(replace(nominal, step_distance=step))
     except GeometryError as exc:

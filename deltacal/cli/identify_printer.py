@@ -25,7 +25,12 @@ from ..printer.identification import (
     identify_printer,
     printer_outliers,
 )
-from ..printer.measurement_files import read_printed_distances, read_probe_heights
+from ..printer.measurement_files import (
+    PAIR_COLUMNS,
+    PROBE_COLUMNS,
+    read_printed_distances,
+    read_probe_heights,
+)
 from ..printer.outliers import Outliers
 from ..printer.robot import NominalLinearDelta
 from ..printer.same_printer import ENDSTOP_MM, check_step_distance
@@ -60,6 +65,7 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     firmware = kind.read_config(args.controller)
     check_step_distance(printer.step_distance, firmware.step_distance, args.nominal, args.controller,
                         kind.step_distance_keys)
+    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
     files = _read(paths[0], paths[1:], firmware, printer, args.sigma_height, float(args.probe_offset[2]))
     data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=args.probe_offset,
                                height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,
@@ -109,6 +115,7 @@ def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, p
           height_sigma: float, probe_drop: float) -> _Files:
     """Readings of the probe heights and of the printed pairs, and the distances measured."""
     step_distance = printer.step_distance
+    _check_order(probe_file, distance_files)
     heights = read_probe_heights(probe_file)
     _check_heights(heights.commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop)
     probe = _readings(firmware, heights.commanded, step_distance, probe_file, heights.lines)
@@ -123,6 +130,30 @@ def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, p
         sources += [(path, int(n)) for n in printed.lines]
     return _Files(probe, np.concatenate(pairs), np.concatenate(distance), heights.commanded[:, 2],
                   heights.heights, sources)
+
+
+def _check_order(probe_file: str, distance_files: list[str]) -> None:
+    """Refuse probe heights and distances given in each other's place, in the order identify takes them."""
+    probe_columns = _header(probe_file)
+    if not set(PAIR_COLUMNS) <= probe_columns or set(PROBE_COLUMNS[:2]) <= probe_columns:
+        return
+    swapped = next((path for path in distance_files if set(PROBE_COLUMNS[:2]) <= _header(path)), None)
+    heights = ", ".join(PROBE_COLUMNS)
+    what = (f" and {swapped} probe heights ({heights}): the files look swapped" if swapped
+            else f", not probe heights ({heights})")
+    raise InputError(f"holds distances ({PAIR_COLUMNS[0]}..{PAIR_COLUMNS[-1]}, distance_mm){what}; identify "
+                     "takes PRINTER.toml PROBE.csv DISTANCES.csv, the probe heights first", probe_file,
+                     "line 1")
+
+
+def _header(path: str) -> set[str]:
+    """The column names of a CSV file's first non-blank line (empty when it cannot be read)."""
+    try:
+        with open(path, encoding="utf-8", newline="") as handle:
+            line = next((text for text in handle if text.strip()), "")
+    except (OSError, UnicodeDecodeError):
+        return set()
+    return {name.strip().strip('"') for name in line.split(",")}
 
 
 def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, probe_z: float) -> None:

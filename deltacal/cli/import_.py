@@ -28,7 +28,7 @@ from ..printer.firmware.klipper.importer import (
 from ..printer.firmware.marlin.firmware import MARLIN
 from ..printer.firmware.marlin.importer import import_marlin
 from ..printer.measurement_files import write_probe_heights
-from .common import check_input, check_output, positive_float
+from .common import check_input, check_output, check_output_folder, positive_float
 
 
 def run(args: argparse.Namespace) -> int:
@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
     if args.config is not None:
         raise UsageError(f"--config applies to a log; {args.input} is read as a printer.cfg")
     folder = Path(args.output)
-    _check_outputs(folder, args.input)
+    check_output_folder(folder, OUTPUT_FILES, [args.input], "import of a printer's configuration")
     if MARLIN.is_config(args.input):
         return _run_marlin(args, folder)
     imported = import_klipper(args.input, args.effector_radius, args.rod_spacing, args.nozzle_drop)
@@ -98,20 +98,6 @@ def _run_marlin(args: argparse.Namespace, folder: Path) -> int:
     taken = f"; defaults taken: {', '.join(defaults)}" if defaults else ""
     print(f"wrote {written}: Marlin's model of {args.input} (M665 R {marlin.radius:g} mm){taken}")
     return 0
-
-
-def _check_outputs(folder: Path, source: str) -> None:
-    """The output paths in ``folder`` checked (the folder is made later if its parent exists)."""
-    if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: import of a printer.cfg writes its files in a folder; this is a file")
-    outputs = [folder / name for name in OUTPUT_FILES]
-    if folder.exists():
-        for path in outputs:
-            check_output(path, [source])
-        return
-    parent = folder.parent if str(folder.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"{folder}: the output folder's parent folder does not exist")
 
 
 def add_parser(sub) -> None:

@@ -22,7 +22,7 @@ from ..printer.plan import ObjectPlan, plan_object
 from ..printer.robot import NominalLinearDelta
 from ..printer.sheet import sheet_html
 from ..robots import load_robot
-from .common import check_input, check_output, int_at_most, positive_float
+from .common import check_input, check_output_folder, int_at_most, positive_float
 from .firmware import add_firmware_argument, controller_firmware
 
 #: The files ``plan --object`` writes in its folder.
@@ -84,15 +84,16 @@ def run_object(args: argparse.Namespace) -> int:
         raise UsageError("--object needs --controller printer.cfg: the firmware the object is printed with")
     check_input(args.controller)
     folder = Path(args.output)
-    outputs = _outputs(folder, (args.nominal, args.controller))
+    outputs = check_output_folder(folder, OBJECT_FILES, (args.nominal, args.controller), "plan --object")
     printer = load_robot(args.nominal)
     if not isinstance(printer, NominalLinearDelta):
         raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "
                          "is a rotary Delta's (kind = 'linear' for a printer)")
     kind = controller_firmware(args.controller, args.firmware)
     firmware = kind.read_config(args.controller)
+    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
     caliper = args.caliper or CALIPER_RANGE
-    plan = plan_object(printer, firmware, count=args.distances or MAX_DISTANCES,
+    plan = plan_object(printer, firmware, count=args.distances,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
     mesh = plan.labelled_mesh()
     if not folder.exists():
@@ -108,24 +109,12 @@ def run_object(args: argparse.Namespace) -> int:
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))
     print(_report(plan, printer, mesh, caliper))
+    if args.distances is None and len(plan.pairs) < MAX_DISTANCES:
+        print(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances that "
+              f"can be measured together ({MAX_DISTANCES} with a longer one): planned the {len(plan.pairs)}")
     print(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes them), "
           f"{outputs[2]} ({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")
     return 0
-
-
-def _outputs(folder: Path, inputs: tuple[str, ...]) -> list[Path]:
-    """The output paths in ``folder``, checked (the folder is made later if its parent exists)."""
-    if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: --object writes {len(OBJECT_FILES)} files in a folder; this is a file")
-    outputs = [folder / name for name in OBJECT_FILES]
-    if folder.exists():
-        for path in outputs:
-            check_output(path, inputs)
-        return outputs
-    parent = folder.parent if str(folder.parent) else Path(".")
-    if not parent.is_dir():
-        raise UsageError(f"{folder}: the output folder's parent folder does not exist")
-    return outputs
 
 
 def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float) -> str:

@@ -103,7 +103,9 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
         check_output(path, inputs)
     if len({p.resolve() for p in outputs}) != len(outputs):
         raise UsageError(f"the outputs {', '.join(map(str, outputs))} must be different files")
-    firmware = controller_firmware(args.controller, args.firmware).read_config(args.controller)
+    kind = controller_firmware(args.controller, args.firmware)
+    firmware = kind.read_config(args.controller)
+    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
     truth = _truth(args, printer)
     step = printer.step_distance
     offset = np.zeros(3) if args.probe_offset is None else args.probe_offset

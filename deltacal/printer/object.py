@@ -74,6 +74,10 @@ SECTIONS = 72
 MAX_DISTANCES = 40
 
 
+class CaliperTooShort(PlanningError):
+    """The caliper is too short for the object (a longer one, ``plan --caliper``, would do)."""
+
+
 # --------------------------------------------------------------------------- the probe grid
 def probe_grid(radius: float, count: int = 7) -> np.ndarray:
     """Klipper's round-bed mesh: the points of a count × count grid over the disc of ``radius``.
@@ -107,10 +111,14 @@ def levels(workspace: Workspace, caliper: float = CALIPER_RANGE) -> np.ndarray:
     lower where the printable height ends (room for the ball and :data:`TOP_MARGIN`).
 
     Raises:
+        CaliperTooShort: the caliper's levels are less than a ball's diameter apart.
         PlanningError: the printable height leaves less than a ball's diameter between the levels.
     """
     room = workspace.height - TOP_MARGIN - 0.5 * BALL_DIAMETER
     top = min(LOWEST_LEVEL + LEVEL_SPAN_PER_CALIPER * caliper, room)
+    if room >= LOWEST_LEVEL + BALL_DIAMETER and top < LOWEST_LEVEL + BALL_DIAMETER:
+        raise CaliperTooShort(f"a caliper of {caliper:g} mm is too short for two feature levels (balls of "
+                              f"{BALL_DIAMETER:g} mm)")
     if top < LOWEST_LEVEL + BALL_DIAMETER:
         raise PlanningError(f"the printable height {workspace.height:g} mm holds no two feature levels "
                             f"(balls of {BALL_DIAMETER:g} mm, the lowest centred at {LOWEST_LEVEL:g} mm)")

@@ -31,8 +31,10 @@ from .firmware.base import FirmwareModel
 from .identification import PrinterMeasurements, measured_combinations, residuals_and_regressor
 from .labels import BallLabel, labels_mesh, place_labels
 from .object import (
+    BALL_DIAMETER,
     CALIPER_RANGE,
     MAX_DISTANCES,
+    CaliperTooShort,
     ObjectLayout,
     blocking,
     candidate_pairs,
@@ -148,9 +150,23 @@ def geometric_rows(probe: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np
     return np.zeros((len(probe), 18)), np.hstack([dA, dB]) / 0.02
 
 
+class TooFewDistances(CaliperTooShort):
+    """Fewer distances than asked can be measured together on the object.
+
+    Attributes:
+        offered: How many can.
+        asked: How many were asked.
+    """
+
+    def __init__(self, offered: int, asked: int) -> None:
+        self.offered, self.asked = offered, asked
+        super().__init__(f"the object offers only {offered} distances that can be measured together; "
+                         f"{asked} asked")
+
+
 def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: ObjectLayout,
-                 pairs: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-    """Greedy D-optimal choice of ``count`` candidate pairs (indices into ``pairs``).
+                 pairs: np.ndarray, blocks: np.ndarray, at_least: int | None = None) -> np.ndarray:
+    """Greedy D-optimal choice of ``count`` candidate pairs (indices into ``pairs``), or fewer.
 
     Args:
         rows: Each candidate's row, (P, n).
@@ -159,9 +175,11 @@ def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: 
         layout: The object's sites and levels (one feature per site).
         pairs: The candidates' features, indices into ``layout.centres``, (P, 2).
         blocks: Which features stand in each candidate's way (:func:`blocking`), (P, F).
+        at_least: Fewer pairs than ``count`` are chosen when no more can be measured together, if
+            at least this many (default ``count``).
 
     Raises:
-        PlanningError: fewer than ``count`` pairs can be measured together.
+        TooFewDistances: fewer than ``at_least`` pairs can be measured together.
     """
     inverse = np.linalg.inv(information)
     site = layout.site_of
@@ -181,8 +199,9 @@ def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: 
         possible = fits & clear
         possible[chosen] = False
         if not np.any(possible):
-            raise PlanningError(f"the object offers only {len(chosen)} distances that can be measured "
-                                f"together; {count} asked")
+            if len(chosen) >= (count if at_least is None else at_least):
+                break
+            raise TooFewDistances(len(chosen), count)
         gain = np.einsum("pk,kl,pl->p", rows, inverse, rows)
         gain = np.where(possible, gain, -np.inf)
         best = int(np.argmax(gain))
@@ -199,7 +218,7 @@ def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: 
 def plan_object(
     printer: NominalLinearDelta,
     firmware: FirmwareModel,
-    count: int = MAX_DISTANCES,
+    count: int | None = None,
     probe_count: int = 9,
     caliper: float = CALIPER_RANGE,
     rows: RowsFunction | None = None,
@@ -209,32 +228,29 @@ def plan_object(
     Args:
         printer: The nominal printer (its robot file, with a ``[workspace]``).
         firmware: The firmware's model (printer.cfg) the probing and the print are commanded with.
-        count: Distances to measure (at most :data:`MAX_DISTANCES`).
+        count: Distances to measure (at most :data:`MAX_DISTANCES`); None: as many as the object
+            offers to measure together, :data:`MAX_DISTANCES` at most.
         probe_count: Probe points across the bed (odd; Klipper's ``round_probe_count``: 7 keeps 29
             points of its 7 × 7 grid within the radius, 9 keeps 49).
         caliper: The caliper's longest outside reading [mm].
         rows: The rows of the selection (default: the complete model, :func:`model_rows`).
 
     Raises:
-        PlanningError: no workspace, too many distances, a feature out of the firmware's reach, no
-            room for a label.
+        PlanningError: no workspace, too many distances, a caliper too short (the message gives the
+            shortest that would do), a feature out of the firmware's reach, no room for a label.
     """
     if printer.workspace is None:
         raise PlanningError("the printer's robot file has no [workspace]: the printable cylinder is needed")
-    if not 1 <= count <= MAX_DISTANCES:
+    if count is not None and not 1 <= count <= MAX_DISTANCES:
         raise PlanningError(f"distances to measure must be 1 to {MAX_DISTANCES}, got {count}")
-    layout = object_layout(printer.workspace, printer.tower_azimuth, caliper)
     probe = probe_grid(printer.workspace.radius, probe_count)
-    pairs = candidate_pairs(layout, caliper)
-    if len(pairs) < count:
-        raise PlanningError(f"a caliper of {caliper:g} mm reaches {len(pairs)} pairs of the object's "
-                            f"features; {count} asked")
-    centres = layout.centres
     complete = rows is None
     rows_of = model_rows(printer, firmware) if rows is None else rows
-    probe_rows, pair_rows = rows_of(probe, centres[pairs])
-    information = np.eye(pair_rows.shape[1]) + probe_rows.T @ probe_rows
-    chosen = select_pairs(pair_rows, information, count, layout, pairs, blocking(layout, pairs))
+    try:
+        layout, pairs, chosen, information, pair_rows = _chosen(printer, count, caliper, probe, rows_of)
+    except CaliperTooShort as exc:
+        raise PlanningError(f"{exc}{_longer(printer, count, caliper, probe, rows_of, exc)}") from None
+    centres = layout.centres
     used = np.unique(pairs[chosen].reshape(-1))
     index = np.full(len(centres), -1)
     index[used] = np.arange(len(used))
@@ -248,6 +264,59 @@ def plan_object(
     if complete:
         plan = _with_identifiability(plan, printer, firmware)
     return plan
+
+
+def _chosen(printer: NominalLinearDelta, count: int | None, caliper: float, probe: np.ndarray,
+            rows_of: RowsFunction) -> tuple[ObjectLayout, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The object's layout, candidate pairs, chosen ones, the probe's information and the pairs' rows.
+
+    Raises:
+        CaliperTooShort: the caliper is too short for the levels, or for ``count`` distances (one
+            without ``count``).
+    """
+    assert printer.workspace is not None  # plan_object refused a printer without one
+    layout = object_layout(printer.workspace, printer.tower_azimuth, caliper)
+    pairs = candidate_pairs(layout, caliper)
+    needed = 1 if count is None else count
+    if len(pairs) < needed:
+        raise CaliperTooShort(f"a caliper of {caliper:g} mm is too short: it reaches {len(pairs)} pairs of "
+                              f"the object's features, {needed} needed")
+    probe_rows, pair_rows = rows_of(probe, layout.centres[pairs])
+    information = np.eye(pair_rows.shape[1]) + probe_rows.T @ probe_rows
+    wanted = MAX_DISTANCES if count is None else count
+    chosen = select_pairs(pair_rows, information, min(wanted, len(pairs)), layout, pairs,
+                          blocking(layout, pairs), at_least=needed)
+    return layout, pairs, chosen, information, pair_rows
+
+
+def _longer(printer: NominalLinearDelta, count: int | None, caliper: float, probe: np.ndarray,
+            rows_of: RowsFunction, short: CaliperTooShort) -> str:
+    """What to do when the caliper is too short: fewer distances, or the shortest caliper that works [mm].
+
+    The caliper is found to the whole mm by bisection between the one given and the longest reading
+    the printable cylinder holds (its diameter, height and a ball): one that works next to one that
+    does not.
+    """
+    assert printer.workspace is not None
+    workspace = printer.workspace
+
+    def works(length: float) -> bool:
+        try:
+            _chosen(printer, count, length, probe, rows_of)
+        except CaliperTooShort:
+            return False
+        return True
+
+    longest = 2.0 * workspace.radius + workspace.height + BALL_DIAMETER
+    low, high = int(np.floor(caliper)), int(np.ceil(longest))
+    offered = short.offered if isinstance(short, TooFewDistances) else 0
+    fewer = f"--distances {offered}, or " if offered else ""
+    if high <= low or not works(high):
+        return f": {fewer.removesuffix(', or ')}" if fewer else ""
+    while high - low > 1:
+        middle = (low + high) // 2
+        low, high = (low, middle) if works(middle) else (middle, high)
+    return f": {fewer}a caliper of {high} mm (--caliper {high}; {low} mm is too short)"
 
 
 def _with_identifiability(plan: ObjectPlan, printer: NominalLinearDelta,

@@ -17,6 +17,8 @@ firmware gives through one :class:`Firmware`:
   through), also from its configuration file (:meth:`Firmware.load_controller`);
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
 * the values that fit an identified geometry best (:meth:`Firmware.fit`);
+* two sets of values refused when they are of different printers (:meth:`Firmware.check_same_printer`:
+  a calibration and the configuration of another printer);
 * a program in its own dialect that probes the bed at given points and says each result on its
   console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
   (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
@@ -43,6 +45,7 @@ from ...exceptions import InputError
 from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
+from ..same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 
 if TYPE_CHECKING:
     from ..robot import NominalLinearDelta
@@ -90,6 +93,14 @@ class FirmwareModel(Protocol):
 
     @property
     def step_distance(self) -> np.ndarray: ...  # noqa: D102
+
+    @property
+    def towers(self) -> np.ndarray:
+        """Tower positions ``(X_i, Y_i)`` [mm], (3, 2)."""
+
+    @property
+    def carriage_top(self) -> np.ndarray:
+        """Carriage point heights at the endstops ``E_i`` [mm], (3,)."""
 
     def steps(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """Steps below the endstops the firmware commands for nozzle targets [mm], (N, 3) -> (N, 3)."""
@@ -142,6 +153,23 @@ class FirmwareFit(Protocol):
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
 
 
+def classical_values(model: FirmwareModel) -> tuple[float, np.ndarray, np.ndarray]:
+    """A firmware model's classical delta values, in any firmware's words.
+
+    The radius is the towers' mean distance from the centre; each tower's endstop the carriage's
+    travel from its endstop to the bed's centre (the nozzle's height there, centred, when the
+    carriage is at its endstop: Klipper's ``position_endstop``); its arm the rod from the carriage
+    point, at that travel, to the nozzle at the bed's centre.
+
+    Returns:
+        The radius [mm], the arm lengths [mm] (3,) and the endstops [mm] (3,).
+    """
+    towers = np.asarray(model.towers, dtype=float)
+    endstop = model.steps(np.zeros((1, 3)), check=False)[0] * model.step_distance
+    arm = np.hypot(model.carriage_top - endstop, np.linalg.norm(towers, axis=1))
+    return float(np.mean(np.linalg.norm(towers, axis=1))), arm, endstop
+
+
 class Firmware(ABC, Generic[ModelT]):
     """A printer's firmware: its configuration file, its model, its controller, its fitted values.
 
@@ -149,11 +177,14 @@ class Firmware(ABC, Generic[ModelT]):
         name: The firmware's name, lower case (``"klipper"``).
         title: The name users read (``"Klipper"``).
         step_distance_keys: Where its configuration sets the towers' step distances (for messages).
+        classical_keys: Its names of a model's radius, arm lengths and endstops (for messages).
     """
 
     name: ClassVar[str]
     title: ClassVar[str]
     step_distance_keys: ClassVar[str]
+    #: Its names of the radius, the arm lengths and the endstops of :func:`classical_values` (for messages).
+    classical_keys: ClassVar[tuple[str, str, str]] = ("radius", "arm length", "endstop")
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
@@ -297,6 +328,35 @@ class Firmware(ABC, Generic[ModelT]):
                                  self.step_distance_keys)
             step_distance = float(steps[0])
         return self.controller(model, step_distance)
+
+    def check_same_printer(self, model: ModelT, other: ModelT, our_source: str, their_source: str) -> None:
+        """Refuse two sets of values (a calibration's, a configuration's) of different printers.
+
+        Compared by :func:`classical_values` and the step distances, each against the bound of
+        :mod:`~deltacal.printer.same_printer`: the radius and the arms within
+        :data:`~deltacal.printer.same_printer.LENGTH_RTOL` of ``model``'s, the endstops within
+        :data:`~deltacal.printer.same_printer.ENDSTOP_MM`, the step distances within
+        :data:`~deltacal.printer.same_printer.STEP_DISTANCE_RTOL`.
+
+        Args:
+            model: The first values (a calibration's or a robot file's: :meth:`start`, :meth:`nominal`).
+            other: The second (a configuration's: :meth:`read_config`).
+            our_source: Where the first come from, for the message.
+            their_source: Where the second come from.
+
+        Raises:
+            InputError: one line naming the first value too far apart, in both sources.
+        """
+        radius, arm, endstop = classical_values(model)
+        their_radius, their_arm, their_endstop = classical_values(other)
+        keys = self.classical_keys
+        check_same_values(keys[0], np.array(radius), np.array(their_radius), LENGTH_RTOL * radius, our_source,
+                          their_source)
+        check_same_values(keys[1], arm, their_arm, LENGTH_RTOL * arm, our_source, their_source)
+        check_same_values(keys[2], endstop, their_endstop, ENDSTOP_MM, our_source, their_source)
+        steps = np.asarray(model.step_distance, dtype=float)
+        check_same_values("step distance", steps, other.step_distance, STEP_DISTANCE_RTOL * steps, our_source,
+                          their_source)
 
     def dialect(self, path: str | Path) -> Dialect:
         """The firmware's reading of G-code with the configuration file ``path``.

@@ -33,6 +33,7 @@ class Klipper(Firmware[KlipperDelta]):
     name: ClassVar[str] = "klipper"
     title: ClassVar[str] = "Klipper"
     step_distance_keys: ClassVar[str] = "sections [stepper_a..c], key rotation_distance"
+    classical_keys: ClassVar[tuple[str, str, str]] = ("delta_radius", "arm_length", "position_endstop")
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""

@@ -35,6 +35,8 @@ class Marlin(Firmware[MarlinDelta]):
     name: ClassVar[str] = "marlin"
     title: ClassVar[str] = "Marlin"
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
+    classical_keys: ClassVar[tuple[str, str, str]] = ("M665 R", "M665 L + A/B/C",
+                                                      "homed height M665 H - M851 Z - M666")
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""

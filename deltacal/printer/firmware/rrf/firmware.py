@@ -32,6 +32,7 @@ class RRF(Firmware[RRFDelta]):
     name: ClassVar[str] = "rrf"
     title: ClassVar[str] = "RepRapFirmware"
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
+    classical_keys: ClassVar[tuple[str, str, str]] = ("M665 R", "M665 L", "homed height M665 H + M666")
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
