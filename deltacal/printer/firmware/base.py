@@ -18,7 +18,10 @@ firmware gives through one :class:`Firmware`:
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
 * the values that fit an identified geometry best (:meth:`Firmware.fit`);
 * a program in its own dialect that probes the bed at given points and says each result on its
-  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights;
+  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
+  (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
+* its configuration read into deltacal's robot file and measurement files, as ``deltacal import``
+  writes them (:meth:`Firmware.import_config`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
   leaves the nozzle, the macros its configuration defines.
 
@@ -43,7 +46,9 @@ from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 
 if TYPE_CHECKING:
+    from ..importer import PrinterImport
     from ..robot import NominalLinearDelta
+    from .probe_log import ProbeLog
 
 #: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
 #: ``horizontal_move_z`` default).
@@ -271,3 +276,41 @@ class Firmware(ABC, Generic[ModelT]):
             InputError: the configuration's first problem.
         """
         return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])
+
+    def is_probe_log(self, text: str) -> bool:
+        """Whether a file's text is a log of this firmware with its probe results (none by default)."""
+        return False
+
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
+        """The probe results of a log of this firmware, in its order.
+
+        Args:
+            path: The log (or a console saved from the firmware's host).
+            config: The firmware's configuration, for its probe's offsets (the trigger height).
+            text: The log's text, if already read.
+
+        Raises:
+            InputError: the log's first problem (by default: the firmware's logs are not read).
+        """
+        raise InputError(f"deltacal reads no probe results of {self.title}'s logs", str(path))
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """The printer as its configuration finds it, written in ``folder`` (``deltacal import``).
+
+        Writes ``printer.toml`` (:func:`~deltacal.printer.importer.write_printer_file`) and the
+        measurements the configuration holds, if any (the names of
+        :data:`~deltacal.printer.importer.OUTPUT_FILES`).
+
+        Args:
+            path: The configuration.
+            folder: An existing folder.
+            effector_radius: Effector centre to each ball pair's midpoint [mm] (None: a default).
+            rod_spacing: Between a pair's two balls [mm] (None: a default).
+            nozzle_drop: The nozzle below the effector's ball plane [mm] (None: a default).
+
+        Raises:
+            InputError: the configuration's first problem (by default: not read).
+        """
+        raise InputError(f"deltacal import does not read {self.title}'s settings", str(path))
