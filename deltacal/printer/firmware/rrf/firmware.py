@@ -7,6 +7,7 @@ is the one instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
@@ -16,13 +17,15 @@ from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
-from .config import is_rrf_config, load_rrf, rrf_config_text
+from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
 from .fit import RRFFit, fit_rrf
+from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
 from .probing import rrf_probe_program
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
+    from ..probe_log import ProbeLog
 
 
 class RRF(Firmware[RRFDelta]):
@@ -99,6 +102,21 @@ class RRF(Firmware[RRFDelta]):
         """
         home = load_rrf(path).home_position
         return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
+
+    def is_probe_log(self, text: str) -> bool:
+        """RRF's answers to ``G30 S-1`` (:func:`~.log.is_rrf_probe_log`)."""
+        return is_rrf_probe_log(text)
+
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
+        """:func:`~.log.read_rrf_probe_log`, the trigger height ``G31 Z`` of ``config.g`` if given."""
+        if config is None:
+            return read_rrf_probe_log(path, text)
+        settings = read_rrf_settings(config)
+        log = read_rrf_probe_log(path, text, rrf_probe_offsets(settings))
+        given = "G31 Z" in settings.values
+        return replace(log, trigger_source=f"G31 Z of {config}" if given else
+                       f"RepRapFirmware's default trigger height: no G31 Z in {config}")
 
 
 #: RepRapFirmware, the firmware.
