@@ -18,6 +18,7 @@ from numpy.testing import assert_allclose
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError
 from deltacal.io import load_calibration
+from deltacal.kinematics import exact
 from deltacal.printer.firmware.probe_log import ProbeOffsets
 from deltacal.printer.firmware.rrf.config import (
     load_rrf,
@@ -26,12 +27,14 @@ from deltacal.printer.firmware.rrf.config import (
     rrf_probe_offsets,
 )
 from deltacal.printer.firmware.rrf.log import read_rrf_probe_log
-from deltacal.printer.firmware.rrf.model import RRFDelta
+from deltacal.printer.firmware.rrf.model import RRFController, RRFDelta
 from deltacal.printer.measurement_files import read_probe_heights
 from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
+DATA = Path(__file__).resolve().parent / "data" / "rrf"
+DATA = Path(__file__).resolve().parent / "data" / "rrf"
 #: The simulated printer's probe: 1.5 mm left of, 2 mm behind the nozzle, triggering 1.2 mm above the bed.
 G31 = ProbeOffsets(-1.5, 2.0, 1.2)
 #: A point whose probing move fails (RRF's error, no answer kept).
@@ -155,3 +158,55 @@ def test_g31_of_the_first_probe_read_defaults_otherwise(probed, tmp_path):
     bare.write_text(bare.read_text() + "G31 P500 X1 Y2 Z{1+1}\n")
     with pytest.raises(InputError, match=r"config.g: line 3, G31 Z: value '\{1\+1\}' is an expression"):
         read_rrf_settings(bare)
+
+
+# ------------------------------------------------------------------ import config.g
+def test_import_config_g_commands_the_nozzle_exactly_through_rrfs_model(tmp_path, capsys):
+    """Per-tower rods, corrected azimuths, endstops: the file's nominal through RRF's model, tilt zeroed."""
+    assert main(["import", str(DATA / "config.g"), "-o", str(tmp_path / "out"), "--nozzle-drop", "25"]) == 0
+    said = capsys.readouterr().out
+    assert "its bed tilt M666 A B (0.05, -0.02 %) is not in the file" in said
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["printer.toml"]
+    text = (tmp_path / "out" / "printer.toml").read_text()
+    assert "# Bed tilt M666 A0.05 B-0.02 (percent) of config.g: not a robot file value" in text
+    printer, rrf = load_printer(tmp_path / "out" / "printer.toml"), load_rrf(DATA / "config.g")
+    assert printer.rod_length.tolist() == [269.0, 269.5, 268.8]  # M665 L269:269.5:268.8
+    assert_allclose(np.degrees(printer.tower_azimuth), [210.1, 329.8, 90.0], rtol=0, atol=1e-12)
+    assert printer.tower_radius - printer.effector_radius == 134.5  # config-override.g's R wins
+    assert_allclose(printer.endstop_height, 295.7 + np.sqrt(rrf.diagonal**2 - 134.5**2) + [0.2, -0.1, -0.1]
+                    + 25.0, rtol=0, atol=1e-12)
+    assert printer.step_distance.tolist() == [1 / 80] * 3
+    flat = RRFDelta(rrf.diagonal, rrf.radius, rrf.homed_height, rrf.angle_correction, rrf.endstop_adjustment,
+                    step_distance=rrf.step_distance)
+    ws = printer.workspace
+    assert ws is not None and ws.radius == 115.0  # M665 B
+    rng = np.random.default_rng(4)
+    r, a = ws.radius * np.sqrt(rng.random(300)), rng.uniform(0.0, 2.0 * np.pi, 300)
+    targets = np.column_stack([r * np.cos(a), r * np.sin(a), rng.uniform(0.0, ws.height, 300)])
+    readings = RRFController(flat, printer.step_distance).inverse(targets)
+    nozzle = exact.forward(printer.geometry(), readings).point(printer.tool)
+    assert np.max(np.abs(nozzle - targets)) < 1e-9
+    tilted = RRFController(rrf, printer.step_distance).inverse(targets)  # the tilt is not in the file
+    assert np.max(np.abs(exact.forward(printer.geometry(), tilted).point(printer.tool) - targets)) > 0.01
+
+
+def test_import_config_g_then_identify_its_probe_log(probed, tmp_path):
+    folder, config, program, commanded, truth = probed
+    assert main(["import", str(config), "-o", str(tmp_path / "out")]) == 0
+    log = tmp_path / "console.txt"
+    log.write_text(console(program, commanded, False))
+    assert main(["import", str(log), "--config", str(config), "-o", str(tmp_path / "probe.csv")]) == 0
+    printer = tmp_path / "out" / "printer.toml"
+    cal = tmp_path / "cal.toml"
+    assert main(["identify", str(printer), str(tmp_path / "probe.csv"), "--controller", str(config),
+                 "-o", str(cal)]) == 0
+    assert load_calibration(cal).geometry.chain.firmware
+
+
+def test_a_config_without_a_printable_volume_is_refused_in_one_line(tmp_path, capsys):
+    config = tmp_path / "config.g"
+    config.write_text("M665 L269 R134.4 H-300\nM92 X80 Y80 Z80\n")
+    assert main(["import", str(config), "-o", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "M665 H" in err and "no printable volume above the bed" in err
+    assert not (tmp_path / "out" / "printer.toml").exists()

@@ -19,11 +19,13 @@ from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
 from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
 from .fit import RRFFit, fit_rrf
+from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
 from .probing import rrf_probe_program
 
 if TYPE_CHECKING:
+    from ...importer import PrinterImport
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
 
@@ -117,6 +119,11 @@ class RRF(Firmware[RRFDelta]):
         given = "G31 Z" in settings.values
         return replace(log, trigger_source=f"G31 Z of {config}" if given else
                        f"RepRapFirmware's default trigger height: no G31 Z in {config}")
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """:func:`~.importer.import_rrf`: ``printer.toml`` of RRF's model of ``config.g``."""
+        return import_rrf(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
 
 #: RepRapFirmware, the firmware.
