@@ -26,6 +26,7 @@ from deltacal.printer.firmware.rrf.config import (
     rrf_config_text,
     rrf_probe_offsets,
 )
+from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.log import read_rrf_probe_log
 from deltacal.printer.firmware.rrf.model import RRFController, RRFDelta
 from deltacal.printer.measurement_files import read_probe_heights
@@ -210,3 +211,32 @@ def test_a_config_without_a_printable_volume_is_refused_in_one_line(tmp_path, ca
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "M665 H" in err and "no printable volume above the bed" in err
     assert not (tmp_path / "out" / "printer.toml").exists()
+
+
+# ------------------------------------------------------------------ homedelta.g
+HOMEDELTA = """; homedelta.g in the shape RRF's configuration tool writes (written for deltacal's tests)
+G91                              ; relative positioning
+G1 H1 X705 Y705 Z705 F1800       ; move all towers to the high end stopping at the endstops (first pass)
+G1 H2 X-5 Y-5 Z-5 F1800          ; go down a few mm
+G1 H1 X10 Y10 Z10 F360           ; move all towers up once more (second pass)
+G1 Z-5 F6000                     ; move down a few mm so that the nozzle can be centred
+G90                              ; absolute positioning
+G1 X0 Y0 F6000                   ; move X+Y to the centre
+"""
+
+
+def test_g28_leaves_the_nozzle_where_homedelta_g_moves_it(tmp_path):
+    config = tmp_path / "config.g"
+    config.write_text((DATA / "config.g").read_text())
+    (tmp_path / "config-override.g").write_text((DATA / "config-override.g").read_text())
+    endstops = load_rrf(config).home_position
+    assert_allclose(RRF_FIRMWARE.dialect(config).home, endstops, rtol=0, atol=0)  # no homedelta.g
+    (tmp_path / "homedelta.g").write_text(HOMEDELTA)
+    assert_allclose(RRF_FIRMWARE.dialect(config).home, [0.0, 0.0, endstops[2] - 5.0], rtol=0, atol=1e-12)
+    (tmp_path / "homedelta.g").write_text(HOMEDELTA.replace("G90  ", "G30  "))
+    with pytest.raises(InputError, match=r"homedelta.g: line 7: G30 after the last G1 H1: where G28 leaves"):
+        RRF_FIRMWARE.dialect(config)
+    (tmp_path / "homedelta.g").write_text(HOMEDELTA + "G1 H2 Z-2\n")
+    with pytest.raises(InputError, match=r"homedelta.g: line 9: G1 H2 \(single motors\)"):
+        RRF_FIRMWARE.dialect(config)
+

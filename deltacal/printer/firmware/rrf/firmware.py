@@ -19,6 +19,7 @@ from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware
 from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
 from .fit import RRFFit, fit_rrf
+from .homing import homed_position
 from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
@@ -99,10 +100,14 @@ class RRF(Firmware[RRFDelta]):
         never a count of turns (``GCodes.cpp``, ``HandleArc``: one turn at most, a whole circle
         where the ends meet), so it is read as absent; G28 runs ``homedelta.g``, whose ``G1 H1``
         moves stop each carriage at its endstop (``OnHomingSwitchTriggered``): the nozzle is where
-        RRF's model puts those carriages (moves ``homedelta.g`` makes after them are not read).
-        No macros are read.
+        RRF's model puts those carriages, moved on by the literal moves ``homedelta.g`` makes after
+        them when it lies beside ``config.g`` (:func:`~.homing.homed_position`). No macros are read.
+
+        Raises:
+            InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
+                is not known.
         """
-        home = load_rrf(path).home_position
+        home, _ = homed_position(path, load_rrf(path))
         return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
 
     def is_probe_log(self, text: str) -> bool:
