@@ -22,6 +22,8 @@ firmware gives through one :class:`Firmware`:
 * a program in its own dialect that probes the bed at given points and says each result on its
   console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
   (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
+* its configuration read into deltacal's robot file and measurement files, as ``deltacal import``
+  writes them (:meth:`Firmware.import_config`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
   leaves the nozzle, the macros its configuration defines.
 
@@ -34,7 +36,6 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -46,8 +47,10 @@ from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 from ..same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
+from .probe_log import ProbeLog
 
 if TYPE_CHECKING:
+    from ..importer import PrinterImport
     from ..robot import NominalLinearDelta
 
 #: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
@@ -124,22 +127,6 @@ class FirmwareModel(Protocol):
 
     def with_minimum_z(self, minimum_z: float) -> FirmwareModel:
         """The same values with the lowest Z the firmware accepts set to ``minimum_z`` [mm]."""
-
-
-@dataclass(frozen=True)
-class ProbeLog:
-    """The probe results of a firmware's log (:meth:`Firmware.read_probe_log`).
-
-    Attributes:
-        commanded: Commanded nozzle positions at each trigger [mm], (N, 3).
-        lines: The line of each result in the log, (N,).
-        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,), when the
-            probe's offsets were given; else None.
-    """
-
-    commanded: np.ndarray
-    lines: np.ndarray
-    trigger_height: np.ndarray | None = None
 
 
 class FirmwareFit(Protocol):
@@ -255,26 +242,6 @@ class Firmware(ABC, Generic[ModelT]):
             clearance: The nozzle's height above the bed while it moves between points [mm].
         """
 
-    @abstractmethod
-    def is_probe_log(self, text: str) -> bool:
-        """Whether a file's text holds this firmware's probe results (its log, a saved console)."""
-
-    @abstractmethod
-    def read_probe_log(self, path: str | Path, text: str | None = None,
-                       config: str | Path | None = None) -> ProbeLog:
-        """The probe results of a log, in its order, as commanded nozzle positions.
-
-        Args:
-            path: The log.
-            text: Its text, if already read.
-            config: The printer's configuration file, for its probe's offsets (needed where the
-                firmware prints the probe's position rather than the nozzle's); with it, every row
-                carries the nozzle's height above the bed at the trigger.
-
-        Raises:
-            InputError: the file cannot be read or holds no result, or a result needs ``config``.
-        """
-
     def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
                   radius: float) -> ModelT:
         """The values with the lowest Z lowered, if need be, to admit the corrected bed.
@@ -369,3 +336,41 @@ class Firmware(ABC, Generic[ModelT]):
             InputError: the configuration's first problem.
         """
         return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])
+
+    def is_probe_log(self, text: str) -> bool:
+        """Whether a file's text is a log of this firmware with its probe results (none by default)."""
+        return False
+
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
+        """The probe results of a log of this firmware, in its order.
+
+        Args:
+            path: The log (or a console saved from the firmware's host).
+            config: The firmware's configuration, for its probe's offsets (the trigger height).
+            text: The log's text, if already read.
+
+        Raises:
+            InputError: the log's first problem (by default: the firmware's logs are not read).
+        """
+        raise InputError(f"deltacal reads no probe results of {self.title}'s logs", str(path))
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """The printer as its configuration finds it, written in ``folder`` (``deltacal import``).
+
+        Writes ``printer.toml`` (:func:`~deltacal.printer.importer.write_printer_file`) and the
+        measurements the configuration holds, if any (the names of
+        :data:`~deltacal.printer.importer.OUTPUT_FILES`).
+
+        Args:
+            path: The configuration.
+            folder: An existing folder.
+            effector_radius: Effector centre to each ball pair's midpoint [mm] (None: a default).
+            rod_spacing: Between a pair's two balls [mm] (None: a default).
+            nozzle_drop: The nozzle below the effector's ball plane [mm] (None: a default).
+
+        Raises:
+            InputError: the configuration's first problem (by default: not read).
+        """
+        raise InputError(f"deltacal import does not read {self.title}'s settings", str(path))

@@ -7,6 +7,7 @@ instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
@@ -15,9 +16,12 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
+from ...importer import OUTPUT_FILES, PrinterImport
+from ..base import PROBE_CLEARANCE, Firmware
+from ..probe_log import ProbeLog
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
+from .importer import import_klipper, write_import
 from .log import is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
@@ -25,6 +29,7 @@ from .probing import klipper_probe_program
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
+    from ..probe_log import ProbeLog
 
 
 class Klipper(Firmware[KlipperDelta]):
@@ -74,16 +79,6 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
 
-    def is_probe_log(self, text: str) -> bool:
-        """Klipper's probe results or a log's marks (:func:`~.log.is_probe_log`)."""
-        return is_probe_log(text)
-
-    def read_probe_log(self, path: str | Path, text: str | None = None,
-                       config: str | Path | None = None) -> ProbeLog:
-        """:func:`~.log.read_probe_log`, the probe's offsets from ``printer.cfg``."""
-        offsets = None if config is None else probe_offsets(read_klipper_config(config))
-        return read_probe_log(path, text, offsets)
-
     def dialect(self, path: str | Path) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
 
@@ -97,6 +92,36 @@ class Klipper(Firmware[KlipperDelta]):
         home = load_klipper(path).positions(np.zeros((1, 3)))[0]
         return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
                        macros=with_moving_commands(read_macros(read_klipper_config(path))))
+
+    def is_probe_log(self, text: str) -> bool:
+        """Klipper's probe results, or a log's or a console's marks (:func:`~.log.is_probe_log`)."""
+        return is_probe_log(text)
+
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
+        """:func:`~.log.read_probe_log`, the offsets from ``printer.cfg`` (:func:`~.log.probe_offsets`)."""
+        if config is None:
+            return read_probe_log(path, text)
+        offsets = probe_offsets(read_klipper_config(config))
+        log = read_probe_log(path, text, offsets)
+        return replace(log, trigger_source=f"z_offset of {config}")
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """:func:`~.importer.import_klipper` written by :func:`~.importer.write_import`."""
+        imported = import_klipper(path, effector_radius, rod_spacing, nozzle_drop)
+        written = write_import(imported, folder)
+        saved = imported.saved
+        defaults = f"; defaults taken: {', '.join(imported.defaults)}" if imported.defaults else ""
+        said = [f"wrote {written[0]}: Klipper's model of {path} (delta_radius "
+                f"{imported.klipper.delta_radius:g} mm){defaults}"]
+        if saved.empty:
+            said.append("no [delta_calibrate] measurements in its SAVE_CONFIG block: no probe.csv, no "
+                        "distances.csv")
+        for file in written[1:]:
+            rows = saved.height.size if file.name == OUTPUT_FILES[1] else saved.distance.size
+            said.append(f"wrote {file}: {rows} rows saved by Klipper's DELTA_CALIBRATE / DELTA_ANALYZE")
+        return PrinterImport(tuple(written), tuple(said))
 
 
 #: Klipper, the firmware.

@@ -32,19 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
-from ....io.atomic import atomic_write_text
-from ...imported import ImportedValues, imported_robot_text
+from ...importer import OUTPUT_FILES, ImportedValues, Measured, printer_file_text, write_printer_file
 from ...measurement_files import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
 from .saved import SavedCalibration, read_saved_calibration
-
-#: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
-DEFAULT_EFFECTOR_RADIUS = 30.0
-DEFAULT_ROD_SPACING = 50.0
-DEFAULT_NOZZLE_DROP = 30.0
-#: The files :func:`write_import` writes in its folder.
-OUTPUT_FILES = ("printer.toml", "probe.csv", "distances.csv")
 
 
 @dataclass(frozen=True)
@@ -58,6 +50,8 @@ class ImportedPrinter:
         probe: Commanded nozzle positions of the saved heights [mm], (N, 3).
         pairs: Commanded positions of the saved distances' ends ``x1..z2`` [mm], (M, 6).
         defaults: What was taken by default (effector radius, rod spacing, nozzle drop), as said.
+        values: Klipper's model in deltacal's words.
+        measured: What the configuration does not say (given or defaults).
     """
 
     text: str
@@ -66,6 +60,8 @@ class ImportedPrinter:
     probe: np.ndarray
     pairs: np.ndarray
     defaults: tuple[str, ...]
+    values: ImportedValues
+    measured: Measured
 
 
 def import_klipper(path: str | Path, effector_radius: float | None = None, rod_spacing: float | None = None,
@@ -83,16 +79,14 @@ def import_klipper(path: str | Path, effector_radius: float | None = None, rod_s
     """
     config = read_klipper_config(path)
     klipper = klipper_from_config(config)
-    given = {"effector radius": (effector_radius, DEFAULT_EFFECTOR_RADIUS),
-             "rod spacing": (rod_spacing, DEFAULT_ROD_SPACING),
-             "nozzle drop": (nozzle_drop, DEFAULT_NOZZLE_DROP)}
-    defaults = tuple(f"{what} {default:g} mm" for what, (value, default) in given.items() if value is None)
-    a, c, drop = (default if value is None else float(value) for value, default in given.values())
+    measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
     saved = read_saved_calibration(config)
     probe = _positions(klipper, saved.height_steps, config, "height")
     ends = _positions(klipper, saved.pair_steps.reshape(-1, 3), config, "distance")
-    text = _robot_text(config, klipper, a, c, drop, defaults)
-    return ImportedPrinter(text, klipper, saved, probe, ends.reshape(-1, 6), defaults)
+    values = _values(config, klipper)
+    text = printer_file_text(values, measured)
+    return ImportedPrinter(text, klipper, saved, probe, ends.reshape(-1, 6), measured.defaults, values,
+                           measured)
 
 
 def _positions(klipper: KlipperDelta, steps: np.ndarray, config: KlipperConfig, what: str) -> np.ndarray:
@@ -106,20 +100,18 @@ def _positions(klipper: KlipperDelta, steps: np.ndarray, config: KlipperConfig, 
     return positions
 
 
-def _robot_text(config: KlipperConfig, klipper: KlipperDelta, effector_radius: float, rod_spacing: float,
-                nozzle_drop: float, defaults: tuple[str, ...]) -> str:
-    """The robot file (``kind = "linear"``) of Klipper's model of the configuration."""
+def _values(config: KlipperConfig, klipper: KlipperDelta) -> ImportedValues:
+    """Klipper's model of the configuration in deltacal's words (:class:`~...importer.ImportedValues`)."""
     rho = klipper.delta_radius
     angles = [config.number(s, "angle", d) for s, d in zip(STEPPERS, DEFAULT_ANGLES_DEG, strict=True)]
-    values = ImportedValues(
+    return ImportedValues(
         "Klipper", config.source, (rho, "delta_radius"), (klipper.arm_length, "arm_length"),
         (np.array(angles, dtype=float), "angle"),
         (klipper.position_endstop + np.sqrt(klipper.arm_length**2 - rho**2),
          "position_endstop + sqrt(arm_length^2 - delta_radius^2)"),
-        (klipper.step_distance, "rotation_distance / (full_steps_per_rotation * microsteps * gear ratio)"),
-        _printable_radius(config, klipper))
-    return imported_robot_text(values, effector_radius, rod_spacing, nozzle_drop, defaults,
-                               "sections [stepper_a..c], key position_endstop")
+        (klipper.step_distance, ""), _printable_radius(config, klipper),
+        "Klipper's full-radius height (radius tapered above)",
+        where="sections [stepper_a..c], key position_endstop")
 
 
 def _printable_radius(config: KlipperConfig, klipper: KlipperDelta) -> tuple[float, str]:
@@ -143,7 +135,7 @@ def write_import(imported: ImportedPrinter, out_dir: str | Path) -> list[Path]:
         The files written.
     """
     out = Path(out_dir)
-    written = [atomic_write_text(out / OUTPUT_FILES[0], imported.text)]
+    written = [write_printer_file(out / OUTPUT_FILES[0], imported.values, imported.measured)]
     saved = imported.saved
     if saved.height.size:
         written.append(write_probe_heights(out / OUTPUT_FILES[1], imported.probe[:, :2], imported.probe[:, 2],

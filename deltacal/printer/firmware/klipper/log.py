@@ -21,14 +21,15 @@ trigger). A console shows the lines after ``// ``, a log after its time.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ....exceptions import InputError
-from ..base import ProbeLog
+from ..probe_log import ProbeLog, ProbeOffsets
 from .config import KlipperConfig
+
+__all__ = ["ProbeLog", "ProbeOffsets", "is_probe_log", "probe_offsets", "read_probe_log"]
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
 #: Klipper's answer to a probe before 2026: the toolhead's position.
@@ -47,21 +48,6 @@ _DISCARDED = re.compile(r"\[discarded\]|SKIPPED", re.IGNORECASE)
 _LOG_MARK = re.compile(r"^(?:Start printer at|===== Config file =====|// |\$ |Args: )", re.MULTILINE)
 #: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
 PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
-
-
-@dataclass(frozen=True)
-class ProbeOffsets:
-    """A probe's offsets from the nozzle, as Klipper's configuration gives them [mm].
-
-    Attributes:
-        x: ``x_offset``.
-        y: ``y_offset``.
-        z: ``z_offset``: the nozzle's height above the bed when the probe triggers.
-    """
-
-    x: float
-    y: float
-    z: float
 
 
 def probe_offsets(config: KlipperConfig) -> ProbeOffsets:

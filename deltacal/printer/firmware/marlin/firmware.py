@@ -8,6 +8,7 @@ the one instance. Units: mm, trims in degrees.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
@@ -17,8 +18,11 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
+from ...importer import PrinterImport
+from ..base import PROBE_CLEARANCE, Firmware
+from ..probe_log import ProbeLog
 from .fit import MarlinFit, fit_marlin
+from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
 from .probing import marlin_probe_program
@@ -77,11 +81,18 @@ class Marlin(Firmware[MarlinDelta]):
         """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""
         return is_marlin_probe_log(text)
 
-    def read_probe_log(self, path: str | Path, text: str | None = None,
-                       config: str | Path | None = None) -> ProbeLog:
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
         """:func:`~.log.read_marlin_probe_log`, ``M851`` from the ``M503`` capture ``config``."""
-        offset = None if config is None else load_marlin(config).probe_offset
-        return read_marlin_probe_log(path, text, offset)
+        if config is None:
+            return read_marlin_probe_log(path, text)
+        log = read_marlin_probe_log(path, text, load_marlin(config).probe_offset)
+        return replace(log, trigger_source=f"-M851 Z of {config}")
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """:func:`~.importer.import_marlin`: ``printer.toml`` of Marlin's model of an ``M503`` capture."""
+        return import_marlin(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
     def dialect(self, path: str | Path) -> Dialect:
         """Marlin 2's reading of G-code with the settings of an ``M503`` capture.

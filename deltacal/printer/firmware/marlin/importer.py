@@ -1,6 +1,7 @@
 """A printer as its ``M503`` capture finds it: the robot file of Marlin's model of those settings.
 
-``deltacal import M503.txt -o DIR`` writes ``DIR/printer.toml`` (:func:`~...imported.imported_robot_text`):
+``deltacal import M503.txt -o DIR`` writes ``DIR/printer.toml`` (by the one writer,
+:func:`~...importer.write_printer_file`):
 
 * per tower: ``rod_length_mm`` = ``M665 L`` + ``A``/``B``/``C``; ``tower_azimuth_deg`` = 210, 330,
   90 + ``M665 X Y Z``; ``endstop_height_mm`` = ``M665 H − M851 Z + sqrt(rod² − R²)`` (+ the
@@ -10,7 +11,8 @@
 * ``[workspace] radius_mm`` = the soft endstops' radius (``M211``'s ``Min``/``Max``, else Marlin's
   default); ``height_mm`` = the height up to which the full radius is reachable.
 
-Units: mm and deg in the file.
+An ``M503`` capture holds no measurements: no probe.csv, no distances.csv (the probe's results are
+read from the console, :mod:`.log`). Units: mm and deg in the file.
 """
 
 from __future__ import annotations
@@ -19,31 +21,45 @@ from pathlib import Path
 
 import numpy as np
 
-from ...imported import ImportedValues, imported_robot_text
+from ...importer import OUTPUT_FILES, ImportedValues, Measured, PrinterImport, write_printer_file
 from .model import BASE_ANGLES_DEG, MarlinDelta
 from .settings import load_marlin
 
 
-def import_marlin(path: str | Path, effector_radius: float, rod_spacing: float,
-                  nozzle_drop: float, defaults: tuple[str, ...] = ()) -> tuple[str, MarlinDelta]:
-    """The robot file's text of an ``M503`` capture, and Marlin's model of it.
-
-    Args:
-        path: The capture.
-        effector_radius: Effector centre to each ball pair's midpoint [mm].
-        rod_spacing: Between a pair's two balls [mm].
-        nozzle_drop: The nozzle below the effector's ball plane [mm].
-        defaults: Which of them were taken by default, as said.
+def marlin_imported_values(path: str | Path) -> tuple[MarlinDelta, ImportedValues]:
+    """Marlin's model of an ``M503`` capture and its values in deltacal's words (the module's documentation).
 
     Raises:
-        InputError: the capture's first problem, or no printable volume.
+        InputError: the capture's first problem.
     """
     marlin = load_marlin(path)
-    limits = marlin.soft_endstops
     values = ImportedValues(
         "Marlin", str(path), (marlin.radius, "M665 R"), (marlin.rods, "M665 L + A/B/C"),
         (np.array(BASE_ANGLES_DEG) + marlin.angle_trim, "210, 330, 90 + M665 X/Y/Z"),
         (np.array(marlin.carriage_top), "M665 H - M851 Z + sqrt(rod^2 - R^2) (+ G28's M666 move)"),
         (marlin.step_distance, "1 / M92"),
-        (limits.radius, "the soft endstops' radius (M211 Min/Max)"))
-    return imported_robot_text(values, effector_radius, rod_spacing, nozzle_drop, defaults, "M665 H"), marlin
+        (marlin.soft_endstops.radius, "the soft endstops' radius (M211 Min/Max)"),
+        "Marlin's full-radius height (radius tapered above)", where="M665 H")
+    return marlin, values
+
+
+def import_marlin(path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                  rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+    """Write ``folder/printer.toml`` of an ``M503`` capture (the module's documentation).
+
+    Args:
+        path: The capture.
+        folder: An existing folder.
+        effector_radius: Effector centre to each ball pair's midpoint [mm] (default 30).
+        rod_spacing: Between a pair's two balls [mm] (default 50).
+        nozzle_drop: The nozzle below the effector's ball plane [mm] (default 30).
+
+    Raises:
+        InputError: the capture's first problem, or no printable volume.
+    """
+    marlin, values = marlin_imported_values(path)
+    measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
+    written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
+    taken = f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+    said = f"wrote {written}: Marlin's model of {path} (M665 R {marlin.radius:g} mm){taken}"
+    return PrinterImport((written,), (said,))

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
-from ..base import ProbeLog
+from ..probe_log import ProbeLog
 
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 #: Marlin's answer to a probe (G30, G29 V3): the probe's position and the bed's height under it.

@@ -11,7 +11,10 @@ a quoted string, ``(...)`` is a comment, parameter letters are read in any case,
   microstepping (default x16) and scales the steps per mm already set (``GCodes::ChangeMicrostepping``);
 * ``M208``: the Z minimum (``S1 Z``, or ``Zmin:max``); ``M564 S``: the limits on or off;
 * ``M669 K`` (the kinematics): only 3 (linear delta) is read; ``M501`` runs ``config-override.g``
-  from the same folder where it stands (as RRF does), with a warning if it is not there.
+  from the same folder where it stands (as RRF does), with a warning if it is not there;
+* ``G31 X Y Z`` of the first Z probe (``K0``, or no ``K``): the probe's offsets from the nozzle
+  and its trigger height (``ZProbe::HandleG31``; RRF's defaults X0 Y0 Z0.7), for the probe's
+  results (:func:`rrf_probe_offsets`).
 
 Everything else (meta commands, other codes) is left alone. A value RRF computes at run time
 (``{...}``) cannot be read: it is refused naming its line. Errors are one line naming the file,
@@ -30,6 +33,7 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
+from ..probe_log import ProbeOffsets
 from .model import (
     DEFAULT_DIAGONAL,
     DEFAULT_HOMED_HEIGHT,
@@ -43,6 +47,8 @@ from .model import (
 READ_CODES = (92, 208, 350, 501, 564, 665, 666, 669)
 #: ``M669 K``: RRF's kinematics number of a linear delta.
 LINEAR_DELTA = 3
+#: RRF's Z probe trigger height when no ``G31 Z`` sets it (``DefaultZProbeTriggerHeight``) [mm].
+DEFAULT_TRIGGER_HEIGHT = 0.7
 #: The file ``M501`` runs.
 OVERRIDE = "config-override.g"
 #: A line's command: an optional line number, then G/M/T and its number.
@@ -195,6 +201,9 @@ def _run(path: Path, settings: RRFSettings, visited: set[Path]) -> None:
     visited.add(path.resolve())
     for number, raw in enumerate(text.split("\n"), start=1):
         line = parse_line(raw, str(path), number)
+        if line is not None and line.code == "G31":
+            _apply_g31(line, settings)
+            continue
         if line is None or line.code[0] != "M" or int(line.code[1:]) not in READ_CODES:
             continue
         if line.code == "M501":
@@ -251,6 +260,21 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
+
+
+def _apply_g31(line: RRFLine, settings: RRFSettings) -> None:
+    """``G31 X Y Z`` of the first Z probe (``K0`` or no ``K``): its offsets and trigger height."""
+    if "K" in line.params and line.number("K") != 0:
+        return
+    for key in ("X", "Y", "Z"):
+        if key in line.params:
+            settings.set(line, key, [line.number(key)])
+
+
+def rrf_probe_offsets(settings: RRFSettings) -> ProbeOffsets:
+    """The first Z probe's ``G31 X Y`` offsets and ``G31 Z`` trigger height (RRF's defaults if unset) [mm]."""
+    return ProbeOffsets(settings.get("G31 X", 0.0), settings.get("G31 Y", 0.0),
+                        settings.get("G31 Z", DEFAULT_TRIGGER_HEIGHT))
 
 
 def _apply_m208(line: RRFLine, settings: RRFSettings) -> None:

@@ -7,23 +7,28 @@ is the one instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....exceptions import InputError
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, ProbeLog
-from .config import is_rrf_config, load_rrf, rrf_config_text
+from ..base import PROBE_CLEARANCE, Firmware
+from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
 from .fit import RRFFit, fit_rrf
+from .homing import homed_position
+from .importer import import_rrf
+from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
 from .probing import rrf_probe_program
 
 if TYPE_CHECKING:
+    from ...importer import PrinterImport
     from ...robot import NominalLinearDelta
+    from ..probe_log import ProbeLog
 
 
 class RRF(Firmware[RRFDelta]):
@@ -96,22 +101,36 @@ class RRF(Firmware[RRFDelta]):
         never a count of turns (``GCodes.cpp``, ``HandleArc``: one turn at most, a whole circle
         where the ends meet), so it is read as absent; G28 runs ``homedelta.g``, whose ``G1 H1``
         moves stop each carriage at its endstop (``OnHomingSwitchTriggered``): the nozzle is where
-        RRF's model puts those carriages (moves ``homedelta.g`` makes after them are not read).
-        No macros are read.
+        RRF's model puts those carriages, moved on by the literal moves ``homedelta.g`` makes after
+        them when it lies beside ``config.g`` (:func:`~.homing.homed_position`). No macros are read.
+
+        Raises:
+            InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
+                is not known.
         """
-        home = load_rrf(path).home_position
+        home, _ = homed_position(path, load_rrf(path))
         return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
 
-
     def is_probe_log(self, text: str) -> bool:
-        """RepRapFirmware's probe results are not read from a log yet: no text is its log."""
-        return False
+        """RRF's answers to ``G30 S-1`` (:func:`~.log.is_rrf_probe_log`)."""
+        return is_rrf_probe_log(text)
 
-    def read_probe_log(self, path: str | Path, text: str | None = None,
-                       config: str | Path | None = None) -> ProbeLog:
-        """Refused in one line: RepRapFirmware's console is not read yet (write probe.csv's z_mm by hand)."""
-        raise InputError("RepRapFirmware's probe results are not read from a log yet: write the heights "
-                         "G30 S-1 reported into probe.csv's z_mm", str(path))
+    def read_probe_log(self, path: str | Path, config: str | Path | None = None,
+                       text: str | None = None) -> ProbeLog:
+        """:func:`~.log.read_rrf_probe_log`, the trigger height ``G31 Z`` of ``config.g`` if given."""
+        if config is None:
+            return read_rrf_probe_log(path, text)
+        settings = read_rrf_settings(config)
+        log = read_rrf_probe_log(path, text, rrf_probe_offsets(settings))
+        given = "G31 Z" in settings.values
+        return replace(log, trigger_source=f"G31 Z of {config}" if given else
+                       f"RepRapFirmware's default trigger height: no G31 Z in {config}")
+
+    def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
+                      rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
+        """:func:`~.importer.import_rrf`: ``printer.toml`` of RRF's model of ``config.g``."""
+        return import_rrf(path, folder, effector_radius, rod_spacing, nozzle_drop)
+
 
 #: RepRapFirmware, the firmware.
 RRF_FIRMWARE = RRF()

@@ -1,0 +1,48 @@
+"""A firmware's probe results read from its log, whatever the firmware: the rows and the probe's offsets.
+
+Each firmware says a probe's result on its console in its own words (Klipper's ``probe at X,Y is
+z=Z``, RepRapFirmware's ``Stopped at height Z mm``); its reader
+(:meth:`~.base.Firmware.read_probe_log`) gives the same value: the commanded nozzle positions at
+the triggers, with the nozzle's height above the bed there when the probe's offsets are known.
+Units: mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ProbeOffsets:
+    """A probe's offsets from the nozzle, as a firmware's configuration gives them [mm].
+
+    Attributes:
+        x: The probe's x less the nozzle's (Klipper's ``x_offset``, RepRapFirmware's ``G31 X``).
+        y: The probe's y less the nozzle's (``y_offset``, ``G31 Y``).
+        z: The nozzle's height above the bed when the probe triggers (``z_offset``, ``G31 Z``).
+    """
+
+    x: float
+    y: float
+    z: float
+
+
+@dataclass(frozen=True)
+class ProbeLog:
+    """The probe results of a log.
+
+    Attributes:
+        commanded: Commanded nozzle positions at each trigger [mm], (N, 3).
+        lines: The line of each result in the log, (N,).
+        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,), when the
+            probe's offsets were given; else None.
+        trigger_source: Where the trigger height comes from, for messages (``"z_offset of
+            printer.cfg"``), or "".
+    """
+
+    commanded: np.ndarray
+    lines: np.ndarray
+    trigger_height: np.ndarray | None = None
+    trigger_source: str = ""

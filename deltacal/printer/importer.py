@@ -1,0 +1,169 @@
+"""The robot file of a printer as a firmware's configuration describes it, whatever the firmware.
+
+``deltacal import`` (conventions, "Printers as they are found") reads a firmware's configuration
+(Klipper's ``printer.cfg``, RepRapFirmware's ``config.g``) into the values of its classical model
+(:class:`ImportedValues`), and :func:`write_printer_file` writes the robot file (``kind =
+"linear"``) of exactly that model, the one writer of every firmware:
+
+* ``tower_radius_mm`` = the model's radius ρ (carriage point to effector point, horizontal) + the
+  effector radius; ``rod_length_mm`` = each tower's rod; ``tower_azimuth_deg`` = each tower's
+  azimuth; ``endstop_height_mm`` = each carriage point's height at its endstop (the nozzle's frame)
+  + the nozzle drop; ``step_distance_mm`` = each tower's step distance; a per-tower value is a number
+  when the three towers agree, ``[a, b, c]`` otherwise (the azimuths always three);
+* ``nozzle_mm`` = ``[0, 0, −drop]``; the effector radius, the rod spacing and the nozzle drop are
+  in no firmware's configuration: given (measured), or defaults that the file names;
+* ``[workspace]``: ``radius_mm`` = the printable radius, ``height_mm`` = the height up to which the
+  full radius is reachable, ``min(carriage top − rod)``.
+
+Each line names the firmware's words it came from. Units: mm and deg in the file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..exceptions import InputError
+from ..io.atomic import atomic_write_text
+from ..io.toml import _toml_value
+from ..towers import written_per_tower
+
+#: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
+DEFAULT_EFFECTOR_RADIUS = 30.0
+DEFAULT_ROD_SPACING = 50.0
+DEFAULT_NOZZLE_DROP = 30.0
+#: The files ``deltacal import`` of a configuration writes in its folder.
+OUTPUT_FILES = ("printer.toml", "probe.csv", "distances.csv")
+#: The options that give what a configuration does not say.
+MEASURED_OPTIONS = "--effector-radius, --rod-spacing, --nozzle-drop"
+
+
+@dataclass(frozen=True)
+class Measured:
+    """What a firmware's configuration does not say: given (measured) or defaults [mm].
+
+    Attributes:
+        effector_radius: Effector centre to each ball pair's midpoint.
+        rod_spacing: Between a pair's two balls.
+        nozzle_drop: The nozzle below the effector's ball plane.
+        defaults: Which were taken by default, as said (``"effector radius 30 mm"``).
+    """
+
+    effector_radius: float
+    rod_spacing: float
+    nozzle_drop: float
+    defaults: tuple[str, ...]
+
+    @classmethod
+    def given(cls, effector_radius: float | None, rod_spacing: float | None,
+              nozzle_drop: float | None) -> Measured:
+        """The values given, the defaults (:data:`DEFAULT_EFFECTOR_RADIUS`...) for those not."""
+        given = {"effector radius": (effector_radius, DEFAULT_EFFECTOR_RADIUS),
+                 "rod spacing": (rod_spacing, DEFAULT_ROD_SPACING),
+                 "nozzle drop": (nozzle_drop, DEFAULT_NOZZLE_DROP)}
+        defaults = tuple(f"{what} {default:g} mm" for what, (value, default) in given.items()
+                         if value is None)
+        a, c, drop = (default if value is None else float(value) for value, default in given.values())
+        return cls(a, c, drop, defaults)
+
+
+@dataclass(frozen=True)
+class ImportedValues:
+    """A firmware's model of a printer in deltacal's words, each value with the firmware's words for it.
+
+    Attributes:
+        firmware: The firmware's name users read (``"Klipper"``).
+        source: The configuration file.
+        radius: ρ, carriage point to effector point, horizontal [mm], and its words.
+        rods: Each tower's rod [mm], (3,), and its words.
+        azimuth_deg: Each tower's azimuth [deg], (3,), and its words.
+        carriage_top: Each carriage point's height at its endstop, nozzle frame [mm], (3,), and its words.
+        step_distance: Each tower's step distance [mm], (3,), and its words ("": none written).
+        printable: The printable radius [mm] and where it came from.
+        height_words: What the workspace's height is called.
+        notes: Comment lines the file carries after its first (what the model has that a robot
+            file has not, say).
+        where: The configuration's key to name when no volume is printable.
+    """
+
+    firmware: str
+    source: str
+    radius: tuple[float, str]
+    rods: tuple[np.ndarray, str]
+    azimuth_deg: tuple[np.ndarray, str]
+    carriage_top: tuple[np.ndarray, str]
+    step_distance: tuple[np.ndarray, str]
+    printable: tuple[float, str]
+    height_words: str
+    notes: tuple[str, ...] = ()
+    where: str = ""
+
+
+def printer_file_text(values: ImportedValues, measured: Measured) -> str:
+    """The robot file (``kind = "linear"``) of the firmware's model (the module's documentation).
+
+    Raises:
+        InputError: no printable volume above the bed (the full-radius height is not positive).
+    """
+    rho = values.radius[0]
+    rods, top = np.asarray(values.rods[0], float), np.asarray(values.carriage_top[0], float)
+    height = math.floor(float(np.min(top - rods)) * 1e6) / 1e6
+    if height <= 0.0:
+        raise InputError(f"{values.firmware}'s full-radius height min({values.carriage_top[1]} - "
+                         f"{values.rods[1]}) is {height:g} mm: no printable volume above the bed",
+                         values.source, values.where)
+    source = Path(values.source)
+    drop = measured.nozzle_drop
+    steps = values.step_distance[1]
+    taken = ", ".join(measured.defaults)
+    defaults = [f"# Not in a {values.firmware} configuration, taken by default: {taken} "
+                f"(measure them and give {MEASURED_OPTIONS})."] if measured.defaults else []
+    lines = [f"# Imported by deltacal from {source.name}: {values.firmware}'s model of that configuration.",
+             *defaults,
+             *(f"# {note}" for note in values.notes),
+             f"name = {_toml_value(source.stem)}",
+             f"description = {_toml_value(f'imported from {source.name} ({values.radius[1]} {rho:g} mm)')}",
+             'kind = "linear"', "", "[geometry]",
+             f"tower_radius_mm = {rho + measured.effector_radius!r}   # {values.radius[1]} + effector radius",
+             f"effector_radius_mm = {measured.effector_radius!r}",
+             f"rod_length_mm = {_per_tower(rods)}   # {values.rods[1]}",
+             f"rod_spacing_mm = {measured.rod_spacing!r}",
+             f"tower_azimuth_deg = {_toml_value([float(v) for v in values.azimuth_deg[0]])}   "
+             f"# {values.azimuth_deg[1]}",
+             f"nozzle_mm = {_toml_value([0.0, 0.0, -drop])}",
+             f"endstop_height_mm = {_per_tower(top + drop)}   # {values.carriage_top[1]} + nozzle drop",
+             f"step_distance_mm = {_per_tower(values.step_distance[0])}" + (f"   # {steps}" if steps else ""),
+             "", "[workspace]",
+             f"radius_mm = {values.printable[0]!r}   # {values.printable[1]}",
+             f"height_mm = {height!r}   # {values.height_words}"]
+    return "\n".join(lines) + "\n"
+
+
+def write_printer_file(path: str | Path, values: ImportedValues, measured: Measured) -> Path:
+    """Write :func:`printer_file_text` to ``path`` atomically; returns the path.
+
+    Raises:
+        InputError: no printable volume above the bed.
+    """
+    return atomic_write_text(path, printer_file_text(values, measured))
+
+
+@dataclass(frozen=True)
+class PrinterImport:
+    """What ``deltacal import`` of a configuration wrote, and what it says of it.
+
+    Attributes:
+        written: The files written, ``printer.toml`` first.
+        said: One line for each, for the user (the library never prints).
+    """
+
+    written: tuple[Path, ...]
+    said: tuple[str, ...]
+
+
+def _per_tower(values: np.ndarray) -> str:
+    """A per-tower value as TOML: a number when the three towers agree, ``[a, b, c]`` otherwise."""
+    return _toml_value(written_per_tower(np.asarray(values, dtype=float)))
