@@ -45,8 +45,8 @@ from ....chains import PRISMATIC
 from ....exceptions import GeometryError, UnreachableError
 from ....geometry import DeltaGeometry, radial_vectors
 from ....kinematics.closed_form import VirtualDelta
-from ....towers import per_tower
 from ...robot import NominalLinearDelta
+from ..controller import FirmwareController
 
 #: Klipper's tower angles when a ``[stepper_*]`` gives none [deg] (towers A, B, C).
 DEFAULT_ANGLES_DEG = (210.0, 330.0, 90.0)
@@ -341,8 +341,7 @@ def _step_below(value: float) -> float:
     return float(f"{need:.2f}")
 
 
-@dataclass(frozen=True, eq=False)
-class KlipperController:
+class KlipperController(FirmwareController[KlipperDelta]):
     """Klipper as a controller of a printer whose readings count steps in ``step_distance``.
 
     The firmware (:class:`KlipperDelta`) commands steps; deltacal's readings of a printer are
@@ -357,46 +356,3 @@ class KlipperController:
             broadcasts): the printer's nominal ones, ``NominalLinearDelta.step_distance``, those its
             identification read measurements in.
     """
-
-    firmware: KlipperDelta
-    step_distance: np.ndarray
-
-    #: How the controller moves between two targets: Klipper plans each move as a straight line
-    #: in its Cartesian frame and its kinematics maps every step on the way (delta.py).
-    interpolation = "cartesian"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
-
-    @property
-    def name(self) -> str:
-        """The configuration's name."""
-        return self.firmware.name
-
-    @property
-    def tool(self) -> np.ndarray:
-        """Klipper's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
-        return np.zeros(3)
-
-    @cached_property
-    def virtual(self) -> VirtualDelta:
-        """Klipper's model as a prismatic :class:`VirtualDelta` whose readings are deltacal's [mm]."""
-        return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
-
-    @cached_property
-    def home(self) -> np.ndarray:
-        """Where Klipper puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
-        return self.firmware.home_position
-
-    @property
-    def limits(self) -> KlipperDelta:
-        """Klipper's limits on its commands: its model's (:meth:`KlipperDelta.outside`)."""
-        return self.firmware
-
-    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
-        """The readings Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.inverse(targets, self.step_distance, check)
-
-    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
-        """The nozzle position Klipper's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.forward(readings, self.step_distance, check)

@@ -52,6 +52,7 @@ from ....exceptions import AssemblyError, GeometryError, UnreachableError
 from ....geometry import radial_vectors
 from ....kinematics.closed_form import VirtualDelta
 from ....towers import per_tower
+from ..controller import FirmwareController
 
 #: Marlin's tower angles before the trims (``delta.cpp``) [deg], towers A, B, C.
 BASE_ANGLES_DEG = (210.0, 330.0, 90.0)
@@ -274,6 +275,11 @@ class MarlinDelta:
             joint_scale=np.array(self.step_distance),
         )
 
+    @property
+    def home_position(self) -> np.ndarray:
+        """Where ``G28`` leaves the nozzle: ``(0, 0, H − M851 Z)`` [mm], (3,)."""
+        return np.array([0.0, 0.0, self.home_height])
+
     def outside(self, targets: np.ndarray) -> np.ndarray:
         """Which soft endstop each target breaks (Marlin would clamp it), (N,) integers: 0 none, else a code.
 
@@ -318,55 +324,14 @@ class MarlinDelta:
         return replace(self, soft_endstops=lowered)
 
 
-@dataclass(frozen=True, eq=False)
-class MarlinController:
+class MarlinController(FirmwareController[MarlinDelta]):
     """Marlin as a controller of a printer whose readings count steps in ``step_distance``.
+
+    Marlin cuts a delta move into ``M665 S`` segments a second whose ends lie on the straight line
+    (``motion.cpp``, ``line_to_destination_kinematic``); its home is ``(0, 0, H − M851 Z)``.
 
     Attributes:
         firmware: Marlin's model, from its settings.
         step_distance: The step distance each tower's readings count in [mm], (3,) (a number
             broadcasts): the printer's nominal ones.
     """
-
-    firmware: MarlinDelta
-    step_distance: np.ndarray
-
-    #: Marlin cuts a delta move into ``M665 S`` segments a second whose ends lie on the straight line
-    #: (``motion.cpp``, ``line_to_destination_kinematic``).
-    interpolation = "cartesian"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
-
-    @property
-    def name(self) -> str:
-        """The settings' name."""
-        return self.firmware.name
-
-    @property
-    def tool(self) -> np.ndarray:
-        """Marlin's targets are the nozzle's [mm], (3,)."""
-        return np.zeros(3)
-
-    @cached_property
-    def virtual(self) -> VirtualDelta:
-        """Marlin's model as a prismatic :class:`VirtualDelta` whose readings are deltacal's [mm]."""
-        return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
-
-    @property
-    def limits(self) -> MarlinDelta:
-        """Marlin's soft endstops on its commands: its model's (:meth:`MarlinDelta.outside`)."""
-        return self.firmware
-
-    @cached_property
-    def home(self) -> np.ndarray:
-        """Where ``G28`` leaves the nozzle: ``(0, 0, H − M851 Z)`` [mm], (3,)."""
-        return np.array([0.0, 0.0, self.firmware.home_height])
-
-    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
-        """The readings Marlin commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.inverse(targets, self.step_distance, check)
-
-    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
-        """The nozzle position Marlin's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.forward(readings, self.step_distance, check)

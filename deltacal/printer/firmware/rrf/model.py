@@ -58,6 +58,7 @@ from ....geometry import DeltaGeometry, radial_vectors
 from ....kinematics.closed_form import VirtualDelta
 from ....towers import per_tower
 from ...robot import NominalLinearDelta
+from ..controller import FirmwareController
 
 #: RRF's tower azimuths before the angle corrections [deg] (towers A, B, C: ``Recalc()``).
 BASE_ANGLES_DEG = (210.0, 330.0, 90.0)
@@ -394,8 +395,7 @@ class RRFDelta:
         return "; also ".join(parts) if parts else "inside RepRapFirmware's limits"
 
 
-@dataclass(frozen=True, eq=False)
-class RRFController:
+class RRFController(FirmwareController[RRFDelta]):
     """RepRapFirmware as a controller of a printer whose readings count steps in ``step_distance``.
 
     As :class:`~..klipper.model.KlipperController`: the firmware (:class:`RRFDelta`) commands
@@ -406,46 +406,3 @@ class RRFController:
         step_distance: The step distance each tower's readings count in [mm], (3,) (a number
             broadcasts): the printer's nominal ones.
     """
-
-    firmware: RRFDelta
-    step_distance: np.ndarray
-
-    #: RRF moves a linear Delta along straight lines in its Cartesian frame (segmented by time
-    #: in its DDA, every step mapped through ``Transform``).
-    interpolation = "cartesian"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
-
-    @property
-    def name(self) -> str:
-        """The configuration's name."""
-        return self.firmware.name
-
-    @property
-    def tool(self) -> np.ndarray:
-        """RRF's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
-        return np.zeros(3)
-
-    @cached_property
-    def virtual(self) -> VirtualDelta:
-        """RRF's model (its tilt aside: a shear, z moved by ``x xTilt + y yTilt``) in deltacal's readings."""
-        return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
-
-    @property
-    def home(self) -> np.ndarray:
-        """Where RRF puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
-        return self.firmware.home_position
-
-    @property
-    def limits(self) -> RRFDelta:
-        """RRF's limits on its commands: its model's (:meth:`RRFDelta.outside`)."""
-        return self.firmware
-
-    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
-        """The readings RRF commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.inverse(targets, self.step_distance, check)
-
-    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
-        """The nozzle position RRF's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
-        return self.firmware.forward(readings, self.step_distance, check)

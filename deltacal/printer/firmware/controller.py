@@ -1,0 +1,110 @@
+"""A firmware with its values as the controller of a printer's readings, whatever the firmware.
+
+A firmware commands steps below each tower's endstop; deltacal's readings of a printer are the
+carriages' travels counted in the printer's nominal step distance (:mod:`deltacal.printer.robot`),
+reading = steps × that step distance. :class:`FirmwareController` pairs the two, so that a
+firmware's model serves :func:`~deltacal.controller.corrected_targets` and the G-code route as a
+rotary :class:`~deltacal.controller.Controller` does: its targets are the nozzle's (no tool), its
+home is where a homing leaves the nozzle (every carriage at its endstop, in its model), its limits
+are its model's. Each firmware's controller (Klipper's, Marlin's, RepRapFirmware's) is this class
+over its own model. Units: mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Generic, Protocol, TypeVar
+
+import numpy as np
+
+from ...kinematics.closed_form import VirtualDelta
+from ...towers import per_tower
+
+
+class ControlledModel(Protocol):
+    """What a firmware's model gives its controller."""
+
+    @property
+    def name(self) -> str: ...  # noqa: D102
+
+    @property
+    def step_distance(self) -> np.ndarray: ...  # noqa: D102
+
+    @property
+    def virtual(self) -> VirtualDelta: ...  # noqa: D102
+
+    @property
+    def home_position(self) -> np.ndarray: ...  # noqa: D102
+
+    def inverse(self, targets: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
+        """The readings for nozzle targets, (N, 3) [mm]."""
+
+    def forward(self, readings: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
+        """Nozzle positions at readings, (N, 3) [mm]."""
+
+    def outside(self, commands: np.ndarray) -> np.ndarray:
+        """Which limit each command breaks, (N,) (0: none)."""
+
+    def refusal(self, commands: np.ndarray) -> str:
+        """One line on refused commands."""
+
+
+ModelT = TypeVar("ModelT", bound=ControlledModel)
+
+
+@dataclass(frozen=True, eq=False)
+class FirmwareController(Generic[ModelT]):
+    """A firmware as a controller of a printer whose readings count steps in ``step_distance``.
+
+    Attributes:
+        firmware: The firmware's model, from its configuration.
+        step_distance: The step distance each tower's readings count in [mm], (3,) (a number
+            broadcasts): the printer's nominal ones, ``NominalLinearDelta.step_distance``, those its
+            identification read measurements in.
+    """
+
+    firmware: ModelT
+    step_distance: np.ndarray
+
+    #: How the controller moves between two targets: each firmware plans a move as a straight line
+    #: in its Cartesian frame and maps every step (or short segment) on the way through its model.
+    interpolation = "cartesian"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
+
+    @property
+    def name(self) -> str:
+        """The configuration's name."""
+        return self.firmware.name
+
+    @property
+    def tool(self) -> np.ndarray:
+        """A firmware's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
+        return np.zeros(3)
+
+    @cached_property
+    def virtual(self) -> VirtualDelta:
+        """The firmware's model as a prismatic :class:`VirtualDelta` whose readings are deltacal's [mm]."""
+        return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
+
+    @cached_property
+    def home(self) -> np.ndarray:
+        """Where the firmware puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
+        return self.firmware.home_position
+
+    @property
+    def limits(self) -> ModelT:
+        """The firmware's limits on its commands: its model's (``outside``, ``refusal``)."""
+        return self.firmware
+
+    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """The readings the firmware commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""
+        return self.firmware.inverse(targets, self.step_distance, check)
+
+    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
+        """The nozzle position the firmware's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
+        return self.firmware.forward(readings, self.step_distance, check)
