@@ -1,10 +1,11 @@
-"""Why Marlin's corrected targets measured 0.054 mm (``marlin_figures.py``) and Klipper's 0.028 mm.
+"""Why Marlin's corrected targets measured 0.054 mm (``marlin_figures.py``), Klipper's 0.028 mm.
 
 The same printers both ways: seeds 901-905 made as ``simulate --perturb`` makes them
-(Tolerances.printer_kit(), the default of ``simulate``) and as the comparison makes them (typical kit), each run through Klipper's and
-Marlin's nominal values (``run_printer``: 49 probe heights, 40 distances, 200 mm caliper, σ 10 / 20 µm),
-the G-code route judged less the bed motion over the comparison's volume (r 92 mm, z 0.2-100 mm) and
-over the robot file's (r 115 mm, z 0.2-200 mm, what ``marlin_figures.py`` judges). Prints a table.
+(Tolerances.printer_kit(), ``simulate``'s default) and as the comparison makes them (typical kit),
+each run through Klipper's and Marlin's nominal values (``run_printer``: 49 probe heights, 40
+distances, 200 mm caliper, σ 10 / 20 µm), the G-code route judged less the bed motion over the
+comparison's volume (r 92 mm, z 0.2-100 mm) and over the robot file's (r 115 mm, z 0.2-200 mm, what
+``marlin_figures.py`` judges). Prints a table.
 """
 
 from __future__ import annotations
