@@ -30,7 +30,7 @@ from deltacal.printer.comparison import (
     PROBE_SIGMA,
     UNCALIBRATED,
     WORKSPACE,
-    klipper_calibrations,
+    firmware_calibrations,
 )
 from deltacal.printer.firmware.klipper.fit import error_budget, error_stats, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
@@ -55,7 +55,7 @@ def one_printer(seed: int, tolerances, tilt: float) -> dict[str, dict[str, float
     rng = np.random.default_rng(seed)
     made = random_true_printer(nominal, rng, tolerances, tilt)
     truth = made.geometry
-    klipper = klipper_calibrations(truth, firmware, step, rng)
+    klipper = firmware_calibrations(truth, firmware, step, rng)
     absolute = {"part_frame": False}  # the errors judged raw, as the anchor
     configs = {
         "uncalibrated": klipper[UNCALIBRATED],

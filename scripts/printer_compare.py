@@ -15,6 +15,14 @@ Klipper or deltacal). Prints a table and whether each criterion holds; writes
 ``results/printer_compare.json``. Fixed seeds, about 3 s a printer; ``--printers N
 --first-seed S`` runs others (kits: S + 100 + k), ``--caliper`` plans for another caliper and
 ``--sigma-distance`` gives both sides another caliper's σ.
+
+``--firmware klipper|marlin|rrf|all`` runs the same printers through that firmware's nominal values
+instead (seeds 25000 + k and 25100 + k: fresh, used by no test), beside its own calibration emulated
+(Klipper's basic and enhanced, Marlin's ``G33``, RepRapFirmware's ``G32`` S6 and S8), with the
+firmware's best possible values (fitted to the TRUE printer) and the firmwares' criteria: the G-code
+route's 3-D max (mean) <= 0.05 mm and <= a tenth of the uncalibrated one's, every command of it
+inside the firmware's limits, the exported values' 3-D max <= 1.25 times the best possible + 0.01
+mm; writes ``results/printer_compare_firmwares.json``.
 """
 
 from __future__ import annotations
@@ -37,10 +45,13 @@ from deltacal.printer.comparison import (
     PROBE_SIGMA,
     UNCALIBRATED,
     WORKSPACE,
+    best_name,
     evaluate,
     exported_name,
+    gcode_refused,
     run_printer,
 )
+from deltacal.printer.firmware import firmwares
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.object import CALIPER_RANGE
 from deltacal.printer.plan import plan_object
@@ -51,6 +62,11 @@ REPO_ROOT = Path(__file__).resolve().parents[1]
 WEIGHTS = (0.0, 3.0, 10.0, 30.0, 100.0)
 #: The first seed of each class.
 SEEDS = {"well built": 24000, "typical kit": 24100}
+#: The first seed of each class with ``--firmware``.
+FIRMWARE_SEEDS = {"well built": 25000, "typical kit": 25100}
+#: The firmwares' criteria: G-code route's 3-D max [mm] and share of the uncalibrated; exported values
+#: against the best possible: ratio and margin [mm].
+GCODE_MAX_MM, GCODE_SHARE, BEST_RATIO, BEST_MARGIN_MM = 0.05, 0.1, 1.25, 0.01
 HEADLINE = "less bed motion"
 FIGURES = ("max_3d_mm", "rms_3d_mm", "flatness_mm", "flatness_pv_mm")
 
@@ -86,6 +102,54 @@ def criteria(summary: dict, weight: float) -> dict[str, dict[str, float | bool]]
             for name, (r, limit) in checks.items()}
 
 
+def firmware_criteria(summary: dict, weight: float, refused: int) -> dict[str, dict[str, float | bool]]:
+    """The firmwares' criteria on a class's means (headline view): each value, its limit, whether it holds."""
+    head = summary[HEADLINE]
+    gcode, raw = head[GCODE]["mean"]["max_3d_mm"], head[UNCALIBRATED]["mean"]["max_3d_mm"]
+    exported = head[exported_name(weight)]["mean"]["max_3d_mm"]
+    best = head[best_name(weight)]["mean"]["max_3d_mm"]
+    checks = {
+        f"G-code route 3-D max <= {GCODE_MAX_MM} mm": (gcode, GCODE_MAX_MM),
+        f"G-code route 3-D max <= {GCODE_SHARE:g} of uncalibrated": (gcode, GCODE_SHARE * raw),
+        "G-code route commands outside the firmware's limits": (float(refused), 0.0),
+        f"exported values 3-D max <= {BEST_RATIO:g} x best possible + {BEST_MARGIN_MM} mm":
+            (exported, BEST_RATIO * best + BEST_MARGIN_MM),
+    }
+    return {name: {"value": float(v), "limit": float(limit), "holds": bool(v <= limit)}
+            for name, (v, limit) in checks.items()}
+
+
+def compare_firmwares(names: list[str], printers: int, weight: float, plan_caliper: float) -> dict:
+    """Each firmware on the same fresh printers (:data:`FIRMWARE_SEEDS`); prints and returns the results."""
+    printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
+    out: dict = {"workspace": {"radius_mm": WORKSPACE.radius, "z_mm": [0.2, WORKSPACE.top_z]},
+                 "probe_radius_mm": PROBE_RADIUS,
+                 "sigma_mm": {"probe": PROBE_SIGMA, "distance": DISTANCE_SIGMA},
+                 "headline": HEADLINE, "weight": weight, "firmwares": {}}
+    for firmware in [f for f in firmwares() if f.name in names]:
+        plan = plan_object(printer, firmware.nominal(printer), caliper=plan_caliper)
+        classes: dict = {}
+        for label, (tolerances, tilt) in CLASSES.items():
+            seeds = [FIRMWARE_SEEDS[label] + k for k in range(printers)]
+            runs, refused = [], 0
+            for seed in seeds:
+                run = run_printer(printer, plan, seed, tolerances, tilt, (weight,), firmware_type=firmware,
+                                  best=True)
+                refused += gcode_refused(run)
+                runs.append({view: {m: s.as_dict() for m, s in methods.items()}
+                             for view, methods in evaluate(run).items()})
+            summary = summarise(runs)
+            checks = firmware_criteria(summary, weight, refused)
+            classes[label] = {"seeds": seeds, "summary": summary, "criteria": checks, "printers": runs,
+                              "gcode_commands_refused": refused}
+            print_class(f"{firmware.title}, {label}", summary)
+            for name, c in checks.items():
+                verdict = "HOLDS" if c["holds"] else "FAILS"
+                print(f"  {verdict}  {name}: {c['value']:.4f} (limit {c['limit']:.4f})")
+        out["firmwares"][firmware.name] = classes
+    return out
+
+
 def print_class(label: str, summary: dict) -> None:
     """The class's table: mean (worst) of each figure per method, both views."""
     for view in (HEADLINE, "raw"):
@@ -112,7 +176,18 @@ def main(argv: list[str] | None = None) -> int:
                              f"{CALIPER_RANGE:g})")
     parser.add_argument("--weight", type=float, default=30.0,
                         help="the first-layer weight whose exported values the criteria judge (default 30)")
+    parser.add_argument("--firmware", choices=[*(f.name for f in firmwares()), "all"],
+                        help="the firmwares' comparison (see above) for this firmware or all three")
     args = parser.parse_args(argv)
+    if args.firmware is not None:
+        start = time.perf_counter()
+        names = [f.name for f in firmwares()] if args.firmware == "all" else [args.firmware]
+        out = compare_firmwares(names, args.printers, args.weight, args.caliper)
+        output = (REPO_ROOT / "results" / "printer_compare_firmwares.json"
+                  if args.output == parser.get_default("output") else Path(args.output))
+        atomic_write_text(output, json.dumps(out, indent=1) + "\n")
+        print(f"\n{time.perf_counter() - start:.0f} s; wrote {output}")
+        return 0
     weights = tuple(sorted(set(WEIGHTS) | {args.weight}))
     start = time.perf_counter()
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")

@@ -8,8 +8,11 @@ import time
 from pathlib import Path
 
 from ..demo import controller_table, run_demo, text_table
+from ..exceptions import UsageError
 from ..printer.demo import SEED, printer_table, run_printer_demo
+from ..printer.firmware import firmwares
 from .common import seed
+from .firmware import firmware_names
 
 
 def run(args: argparse.Namespace) -> int:
@@ -19,10 +22,14 @@ def run(args: argparse.Namespace) -> int:
     def progress(text: str) -> None:
         print(f"[{time.perf_counter() - start:5.1f} s] {text}", file=sys.stderr, flush=True)
 
+    if args.firmware is not None and not args.printer:
+        raise UsageError("--firmware applies to the printer demo (--printer)")
     if args.printer:
+        name = args.firmware or "klipper"
+        firmware = next(f for f in firmwares() if f.name == name)
         summary = run_printer_demo(out_dir=Path(args.out or "printer_demo"),
                                    seed=SEED if args.seed is None else args.seed, quick=args.quick,
-                                   progress=progress)
+                                   progress=progress, firmware=firmware)
         print(printer_table(summary))
         return 0
     summary = run_demo(out_dir=Path(args.out or "results"), seed=2015 if args.seed is None else args.seed,
@@ -41,4 +48,7 @@ def add_parser(sub) -> None:
                    help="a linear Delta printer (models/kossel.toml) through Klipper, beside Klipper's own "
                         "calibration: printer.cfg, the object's files, printer_calibration.toml, "
                         "printer_calibrated.cfg, part_corrected.gcode and printer_demo.json")
+    p.add_argument("--firmware", choices=firmware_names(),
+                   help="--printer: the firmware the printer runs (default klipper; marlin: m503.txt and "
+                        "G33, rrf: config.g and G32)")
     p.set_defaults(func=run)

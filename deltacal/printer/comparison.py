@@ -1,13 +1,16 @@
-"""deltacal's whole path on a simulated printer, beside Klipper's own calibration.
+"""deltacal's whole path on a simulated printer, beside its firmware's own calibration.
 
-One seeded true printer (:func:`~deltacal.printer.simulation.random_true_printer`) runs Klipper's
-nominal configuration. It is measured twice, with measurements of the same kind (commanded
-probe triggers, σ :data:`PROBE_SIGMA`; caliper distances of a printed object, σ
-:data:`DISTANCE_SIGMA`):
+One seeded true printer (:func:`~deltacal.printer.simulation.random_true_printer`) runs a firmware's
+nominal values (Klipper's by default; Marlin's or RepRapFirmware's, the same printer for a seed). It
+is measured twice, with measurements of the same kind (commanded probe triggers, σ
+:data:`PROBE_SIGMA`; caliper distances of a printed object, σ :data:`DISTANCE_SIGMA`):
 
-* Klipper's way: its 7 probe points (radius :data:`PROBE_RADIUS`) and its object's 12 distances,
-  for its basic and enhanced calibration
-  (:func:`~deltacal.printer.firmware.klipper.calibrate.klipper_basic`, ``klipper_enhanced``);
+* the firmware's way (:meth:`~deltacal.printer.firmware.base.Firmware.own_calibrations`, radius
+  :data:`PROBE_RADIUS`): Klipper's 7 probe points and its object's 12 distances, for its basic and
+  enhanced calibration (:func:`~deltacal.printer.firmware.klipper.calibrate.klipper_basic`,
+  ``klipper_enhanced``); Marlin's ``G33``, probing again at each iteration
+  (:func:`~deltacal.printer.firmware.marlin.calibrate.marlin_g33`); RepRapFirmware's ``G32`` with 6
+  and 8 factors (:func:`~deltacal.printer.firmware.rrf.calibrate.rrf_g32`);
 * deltacal's way: the planned object (:func:`~deltacal.printer.plan.plan_object`: 49
   probe heights on Klipper's round mesh and 40 distances), read through the firmware's
   inverse into readings and identified (:func:`~deltacal.printer.identification.identify_printer`,
@@ -17,13 +20,14 @@ Each method is judged on the TRUE printer over the printable volume (:data:`WORK
 anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.printer.firmware.klipper.fit.printable_grid`)
 and over the first layer (z = 0.2 mm, :func:`~deltacal.printer.firmware.klipper.fit.first_layer`):
 
-* Klipper's values (nominal, basic, enhanced) and deltacal's exported values (Klipper's values
-  fitted to the identified printer, :func:`~deltacal.printer.firmware.klipper.fit.fit_klipper`, for each
-  first-layer weight asked): the nozzle where the true printer puts it when Klipper commands the
-  target with those values;
+* the firmware's values (nominal, its own calibrations) and deltacal's exported values (the
+  firmware's values fitted to the identified printer, :meth:`~deltacal.printer.firmware.base.Firmware.fit`,
+  for each first-layer weight asked; with ``best``, also fitted to the TRUE printer, the best the
+  firmware's values can do): the nozzle where the true printer puts it when the firmware commands
+  the target with those values;
 * the G-code route: the corrected targets that make the identified printer land on the targets
-  (:func:`~deltacal.controller.corrected_targets`), sent through Klipper's NOMINAL configuration to
-  the true printer.
+  (:func:`~deltacal.controller.corrected_targets`), sent through the firmware's NOMINAL values to
+  the true printer (:func:`gcode_refused` counts those its limits would not take).
 
 Figures (:class:`~deltacal.printer.firmware.klipper.fit.ErrorStats`): 3-D max and RMS over the volume,
 first-layer flatness (max |z| and peak to valley), raw and less the bed motion no probe or caliper
@@ -41,10 +45,10 @@ import numpy as np
 from ..controller import corrected_targets
 from ..geometry import DeltaGeometry, Tolerances, Workspace
 from ..identification.result import IdentificationResult
-from .firmware.klipper.calibrate import klipper_basic, klipper_enhanced, object_pairs, probe_points
+from .firmware.base import Firmware, FirmwareModel
+from .firmware.klipper.calibrate import BASIC_TITLE, ENHANCED_TITLE
 from .firmware.klipper.firmware import KLIPPER
 from .firmware.klipper.fit import ErrorStats, first_layer, nozzle_errors, printable_grid
-from .firmware.klipper.model import KlipperDelta
 from .identification import PrinterMeasurements, identify_printer
 from .plan import ObjectPlan
 from .robot import NominalLinearDelta, less_bed_motion
@@ -73,13 +77,44 @@ CLASSES: dict[str, tuple[Tolerances, float]] = {
     "typical kit": (typical_kit(), KIT_BED_TILT_DEG),
 }
 #: The methods' names (the exported values get their weight appended).
-UNCALIBRATED, BASIC, ENHANCED = "uncalibrated", "Klipper basic", "Klipper enhanced"
+UNCALIBRATED, BASIC, ENHANCED = "uncalibrated", BASIC_TITLE, ENHANCED_TITLE
 EXPORTED, GCODE = "deltacal exported values", "deltacal G-code route"
+BEST = "best possible values"
 
 
 def exported_name(weight: float) -> str:
     """The method name of the exported values fitted with this first-layer weight."""
     return f"{EXPORTED} (w {weight:g})"
+
+
+def best_name(weight: float) -> str:
+    """The method name of the firmware's values fitted to the TRUE printer with this first-layer weight."""
+    return f"{BEST} (w {weight:g})"
+
+
+@dataclass(frozen=True)
+class SimulatedMeasuring:
+    """A true printer measured through a firmware's values (:class:`~.firmware.base.Measuring`).
+
+    Attributes:
+        truth: The true printer (its bed z = 0).
+        step_distance: Its nominal step distance [mm].
+        rng: The measurements' noise, drawn in the order they are made.
+        distance_sigma: σ of a distance [mm] (a probe's: :data:`PROBE_SIGMA`).
+    """
+
+    truth: DeltaGeometry
+    step_distance: np.ndarray | float
+    rng: np.random.Generator
+    distance_sigma: float = DISTANCE_SIGMA
+
+    def heights(self, model: FirmwareModel, xy: np.ndarray) -> np.ndarray:
+        """The commanded z at which the probe triggers at commanded x, y [mm], (N, 2) -> (N,)."""
+        return probe_heights(self.truth, model, self.step_distance, xy, PROBE_SIGMA, self.rng)[:, 2]
+
+    def distances(self, model: FirmwareModel, pairs: np.ndarray) -> np.ndarray:
+        """Caliper distances between features printed at commanded positions [mm], (M, 6) -> (M,)."""
+        return printed_distances(self.truth, model, self.step_distance, pairs, self.distance_sigma, self.rng)
 
 
 @dataclass(frozen=True)
@@ -88,24 +123,27 @@ class PrinterRun:
 
     Attributes:
         truth: The true printer and how it was made.
-        firmware: Klipper's nominal configuration it runs.
+        firmware: The firmware's nominal values it runs.
         step_distance: The printer's nominal step distance [mm].
         probe: deltacal's commanded probe triggers (z as measured) [mm], (N, 3).
         distances: The planned object's distances as measured [mm], (M,).
         result: The identification.
-        configs: Klipper's values of each method by name (uncalibrated, basic, enhanced, exported).
+        configs: The firmware's values of each method by name (uncalibrated, its own calibrations,
+            exported, best possible).
+        firmware_type: The firmware (its object: Klipper, Marlin, RepRapFirmware).
     """
 
     truth: TruePrinter
-    firmware: KlipperDelta
+    firmware: FirmwareModel
     step_distance: np.ndarray | float
     probe: np.ndarray
     distances: np.ndarray
     result: IdentificationResult
-    configs: dict[str, KlipperDelta] = field(default_factory=dict)
+    configs: dict[str, FirmwareModel] = field(default_factory=dict)
+    firmware_type: Firmware = KLIPPER
 
 
-def plan_measurements(firmware: KlipperDelta, step_distance: np.ndarray | float, plan: ObjectPlan,
+def plan_measurements(firmware: FirmwareModel, step_distance: np.ndarray | float, plan: ObjectPlan,
                       probe: np.ndarray, distances: np.ndarray,
                       distance_sigma: float = DISTANCE_SIGMA) -> PrinterMeasurements:
     """The planned object's measurements as the identification takes them: readings through the firmware.
@@ -124,58 +162,84 @@ def plan_measurements(firmware: KlipperDelta, step_distance: np.ndarray | float,
                                height_sigma=PROBE_SIGMA, distance_sigma=distance_sigma)
 
 
-def klipper_calibrations(truth: DeltaGeometry, firmware: KlipperDelta, step_distance: np.ndarray | float,
-                         rng: np.random.Generator,
-                         distance_sigma: float = DISTANCE_SIGMA) -> dict[str, KlipperDelta]:
-    """Klipper's own calibration of a true printer: its values uncalibrated, basic and enhanced.
+def firmware_calibrations(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: np.ndarray | float,
+                         rng: np.random.Generator, distance_sigma: float = DISTANCE_SIGMA,
+                         firmware_type: Firmware = KLIPPER) -> dict[str, FirmwareModel]:
+    """A firmware's own calibration of a true printer: its values uncalibrated, then each of its own.
 
-    Its 7 probe heights and its object's 12 distances are measured with ``rng`` (in that order);
-    ``DELTA_CALIBRATE`` gives the basic values, with ``DELTA_ANALYZE`` the enhanced ones. Keys
-    :data:`UNCALIBRATED`, :data:`BASIC`, :data:`ENHANCED`.
+    Klipper's (the default): its 7 probe heights and its object's 12 distances are measured with
+    ``rng`` (in that order); ``DELTA_CALIBRATE`` gives the basic values, with ``DELTA_ANALYZE`` the
+    enhanced ones. Keys :data:`UNCALIBRATED`, then
+    :meth:`~deltacal.printer.firmware.base.Firmware.own_calibrations`' (:data:`BASIC`, :data:`ENHANCED`).
     """
-    probe = probe_heights(truth, firmware, step_distance, probe_points(PROBE_RADIUS), PROBE_SIGMA, rng)
-    pairs = object_pairs()
-    distances = printed_distances(truth, firmware, step_distance, pairs, distance_sigma, rng)
-    return {UNCALIBRATED: firmware, BASIC: klipper_basic(firmware, probe),
-            ENHANCED: klipper_enhanced(firmware, probe, pairs, distances)}
+    measuring = SimulatedMeasuring(truth, step_distance, rng, distance_sigma)
+    return {UNCALIBRATED: firmware, **firmware_type.own_calibrations(firmware, measuring, PROBE_RADIUS)}
 
 
 def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolerances: Tolerances,
                 bed_tilt_deg: float, weights: tuple[float, ...] = (10.0,),
-                distance_sigma: float = DISTANCE_SIGMA) -> PrinterRun:
+                distance_sigma: float = DISTANCE_SIGMA, firmware_type: Firmware = KLIPPER,
+                best: bool = False) -> PrinterRun:
     """Make a seeded printer, measure it both ways and calibrate it with each method.
+
+    The printer depends on the seed alone (the same for every firmware); the measurements are drawn
+    after it, the firmware's own first.
 
     Args:
         printer: The nominal printer.
-        plan: deltacal's planned object for it (commanded through Klipper's nominal configuration).
+        plan: deltacal's planned object for it (commanded through the firmware's nominal values).
         seed: Seed of the printer and of its measurements' noise.
         tolerances: Its build tolerances (a class of :data:`CLASSES`).
         bed_tilt_deg: σ of each of its bed's tilts [deg].
         weights: First-layer weights of the exported values to fit.
-        distance_sigma: σ of every distance, Klipper's and deltacal's [mm] (default a caliper's).
+        distance_sigma: σ of every distance, the firmware's and deltacal's [mm] (default a caliper's).
+        firmware_type: The firmware the printer runs (default Klipper).
+        best: Also the firmware's values fitted to the TRUE printer (:func:`best_name`, each weight).
     """
-    firmware = KLIPPER.nominal(printer)
+    firmware = firmware_type.nominal(printer)
     step = printer.step_distance
     rng = np.random.default_rng(seed)
     made = random_true_printer(printer, rng, tolerances, bed_tilt_deg)
     truth = made.geometry
-    configs = klipper_calibrations(truth, firmware, step, rng, distance_sigma)
+    configs = firmware_calibrations(truth, firmware, step, rng, distance_sigma, firmware_type)
     probe = probe_heights(truth, firmware, step, plan.probe[:, :2], PROBE_SIGMA, rng)
     distances = printed_distances(truth, firmware, step, plan.pair_positions, distance_sigma, rng)
     data = plan_measurements(firmware, step, plan, probe, distances, distance_sigma)
     result = identify_printer(printer.geometry(), data, "printer", method="iterated",
                               tolerances=Tolerances.printer_kit())
     for w in weights:
-        configs[exported_name(w)] = KLIPPER.fit(result.geometry, firmware, step, WORKSPACE,
-                                                first_layer_weight=w).values
-    return PrinterRun(made, firmware, step, probe, distances, result, configs)
+        configs[exported_name(w)] = firmware_type.fit(result.geometry, firmware, step, WORKSPACE,
+                                                      first_layer_weight=w).values
+    for w in weights if best else ():
+        configs[best_name(w)] = firmware_type.fit(truth, firmware, step, WORKSPACE,
+                                                  first_layer_weight=w).values
+    return PrinterRun(made, firmware, step, probe, distances, result, configs, firmware_type)
+
+
+def gcode_commands(run: PrinterRun, targets: np.ndarray) -> np.ndarray:
+    """The G-code route's commands: corrected targets through the firmware's nominal values [mm], (N, 3)."""
+    controller = run.firmware_type.controller(run.firmware, run.step_distance)
+    return corrected_targets(run.result.geometry, controller, targets).commands
 
 
 def gcode_route_errors(run: PrinterRun, targets: np.ndarray) -> np.ndarray:
-    """The true nozzle's errors, the corrected targets sent through Klipper's nominal values [mm], (N, 3)."""
-    controller = KLIPPER.controller(run.firmware, run.step_distance)
-    commands = corrected_targets(run.result.geometry, controller, targets).commands
+    """The true nozzle's errors, the corrected targets sent through the firmware's nominal values [mm]."""
+    commands = gcode_commands(run, targets)
     return nozzle_positions(run.truth.geometry, run.firmware, run.step_distance, commands) - targets
+
+
+def gcode_refused(run: PrinterRun) -> int:
+    """How many of the G-code route's commands over the volume and the first layer the firmware refuses.
+
+    Its limits are the nominal values' with the lowest Z lowered to admit the corrected bed
+    (:meth:`~deltacal.printer.firmware.base.Firmware.admit_bed`, as ``compensate`` and the demo
+    write them); a command outside them (:meth:`~deltacal.printer.firmware.base.FirmwareModel.outside`)
+    is one the firmware would refuse, clamp or move.
+    """
+    limits = run.firmware_type.admit_bed(run.firmware, run.result.geometry, run.step_distance,
+                                         WORKSPACE.radius)
+    targets = np.concatenate([printable_grid(WORKSPACE), first_layer(WORKSPACE)])
+    return int(np.count_nonzero(limits.outside(gcode_commands(run, targets))))
 
 
 def stats_of(volume: np.ndarray, errors: np.ndarray, layer_errors: np.ndarray,

@@ -11,6 +11,11 @@ G-code for Klipper's nominal values (``part.gcode`` -> ``part_corrected.gcode``,
 ``deltacal compensate``). Klipper's basic and enhanced calibration are simulated on the same
 printer with their own 7 probes and 12 distances (:mod:`deltacal.printer.comparison`).
 
+``--firmware marlin|rrf`` (``firmware``) runs the same printer (its seed) through Marlin's (``m503.txt``)
+or RepRapFirmware's (``config.g``) nominal values instead, beside that firmware's own calibration
+emulated (Marlin's ``G33``, RRF's ``G32`` with 6 and 8 factors); the exported values go to
+``printer_calibrated.gcode`` or ``config-override.g``.
+
 Its table: each method's nozzle errors on the TRUE printer over the printable volume (3-D max and
 RMS, less the shift along the bed and the turn about its normal that nothing measures; raw 3-D max
 too), the first layer's flatness, and the largest error of the printed part's path (its shape:
@@ -42,9 +47,9 @@ from .comparison import (
     exported_name,
     run_printer,
 )
+from .firmware.base import Firmware, FirmwareModel
 from .firmware.klipper.firmware import KLIPPER
 from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
-from .firmware.klipper.model import KlipperDelta
 from .measurement_files import write_printed_distances, write_probe_heights
 from .plan import plan_object
 from .robot import less_bed_motion
@@ -56,10 +61,10 @@ MODELS_DIR = Path(__file__).resolve().parents[1] / "models"
 FIRST_LAYER_WEIGHT = EXPORT_FIRST_LAYER_WEIGHT
 #: The demo's default seed.
 SEED = 2400
-#: The first line of the nominal ``printer.cfg`` the demo writes.
-NOMINAL_TITLE = "Klipper's nominal configuration of the demo printer (deltacal demo --printer)"
-#: The rows of the table, in order.
-ROWS = (UNCALIBRATED, BASIC, ENHANCED, "deltacal exported values", GCODE)
+#: The exported values' row of the table (between the firmware's own calibrations and the G-code route).
+EXPORTED_ROW = "deltacal exported values"
+#: The rows of the table with Klipper (the default), in order.
+ROWS = (UNCALIBRATED, BASIC, ENHANCED, EXPORTED_ROW, GCODE)
 _XYZ = re.compile(r"^G[01] X([-+.0-9]+) Y([-+.0-9]+) Z([-+.0-9]+)", re.MULTILINE)
 
 
@@ -76,18 +81,25 @@ def part_gcode(heights: tuple[float, ...]) -> str:
     return "\n".join([*lines, ""])
 
 
-def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: KlipperDelta) -> dict[str, float]:
-    """Correct the part's program for Klipper's nominal values; each method's largest error along it [mm].
+def nominal_title(firmware: Firmware) -> str:
+    """The first line of the nominal configuration the demo writes."""
+    return f"{firmware.title}'s nominal configuration of the demo printer (deltacal demo --printer)"
 
-    The corrected program's moves (as written, 0.1 µm) go through Klipper's nominal values to the
+
+def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: FirmwareModel,
+          config: str) -> dict[str, float]:
+    """Correct the part's program for the firmware's nominal values; each method's largest error on it [mm].
+
+    The corrected program's moves (as written, 0.1 µm) go through the firmware's nominal values to the
     true printer; the other methods command the intended points with their values. Each method's
     errors are taken less the bed motion that fits them best (the part's shape, not its place), at
     the points within the printable volume (not the travel from the home position down to the part).
-    Every command written is one ``limits`` (the demo's ``printer.cfg``) accepts, or the filter refuses it.
+    Every command written is one ``limits`` (the demo's configuration, file name ``config``) accepts,
+    or the filter refuses it.
     """
     source, corrected = out_dir / "part.gcode", out_dir / "part_corrected.gcode"
     atomic_write_text(source, part_gcode((0.2, 50.0) if quick else (0.2, 10.0, 30.0, 60.0, 100.0)))
-    controller = KLIPPER.controller(run.firmware, run.step_distance)
+    controller = run.firmware_type.controller(run.firmware, run.step_distance)
     intended: list[np.ndarray] = []
 
     def correct(points: np.ndarray) -> np.ndarray:
@@ -95,7 +107,7 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: KlipperDelta) -> 
         return corrected_targets(run.result.geometry, controller, points).commands
 
     filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home, limits=limits,
-                 marker=marker_line("printer.cfg", "printer_calibration.toml"))
+                 marker=marker_line(config, "printer_calibration.toml"))
     targets = np.concatenate(intended)
     sent = np.array(_XYZ.findall(corrected.read_text()), dtype=float)
     if sent.shape != targets.shape:
@@ -110,23 +122,25 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: KlipperDelta) -> 
             for name, e in errors.items()}
 
 
-def _admit_bed(run: PrinterRun, cfg: Path) -> KlipperDelta:
-    """``printer.cfg`` rewritten with the ``minimum_z_position`` the corrected bed needs; its values.
+def _admit_bed(run: PrinterRun, cfg: Path) -> FirmwareModel:
+    """The configuration rewritten with the lowest Z the corrected bed needs; its values.
 
-    The true bed is lower than Klipper's nominal model puts it where the corrected first layer goes
-    below Klipper's z 0; the lowest Z commanded on the printable disk sets the key
-    (:meth:`~deltacal.printer.firmware.base.Firmware.admit_bed`).
+    The true bed is lower than the firmware's nominal model puts it where the corrected first layer
+    goes below its z 0; the lowest Z commanded on the printable disk sets the key
+    (:meth:`~deltacal.printer.firmware.base.Firmware.admit_bed`: Klipper's ``minimum_z_position``).
     """
-    admitted = KLIPPER.admit_bed(run.firmware, run.result.geometry, run.step_distance, WORKSPACE.radius)
+    firmware = run.firmware_type
+    admitted = firmware.admit_bed(run.firmware, run.result.geometry, run.step_distance, WORKSPACE.radius)
     if admitted is not run.firmware:
-        KLIPPER.save_config(cfg, admitted, title=NOMINAL_TITLE, complete=True,
-                            notes=[f"minimum_z_position admits the bed corrected by deltacal over radius "
-                                   f"{WORKSPACE.radius:g} mm (part_corrected.gcode)"])
-    return KLIPPER.read_config(cfg)
+        firmware.save_config(cfg, admitted, title=nominal_title(firmware), complete=True,
+                             notes=[f"{firmware.minimum_z_key} admits "
+                                    f"the bed corrected by deltacal over radius {WORKSPACE.radius:g} mm "
+                                    "(part_corrected.gcode)"])
+    return firmware.read_config(cfg)
 
 
 def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: bool = False,
-                     progress: Callable[[str], None] = _silent) -> dict:
+                     progress: Callable[[str], None] = _silent, firmware: Firmware = KLIPPER) -> dict:
     """Run the printer demo, write its files and ``printer_demo.json``; :func:`printer_table` prints it.
 
     Args:
@@ -134,6 +148,7 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
         seed: Seed of the true printer and of the measurements' noise.
         quick: A shorter part program (2 heights instead of 5), for a fast check.
         progress: Called with one line of text after each long step.
+        firmware: The firmware the printer runs (default Klipper).
 
     Returns:
         The results written to printer_demo.json.
@@ -141,39 +156,47 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     printer = load_printer(MODELS_DIR / "kossel.toml")
-    cfg = KLIPPER.save_config(out_dir / "printer.cfg", KLIPPER.nominal(printer), title=NOMINAL_TITLE,
-                              complete=True)
-    firmware = KLIPPER.read_config(cfg)
-    plan = plan_object(printer, firmware)
+    cfg = firmware.save_config(out_dir / firmware.config_file, firmware.nominal(printer),
+                               title=nominal_title(firmware), complete=True)
+    plan = plan_object(printer, firmware.read_config(cfg))
     write_stl(out_dir / "object.stl", plan.mesh())
     write_probe_heights(out_dir / "probe.csv", plan.probe)
     write_printed_distances(out_dir / "distances.csv", plan.pair_positions)
     progress(f"planned the object: {len(plan.probe)} probe points, {len(plan.pairs)} distances "
              f"(object.stl, probe.csv, distances.csv)")
     tolerances, tilt = CLASSES["typical kit"]
-    run = run_printer(printer, plan, seed, tolerances, tilt, (FIRST_LAYER_WEIGHT,))
+    run = run_printer(printer, plan, seed, tolerances, tilt, (FIRST_LAYER_WEIGHT,), firmware_type=firmware)
     write_probe_heights(out_dir / "probe_measured.csv", run.probe[:, :2], run.probe[:, 2])
     write_printed_distances(out_dir / "distances_measured.csv", plan.pair_positions, run.distances)
     save_calibration(run.result, out_dir / "printer_calibration.toml")
+    own = [name for name in run.configs if name not in (UNCALIBRATED, exported_name(FIRST_LAYER_WEIGHT))]
     progress(f"true printer (seed {seed}, typical kit) measured and identified: variance factor "
-             f"{run.result.variance_factor:.2f} (printer_calibration.toml); Klipper's basic and enhanced "
-             "calibration simulated")
-    exported = run.configs.pop(exported_name(FIRST_LAYER_WEIGHT))
-    run.configs[ROWS[3]] = exported
-    KLIPPER.save_config(out_dir / "printer_calibrated.cfg", exported, cfg,
-                        f"Klipper's values fitted to {printer.name} by deltacal (first-layer weight "
-                        f"{FIRST_LAYER_WEIGHT:g})")
+             f"{run.result.variance_factor:.2f} (printer_calibration.toml); "
+             f"{_calibrations_said(firmware, own)} simulated")
+    run.configs[EXPORTED_ROW] = exported = run.configs.pop(exported_name(FIRST_LAYER_WEIGHT))
+    firmware.save_config(out_dir / firmware.calibrated_file, exported, cfg,
+                         f"{firmware.title}'s values fitted to {printer.name} by deltacal (first-layer "
+                         f"weight {FIRST_LAYER_WEIGHT:g})")
     figures = evaluate(run)
-    progress("evaluated every method on the true printer (printer_calibrated.cfg written)")
-    part = _part(run, out_dir, quick, _admit_bed(run, cfg))
-    progress("corrected part.gcode for Klipper's nominal values (part_corrected.gcode)")
+    progress(f"evaluated every method on the true printer ({firmware.calibrated_file} written)")
+    part = _part(run, out_dir, quick, _admit_bed(run, cfg), cfg.name)
+    progress(f"corrected part.gcode for {firmware.title}'s nominal values (part_corrected.gcode)")
     rows = [{"method": name, **figures["less bed motion"][name].as_dict(),
-             "raw_max_3d_mm": figures["raw"][name].max_3d, "part_max_mm": part[name]} for name in ROWS]
+             "raw_max_3d_mm": figures["raw"][name].max_3d, "part_max_mm": part[name]}
+            for name in (UNCALIBRATED, *own, EXPORTED_ROW, GCODE)]
     summary = {"printer": printer.name, "seed": seed, "class": "typical kit", "first_layer_weight":
                FIRST_LAYER_WEIGHT, "probe_points": len(plan.probe), "distances": len(plan.pairs),
                "variance_factor": run.result.variance_factor, "rows": rows}
     atomic_write_text(out_dir / "printer_demo.json", json.dumps(summary, indent=1) + "\n")
     return summary
+
+
+def _calibrations_said(firmware: Firmware, names: list[str]) -> str:
+    """The firmware's own calibrations in words: "Klipper's basic and enhanced calibration"."""
+    title = f"{firmware.title} "
+    kinds = [name[len(title):] if name.startswith(title) else name for name in names]
+    said = " and ".join(kinds) if len(kinds) <= 2 else ", ".join(kinds[:-1]) + " and " + kinds[-1]
+    return f"{firmware.title}'s {said} calibration"
 
 
 def printer_table(summary: dict) -> str:

@@ -25,7 +25,9 @@ firmware gives through one :class:`Firmware`:
 * its configuration read into deltacal's robot file and measurement files, as ``deltacal import``
   writes them (:meth:`Firmware.import_config`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
-  leaves the nozzle, the macros its configuration defines.
+  leaves the nozzle, the macros its configuration defines;
+* its own calibration, emulated (:meth:`Firmware.own_calibrations`), measuring a printer through
+  a :class:`Measuring`, for the comparison with deltacal's.
 
 deltacal's readings of a printer are the carriages' travels below the endstops counted in the
 printer's nominal step distance: reading = steps × that step distance. Units: mm, the models'
@@ -137,6 +139,16 @@ class FirmwareFit(Protocol):
         """The fitted values."""
 
 
+class Measuring(Protocol):
+    """A printer measured through a firmware's values (a real one, or a simulation)."""
+
+    def heights(self, model: FirmwareModel, xy: np.ndarray) -> np.ndarray:
+        """The commanded z at which the probe triggers over the bed at commanded x, y [mm], (N, 2) -> (N,)."""
+
+    def distances(self, model: FirmwareModel, pairs: np.ndarray) -> np.ndarray:
+        """Distances between features printed at commanded positions [mm], (M, 6) -> (M,)."""
+
+
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
 
 
@@ -165,6 +177,9 @@ class Firmware(ABC, Generic[ModelT]):
         title: The name users read (``"Klipper"``).
         step_distance_keys: Where its configuration sets the towers' step distances (for messages).
         classical_keys: Its names of a model's radius, arm lengths and endstops (for messages).
+        config_file: The usual name of its configuration file (``printer.cfg``).
+        calibrated_file: The name deltacal gives a file of fitted values (``printer_calibrated.cfg``).
+        minimum_z_key: Where its configuration sets the lowest Z it accepts (``minimum_z_position``).
     """
 
     name: ClassVar[str]
@@ -172,6 +187,9 @@ class Firmware(ABC, Generic[ModelT]):
     step_distance_keys: ClassVar[str]
     #: Its names of the radius, the arm lengths and the endstops of :func:`classical_values` (for messages).
     classical_keys: ClassVar[tuple[str, str, str]] = ("radius", "arm length", "endstop")
+    config_file: ClassVar[str]
+    calibrated_file: ClassVar[str]
+    minimum_z_key: ClassVar[str]
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
@@ -241,6 +259,21 @@ class Firmware(ABC, Generic[ModelT]):
             title: A first comment line (what the points are).
             clearance: The nozzle's height above the bed while it moves between points [mm].
         """
+
+    def own_calibrations(self, model: ModelT, measuring: Measuring, radius: float) -> dict[str, ModelT]:
+        """The firmware's own calibration of a printer, emulated: the values each variant leaves, by name.
+
+        Args:
+            model: The values the printer runs (the calibration's start).
+            measuring: The printer, measured through given values (each variant measures afresh,
+                in the order of the returned names).
+            radius: The printable radius [mm] (each firmware probes within it by its own rule).
+
+        Returns:
+            The calibrated values by the name users read (``"Marlin G33 (P4)"``); none for a
+            firmware without a calibration of its own.
+        """
+        return {}
 
     def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
                   radius: float) -> ModelT:

@@ -38,6 +38,8 @@ import numpy as np
 
 from .model import KlipperDelta
 
+#: The names users read of the basic and the enhanced calibration.
+BASIC_TITLE, ENHANCED_TITLE = "Klipper basic", "Klipper enhanced"
 #: Scatter of the 6 outer probe points (fractions of the probe radius), azimuths 90 + 60 k deg.
 PROBE_SCATTER = (0.95, 0.90, 0.85, 0.70, 0.75, 0.80)
 #: Azimuths of the object's outer pillars [deg], in DELTA_ANALYZE's order.

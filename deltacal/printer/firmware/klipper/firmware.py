@@ -17,8 +17,16 @@ from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, Measuring
 from ..probe_log import ProbeLog
+from .calibrate import (
+    BASIC_TITLE,
+    ENHANCED_TITLE,
+    klipper_basic,
+    klipper_enhanced,
+    object_pairs,
+    probe_points,
+)
 from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
 from .fit import KlipperFit, fit_klipper
 from .importer import import_klipper, write_import
@@ -39,6 +47,9 @@ class Klipper(Firmware[KlipperDelta]):
     title: ClassVar[str] = "Klipper"
     step_distance_keys: ClassVar[str] = "sections [stepper_a..c], key rotation_distance"
     classical_keys: ClassVar[tuple[str, str, str]] = ("delta_radius", "arm_length", "position_endstop")
+    config_file: ClassVar[str] = "printer.cfg"
+    calibrated_file: ClassVar[str] = "printer_calibrated.cfg"
+    minimum_z_key: ClassVar[str] = "minimum_z_position"
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
@@ -74,6 +85,20 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            first_layer_weight=first_layer_weight)
+
+    def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
+                         radius: float) -> dict[str, KlipperDelta]:
+        """``DELTA_CALIBRATE`` (basic) and with ``DELTA_ANALYZE`` (enhanced), :mod:`.calibrate`.
+
+        Its 7 probe points at ``[delta_calibrate] radius`` = ``radius`` are probed, then its
+        object's 12 distances measured (one probing and one print for both).
+        """
+        xy = probe_points(radius)
+        probe = np.column_stack([xy, measuring.heights(model, xy)])
+        pairs = object_pairs()
+        distances = measuring.distances(model, pairs)
+        return {BASIC_TITLE: klipper_basic(model, probe),
+                ENHANCED_TITLE: klipper_enhanced(model, probe, pairs, distances)}
 
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""

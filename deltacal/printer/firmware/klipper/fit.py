@@ -37,6 +37,7 @@ from ....identifiability import base_parameters
 from ....kinematics import exact
 from ....rotations import skew
 from ...robot import in_plane_motion, less_bed_motion
+from ..base import FirmwareModel
 from .model import KlipperDelta
 
 #: Klipper's values in the order of the fit's unknowns (step distances last).
@@ -145,9 +146,9 @@ def first_layer(workspace: Workspace, per_radius: int = 12, ring: int = 48) -> n
     return printable_grid(disc, per_radius, 1, ring)
 
 
-def nozzle_errors(geometry: DeltaGeometry, klipper: KlipperDelta, step_distance: np.ndarray | float,
+def nozzle_errors(geometry: DeltaGeometry, klipper: FirmwareModel, step_distance: np.ndarray | float,
                   targets: np.ndarray) -> np.ndarray:
-    """Where the real nozzle lands minus the target, Klipper commanding each target [mm], (N, 3)."""
+    """Where the real nozzle lands minus the target, the firmware commanding each target [mm], (N, 3)."""
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     q = klipper.inverse(targets, step_distance)
     return exact.forward(geometry, q).point(geometry.tool) - targets

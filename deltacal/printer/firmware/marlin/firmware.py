@@ -19,8 +19,9 @@ from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, Measuring
 from ..probe_log import ProbeLog
+from .calibrate import DEFAULT_POINTS, marlin_g33
 from .fit import MarlinFit, fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
@@ -41,6 +42,9 @@ class Marlin(Firmware[MarlinDelta]):
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
     classical_keys: ClassVar[tuple[str, str, str]] = ("M665 R", "M665 L + A/B/C",
                                                       "homed height M665 H - M851 Z - M666")
+    config_file: ClassVar[str] = "m503.txt"
+    calibrated_file: ClassVar[str] = "printer_calibrated.gcode"
+    minimum_z_key: ClassVar[str] = "M211 Min Z"
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""
@@ -72,6 +76,12 @@ class Marlin(Firmware[MarlinDelta]):
             first_layer_weight: float = 0.0) -> MarlinFit:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight)
+
+    def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
+                         radius: float) -> dict[str, MarlinDelta]:
+        """``G33`` with its default points (:func:`~.calibrate.marlin_g33`) at printable radius ``radius``."""
+        result = marlin_g33(model, measuring.heights, radius, DEFAULT_POINTS)
+        return {f"{self.title} G33 (P{DEFAULT_POINTS})": result.values}
 
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""

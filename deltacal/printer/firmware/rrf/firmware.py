@@ -16,7 +16,8 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware
+from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
 from .fit import RRFFit, fit_rrf
 from .homing import homed_position
@@ -38,6 +39,9 @@ class RRF(Firmware[RRFDelta]):
     title: ClassVar[str] = "RepRapFirmware"
     step_distance_keys: ClassVar[str] = "M92 X Y Z (steps per mm)"
     classical_keys: ClassVar[tuple[str, str, str]] = ("M665 R", "M665 L", "homed height M665 H + M666")
+    config_file: ClassVar[str] = "config.g"
+    calibrated_file: ClassVar[str] = "config-override.g"
+    minimum_z_key: ClassVar[str] = "M208 Z minimum"
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
@@ -88,6 +92,14 @@ class RRF(Firmware[RRFDelta]):
             hold_step_distance=hold_step_distance,
             first_layer_weight=first_layer_weight,
         )
+
+    def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:
+        """``G32`` with 6 factors (the configuration tool's bed.g) and with 8 (the bed's tilt too).
+
+        bed.g's probe radius is ``radius`` less :data:`~.calibrate.BED_MARGIN` (:func:`~.calibrate.rrf_g32`).
+        """
+        return {f"{self.title} G32 (S{s})": rrf_g32(model, measuring.heights, radius - BED_MARGIN, s)
+                for s in (DEFAULT_FACTORS, TILT_FACTORS)}
 
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
