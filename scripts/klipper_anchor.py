@@ -6,7 +6,7 @@ calibration (7 probe points in its pattern, radius 115 mm, σ 10 µm), its enhan
 same probes and its object's 12 caliper distances, σ 20 µm), and the best any firmware values can do
 (:func:`deltacal.printer.firmware.klipper.fit.fit_klipper` on the TRUE printer, step distances free and
 held) and what those leave of each error source alone
-(:func:`~deltacal.printer.firmware.klipper.fit.error_budget`). Error over the printable volume (radius
+(:func:`~deltacal.printer.firmware.budget.error_budget`). Error over the printable volume (radius
 92 mm, heights 0.2 to 100 mm): 3-D max and RMS; first-layer flatness: the largest |z error| at
 z = 0.2 mm over the disc (and its peak to valley). Writes ``results/klipper_anchor.json``. Fixed
 seeds.
@@ -32,7 +32,9 @@ from deltacal.printer.comparison import (
     WORKSPACE,
     firmware_calibrations,
 )
-from deltacal.printer.firmware.klipper.fit import error_budget, error_stats, fit_klipper
+from deltacal.printer.firmware.budget import error_budget
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
+from deltacal.printer.firmware.klipper.fit import error_stats, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer
@@ -68,8 +70,8 @@ def one_printer(seed: int, tolerances, tilt: float) -> dict[str, dict[str, float
             truth, firmware, step, WORKSPACE, first_layer_weight=FIRST_LAYER_WEIGHT, **absolute).klipper,
     }
     out = {name: error_stats(truth, config, step, WORKSPACE).as_dict() for name, config in configs.items()}
-    budget = error_budget(nominal.geometry(), made.errors, made.bed_rotation, made.bed_translation, firmware,
-                          step, WORKSPACE)
+    budget = error_budget(KLIPPER, nominal.geometry(), made.errors, made.bed_rotation, made.bed_translation,
+                          firmware, step, WORKSPACE)
     out.update({f"best firmware values, {label} alone": stats.as_dict() for label, stats in budget.items()})
     return out
 

@@ -3,6 +3,7 @@ Marlin's model, ``export --controller marlin`` read back as Marlin's values."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -66,7 +67,13 @@ def test_exported_values_are_marlins_and_near_the_best(identified, capsys):
     out = folder / "calibrated.gcode"
     assert main(["export", str(folder / "cal.toml"), "--controller", "marlin", "--config", str(settings),
                  "--robot", str(KOSSEL), "-o", str(out)]) == 0
-    assert "wrote the Marlin values" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "wrote the Marlin values" in printed
+    # what the values leave of each source, and how to apply them, from the firmware object
+    assert "what Marlin's values cannot hold of each error source alone" in printed
+    assert f"to apply: {MARLIN.apply_note}" in printed and "M500" in MARLIN.apply_note
+    assert out.read_text().splitlines()[1] == f"; {MARLIN.apply_note}"
+    assert re.search(r"^;   tower lean +\d\.\d{3} / \d\.\d{3} mm$", out.read_text(), flags=re.M)
     lines = [line for line in out.read_text().splitlines() if not line.startswith(";")]
     assert [line.split()[0] for line in lines] == ["M665", "M666", "M92", "M500"]
     exported = load_marlin(out)

@@ -9,6 +9,7 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
 from deltacal.printer.firmware.rrf.config import load_rrf, rrf_config_text
+from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.fit import values_of
 from deltacal.printer.firmware.rrf.model import RRFDelta
 from deltacal.printer.robot_file import load_printer
@@ -73,6 +74,10 @@ def test_plan_simulate_identify_export_compensate_with_config_g(tmp_path, capsys
     assert main(["export", str(cal), "--controller", "rrf", "--config", str(config), "-o", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "these values: 3-D max" in printed
+    assert "what RepRapFirmware's values cannot hold of each error source alone" in printed
+    note = RRF_FIRMWARE.apply_note
+    assert f"to apply: {note}" in printed and "config-override.g" in note
+    assert out.read_text().splitlines()[1] == f"; {RRF_FIRMWARE.apply_note}"
     fitted = load_rrf(out)
     assert not np.array_equal(values_of(fitted), values_of(load_rrf(config)))
     assert_allclose(fitted.print_radius, load_rrf(config).print_radius)  # the --config's kept

@@ -10,11 +10,12 @@ import pytest
 from numpy.testing import assert_allclose
 
 from deltacal.geometry import DeltaGeometry, Workspace
+from deltacal.printer.firmware.budget import error_budget
 from deltacal.printer.firmware.klipper.calibrate import klipper_basic, probe_points
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper, save_klipper_config
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import (
     KLIPPER_NAMES,
-    error_budget,
     error_stats,
     fit_klipper,
     nozzle_errors,
@@ -133,8 +134,8 @@ def test_in_the_parts_frame_a_printer_turned_and_shifted_on_its_bed_is_klippers(
 def test_error_budget_groups(kossel):
     made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
     k0 = KlipperDelta.from_printer(kossel)
-    budget = error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
-                          kossel.step_distance, WORKSPACE)
+    budget = error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation,
+                          k0, kossel.step_distance, WORKSPACE)
     assert set(budget) == {"tower position", "tower lean", "endstops", "step distances", "ball positions",
                            "rod lengths", "rods of a pair that differ", "bed tilt"}
     # endstops and the rods' common lengths are Klipper's own values: nothing is left of them
@@ -183,15 +184,15 @@ def test_writer_without_source_writes_no_rotation_distance(kossel, tmp_path):
 def test_error_budget_removed(kossel):
     made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
     k0 = KlipperDelta.from_printer(kossel)
-    budget = error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
-                          kossel.step_distance, WORKSPACE, mode="removed")
+    budget = error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation,
+                          k0, kossel.step_distance, WORKSPACE, mode="removed")
     whole = fit_klipper(made.geometry, k0, kossel.step_distance, WORKSPACE).after
     # without the endstops' errors (Klipper's own values) the fit leaves what it leaves on the whole
     # printer, to first order in the tilts (the errors were read back with deviation_from)
     assert abs(budget["endstops"].rms_3d - whole.rms_3d) < 1e-3 * whole.rms_3d
     assert budget["tower lean"].rms_3d < whole.rms_3d
     with pytest.raises(ValueError, match="mode"):
-        error_budget(kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
+        error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
                      kossel.step_distance, WORKSPACE, mode="other")
 
 

@@ -1,14 +1,16 @@
 """``deltacal export CAL --controller FIRMWARE --config SETTINGS -o OUT``: a firmware's values that fit best.
 
-For a firmware other than Klipper (Marlin, RepRapFirmware; Klipper's route, :mod:`.export_klipper`,
-also prints each error source's share): through the firmware interface alone
+For a firmware other than Klipper (Marlin, RepRapFirmware; Klipper's route is :mod:`.export_klipper`):
+through the firmware interface alone
 (:class:`~deltacal.printer.firmware.base.Firmware`), its values that leave the least nozzle error
 over the printable volume of the identified printer (its true bed as z = 0), judged in the printed
 part's frame, with the first layer's height errors weighted as Klipper's export weighs them
 (:data:`~deltacal.printer.firmware.klipper.fit.EXPORT_FIRST_LAYER_WEIGHT`). The fit starts from
 ``--config`` (the settings the printer runs, whose other values it keeps: RRF's print radius, its
-microstepping), else from the calibration's nominal printer. What the values leave is printed and
-kept as comments in the file.
+microstepping), else from the calibration's nominal printer. What the values leave, in the whole
+and of each error source alone (:func:`.export_klipper.source_budget`, Klipper's lines), is printed
+and kept as comments in the file, then how to apply the file (:attr:`Firmware.apply_note
+<deltacal.printer.firmware.base.Firmware.apply_note>`, also its header's second line).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from ..io import load_calibration
 from ..printer.firmware.base import Firmware
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from .common import check_input, check_output
-from .export_klipper import _step_distance, _text, _workspace
+from .export_klipper import _step_distance, _text, _workspace, source_budget, summary
 from .firmware import check_printer_values, refuse_deltacal_file
 
 
@@ -58,6 +60,8 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
     try:
         fit = firmware.fit(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
                            first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+        budget = source_budget(firmware, geometry, nominal, start, step, workspace,
+                               args.keep_rotation_distance)
     except UnreachableError as exc:
         k = exc.indices[0] if exc.indices else 0
         raise InputError(f"a target of the printable volume ({_text(workspace)}{where}) is out of the "
@@ -66,20 +70,11 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
                          str(args.robot or args.calibration), "key workspace") from None
     except ConvergenceError as exc:
         raise InputError(f"the firmware's values could not be fitted: {exc}", str(args.calibration)) from None
-    before, after = fit.before, fit.after  # type: ignore[attr-defined]
-    start_name = "the --config values" if config is not None else "the nominal values"
-    lines = [f"nozzle error over the printable volume ({_text(workspace)}{where}), of the printed part "
-             "(less the shift along the bed and turn about its normal, which no measurement sees):",
-             f"  these values: 3-D max {after.max_3d:.3f} mm, RMS {after.rms_3d:.3f} mm; first layer "
-             f"(z 0.2 mm) max |dz| {after.flatness:.3f} mm",
-             f"  {start_name}: 3-D max {before.max_3d:.3f} mm, RMS {before.rms_3d:.3f} mm; first layer "
-             f"max |dz| {before.flatness:.3f} mm"]
-    held = getattr(fit, "held", ())  # the values the firmware's rules hold (Marlin's tower C trim)
-    if held:
-        lines.append(f"  held (not fitted): {', '.join(held)}")
+    lines = summary(firmware, fit.before, fit.after, budget, workspace, where, fit.held, config is not None)
     firmware.save_config(args.output, fit.values, args.config,
                          title=f"{firmware.title} values fitted by deltacal to {args.calibration}",
                          notes=lines)
     print(f"wrote the {firmware.title} values that best fit {args.calibration} to {args.output}")
     print("\n".join(lines))
+    print(f"to apply: {firmware.apply_note}")
     return 0

@@ -8,23 +8,25 @@ part's frame, with the first layer's height errors weighted
 (:data:`~deltacal.printer.firmware.klipper.fit.EXPORT_FIRST_LAYER_WEIGHT`) so that its flatness is not
 traded for the volume's. The file written holds only the keys Klipper knows, ready to replace those in
 ``printer.cfg``; what the values leave is printed (and kept as comments in the file), with what
-each error source alone would leave (:func:`~deltacal.printer.firmware.klipper.fit.error_budget`):
-what ``compensate`` corrects through the firmware.
+each error source alone would leave (:func:`~deltacal.printer.firmware.budget.error_budget`, as for
+every firmware): what ``compensate`` corrects through the firmware.
 """
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
-from ..geometry import Workspace
+from ..geometry import DeltaGeometry, Workspace
 from ..io import load_calibration
-from ..printer.firmware.base import FirmwareModel
+from ..printer.firmware.base import ErrorFigures, Firmware, FirmwareModel
+from ..printer.firmware.budget import BED_TILT, error_budget
 from ..printer.firmware.klipper.firmware import KLIPPER
-from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, ErrorStats, error_budget
+from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
@@ -67,8 +69,8 @@ def run_klipper(args: argparse.Namespace) -> int:
     try:
         fit = KLIPPER.fit(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
-        budget = error_budget(nominal, geometry.deviation_from(nominal), np.eye(3), np.zeros(3), start, step,
-                              workspace, args.keep_rotation_distance)
+        budget = source_budget(KLIPPER, geometry, nominal, start, step, workspace,
+                               args.keep_rotation_distance)
     except UnreachableError as exc:
         k = exc.indices[0] if exc.indices else 0
         raise InputError(f"a target of the printable volume ({_text(workspace)}{where}) is out of Klipper's "
@@ -76,7 +78,8 @@ def run_klipper(args: argparse.Namespace) -> int:
                          str(args.robot or args.calibration), "key workspace") from None
     except ConvergenceError as exc:
         raise InputError(f"Klipper's values could not be fitted: {exc}", str(args.calibration)) from None
-    lines = _summary(fit.before, fit.after, budget, workspace, where, fit.held, args.config is not None)
+    lines = summary(KLIPPER, fit.before, fit.after, budget, workspace, where, fit.held,
+                    args.config is not None)
     values = KLIPPER.admit_bed(fit.klipper, geometry, step, workspace.radius)
     if values is not fit.klipper:
         lines.append(f"minimum_z_position {values.minimum_z_position:g} mm: the true bed is below these "
@@ -117,9 +120,23 @@ def _text(workspace: Workspace) -> str:
     return f"radius {workspace.radius:g} mm, z from 0.2 to {workspace.top_z:g} mm"
 
 
-def _summary(before: ErrorStats, after: ErrorStats, budget: dict[str, ErrorStats], workspace: Workspace,
-             where: str, held: list[str], from_config: bool) -> list[str]:
-    """What the values leave, line by line [mm]: the whole, and each error source alone."""
+def source_budget(firmware: Firmware[Any], geometry: DeltaGeometry, nominal: DeltaGeometry,
+                  start: FirmwareModel, step: np.ndarray, workspace: Workspace,
+                  hold_step_distance: bool) -> dict[str, ErrorFigures]:
+    """What the firmware's values leave of each error source of the identified printer alone [mm].
+
+    The printer's errors are its deviation from its nominal geometry, on its bed (no bed motion:
+    the bed's tilt is in the towers' lean and positions):
+    :func:`~deltacal.printer.firmware.budget.error_budget`.
+    """
+    return error_budget(firmware, nominal, geometry.deviation_from(nominal), np.eye(3), np.zeros(3), start,
+                        step, workspace, hold_step_distance)
+
+
+def summary(firmware: Firmware[Any], before: ErrorFigures, after: ErrorFigures,
+            budget: dict[str, ErrorFigures], workspace: Workspace, where: str, held: list[str],
+            from_config: bool) -> list[str]:
+    """What the firmware's values leave, line by line [mm]: the whole, and each error source alone."""
     start = "the --config values" if from_config else "the nominal values"
     lines = [f"nozzle error over the printable volume ({_text(workspace)}{where}), of the printed part "
              "(less the shift along the bed and turn about its normal, which no measurement sees):",
@@ -129,11 +146,11 @@ def _summary(before: ErrorStats, after: ErrorStats, budget: dict[str, ErrorStats
              f"max |dz| {before.flatness:.3f} mm, peak to valley {before.flatness_pv:.3f} mm"]
     if held:
         lines.append(f"  held (not fitted): {', '.join(held)}")
-    lines.append("what Klipper's values cannot hold of each error source alone (3-D max / first layer "
-                 "max |dz|; deltacal compensate corrects them):")
+    lines.append(f"what {firmware.title}'s values cannot hold of each error source alone (3-D max / first "
+                 "layer max |dz|; deltacal compensate corrects them):")
     width = max(len(label) for label in budget)
     lines += [f"  {label:{width}s}  {stats.max_3d:.3f} / {stats.flatness:.3f} mm"
-              for label, stats in budget.items() if label != "bed tilt"]
+              for label, stats in budget.items() if label != BED_TILT]
     lines.append("  (the bed's tilt is in the towers' lean and positions: the printer is expressed on its "
                  "bed)")
     return lines

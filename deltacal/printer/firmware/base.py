@@ -131,12 +131,47 @@ class FirmwareModel(Protocol):
         """The same values with the lowest Z the firmware accepts set to ``minimum_z`` [mm]."""
 
 
+class ErrorFigures(Protocol):
+    """Nozzle errors over the printable volume and the first layer [mm] (a fit's ``ErrorStats``)."""
+
+    @property
+    def max_3d(self) -> float:
+        """Largest 3-D error over the volume's grid."""
+
+    @property
+    def rms_3d(self) -> float:
+        """Root mean square 3-D error over the volume's grid."""
+
+    @property
+    def flatness(self) -> float:
+        """Largest |z error| over the first layer's disc."""
+
+    @property
+    def flatness_pv(self) -> float:
+        """Peak to valley of the z error over the first layer's disc."""
+
+    def as_dict(self) -> dict[str, float]:
+        """The figures by name [mm]."""
+
+
 class FirmwareFit(Protocol):
-    """A firmware's values fitted to an identified printer (and, per firmware, what they leave)."""
+    """A firmware's values fitted to an identified printer, and what they leave."""
 
     @property
     def values(self) -> FirmwareModel:
         """The fitted values."""
+
+    @property
+    def before(self) -> ErrorFigures:
+        """The errors with the start's values."""
+
+    @property
+    def after(self) -> ErrorFigures:
+        """The errors with the fitted values."""
+
+    @property
+    def held(self) -> list[str]:
+        """The values held at the start's, in the firmware's names."""
 
 
 class Measuring(Protocol):
@@ -180,6 +215,8 @@ class Firmware(ABC, Generic[ModelT]):
         config_file: The usual name of its configuration file (``printer.cfg``).
         calibrated_file: The name deltacal gives a file of fitted values (``printer_calibrated.cfg``).
         minimum_z_key: Where its configuration sets the lowest Z it accepts (``minimum_z_position``).
+        apply_note: How to put the values :meth:`config_text` writes into the printer (one line,
+            the first comment of the file and said by ``deltacal export``).
     """
 
     name: ClassVar[str]
@@ -190,6 +227,7 @@ class Firmware(ABC, Generic[ModelT]):
     config_file: ClassVar[str]
     calibrated_file: ClassVar[str]
     minimum_z_key: ClassVar[str]
+    apply_note: ClassVar[str]
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:

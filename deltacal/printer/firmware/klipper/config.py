@@ -43,6 +43,8 @@ from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
 from .model import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
 
+#: How to put the keys :func:`klipper_config_text` writes into the printer (its header's second line).
+APPLY_NOTE = "Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, if any)."
 #: The line that opens Klipper's SAVE_CONFIG block.
 AUTOSAVE_MARK = "#*# <---------------------- SAVE_CONFIG ---------------------->"
 #: Klipper's header of the block: the mark, a warning line and an empty ``#*#`` line.
@@ -400,8 +402,7 @@ def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | Klipp
     config = read_klipper_config(source_config) if isinstance(source_config, (str, Path)) else source_config
     lines = [f"# {title}" if title else "# Klipper delta values written by deltacal"]
     if not complete:
-        lines.append("# Replace these keys in printer.cfg (and delete their copies in a SAVE_CONFIG block, "
-                     "if any).")
+        lines.append(f"# {APPLY_NOTE}")
     lines += [f"# {note}".rstrip() for note in notes]
     unknown = []
     body = ["", "[printer]", *(f"{key}: {value}" for key, value in PRINTER_OPTIONS if complete),

@@ -27,7 +27,14 @@ from .calibrate import (
     object_pairs,
     probe_points,
 )
-from .config import KlipperConfig, is_klipper_config, klipper_config_text, load_klipper, read_klipper_config
+from .config import (
+    APPLY_NOTE,
+    KlipperConfig,
+    is_klipper_config,
+    klipper_config_text,
+    load_klipper,
+    read_klipper_config,
+)
 from .fit import KlipperFit, fit_klipper
 from .importer import import_klipper, write_import
 from .log import is_probe_log, probe_offsets, read_probe_log
@@ -50,6 +57,7 @@ class Klipper(Firmware[KlipperDelta]):
     config_file: ClassVar[str] = "printer.cfg"
     calibrated_file: ClassVar[str] = "printer_calibrated.cfg"
     minimum_z_key: ClassVar[str] = "minimum_z_position"
+    apply_note: ClassVar[str] = APPLY_NOTE
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""

@@ -13,14 +13,7 @@ closed form. The printer's frame is fixed by its bed, so no value is a gauge (th
 rotation is not: it turns the printed part on the bed); the scaled pivoted QR and the singular
 values of the Jacobian say what the grid cannot tell apart, and those values are held.
 
-What the values leave per error source (:func:`error_budget`), for a simulated printer whose errors
-are known by name: the printer rebuilt from its nominal geometry with ONE group of its errors (tower
-positions, tower lean, endstops, step distances, balls, rods' common length, rods of a pair that
-differ, bed tilt) and Klipper's values refitted: what the firmware cannot absorb of that source
-alone (``mode="alone"``); or with every error but that group (``mode="removed"``): what the whole
-printer's leftover would be without it. One small fit per group (about 0.1 s each). The groups
-interact (a lean and a bed tilt can partly cancel): the leftovers alone do not add up to the
-whole's, and that is said rather than hidden.
+What the values leave per error source, for any firmware: :func:`~..budget.error_budget`.
 
 Units: mm and rad (the dataclass's angles), degrees only in reports.
 """
@@ -297,85 +290,3 @@ def fit_klipper(
         points=grid.shape[0],
     )
 
-
-#: Error groups of :func:`error_budget`: label -> a test on an error name of a prismatic chain.
-ERROR_GROUPS = {
-    "tower position": lambda n: ".axis_point." in n,
-    "tower lean": lambda n: ".axis_tilt_" in n,
-    "endstops": lambda n: n.endswith("encoder_offset"),
-    "step distances": lambda n: n.endswith("joint_scale"),
-    "ball positions": lambda n: "_ball" in n,
-    "rod lengths": lambda n: n.endswith(".length"),
-}
-
-
-def _rod_split(errors: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
-    """Rod errors split into each pair's common part and its difference (rods of a pair that differ)."""
-    common, differ = {}, {}
-    for i in range(1, 4):
-        a, b = errors.get(f"limb{i}.rod1.length", 0.0), errors.get(f"limb{i}.rod2.length", 0.0)
-        mean = 0.5 * (a + b)
-        common.update({f"limb{i}.rod1.length": mean, f"limb{i}.rod2.length": mean})
-        differ.update({f"limb{i}.rod1.length": a - mean, f"limb{i}.rod2.length": b - mean})
-    return common, differ
-
-
-def error_budget(
-    nominal: DeltaGeometry,
-    errors: dict[str, float],
-    bed_rotation: np.ndarray,
-    bed_translation: np.ndarray,
-    start: KlipperDelta,
-    step_distance: np.ndarray | float,
-    workspace: Workspace,
-    hold_step_distance: bool = False,
-    mode: str = "alone",
-) -> dict[str, ErrorStats]:
-    """What Klipper's best values leave of each error source [mm].
-
-    The printer is rebuilt from its nominal geometry with one group of its errors (``"alone"``;
-    the bed's rigid motion only for "bed tilt") or with all of them but that group
-    (``"removed"``), Klipper's values refitted (:func:`fit_klipper`), and the leftover reported.
-    Rods are split into each pair's common length ("rod lengths") and the pair's difference
-    ("rods of a pair that differ", which tilts the effector).
-
-    Args:
-        nominal: The nominal geometry.
-        errors: The printer's errors by name (:meth:`DeltaGeometry.with_errors`).
-        bed_rotation: The rigid motion that puts the true bed at z = 0, (3, 3).
-        bed_translation: Its translation [mm], (3,).
-        start: Klipper's nominal configuration.
-        step_distance: The nominal step distance [mm].
-        workspace: The printable cylinder.
-        hold_step_distance: As :func:`fit_klipper`.
-        mode: ``"alone"`` or ``"removed"``.
-
-    Returns:
-        Group label -> the fitted values' errors with only that group (without it).
-
-    Raises:
-        ValueError: an unknown mode.
-    """
-    if mode not in ("alone", "removed"):
-        raise ValueError(f"mode must be 'alone' or 'removed', got {mode!r}")
-    rods = {n: v for n, v in errors.items() if n.endswith(".length")}
-    common, differ = _rod_split(rods)
-    groups: dict[str, dict[str, float]] = {
-        label: {n: v for n, v in errors.items() if test(n)} for label, test in ERROR_GROUPS.items()
-        if label != "rod lengths"}
-    groups["rod lengths"] = common
-    groups["rods of a pair that differ"] = differ
-    groups["bed tilt"] = {}
-    grid = printable_grid(workspace)
-    out = {}
-    for label, group in groups.items():
-        if mode == "alone":
-            printer = nominal.with_errors(group)
-            bed = label == "bed tilt"
-        else:
-            printer = nominal.with_errors({n: v - group.get(n, 0.0) for n, v in errors.items()})
-            bed = label != "bed tilt"
-        if bed:
-            printer = printer.moved_rigidly(bed_rotation, bed_translation)
-        out[label] = fit_klipper(printer, start, step_distance, workspace, hold_step_distance, grid).after
-    return out

@@ -27,7 +27,7 @@ from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
 from .probing import marlin_probe_program
-from .settings import is_marlin_settings, load_marlin, marlin_settings_text
+from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text
 from .values import marlin_from_geometry, marlin_from_printer
 
 if TYPE_CHECKING:
@@ -45,6 +45,7 @@ class Marlin(Firmware[MarlinDelta]):
     config_file: ClassVar[str] = "m503.txt"
     calibrated_file: ClassVar[str] = "printer_calibrated.gcode"
     minimum_z_key: ClassVar[str] = "M211 Min Z"
+    apply_note: ClassVar[str] = APPLY_NOTE
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""

@@ -181,6 +181,8 @@ def load_marlin(path: str | Path) -> MarlinDelta:
         raise InputError(str(exc), settings.source, "M665") from None
 
 
+#: How to put the lines :func:`marlin_settings_text` writes into the printer (its header's second line).
+APPLY_NOTE = "Send these lines to the printer: M665, M666 and M92 set the values, the last, M500, saves them."
 #: Decimals written: lengths [mm] and trims [deg]; ``M92`` steps per mm.
 MM_DECIMALS = 4
 STEPS_DECIMALS = 6
@@ -203,6 +205,8 @@ def marlin_settings_text(marlin: MarlinDelta, title: str = "", notes: list[str] 
         return " ".join(f"{k}{num(v)}" for k, v in zip(letters, values, strict=True))
 
     lines = [f"; {title}" if title else "; Marlin delta values written by deltacal"]
+    if not complete:
+        lines.append(f"; {APPLY_NOTE}")
     lines += [f"; {note}".rstrip() for note in notes]
     lines.append(f"; M665 H is for the probe offset M851 Z{num(marlin.probe_offset[2])}")
     extruder = marlin.extruder_steps_per_mm

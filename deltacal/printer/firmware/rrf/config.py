@@ -51,6 +51,10 @@ LINEAR_DELTA = 3
 DEFAULT_TRIGGER_HEIGHT = 0.7
 #: The file ``M501`` runs.
 OVERRIDE = "config-override.g"
+#: How to put the lines :func:`rrf_config_text` writes into the printer (its header's second line):
+#: ``M500`` saves ``M665`` and ``M666`` to config-override.g, not ``M92``, and rewrites that file.
+APPLY_NOTE = ("Replace the M665 and M666 lines of config-override.g with these (or send them, then M500), "
+              "and the M92 X Y Z line of config.g (M500 does not save M92).")
 #: A line's command: an optional line number, then G/M/T and its number.
 _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
 #: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}`` whole).
@@ -386,9 +390,7 @@ def rrf_config_text(
     mm, deg = (lambda v: _number(v, MM_DECIMALS, complete)), (lambda v: _number(v, DEG_DECIMALS, complete))
     lines = [f"; {title}" if title else "; RepRapFirmware delta values written by deltacal"]
     if not complete:
-        lines.append(
-            "; Replace the M665, M666 and M92 X Y Z lines of config-override.g (or config.g) with these."
-        )
+        lines.append(f"; {APPLY_NOTE}")
     lines += [f"; {note}".rstrip() for note in notes]
     if complete:
         lines.append(f"M669 K{3}")

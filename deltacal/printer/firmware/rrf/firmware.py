@@ -18,7 +18,14 @@ from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, Measuring
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
-from .config import is_rrf_config, load_rrf, read_rrf_settings, rrf_config_text, rrf_probe_offsets
+from .config import (
+    APPLY_NOTE,
+    is_rrf_config,
+    load_rrf,
+    read_rrf_settings,
+    rrf_config_text,
+    rrf_probe_offsets,
+)
 from .fit import RRFFit, fit_rrf
 from .homing import homed_position
 from .importer import import_rrf
@@ -42,6 +49,7 @@ class RRF(Firmware[RRFDelta]):
     config_file: ClassVar[str] = "config.g"
     calibrated_file: ClassVar[str] = "config-override.g"
     minimum_z_key: ClassVar[str] = "M208 Z minimum"
+    apply_note: ClassVar[str] = APPLY_NOTE
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
