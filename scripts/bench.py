@@ -596,7 +596,9 @@ def bench_klipper(setup: Setup) -> list[Row]:
         folder = Path(tmp)
         cal, cfg, path, program = (folder / name for name in ("true.toml", "printer.cfg", "t.csv", "p.gcode"))
         save_geometry(truth, cal)
-        KLIPPER.save_config(cfg, firmware, complete=True)
+        # the minimum_z_position the corrected bed needs (Klipper refuses a command below it)
+        admitted = KLIPPER.admit_bed(firmware, truth, printer.step_distance, 115.0)
+        KLIPPER.save_config(cfg, admitted, complete=True)
         _write_targets(path, targets)
         args = command + ["compensate", str(cal), str(path), "--controller", str(cfg), "-o",
                           str(folder / "c.csv")]
