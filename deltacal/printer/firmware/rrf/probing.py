@@ -29,15 +29,6 @@ def probe_lines(x: float, y: float) -> tuple[str, ...]:
 def rrf_probe_program(points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
     """The program that homes (``G28``), then echoes each point and runs ``G30 S-1`` above it, in order.
 
-    Args:
-        points: Commanded nozzle positions [mm], (N, 2) or (N, 3) (z ignored).
-        title: A first comment line.
-        clearance: The nozzle's height while it moves between points [mm], above 0.
-
-    Returns:
-        The program's text (one command a line, ``;`` comments): :func:`~..probing.probe_program`.
-
-    Raises:
-        ValueError: a clearance not above 0, or points not finite.
+    :func:`~..probing.probe_program` with RepRapFirmware's words (its arguments, values and errors).
     """
     return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)
