@@ -46,9 +46,9 @@ from ..controller import corrected_targets
 from ..geometry import DeltaGeometry, Tolerances, Workspace
 from ..identification.result import IdentificationResult
 from .firmware.base import Firmware, FirmwareModel
+from .firmware.fitting import ErrorStats, first_layer, nozzle_errors, printable_grid
 from .firmware.klipper.calibrate import BASIC_TITLE, ENHANCED_TITLE
 from .firmware.klipper.firmware import KLIPPER
-from .firmware.klipper.fit import ErrorStats, first_layer, nozzle_errors, printable_grid
 from .identification import PrinterMeasurements, identify_printer
 from .plan import ObjectPlan
 from .robot import NominalLinearDelta, less_bed_motion

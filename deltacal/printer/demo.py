@@ -48,8 +48,9 @@ from .comparison import (
     run_printer,
 )
 from .firmware.base import Firmware, FirmwareModel
+from .firmware.fitting import nozzle_errors
 from .firmware.klipper.firmware import KLIPPER
-from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
+from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from .measurement_files import write_printed_distances, write_probe_heights
 from .plan import plan_object
 from .robot import less_bed_motion

@@ -151,6 +151,28 @@ def write_printer_file(path: str | Path, values: ImportedValues, measured: Measu
     return atomic_write_text(path, printer_file_text(values, measured))
 
 
+def write_imported(folder: str | Path, values: ImportedValues, effector_radius: float | None,
+                   rod_spacing: float | None, nozzle_drop: float | None) -> tuple[Path, str]:
+    """Write ``folder/printer.toml`` of a firmware's values, what it does not say given or by default.
+
+    Args:
+        folder: An existing folder.
+        values: The firmware's model in deltacal's words.
+        effector_radius: Effector centre to each ball pair's midpoint [mm], or None (the default).
+        rod_spacing: Between a pair's two balls [mm], or None.
+        nozzle_drop: The nozzle below the effector's ball plane [mm], or None.
+
+    Returns:
+        The file written, and ``"; defaults taken: ..."`` naming the defaults taken (or "").
+
+    Raises:
+        InputError: no printable volume above the bed.
+    """
+    measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
+    written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
+    return written, f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+
+
 @dataclass(frozen=True)
 class PrinterImport:
     """What ``deltacal import`` of a configuration wrote, and what it says of it.

@@ -13,6 +13,10 @@ subpackage has the same parts:
 * ``probing``: its program that probes the bed at given points, its results on the console;
 * ``firmware``: the :class:`~.base.Firmware` that delegates to the parts above.
 
+What the firmwares share is written once beside :mod:`.base`: the classical delta maths of their
+models (:mod:`.classical`), the fit's loop (:mod:`.fitting`), the probe program (:mod:`.probing`)
+and a log's probe results (:mod:`.probe_log`).
+
 Klipper (:mod:`.klipper`), RepRapFirmware (:mod:`.rrf`) and Marlin (:mod:`.marlin`). :func:`firmwares`
 lists them; :func:`config_firmware`
 finds the one whose configuration a file is, :func:`log_firmware` the one whose probe results a log holds.

@@ -9,9 +9,13 @@ Units: mm.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+
+from ...exceptions import InputError
 
 
 @dataclass(frozen=True)
@@ -46,3 +50,31 @@ class ProbeLog:
     lines: np.ndarray
     trigger_height: np.ndarray | None = None
     trigger_source: str = ""
+
+
+def log_text(path: str | Path, text: str | None = None) -> tuple[str, str]:
+    """A log's name for messages and its text (read unless given; bytes not UTF-8 replaced).
+
+    Raises:
+        InputError: the file cannot be read.
+    """
+    source = str(path)
+    if text is None:
+        try:
+            text = Path(path).read_text(encoding="utf-8", errors="replace")
+        except OSError as exc:
+            raise InputError(f"cannot read the log ({exc.strerror})", source) from None
+    return source, text
+
+
+def probe_log(rows: Sequence[Sequence[float]] | np.ndarray, lines: Sequence[int],
+              trigger_height: float | None = None) -> ProbeLog:
+    """The probe results of a log from its rows, their lines and the trigger height, if known.
+
+    Args:
+        rows: Commanded nozzle positions at the triggers [mm], (N, 3).
+        lines: The line of each in the log, (N,).
+        trigger_height: The nozzle's height above the bed at every trigger [mm], or None.
+    """
+    heights = None if trigger_height is None else np.full(len(rows), trigger_height)
+    return ProbeLog(np.array(rows), np.array(lines, dtype=int), heights)

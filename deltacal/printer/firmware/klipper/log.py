@@ -23,10 +23,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
-
 from ....exceptions import InputError
-from ..probe_log import ProbeLog, ProbeOffsets
+from ..probe_log import ProbeLog, ProbeOffsets, log_text, probe_log
 from .config import KlipperConfig
 
 __all__ = ["ProbeLog", "ProbeOffsets", "is_probe_log", "probe_offsets", "read_probe_log"]
@@ -88,12 +86,7 @@ def read_probe_log(path: str | Path, text: str | None = None,
         InputError: the file cannot be read, holds no probe result, or holds a line from 2026
             without the offsets.
     """
-    source = str(path)
-    if text is None:
-        try:
-            text = Path(path).read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise InputError(f"cannot read the log ({exc.strerror})", source) from None
+    source, text = log_text(path, text)
     rows: list[list[float]] = []
     lines: list[int] = []
     open_from = 0  # the first row of the command whose samples are being read
@@ -113,8 +106,7 @@ def read_probe_log(path: str | Path, text: str | None = None,
         raise InputError("no probe result in this log (Klipper's 'probe at X,Y is z=Z' or 'probe: at X,Y bed "
                          "will contact at z=Z' lines): probe with PROBE, or save the console after probing",
                          source)
-    heights = None if offsets is None else np.full(len(rows), offsets.z)
-    return ProbeLog(np.array(rows), np.array(lines, dtype=int), heights)
+    return probe_log(rows, lines, None if offsets is None else offsets.z)
 
 
 def _sample(line: str, number: int, offsets: ProbeOffsets | None, source: str) -> list[float] | None:

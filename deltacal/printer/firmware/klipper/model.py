@@ -41,11 +41,20 @@ from functools import cached_property
 
 import numpy as np
 
-from ....chains import PRISMATIC
-from ....exceptions import GeometryError, UnreachableError
-from ....geometry import DeltaGeometry, radial_vectors
+from ....exceptions import GeometryError
+from ....geometry import DeltaGeometry
 from ....kinematics.closed_form import VirtualDelta
 from ...robot import NominalLinearDelta
+from ..classical import (
+    carriage_points,
+    carriage_tops,
+    checked_steps,
+    home_position,
+    on_axis,
+    point_effector,
+    rod_rise,
+    tower_positions,
+)
 from ..controller import FirmwareController
 
 #: Klipper's tower angles when a ``[stepper_*]`` gives none [deg] (towers A, B, C).
@@ -112,9 +121,7 @@ class KlipperDelta:
             GeometryError: the nozzle is off the effector's axis (Klipper's point effector has no
                 horizontal nozzle offset).
         """
-        if np.any(printer.tool[:2] != 0.0):
-            raise GeometryError(f"Klipper's model has no horizontal nozzle offset; the nozzle is at "
-                                f"{printer.tool.tolist()} mm in the effector frame")
+        on_axis(printer.tool, "Klipper")
         radius = printer.tower_radius - printer.effector_radius
         carriage_top = printer.endstop_height + float(printer.tool[2])  # per tower
         endstop = carriage_top - np.sqrt(printer.rod_length**2 - radius**2)
@@ -135,16 +142,7 @@ class KlipperDelta:
             GeometryError: not a printer (a prismatic chain), no step distance, or a nozzle off
                 the effector's axis.
         """
-        if not geometry.chain.firmware or geometry.step_distance is None:
-            raise GeometryError("Klipper's values need a printer's geometry (a prismatic chain) with its "
-                                "step distance")
-        if np.any(geometry.tool[:2] != 0.0):
-            raise GeometryError(f"Klipper's model has no horizontal nozzle offset; the nozzle is at "
-                                f"{geometry.tool.tolist()} mm in the effector frame")
-        rotation = geometry.actuator_rotation()
-        carriage = geometry.axis_point + np.einsum("ikl,il->ik", rotation, geometry.arm_ball.mean(axis=1))
-        point = carriage - geometry.plate_ball.mean(axis=1) + geometry.tool
-        radius = float(np.mean(np.linalg.norm(point[:, :2], axis=1)))
+        point, radius = carriage_points(geometry, "Klipper")
         arm = geometry.rod_length.mean(axis=1)
         return cls(radius, np.mod(np.arctan2(point[:, 1], point[:, 0]), 2.0 * np.pi), arm,
                    point[:, 2] - np.sqrt(arm**2 - radius**2), np.array(geometry.step_distance),
@@ -153,24 +151,17 @@ class KlipperDelta:
     @cached_property
     def towers(self) -> np.ndarray:
         """Tower positions ``(X_i, Y_i)`` [mm], (3, 2)."""
-        towers = self.delta_radius * radial_vectors(self.angle)[:, :2]
-        towers.setflags(write=False)
-        return towers
+        return tower_positions(self.delta_radius, self.angle)
 
     @cached_property
     def carriage_top(self) -> np.ndarray:
         """Carriage point heights at the endstops, ``E_i = e_i + sqrt(ℓ_i² − ρ²)`` [mm], (3,)."""
-        top = self.position_endstop + np.sqrt(self.arm_length**2 - self.delta_radius**2)
-        top.setflags(write=False)
-        return top
+        return carriage_tops(self.position_endstop, self.arm_length, self.delta_radius)
 
     def carriage_heights(self, targets: np.ndarray) -> np.ndarray:
         """Klipper's carriage heights ``h_i`` for nozzle targets [mm], (N, 3) -> (N, 3); NaN out of reach."""
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        dx = targets[:, None, 0] - self.towers[None, :, 0]
-        dy = targets[:, None, 1] - self.towers[None, :, 1]
-        with np.errstate(invalid="ignore"):
-            return np.sqrt(self.arm_length**2 - dx * dx - dy * dy) + targets[:, 2:3]
+        return rod_rise(self.towers, self.arm_length, targets) + targets[:, 2:3]
 
     def steps(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """Steps below the endstops Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3).
@@ -179,12 +170,8 @@ class KlipperDelta:
             UnreachableError: a target no rod reaches (``check``; else NaN rows).
         """
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        steps = (self.carriage_top - self.carriage_heights(targets)) / self.step_distance
-        if check:
-            bad = ~np.all(np.isfinite(steps), axis=1)
-            if np.any(bad):
-                raise UnreachableError.from_mask(bad, targets)
-        return steps
+        return checked_steps((self.carriage_top - self.carriage_heights(targets)) / self.step_distance,
+                             targets, check)
 
     def inverse(self, targets: np.ndarray, step_distance: np.ndarray | float,
                 check: bool = True) -> np.ndarray:
@@ -201,19 +188,7 @@ class KlipperDelta:
         Carriage point ``(X_i, Y_i, E_i)`` at the endstop, sliding down z by ``d_i`` per step,
         a point effector (attachment and elbow at the origins), rods ℓ_i.
         """
-        r = radial_vectors(self.angle)
-        z = np.tile([0.0, 0.0, 1.0], (3, 1))
-        axis_point = np.column_stack([self.towers, self.carriage_top])
-        return VirtualDelta(
-            axis_point=axis_point,
-            actuator_rotation=np.stack([r, z, np.cross(r, z)], axis=-1),
-            encoder_offset=np.zeros(3),
-            elbow=np.zeros((3, 3)),
-            plate_attachment=np.zeros((3, 3)),
-            rod_length=np.array(self.arm_length),
-            chain=PRISMATIC,
-            joint_scale=np.array(self.step_distance),
-        )
+        return point_effector(self.angle, self.towers, self.carriage_top, self.arm_length, self.step_distance)
 
     def positions(self, steps: np.ndarray, check: bool = True) -> np.ndarray:
         """Klipper's nozzle positions at steps below the endstops, (N, 3) -> (N, 3) [mm] (trilateration).
@@ -258,9 +233,7 @@ class KlipperDelta:
     @cached_property
     def home_position(self) -> np.ndarray:
         """Where homing leaves the nozzle: every carriage at its endstop [mm], (3,)."""
-        home = self.positions(np.zeros((1, 3)))[0]
-        home.setflags(write=False)
-        return home
+        return home_position(self.positions)
 
     def with_minimum_z(self, minimum_z: float) -> KlipperDelta:
         """The same values with ``minimum_z_position`` = ``minimum_z`` [mm]."""

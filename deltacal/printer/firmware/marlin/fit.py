@@ -21,7 +21,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
-from ..klipper.fit import ErrorStats, KlipperFit, error_stats, fit_klipper, printable_grid
+from ..fitting import ErrorStats, error_stats, printable_grid
+from ..klipper.fit import KLIPPER_NAMES, KlipperFit, fit_klipper
 from .model import MarlinDelta
 from .values import from_klipper, to_klipper
 
@@ -58,8 +59,6 @@ class MarlinFit:
 
 def _names(klipper_names: list[str]) -> list[str]:
     """Klipper's value names as Marlin's (:data:`MARLIN_NAMES`)."""
-    from ..klipper.fit import KLIPPER_NAMES
-
     return [MARLIN_NAMES[KLIPPER_NAMES.index(name)] for name in klipper_names]
 
 

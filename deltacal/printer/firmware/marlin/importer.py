@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...importer import OUTPUT_FILES, ImportedValues, Measured, PrinterImport, write_printer_file
+from ...importer import ImportedValues, PrinterImport, write_imported
 from .model import BASE_ANGLES_DEG, MarlinDelta
 from .settings import load_marlin
 
@@ -58,8 +58,6 @@ def import_marlin(path: str | Path, folder: str | Path, effector_radius: float |
         InputError: the capture's first problem, or no printable volume.
     """
     marlin, values = marlin_imported_values(path)
-    measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
-    written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
-    taken = f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+    written, taken = write_imported(folder, values, effector_radius, rod_spacing, nozzle_drop)
     said = f"wrote {written}: Marlin's model of {path} (M665 R {marlin.radius:g} mm){taken}"
     return PrinterImport((written,), (said,))

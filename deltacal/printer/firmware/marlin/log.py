@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
-from ..probe_log import ProbeLog
+from ..probe_log import ProbeLog, log_text, probe_log
 
 _NUMBER = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 #: Marlin's answer to a probe (G30, G29 V3): the probe's position and the bed's height under it.
@@ -51,12 +51,7 @@ def read_marlin_probe_log(path: str | Path, text: str | None = None,
         InputError: the file cannot be read, holds no ``Bed X:`` result (G33's alone are named), or
             no probe offset was given.
     """
-    source = str(path)
-    if text is None:
-        try:
-            text = Path(path).read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise InputError(f"cannot read the log ({exc.strerror})", source) from None
+    source, text = log_text(path, text)
     rows: list[list[float]] = []
     lines: list[int] = []
     for number, line in enumerate(text.splitlines(), start=1):
@@ -78,5 +73,4 @@ def read_marlin_probe_log(path: str | Path, text: str | None = None,
                          "it (M851 applied): give the printer's M503 capture with --config M503.txt", source,
                          f"line {lines[0]}")
     offset = np.asarray(probe_offset, dtype=float).reshape(3)
-    commanded = np.array(rows) - offset
-    return ProbeLog(commanded, np.array(lines, dtype=int), np.full(len(rows), -offset[2]))
+    return probe_log(np.array(rows) - offset, lines, -offset[2])

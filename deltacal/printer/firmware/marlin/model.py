@@ -47,11 +47,10 @@ from functools import cached_property
 
 import numpy as np
 
-from ....chains import PRISMATIC
-from ....exceptions import AssemblyError, GeometryError, UnreachableError
-from ....geometry import radial_vectors
+from ....exceptions import AssemblyError, GeometryError
 from ....kinematics.closed_form import VirtualDelta
 from ....towers import per_tower
+from ..classical import carriage_tops, checked_steps, point_effector, tower_positions
 from ..controller import FirmwareController
 
 #: Marlin's tower angles before the trims (``delta.cpp``) [deg], towers A, B, C.
@@ -177,16 +176,12 @@ class MarlinDelta:
     @cached_property
     def towers(self) -> np.ndarray:
         """Tower positions ``(X_i, Y_i)`` [mm], (3, 2)."""
-        towers = self.radius * radial_vectors(self.angle)[:, :2]
-        towers.setflags(write=False)
-        return towers
+        return tower_positions(self.radius, self.angle)
 
     @cached_property
     def carriage_top(self) -> np.ndarray:
         """Each carriage point's height at its endstop in Marlin's frame, ``E_i`` [mm], (3,)."""
-        top = self.home_height + np.sqrt(self.rods**2 - self.radius**2) + self.homing_moves
-        top.setflags(write=False)
-        return top
+        return carriage_tops(self.home_height, self.rods, self.radius, self.homing_moves)
 
     def carriage_heights(self, targets: np.ndarray) -> np.ndarray:
         """``DELTA_Z``: carriage heights for nozzle targets [mm], (N, 3) -> (N, 3); NaN out of reach."""
@@ -203,12 +198,8 @@ class MarlinDelta:
             UnreachableError: a target no rod reaches (``check``; else NaN rows).
         """
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        steps = (self.carriage_top - self.carriage_heights(targets)) * self.steps_per_mm
-        if check:
-            bad = ~np.all(np.isfinite(steps), axis=1)
-            if np.any(bad):
-                raise UnreachableError.from_mask(bad, targets)
-        return steps
+        return checked_steps((self.carriage_top - self.carriage_heights(targets)) * self.steps_per_mm,
+                             targets, check)
 
     def positions(self, steps: np.ndarray, check: bool = True) -> np.ndarray:
         """``forward_kinematics``: the nozzle at steps below the endstops, (N, 3) -> (N, 3) [mm].
@@ -262,18 +253,7 @@ class MarlinDelta:
         Carriage point ``(X_i, Y_i, E_i)`` at the endstop, sliding down z by ``1 / M92_i`` per step,
         a point effector, rods ``L + trim_i``.
         """
-        r = radial_vectors(self.angle)
-        z = np.tile([0.0, 0.0, 1.0], (3, 1))
-        return VirtualDelta(
-            axis_point=np.column_stack([self.towers, self.carriage_top]),
-            actuator_rotation=np.stack([r, z, np.cross(r, z)], axis=-1),
-            encoder_offset=np.zeros(3),
-            elbow=np.zeros((3, 3)),
-            plate_attachment=np.zeros((3, 3)),
-            rod_length=np.array(self.rods),
-            chain=PRISMATIC,
-            joint_scale=np.array(self.step_distance),
-        )
+        return point_effector(self.angle, self.towers, self.carriage_top, self.rods, self.step_distance)
 
     @property
     def home_position(self) -> np.ndarray:

@@ -12,36 +12,22 @@ from __future__ import annotations
 import numpy as np
 
 from ..base import PROBE_CLEARANCE
+from ..probing import probe_program
 
-#: Feed rate of the moves between points [mm/min].
-TRAVEL_FEED = 3000.0
-#: Feed rate of the rise back to the clearance after each probe [mm/min].
-LIFT_FEED = 600.0
+#: How Marlin answers, after the count of points (the program's second line).
+ANSWERS = "Marlin answers each G30 on its console"
+#: The rest of the program's header (comment lines).
+NOTES = ("(Bed X: x Y: y Z: z, the probe's position: the nozzle's plus M851 X, Y)",)
+
+
+def probe_lines(x: float, y: float) -> tuple[str, ...]:
+    """Marlin's probe at a point: ``G30`` without X, Y (where the probe stands)."""
+    return ("G30",)
 
 
 def marlin_probe_program(points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
     """The program that homes (``G28``) and runs ``G30`` with the nozzle above each point in order.
 
-    Args:
-        points: Commanded nozzle positions [mm], (N, 2) or (N, 3) (z ignored).
-        title: A first comment line.
-        clearance: The nozzle's height while it moves between points [mm], above 0.
-
-    Returns:
-        The program's text (one command a line, ``;`` comments).
+    :func:`~..probing.probe_program` with Marlin's words (its arguments, values and errors).
     """
-    xy = np.atleast_2d(np.asarray(points, dtype=float))[:, :2]
-    if not clearance > 0.0:
-        raise ValueError(f"the probe program's clearance must be above 0 mm, got {clearance!r}")
-    if not np.all(np.isfinite(xy)):
-        raise ValueError("the points to probe must be finite")
-    z = f"{clearance:.3f}"
-    lines = [f"; {title}" if title else "; deltacal: probe the bed",
-             f"; {len(xy)} points, in the order of probe.csv; Marlin answers each G30 on its console",
-             "; (Bed X: x Y: y Z: z, the probe's position: the nozzle's plus M851 X, Y)",
-             "G28 ; home", "G90 ; absolute positions", f"G1 Z{z} F{LIFT_FEED:.0f}"]
-    for k, (x, y) in enumerate(xy, start=1):
-        lines += [f"; point {k} of {len(xy)}", f"G1 X{x:.3f} Y{y:.3f} Z{z} F{TRAVEL_FEED:.0f}", "G30",
-                  f"G1 Z{z} F{LIFT_FEED:.0f}"]
-    lines.append("; done")
-    return "\n".join(lines) + "\n"
+    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)

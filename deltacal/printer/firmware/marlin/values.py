@@ -25,9 +25,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ....exceptions import GeometryError
 from ....geometry import DeltaGeometry
 from ...robot import NominalLinearDelta
+from ..classical import on_axis
 from ..klipper.model import KlipperDelta
 from .model import BASE_ANGLES_DEG, MIN_STEPS_PER_SEGMENT, MarlinDelta
 
@@ -87,9 +87,7 @@ def marlin_from_printer(printer: NominalLinearDelta, template: MarlinDelta | Non
     Raises:
         GeometryError: the nozzle is off the effector's axis (Marlin's point effector).
     """
-    if np.any(printer.tool[:2] != 0.0):
-        raise GeometryError(f"Marlin's model has no horizontal nozzle offset; the nozzle is at "
-                            f"{printer.tool.tolist()} mm in the effector frame")
+    on_axis(printer.tool, "Marlin")
     named = replace(template, name=template.name or printer.name) if template is not None else None
     values = from_klipper(KlipperDelta.from_printer(printer), named)
     return values if named is not None else replace(values, name=printer.name)

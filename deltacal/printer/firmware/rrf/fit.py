@@ -1,17 +1,18 @@
 """RepRapFirmware's values that fit an identified linear Delta printer best.
 
-As Klipper's (:mod:`..klipper.fit`): for each target t of a grid over the printable volume RRF
-commands steps ``n(t)`` (its ``Transform``); the real printer (its identified geometry, the true
-bed as z = 0) puts the nozzle at ``T(n d)``; :func:`fit_rrf` minimises the sum of squared
-residuals ``T − t`` by Gauss-Newton over RRF's values (:data:`RRF_NAMES`): ``M665 R``, the angle
-corrections ``X Y`` (``Z`` held: the towers' common turn turns the printed part on the bed, and
-RRF's own ``G32`` auto-calibration holds it, ``LinearDeltaKinematics::Adjust``), the diagonals
-``L a:b:c``, ``H``, the endstop adjustments ``M666 X Y Z`` (``H`` and their mean are one value:
-the result is written with adjustments averaging zero, as ``NormaliseEndstopAdjustments()``
-leaves them), the tilt ``M666 A B`` and (unless held) the steps per mm ``M92 X Y Z``. The
-Jacobian is ``dT/dq · dq/dk``, ``dq/dk`` by central differences of RRF's closed form; the
-volume's errors are judged in the printed part's frame (less the in-plane motion that fits them
-best, fitted with the values). Units: mm and rad (the dataclass's angles), tilt as a fraction.
+As Klipper's (:mod:`..klipper.fit`), by the same loop (:mod:`..fitting`): for each target t of a
+grid over the printable volume RRF commands steps ``n(t)`` (its ``Transform``); the real printer
+(its identified geometry, the true bed as z = 0) puts the nozzle at ``T(n d)``; :func:`fit_rrf`
+minimises the sum of squared residuals ``T − t`` by Gauss-Newton over RRF's values
+(:data:`RRF_NAMES`): ``M665 R``, the angle corrections ``X Y`` (``Z`` held: the towers' common turn
+turns the printed part on the bed, and RRF's own ``G32`` auto-calibration holds it,
+``LinearDeltaKinematics::Adjust``), the diagonals ``L a:b:c``, ``H``, the endstop adjustments
+``M666 X Y Z`` (``H`` and their mean are one value: the result is written with adjustments averaging zero,
+as ``NormaliseEndstopAdjustments()`` leaves them), the tilt ``M666 A B`` and (unless held) the steps
+per mm ``M92 X Y Z``. The Jacobian is ``dT/dq · dq/dk``, ``dq/dk`` by central differences of RRF's
+closed form; the volume's errors are judged in the printed part's frame (less the in-plane motion
+that fits them best, fitted with the values). Units: mm and rad (the dataclass's angles), tilt as a
+fraction.
 """
 
 from __future__ import annotations
@@ -20,13 +21,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ....exceptions import ConvergenceError
 from ....geometry import DeltaGeometry, Workspace
-from ....identifiability import base_parameters
-from ....kinematics import exact
-from ....rotations import skew
-from ...robot import in_plane_motion, less_bed_motion
-from ..klipper.fit import ErrorStats, first_layer, printable_grid
+from .. import fitting
+from ..fitting import ErrorStats, ValueVector, gauss_newton, printable_grid
 from .model import RRFDelta
 
 #: RRF's values in the order of the fit's unknowns (steps last).
@@ -53,8 +50,6 @@ _ANGLE_Z = 3
 _STEPS = 13
 #: Central-difference steps per value [mm, rad, fraction; relative for step distances].
 _STEP = (1e-4, 1e-7, 1e-7, 1e-7, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-7, 1e-7, 1e-7, 1e-7, 1e-7)
-#: Gauss-Newton stops when a step moves no nozzle by more than this [mm].
-TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
@@ -126,12 +121,8 @@ def normalised(rrf: RRFDelta) -> RRFDelta:
     )
 
 
-def nozzle_errors(
-    geometry: DeltaGeometry, rrf: RRFDelta, step_distance: np.ndarray | float, targets: np.ndarray
-) -> np.ndarray:
-    """Where the real nozzle lands minus the target, RRF commanding each target [mm], (N, 3)."""
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
-    return exact.forward(geometry, rrf.inverse(targets, step_distance)).point(geometry.tool) - targets
+#: RRF's values as the fit's unknowns (relative steps for the step distances).
+RRF_VALUES: ValueVector[RRFDelta] = ValueVector(RRF_NAMES, _STEP, _STEPS, values_of, with_values)
 
 
 def error_stats(
@@ -142,44 +133,11 @@ def error_stats(
     grid: np.ndarray | None = None,
     part_frame: bool = True,
 ) -> ErrorStats:
-    """3-D errors over the printable volume (in the part's frame) and the first layer's flatness [mm]."""
-    grid = printable_grid(workspace) if grid is None else grid
-    errors = nozzle_errors(geometry, rrf, step_distance, grid)
-    error = np.linalg.norm(less_bed_motion(grid, errors)[0] if part_frame else errors, axis=1)
-    z = nozzle_errors(geometry, rrf, step_distance, first_layer(workspace))[:, 2]
-    return ErrorStats(
-        float(error.max()),
-        float(np.sqrt(np.mean(error**2))),
-        float(np.max(np.abs(z))),
-        float(z.max() - z.min()),
-    )
+    """3-D errors over the printable volume (in the part's frame) and the first layer's flatness [mm].
 
-
-def _residuals(
-    geometry: DeltaGeometry,
-    rrf: RRFDelta,
-    step_distance: np.ndarray | float,
-    targets: np.ndarray,
-    columns: list[int],
-) -> tuple[np.ndarray, np.ndarray]:
-    """Residuals (3N,) and their Jacobian in the chosen values (3N, k)."""
-    q = rrf.inverse(targets, step_distance)
-    pose = exact.forward(geometry, q)
-    residual = pose.point(geometry.tool) - targets
-    J = exact.forward_jacobian(geometry, q, pose)
-    nozzle = J[:, :3] - skew(pose.rotation @ geometry.tool) @ J[:, 3:]
-    start = values_of(rrf)
-    dq = np.empty((targets.shape[0], 3, len(columns)))
-    for k, c in enumerate(columns):
-        h = _STEP[c] * (start[c] if c >= _STEPS else 1.0)
-        up, down = start.copy(), start.copy()
-        up[c] += h
-        down[c] -= h
-        dq[:, :, k] = (
-            with_values(rrf, up).inverse(targets, step_distance)
-            - with_values(rrf, down).inverse(targets, step_distance)
-        ) / (2.0 * h)
-    return residual.ravel(), (nozzle @ dq).reshape(-1, len(columns))
+    :func:`~..fitting.error_stats`, in the part's frame unless asked otherwise.
+    """
+    return fitting.error_stats(geometry, rrf, step_distance, workspace, grid, part_frame)
 
 
 def fit_rrf(
@@ -200,7 +158,7 @@ def fit_rrf(
         step_distance: The printer's nominal step distance, what deltacal's readings count [mm].
         workspace: The printable cylinder (radius; heights 0.2 mm to its top).
         hold_step_distance: Keep the start's steps per mm (``M92``).
-        grid: Targets [mm], (N, 3) (default :func:`~..klipper.fit.printable_grid`).
+        grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
 
@@ -209,55 +167,17 @@ def fit_rrf(
         UnreachableError: a target out of RRF's reach.
     """
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
-    targets, weights = grid, np.ones(grid.size)
-    if first_layer_weight > 0.0:
-        disc = first_layer(workspace)
-        targets = np.vstack([grid, disc])
-        weights = np.concatenate([weights, np.tile([0.0, 0.0, first_layer_weight], len(disc))])
-    motion = np.zeros((targets.size, 3))  # d residual / d in-plane motion of the part
-    motion[: grid.size] = -in_plane_motion(grid).reshape(-1, 3)[:, :3]
-
-    def residuals(rrf: RRFDelta, columns: list[int], moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        r, J = _residuals(geometry, rrf, step_distance, targets, columns)
-        return weights * (r + motion @ moved), weights[:, None] * np.hstack([J, motion])
-
     wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES)) if c != _ANGLE_Z]
-    moved = np.zeros(3)
-    _, W = residuals(start, wanted, moved)
-    W, B = W[:, : len(wanted)], W[:, len(wanted) :]
-    W = (
-        W - B @ np.linalg.lstsq(B, W, rcond=None)[0]
-    )  # the values as they change the part, not where it stands
-    names = [RRF_NAMES[c] for c in wanted]
-    base = base_parameters(W, names, prefer=names)
-    columns = [wanted[k] for k in sorted(base.base)]
-    residual, W = residuals(start, columns, moved)
-    rrf, iteration = start, 0
-    while True:
-        iteration += 1
-        step = np.linalg.lstsq(W, -residual, rcond=None)[0]
-        values = values_of(rrf)
-        values[columns] += step[: len(columns)]
-        moved = moved + step[len(columns) :]
-        rrf = with_values(rrf, values)
-        change = float(np.max(np.abs(W @ step))) / max(1.0, first_layer_weight)
-        residual, W = residuals(rrf, columns, moved)
-        if change < TOLERANCE:
-            break
-        if iteration == max_iter:
-            raise ConvergenceError(
-                f"the RepRapFirmware fit did not converge in {max_iter} iterations (last step "
-                f"moved the nozzle by {change:.3g} mm)",
-                change,
-            )
-    rrf = normalised(rrf)
-    fitted = [RRF_NAMES[c] for c in columns]
+    found = gauss_newton(geometry, start, RRF_VALUES, step_distance, workspace, grid, wanted, max_iter,
+                         first_layer_weight, True, "RepRapFirmware")
+    rrf = normalised(found.model)
+    fitted = [RRF_NAMES[c] for c in found.columns]
     return RRFFit(
         rrf=rrf,
         fitted=fitted,
         held=[n for n in RRF_NAMES if n not in fitted],
         before=error_stats(geometry, start, step_distance, workspace, grid),
         after=error_stats(geometry, rrf, step_distance, workspace, grid),
-        iterations=iteration,
+        iterations=found.iterations,
         points=grid.shape[0],
     )

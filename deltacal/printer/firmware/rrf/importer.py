@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...importer import OUTPUT_FILES, ImportedValues, Measured, PrinterImport, write_printer_file
+from ...importer import ImportedValues, PrinterImport, write_imported
 from .config import read_rrf_settings, rrf_from_settings
 from .model import DEFAULT_PRINT_RADIUS, RRFDelta
 
@@ -74,9 +74,7 @@ def import_rrf(path: str | Path, folder: str | Path, effector_radius: float | No
         InputError: the configuration's first problem, or no printable volume.
     """
     rrf, values = rrf_imported_values(path)
-    measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
-    written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
-    defaults = f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+    written, defaults = write_imported(folder, values, effector_radius, rod_spacing, nozzle_drop)
     tilt = f"; its bed tilt M666 A B ({', '.join(f'{v * 100:g}' for v in rrf.tilt)} %) is not in the file"
     return PrinterImport((written,), (f"wrote {written}: RepRapFirmware's model of {path} (M665 R"
                                       f"{rrf.radius:g}){defaults}{tilt}",

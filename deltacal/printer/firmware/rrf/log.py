@@ -21,10 +21,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-import numpy as np
-
 from ....exceptions import InputError
-from ..probe_log import ProbeLog, ProbeOffsets
+from ..probe_log import ProbeLog, ProbeOffsets, log_text, probe_log
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
 #: The program's echo of the point it probes next.
@@ -54,12 +52,7 @@ def read_rrf_probe_log(path: str | Path, text: str | None = None,
         InputError: the file cannot be read, a ``Stopped at height`` follows no echoed point, or
             there is no result.
     """
-    source = str(path)
-    if text is None:
-        try:
-            text = Path(path).read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise InputError(f"cannot read the log ({exc.strerror})", source) from None
+    source, text = log_text(path, text)
     rows: list[list[float]] = []
     lines: list[int] = []
     point: list[float] | None = None
@@ -84,5 +77,4 @@ def read_rrf_probe_log(path: str | Path, text: str | None = None,
     if not rows:
         raise InputError("no probe result in this log (RepRapFirmware's 'Stopped at height Z mm' after "
                          "'probe at X,Y'): run the program plan --object writes, probe.gcode", source)
-    heights = None if offsets is None else np.full(len(rows), offsets.z)
-    return ProbeLog(np.array(rows), np.array(lines, dtype=int), heights)
+    return probe_log(rows, lines, None if offsets is None else offsets.z)

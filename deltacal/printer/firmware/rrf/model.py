@@ -52,12 +52,21 @@ from functools import cached_property
 
 import numpy as np
 
-from ....chains import PRISMATIC
-from ....exceptions import GeometryError, UnreachableError
-from ....geometry import DeltaGeometry, radial_vectors
+from ....exceptions import GeometryError
+from ....geometry import DeltaGeometry
 from ....kinematics.closed_form import VirtualDelta
 from ....towers import per_tower
 from ...robot import NominalLinearDelta
+from ..classical import (
+    carriage_points,
+    carriage_tops,
+    checked_steps,
+    home_position,
+    on_axis,
+    point_effector,
+    rod_rise,
+    tower_positions,
+)
 from ..controller import FirmwareController
 
 #: RRF's tower azimuths before the angle corrections [deg] (towers A, B, C: ``Recalc()``).
@@ -177,11 +186,7 @@ class RRFDelta:
         Raises:
             GeometryError: the nozzle is off the effector's axis (RRF's point effector has none).
         """
-        if np.any(printer.tool[:2] != 0.0):
-            raise GeometryError(
-                f"RepRapFirmware's model has no horizontal nozzle offset; the nozzle is at "
-                f"{printer.tool.tolist()} mm in the effector frame"
-            )
+        on_axis(printer.tool, "RepRapFirmware")
         radius = printer.tower_radius - printer.effector_radius
         top = printer.endstop_height + float(printer.tool[2])
         limits = {"print_radius": printer.workspace.radius} if printer.workspace is not None else {}
@@ -208,19 +213,7 @@ class RRFDelta:
             GeometryError: not a printer (a prismatic chain), no step distance, or a nozzle off
                 the effector's axis.
         """
-        if not geometry.chain.firmware or geometry.step_distance is None:
-            raise GeometryError(
-                "RepRapFirmware's values need a printer's geometry (a prismatic chain) with its step distance"
-            )
-        if np.any(geometry.tool[:2] != 0.0):
-            raise GeometryError(
-                f"RepRapFirmware's model has no horizontal nozzle offset; the nozzle is at "
-                f"{geometry.tool.tolist()} mm in the effector frame"
-            )
-        rotation = geometry.actuator_rotation()
-        carriage = geometry.axis_point + np.einsum("ikl,il->ik", rotation, geometry.arm_ball.mean(axis=1))
-        point = carriage - geometry.plate_ball.mean(axis=1) + geometry.tool
-        radius = float(np.mean(np.linalg.norm(point[:, :2], axis=1)))
+        point, radius = carriage_points(geometry, "RepRapFirmware")
         return cls.from_carriages(
             radius,
             np.arctan2(point[:, 1], point[:, 0]),
@@ -240,16 +233,12 @@ class RRFDelta:
     @cached_property
     def towers(self) -> np.ndarray:
         """Tower positions ``(X_i, Y_i)`` (``towerX``, ``towerY``) [mm], (3, 2)."""
-        towers = self.radius * radial_vectors(self.angle)[:, :2]
-        towers.setflags(write=False)
-        return towers
+        return tower_positions(self.radius, self.angle)
 
     @cached_property
     def carriage_top(self) -> np.ndarray:
         """``homedCarriageHeights``: ``H + sqrt(ℓ_i² − ρ²) + e_i`` [mm], (3,)."""
-        top = self.homed_height + np.sqrt(self.diagonal**2 - self.radius**2) + self.endstop_adjustment
-        top.setflags(write=False)
-        return top
+        return carriage_tops(self.homed_height, self.diagonal, self.radius, self.endstop_adjustment)
 
     @property
     def steps_per_mm(self) -> np.ndarray:
@@ -259,11 +248,8 @@ class RRFDelta:
     def carriage_heights(self, targets: np.ndarray) -> np.ndarray:
         """RRF's carriage heights ``h_i`` (``Transform``) for nozzle targets [mm], (N, 3); NaN: no reach."""
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        dx = targets[:, None, 0] - self.towers[None, :, 0]
-        dy = targets[:, None, 1] - self.towers[None, :, 1]
         lift = targets[:, 2:3] + targets[:, 0:1] * self.tilt[0] + targets[:, 1:2] * self.tilt[1]
-        with np.errstate(invalid="ignore"):
-            return np.sqrt(self.diagonal**2 - dx * dx - dy * dy) + lift
+        return rod_rise(self.towers, self.diagonal, targets) + lift
 
     def steps(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """Steps below the endstops RRF commands for nozzle targets [mm], (N, 3) -> (N, 3).
@@ -272,12 +258,9 @@ class RRFDelta:
             UnreachableError: a target no rod reaches (``check``; else NaN rows).
         """
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        steps = (self.carriage_top - self.carriage_heights(targets)) / self.step_distance
-        if check:
-            bad = ~np.all(np.isfinite(steps), axis=1)
-            if np.any(bad):
-                raise UnreachableError.from_mask(bad, targets)
-        return steps
+        return checked_steps(
+            (self.carriage_top - self.carriage_heights(targets)) / self.step_distance, targets, check
+        )
 
     def inverse(
         self, targets: np.ndarray, step_distance: np.ndarray | float, check: bool = True
@@ -293,18 +276,7 @@ class RRFDelta:
         ``d_i`` per step, a point effector, rods ℓ_i. Its plate point is RRF's ``(x, y, z + x xTilt
         + y yTilt)``.
         """
-        r = radial_vectors(self.angle)
-        z = np.tile([0.0, 0.0, 1.0], (3, 1))
-        return VirtualDelta(
-            axis_point=np.column_stack([self.towers, self.carriage_top]),
-            actuator_rotation=np.stack([r, z, np.cross(r, z)], axis=-1),
-            encoder_offset=np.zeros(3),
-            elbow=np.zeros((3, 3)),
-            plate_attachment=np.zeros((3, 3)),
-            rod_length=np.array(self.diagonal),
-            chain=PRISMATIC,
-            joint_scale=np.array(self.step_distance),
-        )
+        return point_effector(self.angle, self.towers, self.carriage_top, self.diagonal, self.step_distance)
 
     def untilted(self, points: np.ndarray) -> np.ndarray:
         """RRF's nozzle positions of the untilted model's points: z less ``x xTilt + y yTilt`` [mm]."""
@@ -329,9 +301,7 @@ class RRFDelta:
     @cached_property
     def home_position(self) -> np.ndarray:
         """Where homing (``G1 H1``) leaves the nozzle: every carriage on its endstop [mm], (3,)."""
-        home = self.positions(np.zeros((1, 3)))[0]
-        home.setflags(write=False)
-        return home
+        return home_position(self.positions)
 
     def with_minimum_z(self, minimum_z: float) -> RRFDelta:
         """The same values with the ``M208`` Z minimum = ``minimum_z`` [mm]."""

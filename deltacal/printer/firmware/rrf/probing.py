@@ -13,48 +13,22 @@ from __future__ import annotations
 import numpy as np
 
 from ..base import PROBE_CLEARANCE
+from ..probing import probe_program
 
-#: Feed rate of the moves between points [mm/min].
-TRAVEL_FEED = 3000.0
-#: Feed rate of the rise back to the clearance after each probe [mm/min].
-LIFT_FEED = 600.0
+#: How RepRapFirmware answers, after the count of points (the program's second line).
+ANSWERS = "RepRapFirmware answers each G30 S-1 on its console"
+#: The rest of the program's header (comment lines).
+NOTES = ("(Stopped at height Z mm) after the echoed point (probe at X,Y)",)
+
+
+def probe_lines(x: float, y: float) -> tuple[str, ...]:
+    """RRF's probe at a point: the point echoed (to the micrometre), then ``G30 S-1``."""
+    return (f'echo "probe at {x:.3f},{y:.3f}"', "G30 S-1")
 
 
 def rrf_probe_program(points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
     """The program that homes (``G28``), then echoes each point and runs ``G30 S-1`` above it, in order.
 
-    Args:
-        points: Commanded nozzle positions [mm], (N, 2) or (N, 3) (z ignored).
-        title: A first comment line.
-        clearance: The nozzle's height while it moves between points [mm], above 0.
-
-    Returns:
-        The program's text (one command a line, ``;`` comments).
-
-    Raises:
-        ValueError: a clearance not above 0, or points not finite.
+    :func:`~..probing.probe_program` with RepRapFirmware's words (its arguments, values and errors).
     """
-    xy = np.atleast_2d(np.asarray(points, dtype=float))[:, :2]
-    if not clearance > 0.0:
-        raise ValueError(f"the probe program's clearance must be above 0 mm, got {clearance!r}")
-    if not np.all(np.isfinite(xy)):
-        raise ValueError("the points to probe must be finite")
-    z = f"{clearance:.3f}"
-    lines = [
-        f"; {title}" if title else "; deltacal: probe the bed",
-        f"; {len(xy)} points, in the order of probe.csv; RepRapFirmware answers each G30 S-1 on its console",
-        "; (Stopped at height Z mm) after the echoed point (probe at X,Y)",
-        "G28 ; home",
-        "G90 ; absolute positions",
-        f"G1 Z{z} F{LIFT_FEED:.0f}",
-    ]
-    for k, (x, y) in enumerate(xy, start=1):
-        lines += [
-            f"; point {k} of {len(xy)}",
-            f"G1 X{x:.3f} Y{y:.3f} Z{z} F{TRAVEL_FEED:.0f}",
-            f'echo "probe at {x:.3f},{y:.3f}"',
-            "G30 S-1",
-            f"G1 Z{z} F{LIFT_FEED:.0f}",
-        ]
-    lines.append("; done")
-    return "\n".join(lines) + "\n"
+    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)
