@@ -10,7 +10,7 @@ from pathlib import Path
 from ..demo import controller_table, run_demo, text_table
 from ..exceptions import UsageError
 from ..printer.demo import SEED, printer_table, run_printer_demo
-from ..printer.firmware import firmwares
+from ..printer.firmware import firmware_named, firmwares
 from .common import seed
 from .firmware import firmware_names
 
@@ -25,8 +25,7 @@ def run(args: argparse.Namespace) -> int:
     if args.firmware is not None and not args.printer:
         raise UsageError("--firmware applies to the printer demo (--printer)")
     if args.printer:
-        name = args.firmware or "klipper"
-        firmware = next(f for f in firmwares() if f.name == name)
+        firmware = (firmware_named(args.firmware) if args.firmware else None) or firmwares()[0]  # Klipper
         summary = run_printer_demo(out_dir=Path(args.out or "printer_demo"),
                                    seed=SEED if args.seed is None else args.seed, quick=args.quick,
                                    progress=progress, firmware=firmware)

@@ -19,7 +19,7 @@ from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableEr
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
 from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
-from ..printer.firmware import firmwares
+from ..printer.firmware import firmware_named
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..report.accuracy import GRID, workspace_slices
 from ..robots import load_robot as load_robot_file
@@ -27,6 +27,7 @@ from ..viz import default_workspace
 from .common import check_input, check_output, three_numbers
 from .export_firmware import run_firmware
 from .export_klipper import run_klipper
+from .firmware import firmware_names
 
 
 def load_robot(path: str) -> tuple[DeltaGeometry, list[str]]:
@@ -67,7 +68,7 @@ def _home(text: str | None, chain: Chain) -> np.ndarray | None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal export``; returns the exit status."""
-    firmware = next((f for f in firmwares() if f.name == args.controller), None)
+    firmware = firmware_named(args.controller)
     if firmware is KLIPPER:  # its route also prints each error source's share
         return run_klipper(args)
     if firmware is not None:
@@ -76,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         return run_controller(args)
     if args.config is not None or args.keep_rotation_distance:
         raise UsageError("--config and --keep-rotation-distance apply to --controller "
-                         f"{'|'.join(f.name for f in firmwares())}")
+                         f"{'|'.join(firmware_names())}")
     if args.output is not None or args.robot is not None:
         raise UsageError(f"{'-o' if args.output is not None else '--robot'} applies to --controller; "
                          "--mjcf names its own output")
@@ -98,7 +99,7 @@ def run_controller(args: argparse.Namespace) -> int:
         raise UsageError("--home applies to --mjcf")
     if args.config is not None or args.keep_rotation_distance:
         raise UsageError("--config and --keep-rotation-distance apply to --controller "
-                         f"{'|'.join(f.name for f in firmwares())}")
+                         f"{'|'.join(firmware_names())}")
     inputs = [p for p in (args.calibration, args.robot) if p is not None]
     for path in inputs:
         check_input(path)
@@ -179,7 +180,7 @@ def add_parser(sub) -> None:
                    help="calibration file written by identify, or a geometry or robot file (TOML)")
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--mjcf", metavar="ROBOT.xml", help="MJCF file to write")
-    what.add_argument("--controller", choices=(*FIT_KINDS, *(f.name for f in firmwares())),
+    what.add_argument("--controller", choices=(*FIT_KINDS, *firmware_names()),
                       help="write a controller file (-o) with the joint offsets alone, or the per-limb "
                            "values, that best fit the calibration over the workspace; klipper: a printer's "
                            "[printer] and [stepper_a..c] values (-o CALIBRATED.cfg); marlin: M665, M666 "

@@ -16,7 +16,7 @@ from typing import Any
 
 from ..exceptions import GeometryError, InputError, UsageError
 from ..geometry import DeltaGeometry
-from ..printer.firmware import config_firmware, firmwares
+from ..printer.firmware import config_firmware, firmware_named, firmwares
 from ..printer.firmware.base import Firmware, FirmwareModel
 
 
@@ -42,7 +42,9 @@ def controller_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
     """
     refuse_deltacal_file(path)
     if name is not None:
-        return next(firmware for firmware in firmwares() if firmware.name == name)
+        named = firmware_named(name)
+        assert named is not None  # argparse's choices are the firmwares' names
+        return named
     firmware = config_firmware(path)
     if firmware is None:
         raise UsageError(f"--controller {path}: not a firmware's settings that deltacal recognises (a "

@@ -39,6 +39,11 @@ def firmwares() -> tuple[Firmware[Any], ...]:
     return (KLIPPER, RRF_FIRMWARE, MARLIN)  # RRF's config.g (by its name) before Marlin's M503 (by content)
 
 
+def firmware_named(name: str) -> Firmware[Any] | None:
+    """The firmware whose name (``--firmware``, ``--controller`` of export) is ``name``, or None."""
+    return next((firmware for firmware in firmwares() if firmware.name == name), None)
+
+
 def log_firmware(text: str) -> Firmware[Any] | None:
     """The firmware whose probe results (or log) a file's text is, or None."""
     return next((firmware for firmware in firmwares() if firmware.is_probe_log(text)), None)
