@@ -41,10 +41,16 @@ def run(args: argparse.Namespace) -> int:
                          "configuration")
     folder = Path(args.output)
     check_output_folder(folder, OUTPUT_FILES, [args.input], f"import of {firmware.title}'s configuration")
-    if not folder.exists():
+    made = not folder.exists()
+    if made:
         folder.mkdir()
-    imported = firmware.import_config(args.input, folder, args.effector_radius, args.rod_spacing,
-                                      args.nozzle_drop)
+    try:
+        imported = firmware.import_config(args.input, folder, args.effector_radius, args.rod_spacing,
+                                          args.nozzle_drop)
+    except BaseException:
+        if made and not any(folder.iterdir()):
+            folder.rmdir()  # nothing written: no folder left behind either
+        raise
     for line in imported.said:
         print(line)
     return 0
@@ -70,7 +76,6 @@ def _run_log(args: argparse.Namespace, text: str, firmware: Firmware[Any]) -> in
     print(f"wrote {output}: {len(log.commanded)} probe results of {firmware.title} (lines {log.lines[0]}.."
           f"{log.lines[-1]} of {args.input}){trigger}")
     return 0
-
 
 
 def add_parser(sub) -> None:
