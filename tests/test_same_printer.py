@@ -72,6 +72,7 @@ def test_another_printers_m503_is_refused(tmp_path):
         MARLIN.check_same_printer(MARLIN.nominal(PRINTER), MARLIN.read_config(other), "a", "b")
 
 
+@pytest.mark.slow
 def test_kit_printers_and_their_exported_values_are_not_refused():
     """10 simulated kit printers: their values, the nominal ones and the fitted ones (export's) agree."""
     nominal = {firmware.name: firmware.nominal(PRINTER) for firmware in (KLIPPER, MARLIN)}
