@@ -76,8 +76,8 @@ def import_rrf(path: str | Path, folder: str | Path, effector_radius: float | No
     rrf, values = rrf_imported_values(path)
     written, defaults = write_imported(folder, values, effector_radius, rod_spacing, nozzle_drop)
     tilt = f"; its bed tilt M666 A B ({', '.join(f'{v * 100:g}' for v in rrf.tilt)} %) is not in the file"
-    return PrinterImport((written,), (f"wrote {written}: RepRapFirmware's model of {path} (M665 R"
-                                      f"{rrf.radius:g}){defaults}{tilt}",
+    return PrinterImport((written,), (f"wrote {written}: RepRapFirmware's model of {path} (M665 R "
+                                      f"{rrf.radius:g} mm){defaults}{tilt}",
                                       "config.g holds no measurements: no probe.csv, no distances.csv"))
 
 
