@@ -2,9 +2,9 @@
 
 Above the engine, which reads a rotary Delta's robot file and deltacal's controller files
 (:mod:`deltacal.io`), and the printer's wing, which reads a printer's robot file
-(:mod:`deltacal.printer.robot_file`) and its firmware's configuration (:mod:`deltacal.printer.firmware`):
-the command line (and a program that takes either kind) reads a file by its kind here. Files are
-in millimetres and degrees.
+(:mod:`deltacal.printer.files.robot_file`) and its firmware's configuration
+(:mod:`deltacal.printer.firmware`): the command line (and a program that takes either kind) reads
+a file by its kind here. Files are in millimetres and degrees.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from .geometry import NominalDelta
 from .io.controller_file import load_controller_file
 from .io.robot import _is_printer_file, load_nominal
 from .io.toml import _Table, read_toml
+from .printer.files.robot_file import load_printer
 from .printer.firmware import config_firmware
 from .printer.robot import NominalLinearDelta
-from .printer.robot_file import load_printer
 
 
 def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:

@@ -577,8 +577,8 @@ def bench_klipper(setup: Setup) -> list[Row]:
     """
     from deltacal.controller import corrected_targets
     from deltacal.io import save_geometry
+    from deltacal.printer.files.robot_file import load_printer
     from deltacal.printer.firmware.klipper.firmware import KLIPPER
-    from deltacal.printer.robot_file import load_printer
 
     printer = load_printer(REPO_ROOT / "deltacal" / "models" / "kossel.toml")
     truth = printer.geometry().perturbed(Tolerances.printer_kit(), np.random.default_rng(SEED))

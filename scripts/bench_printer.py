@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from deltacal.geometry import Workspace
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.identification import PrinterMeasurements, identify_printer
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

@@ -32,11 +32,11 @@ from deltacal.printer.comparison import (
     WORKSPACE,
     firmware_calibrations,
 )
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.budget import error_budget
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import error_stats, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]

@@ -23,11 +23,11 @@ sys.path.insert(0, str(ROOT))
 
 from deltacal.io import load_geometry  # noqa: E402
 from deltacal.kinematics import exact  # noqa: E402
+from deltacal.printer.files.robot_file import load_printer  # noqa: E402
 from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, printable_grid  # noqa: E402
 from deltacal.printer.firmware.marlin.firmware import MARLIN  # noqa: E402
 from deltacal.printer.firmware.marlin.settings import load_marlin  # noqa: E402
 from deltacal.printer.robot import less_bed_motion  # noqa: E402
-from deltacal.printer.robot_file import load_printer  # noqa: E402
 
 
 def deltacal(*args: str) -> None:

@@ -16,11 +16,11 @@ import numpy as np
 
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.printer.comparison import WORKSPACE, gcode_route_errors, run_printer
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import firmwares
 from deltacal.printer.firmware.klipper.fit import printable_grid
-from deltacal.printer.plan import plan_object
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import KIT_BED_TILT_DEG, typical_kit
 
 ROOT = Path(__file__).resolve().parents[1]

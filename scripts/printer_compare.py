@@ -51,11 +51,11 @@ from deltacal.printer.comparison import (
     gcode_refused,
     run_printer,
 )
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import firmwares
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.object import CALIPER_RANGE
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.printed.object import CALIPER_RANGE
+from deltacal.printer.printed.plan import plan_object
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 #: First-layer weights of the exported values swept.

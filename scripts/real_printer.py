@@ -26,10 +26,10 @@ import numpy as np
 from deltacal.geometry import DeltaGeometry
 from deltacal.io.atomic import atomic_write_text
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.importer import import_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.identification import PrinterMeasurements, identify_printer
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DATA = REPO_ROOT / "tests" / "data" / "klipper" / "real"

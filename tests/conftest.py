@@ -13,8 +13,8 @@ from hypothesis import settings  # noqa: E402
 
 from deltacal import NominalDelta  # noqa: E402
 from deltacal.io import load_nominal  # noqa: E402
+from deltacal.printer.files.robot_file import load_printer  # noqa: E402
 from deltacal.printer.firmware.klipper.model import KlipperDelta  # noqa: E402
-from deltacal.printer.robot_file import load_printer  # noqa: E402
 
 # every random test is seeded: hypothesis draws the same examples on every machine and run (a
 # failure is then a failure of the code, not of the draw), and keeps no example database

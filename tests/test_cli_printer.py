@@ -12,9 +12,9 @@ from conftest import kossel_printer_cfg
 from deltacal.cli.main import main
 from deltacal.io import load_calibration
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import write_printed_distances, write_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper
-from deltacal.printer.measurement_files import write_printed_distances, write_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

@@ -8,11 +8,11 @@ import numpy as np
 from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.rrf.config import load_rrf, rrf_config_text
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.fit import values_of
 from deltacal.printer.firmware.rrf.model import RRFDelta
-from deltacal.printer.robot_file import load_printer
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 

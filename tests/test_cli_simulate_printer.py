@@ -12,9 +12,9 @@ from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration, load_geometry, load_nominal, save_geometry
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import read_printed_distances, read_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper
-from deltacal.printer.measurement_files import read_printed_distances, read_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import probe_heights, random_printer
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

@@ -19,13 +19,13 @@ from deltacal.cli import main
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.io import load_calibration, load_nominal, save_calibration, save_geometry
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.fit import error_stats, printable_grid, values_of
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.identification import PrinterMeasurements, identify_printer
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

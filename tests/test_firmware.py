@@ -28,9 +28,9 @@ from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
 from deltacal.kinematics.singularity import singularity_measures
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.robots import load_controller
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 
 from deltacal.geometry import Workspace
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.budget import BED_TILT, error_budget, error_groups
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer, typical_kit
 from deltacal.rotations import rotation_from_vector
 

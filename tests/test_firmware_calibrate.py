@@ -20,14 +20,14 @@ from deltacal.printer.comparison import (
     gcode_refused,
     run_printer,
 )
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.fit import error_stats
 from deltacal.printer.firmware.marlin.calibrate import g33_probe_weights, marlin_g33
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.marlin.values import to_klipper
 from deltacal.printer.firmware.rrf.calibrate import bed_points, rrf_auto_calibration, rrf_g32
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import probe_heights, random_true_printer, typical_kit
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

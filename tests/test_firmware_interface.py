@@ -13,6 +13,7 @@ import deltacal
 from deltacal.controller import Controller
 from deltacal.exceptions import InputError
 from deltacal.geometry import NominalDelta
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares
 from deltacal.printer.firmware.base import Firmware
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper
@@ -20,7 +21,6 @@ from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer, typical_kit
 from deltacal.robots import load_controller, load_robot
 

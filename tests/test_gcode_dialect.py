@@ -25,11 +25,11 @@ from deltacal.gcode import filter_lines
 from deltacal.gcode.dialect import GENERIC, ArcP
 from deltacal.gcode.homing import HOME_BLEND_MM, HOME_ZONE_MM
 from deltacal.gcode.marker import MARKER
+from deltacal.printer.files.measurements import write_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.calibrate import probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.measurement_files import write_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
 CONFIG = Path(__file__).parent / "data" / "klipper" / "printer.cfg"

@@ -18,7 +18,7 @@ from deltacal.cli import main
 from deltacal.gcode import MARKER, MIN_SEGMENT_MM, filter_gcode, filter_lines, marker_line
 from deltacal.io import load_nominal
 from deltacal.io.geometry_file import save_geometry
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.files.robot_file import load_printer
 
 BOM = "\ufeff"
 MOVE = re.compile(r"^G[01] X(-?\d+\.\d{4}) Y(-?\d+\.\d{4}) Z(-?\d+\.\d{4})(?: E(-?[\d.]+))?")

@@ -19,13 +19,13 @@ from deltacal.cli.main import main
 from deltacal.exceptions import InputError, InputWarning
 from deltacal.io import load_calibration, load_geometry
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import read_probe_heights, write_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.calibrate import probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper, read_klipper_config
 from deltacal.printer.firmware.klipper.importer import import_klipper
 from deltacal.printer.firmware.klipper.model import KlipperController
-from deltacal.printer.identification import PrinterMeasurements, identify_printer
-from deltacal.printer.measurement_files import read_probe_heights, write_probe_heights
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
 DATA = Path(__file__).resolve().parent / "data" / "klipper"

@@ -17,10 +17,10 @@ import pytest
 from deltacal.cli.main import main
 from deltacal.exceptions import InputWarning
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import read_printed_distances, read_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import klipper_from_config, read_klipper_config
 from deltacal.printer.firmware.klipper.model import KlipperController
-from deltacal.printer.measurement_files import read_printed_distances, read_probe_heights
-from deltacal.printer.robot_file import load_printer
 
 REAL = Path(__file__).resolve().parent / "data" / "klipper" / "real"
 

@@ -12,10 +12,10 @@ from numpy.testing import assert_allclose
 
 from deltacal.exceptions import GeometryError, InputError, InputWarning
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper, read_klipper_config
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 

@@ -10,6 +10,7 @@ from numpy.testing import assert_allclose
 from test_klipper_fit import WORKSPACE, klipper_shaped
 
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.calibrate import (
     delta_analyze_distances,
     klipper_basic,
@@ -21,7 +22,6 @@ from deltacal.printer.firmware.klipper.calibrate import (
 from deltacal.printer.firmware.klipper.fit import error_stats, values_of
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import (
     bed_motion,
     printed_distances,

@@ -10,6 +10,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from deltacal.geometry import DeltaGeometry, Workspace
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.budget import error_budget
 from deltacal.printer.firmware.klipper.calibrate import klipper_basic, probe_points
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper, save_klipper_config
@@ -23,7 +24,6 @@ from deltacal.printer.firmware.klipper.fit import (
 )
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import probe_heights, random_true_printer, typical_kit
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"

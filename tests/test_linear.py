@@ -18,8 +18,8 @@ from deltacal.io.robot import load_nominal
 from deltacal.kinematics import exact
 from deltacal.kinematics.closed_form import VirtualDelta
 from deltacal.kinematics.multibody import DeltaMultibody
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.robots import load_robot
 from deltacal.rotations import rotation_from_vector
 

@@ -12,6 +12,7 @@ from numpy.testing import assert_allclose
 
 from deltacal.exceptions import InputError
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.model import KlipperDelta
@@ -26,7 +27,6 @@ from deltacal.printer.firmware.marlin.model import (
 from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.firmware.marlin.values import marlin_values, to_klipper
 from deltacal.printer.robot import NominalLinearDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_true_printer, typical_kit
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -18,12 +18,12 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import read_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import log_firmware
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.marlin.settings import load_marlin
-from deltacal.printer.measurement_files import read_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

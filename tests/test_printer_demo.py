@@ -14,8 +14,8 @@ from deltacal.cli import main
 from deltacal.gcode.marker import MARKER
 from deltacal.io import load_calibration
 from deltacal.printer.demo import ROWS, SEED, printer_table
+from deltacal.printer.files.measurements import read_printed_distances, read_probe_heights
 from deltacal.printer.firmware.klipper.config import load_klipper
-from deltacal.printer.measurement_files import read_printed_distances, read_probe_heights
 
 FILES = ("printer.cfg", "object.stl", "probe.csv", "distances.csv", "probe_measured.csv",
          "distances_measured.csv", "printer_calibration.toml", "printer_calibrated.cfg", "part.gcode",

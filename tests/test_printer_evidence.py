@@ -11,13 +11,13 @@ import pytest
 from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.printer.comparison import plan_measurements
-from deltacal.printer.evidence import evidence_scale, log_evidence
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.fit import printable_grid
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
-from deltacal.printer.identification import identify_printer, scaled_tolerances
-from deltacal.printer.plan import plan_object
+from deltacal.printer.identification.evidence import evidence_scale, log_evidence
+from deltacal.printer.identification.fit import identify_printer, scaled_tolerances
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import (
     WELL_BUILT_BED_TILT_DEG,
     nozzle_positions,

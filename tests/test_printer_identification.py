@@ -12,14 +12,14 @@ from deltacal.geometry import Tolerances
 from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
 from deltacal.io.geometry_file import load_geometry, save_geometry
 from deltacal.kinematics import exact
-from deltacal.printer.identification import (
+from deltacal.printer.files.robot_file import load_printer
+from deltacal.printer.identification.fit import (
     PrinterFitOptions,
     PrinterMeasurements,
     identify_printer,
     measured_combinations,
     posterior_sigma,
 )
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_printer
 from deltacal.report.accuracy import less_bed_motion
 

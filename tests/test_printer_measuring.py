@@ -13,19 +13,19 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError
-from deltacal.printer.firmware.base import PROBE_CLEARANCE, Firmware
-from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.labels import LABEL_GAP
-from deltacal.printer.lettering import RELIEF, TILE_THICKNESS, label_mesh, text_raster
-from deltacal.printer.measurement_files import (
+from deltacal.printer.files.measurements import (
     read_printed_distances,
     read_probe_heights,
     write_printed_distances,
 )
-from deltacal.printer.object import BALL_DIAMETER, LOWEST_LEVEL, footprint_radius, probe_grid
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.files.robot_file import load_printer
+from deltacal.printer.firmware.base import PROBE_CLEARANCE, Firmware
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.printed.labels import LABEL_GAP
+from deltacal.printer.printed.lettering import RELIEF, TILE_THICKNESS, label_mesh, text_raster
+from deltacal.printer.printed.object import BALL_DIAMETER, LOWEST_LEVEL, footprint_radius, probe_grid
+from deltacal.printer.printed.plan import plan_object
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 MOVE = re.compile(r"^G1 X(-?\d+\.\d{3}) Y(-?\d+\.\d{3}) Z(\d+\.\d{3}) F\d+$")

@@ -18,7 +18,7 @@ from deltacal.exceptions import GeometryError
 from deltacal.geometry import Tolerances
 from deltacal.io.robot import load_nominal
 from deltacal.kinematics import exact
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.files.robot_file import load_printer
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 

@@ -12,14 +12,15 @@ from numpy.testing import assert_allclose
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError, PlanningError
 from deltacal.geometry import Workspace
-from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.measurement_files import (
+from deltacal.printer.files.measurements import (
     read_printed_distances,
     read_probe_heights,
     write_printed_distances,
     write_probe_heights,
 )
-from deltacal.printer.object import (
+from deltacal.printer.files.robot_file import load_printer
+from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.printed.object import (
     BALL_DIAMETER,
     CALIPER_RANGE,
     CLEARANCE,
@@ -28,8 +29,7 @@ from deltacal.printer.object import (
     levels,
     probe_grid,
 )
-from deltacal.printer.plan import geometric_rows, model_rows, plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.printed.plan import geometric_rows, model_rows, plan_object
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 KOSSEL = MODELS / "kossel.toml"
@@ -129,7 +129,7 @@ def test_pairs_can_be_measured_with_a_caliper(plan):
 
 def _blocking_of_printed(features, pairs):
     """Printed features within the clearance of a pair's line (ball, cone and tapered post), by loops."""
-    from deltacal.printer import object as po
+    from deltacal.printer.printed import object as po
 
     r = 0.5 * BALL_DIAMETER
     out = np.zeros((len(pairs), len(features)), dtype=bool)

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 
 from deltacal.printer.comparison import plan_measurements
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.identification import (
+from deltacal.printer.identification.fit import (
     PrinterMeasurements,
     identify_printer,
     measurements_kept,
     printer_outliers,
 )
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import (
     printed_distances,
     probe_heights,

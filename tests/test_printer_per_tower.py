@@ -18,9 +18,9 @@ from deltacal.cli.main import main
 from deltacal.exceptions import InputError
 from deltacal.io import load_calibration, load_geometry, save_calibration, save_geometry
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import random_printer
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

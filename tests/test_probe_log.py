@@ -21,10 +21,10 @@ from test_printer_measuring import probed_points
 from deltacal.cli.main import main
 from deltacal.exceptions import InputError
 from deltacal.io import load_calibration
+from deltacal.printer.files.measurements import read_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper, read_klipper_config
 from deltacal.printer.firmware.klipper.log import ProbeOffsets, probe_offsets, read_probe_log
-from deltacal.printer.measurement_files import read_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

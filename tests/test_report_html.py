@@ -339,9 +339,9 @@ def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     from deltacal import Tolerances
     from deltacal.io.calibration import calibration_from_result, load_calibration, save_calibration
     from deltacal.kinematics import exact
+    from deltacal.printer.files.robot_file import load_printer
     from deltacal.printer.firmware.klipper.model import KlipperDelta
-    from deltacal.printer.identification import PrinterMeasurements, identify_printer
-    from deltacal.printer.robot_file import load_printer
+    from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
     from deltacal.report import accuracy_map, controller_routes, write_report
     from deltacal.report.accuracy import less_bed_motion
 

@@ -16,6 +16,7 @@ from deltacal.exceptions import InputError
 from deltacal.gcode.dialect import ArcP
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.printer.comparison import PROBE_SIGMA, plan_measurements
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper, printable_grid
@@ -24,10 +25,9 @@ from deltacal.printer.firmware.rrf.config import load_rrf, rrf_config_text
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.fit import error_stats, fit_rrf, values_of
 from deltacal.printer.firmware.rrf.model import ABOVE_ENDSTOP, BELOW_MIN_Z, BEYOND_RADIUS, RRFDelta
-from deltacal.printer.identification import identify_printer
-from deltacal.printer.plan import plan_object
+from deltacal.printer.identification.fit import identify_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.robot import NominalLinearDelta, less_bed_motion
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import (
     bed_motion,
     nozzle_positions,

@@ -19,6 +19,8 @@ from deltacal.cli.main import main
 from deltacal.exceptions import InputError
 from deltacal.io import load_calibration
 from deltacal.kinematics import exact
+from deltacal.printer.files.measurements import read_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.probe_log import ProbeOffsets
 from deltacal.printer.firmware.rrf.config import (
     load_rrf,
@@ -29,8 +31,6 @@ from deltacal.printer.firmware.rrf.config import (
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.log import read_rrf_probe_log
 from deltacal.printer.firmware.rrf.model import RRFController, RRFDelta
-from deltacal.printer.measurement_files import read_probe_heights
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

@@ -25,8 +25,8 @@ import pytest
 from deltacal.cli import main
 from deltacal.gcode.homing import HOME_BLEND_MM, HOME_ZONE_MM
 from deltacal.io.geometry_file import save_geometry
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import nozzle_positions, random_printer
 
 DATA = Path(__file__).parent / "data"

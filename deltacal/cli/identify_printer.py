@@ -3,7 +3,7 @@
 The measurements are of commanded positions: each is turned into the readings the firmware
 commanded (steps below the endstops, counted in the printer's nominal step distance) through
 the firmware's own inverse model (the Klipper configuration they were made with), then
-:func:`~deltacal.printer.identification.identify_printer` finds the full geometry on the true bed.
+:func:`~deltacal.printer.identification.fit.identify_printer` finds the full geometry on the true bed.
 """
 
 from __future__ import annotations
@@ -18,22 +18,22 @@ from ..geometry import DeltaGeometry, Tolerances
 from ..io import save_calibration
 from ..io.tables import data_row
 from ..kinematics import exact
-from ..printer.firmware.base import FirmwareModel
-from ..printer.identification import (
-    PrinterFitOptions,
-    PrinterMeasurements,
-    identify_printer,
-    printer_outliers,
-)
-from ..printer.measurement_files import (
+from ..printer.files.measurements import (
     PAIR_COLUMNS,
     PROBE_COLUMNS,
     read_printed_distances,
     read_probe_heights,
 )
-from ..printer.outliers import Outliers
+from ..printer.files.same_printer import ENDSTOP_MM, check_step_distance
+from ..printer.firmware.base import FirmwareModel
+from ..printer.identification.fit import (
+    PrinterFitOptions,
+    PrinterMeasurements,
+    identify_printer,
+    printer_outliers,
+)
+from ..printer.identification.outliers import Outliers
 from ..printer.robot import NominalLinearDelta
-from ..printer.same_printer import ENDSTOP_MM, check_step_distance
 from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
 from .firmware import add_firmware_argument, controller_firmware
 
@@ -160,7 +160,7 @@ def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, 
     """Refuse probe heights no printer gives: in another unit, or far from any bed.
 
     The commanded height at which the probe triggers is where the firmware puts the bed (less the
-    probe's offset ``probe_z`` [mm]): beyond :data:`~deltacal.printer.same_printer.ENDSTOP_MM` from it,
+    probe's offset ``probe_z`` [mm]): beyond :data:`~deltacal.printer.files.same_printer.ENDSTOP_MM` from it,
     no build's endstops are (micrometres, or another printer's file). A printer's probe heights
     scatter by the probe's σ at least (and by tenths of a mm to mm across the bed, for its tilt and
     its towers' errors): heights in metres span a thousandth of that.

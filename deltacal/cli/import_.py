@@ -17,10 +17,10 @@ from pathlib import Path
 from typing import Any
 
 from ..exceptions import InputError, UsageError
+from ..printer.files.importer import OUTPUT_FILES
+from ..printer.files.measurements import write_probe_heights
 from ..printer.firmware import config_firmware, firmwares, log_firmware
 from ..printer.firmware.base import Firmware
-from ..printer.importer import OUTPUT_FILES
-from ..printer.measurement_files import write_probe_heights
 from .common import check_input, check_output, check_output_folder, positive_float
 
 

@@ -16,11 +16,11 @@ from pathlib import Path
 from ..exceptions import UsageError
 from ..io import write_stl
 from ..io.atomic import atomic_write_text
-from ..printer.measurement_files import write_printed_distances, write_probe_heights
-from ..printer.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
-from ..printer.plan import ObjectPlan, plan_object
+from ..printer.files.measurements import write_printed_distances, write_probe_heights
+from ..printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
+from ..printer.printed.plan import ObjectPlan, plan_object
+from ..printer.printed.sheet import sheet_html
 from ..printer.robot import NominalLinearDelta
-from ..printer.sheet import sheet_html
 from ..robots import load_robot
 from .common import check_input, check_output_folder, int_at_most, positive_float
 from .firmware import add_firmware_argument, controller_firmware

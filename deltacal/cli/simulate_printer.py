@@ -20,13 +20,13 @@ import numpy as np
 from ..exceptions import AssemblyError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Tolerances
 from ..io import data_row, load_geometry, save_geometry
-from ..printer.firmware.base import FirmwareModel
-from ..printer.measurement_files import (
+from ..printer.files.measurements import (
     read_printed_distances,
     read_probe_heights,
     write_printed_distances,
     write_probe_heights,
 )
+from ..printer.firmware.base import FirmwareModel
 from ..printer.robot import NominalLinearDelta
 from ..printer.simulation import (
     KIT_BED_TILT_DEG,

@@ -21,8 +21,8 @@ MODEL_NAMES = ("classical", "bai42", "complete", "bai24", "bai18", "bai36", "bai
 #: The models of a linear Delta printer (a prismatic chain), defined in the printer's wing: name ->
 #: (module, class). Imported on first use, so the engine never imports the wing.
 _PRINTER_MODELS = {
-    "printer": ("deltacal.printer.errormodels", "PrinterModel"),
-    "klipper": ("deltacal.printer.errormodels", "FirmwareModel"),
+    "printer": ("deltacal.printer.identification.errormodels", "PrinterModel"),
+    "klipper": ("deltacal.printer.identification.errormodels", "FirmwareErrorModel"),
 }
 PRINTER_MODEL_NAMES = tuple(_PRINTER_MODELS)
 

@@ -128,7 +128,7 @@ __all__ = [
 _FORMER = {
     "load_robot": "deltacal.robots",
     "load_controller": "deltacal.robots",
-    "load_printer": "deltacal.printer.robot_file",
+    "load_printer": "deltacal.printer.files.robot_file",
 }
 
 

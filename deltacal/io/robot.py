@@ -1,7 +1,7 @@
 """The nominal robot file (conventions: [geometry], [points], [workspace]) of a rotary Delta.
 
 A file with ``kind = "linear"`` is a printer's: the printer's wing reads it
-(:mod:`deltacal.printer.robot_file`), and :func:`deltacal.robots.load_robot` reads a file of
+(:mod:`deltacal.printer.files.robot_file`), and :func:`deltacal.robots.load_robot` reads a file of
 either kind. The readers of the parts both kinds share (``kind``, ``name``, ``[points]``, the
 plausible lengths) are here.
 """

@@ -11,9 +11,9 @@ is measured twice, with measurements of the same kind (commanded probe triggers,
   ``klipper_enhanced``); Marlin's ``G33``, probing again at each iteration
   (:func:`~deltacal.printer.firmware.marlin.calibrate.marlin_g33`); RepRapFirmware's ``G32`` with 6
   and 8 factors (:func:`~deltacal.printer.firmware.rrf.calibrate.rrf_g32`);
-* deltacal's way: the planned object (:func:`~deltacal.printer.plan.plan_object`: 49
+* deltacal's way: the planned object (:func:`~deltacal.printer.printed.plan.plan_object`: 49
   probe heights on Klipper's round mesh and 40 distances), read through the firmware's
-  inverse into readings and identified (:func:`~deltacal.printer.identification.identify_printer`,
+  inverse into readings and identified (:func:`~deltacal.printer.identification.fit.identify_printer`,
   complete model, iterated, the kit's tolerances as priors, scaled by the measurements' evidence).
 
 Each method is judged on the TRUE printer over the printable volume (:data:`WORKSPACE`, the
@@ -49,8 +49,8 @@ from .firmware.base import Firmware, FirmwareModel
 from .firmware.fitting import ErrorStats, first_layer, nozzle_errors, printable_grid
 from .firmware.klipper.calibrate import BASIC_TITLE, ENHANCED_TITLE
 from .firmware.klipper.firmware import KLIPPER
-from .identification import PrinterMeasurements, identify_printer
-from .plan import ObjectPlan
+from .identification.fit import PrinterMeasurements, identify_printer
+from .printed.plan import ObjectPlan
 from .robot import NominalLinearDelta, less_bed_motion
 from .simulation import (
     KIT_BED_TILT_DEG,

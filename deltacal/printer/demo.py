@@ -47,14 +47,14 @@ from .comparison import (
     exported_name,
     run_printer,
 )
+from .files.measurements import write_printed_distances, write_probe_heights
+from .files.robot_file import load_printer
 from .firmware.base import Firmware, FirmwareModel
 from .firmware.fitting import nozzle_errors
 from .firmware.klipper.firmware import KLIPPER
 from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
-from .measurement_files import write_printed_distances, write_probe_heights
-from .plan import plan_object
+from .printed.plan import plan_object
 from .robot import less_bed_motion
-from .robot_file import load_printer
 from .simulation import nozzle_positions
 
 MODELS_DIR = Path(__file__).resolve().parents[1] / "models"

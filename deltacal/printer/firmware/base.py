@@ -48,11 +48,11 @@ from ...exceptions import InputError
 from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
-from ..same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
+from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .probe_log import ProbeLog
 
 if TYPE_CHECKING:
-    from ..importer import PrinterImport
+    from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
 
 #: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
@@ -371,10 +371,10 @@ class Firmware(ABC, Generic[ModelT]):
         """Refuse two sets of values (a calibration's, a configuration's) of different printers.
 
         Compared by :func:`classical_values` and the step distances, each against the bound of
-        :mod:`~deltacal.printer.same_printer`: the radius and the arms within
-        :data:`~deltacal.printer.same_printer.LENGTH_RTOL` of ``model``'s, the endstops within
-        :data:`~deltacal.printer.same_printer.ENDSTOP_MM`, the step distances within
-        :data:`~deltacal.printer.same_printer.STEP_DISTANCE_RTOL`.
+        :mod:`~deltacal.printer.files.same_printer`: the radius and the arms within
+        :data:`~deltacal.printer.files.same_printer.LENGTH_RTOL` of ``model``'s, the endstops within
+        :data:`~deltacal.printer.files.same_printer.ENDSTOP_MM`, the step distances within
+        :data:`~deltacal.printer.files.same_printer.STEP_DISTANCE_RTOL`.
 
         Args:
             model: The first values (a calibration's or a robot file's: :meth:`start`, :meth:`nominal`).
@@ -430,9 +430,9 @@ class Firmware(ABC, Generic[ModelT]):
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
         """The printer as its configuration finds it, written in ``folder`` (``deltacal import``).
 
-        Writes ``printer.toml`` (:func:`~deltacal.printer.importer.write_printer_file`) and the
+        Writes ``printer.toml`` (:func:`~deltacal.printer.files.importer.write_printer_file`) and the
         measurements the configuration holds, if any (the names of
-        :data:`~deltacal.printer.importer.OUTPUT_FILES`).
+        :data:`~deltacal.printer.files.importer.OUTPUT_FILES`).
 
         Args:
             path: The configuration.

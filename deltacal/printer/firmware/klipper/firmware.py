@@ -16,7 +16,7 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ...importer import OUTPUT_FILES, PrinterImport
+from ...files.importer import OUTPUT_FILES, PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import (

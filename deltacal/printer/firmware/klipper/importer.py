@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
-from ...importer import OUTPUT_FILES, ImportedValues, Measured, printer_file_text, write_printer_file
-from ...measurement_files import write_printed_distances, write_probe_heights
+from ...files.importer import OUTPUT_FILES, ImportedValues, Measured, printer_file_text, write_printer_file
+from ...files.measurements import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
 from .saved import SavedCalibration, read_saved_calibration

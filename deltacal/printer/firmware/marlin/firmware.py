@@ -18,7 +18,7 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ...importer import PrinterImport
+from ...files.importer import PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33

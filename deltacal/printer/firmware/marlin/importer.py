@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...importer import ImportedValues, PrinterImport, write_imported
+from ...files.importer import ImportedValues, PrinterImport, write_imported
 from .model import BASE_ANGLES_DEG, MarlinDelta
 from .settings import load_marlin
 

@@ -34,7 +34,7 @@ from .model import RRFController, RRFDelta
 from .probing import rrf_probe_program
 
 if TYPE_CHECKING:
-    from ...importer import PrinterImport
+    from ...files.importer import PrinterImport
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
 

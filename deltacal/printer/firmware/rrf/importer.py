@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...importer import ImportedValues, PrinterImport, write_imported
+from ...files.importer import ImportedValues, PrinterImport, write_imported
 from .config import read_rrf_settings, rrf_from_settings
 from .model import DEFAULT_PRINT_RADIUS, RRFDelta
 

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError
+from ...exceptions import InputError
 
 #: Relative difference of two step distances beyond any build or tuning.
 STEP_DISTANCE_RTOL = 0.05

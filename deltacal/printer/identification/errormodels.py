@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..chains import PRISMATIC
-from ..errormodels.base import (
+from ...chains import PRISMATIC
+from ...errormodels.base import (
     N_ELEMENTARY,
     ErrorModel,
     actuator_rotation_index,
@@ -38,7 +38,7 @@ from ..errormodels.base import (
     plate_ball_index,
     rod_index,
 )
-from ..geometry import DeltaGeometry, Tolerances
+from ...geometry import DeltaGeometry, Tolerances
 
 #: The travel a ``scale{i}`` parameter is given per [mm]: its value is the error over this travel.
 SCALE_TRAVEL_MM = 100.0
@@ -125,7 +125,7 @@ class PrinterModel(ErrorModel):
         return np.array([sigma[kind] for kind in self._kinds])
 
 
-class FirmwareModel(ErrorModel):
+class FirmwareErrorModel(ErrorModel):
     """Klipper's values as deviations of a printer's full geometry (13 parameters)."""
 
     name = "klipper"

@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError
-from ..io.atomic import atomic_write_text
-from ..io.toml import _toml_value
-from ..towers import written_per_tower
+from ...exceptions import InputError
+from ...io.atomic import atomic_write_text
+from ...io.toml import _toml_value
+from ...towers import written_per_tower
 
 #: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
 DEFAULT_EFFECTOR_RADIUS = 30.0

@@ -4,7 +4,7 @@ The distances are chosen among the object's candidate pairs (:mod:`.object`) to 
 what the probe heights and they together tell about the printer: a greedy D-optimal selection
 (Bayesian: ``log det(I + Σ w wᵀ)``, each row ``w`` a measurement's sensitivity in units of each
 parameter's build tolerance and of the measurement's σ, so that the criterion is defined whatever
-the rank, as the identification's priors are, :func:`deltacal.printer.identification.identify_printer`).
+the rank, as the identification's priors are, :func:`deltacal.printer.identification.fit.identify_printer`).
 The probe heights' rows start the information; each step adds the pair that increases the log
 determinant most (``log(1 + wᵀ A⁻¹ w)``) among the pairs still possible: one feature per site
 (a pair fixes the level of its sites), and no printed feature in the way of a chosen pair.
@@ -23,12 +23,13 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errormodels import get_model
-from ..exceptions import PlanningError
-from ..geometry import Tolerances
-from ..identifiability import BaseParameters
-from .firmware.base import FirmwareModel
-from .identification import PrinterMeasurements, measured_combinations, residuals_and_regressor
+from ...errormodels import get_model
+from ...exceptions import PlanningError
+from ...geometry import Tolerances
+from ...identifiability import BaseParameters
+from ..firmware.base import FirmwareModel
+from ..identification.fit import PrinterMeasurements, measured_combinations, residuals_and_regressor
+from ..robot import NominalLinearDelta
 from .labels import BallLabel, labels_mesh, place_labels
 from .object import (
     BALL_DIAMETER,
@@ -42,7 +43,6 @@ from .object import (
     object_mesh,
     probe_grid,
 )
-from .robot import NominalLinearDelta
 
 #: Rows of the probe heights and of candidate pairs: ``rows(probe (N, 3), pairs (P, 2, 3))`` ->
 #: ``(probe rows (N, n), pair rows (P, n))``, each in units of the parameters' prior σ and of the
@@ -115,7 +115,7 @@ def model_rows(printer: NominalLinearDelta, firmware: FirmwareModel, model: str 
 
     The commanded positions become readings through the firmware's inverse model (what the
     printer does when told to go there); the rows are the identification's
-    (:func:`~deltacal.printer.identification.residuals_and_regressor`), scaled by each
+    (:func:`~deltacal.printer.identification.fit.residuals_and_regressor`), scaled by each
     parameter's build tolerance (``model.prior_sigma``).
     """
     geometry = printer.geometry()

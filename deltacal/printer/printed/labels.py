@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..exceptions import PlanningError
+from ...exceptions import PlanningError
 from .lettering import label_mesh, text_size
 from .object import BALL_DIAMETER, footprint_radius
 

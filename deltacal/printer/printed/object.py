@@ -33,8 +33,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..exceptions import PlanningError
-from ..geometry import Workspace
+from ...exceptions import PlanningError
+from ...geometry import Workspace
 
 if TYPE_CHECKING:
     import trimesh

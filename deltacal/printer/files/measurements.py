@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import InputError
-from ..io.atomic import atomic_write_text
-from ..io.tables import TARGET_COLUMNS, _format_rows, _quoted, data_row, read_csv_table
+from ...exceptions import InputError
+from ...io.atomic import atomic_write_text
+from ...io.tables import TARGET_COLUMNS, _format_rows, _quoted, data_row, read_csv_table
 
 #: A distance measured further than this fraction from the distance commanded between its features is
 #: no printer's: a kit's step distances are within 0.3 %, its uncalibrated nozzle within 2-4 mm.

@@ -27,13 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..identification.outliers import data_snooping
+from ...identification.outliers import data_snooping
 
 #: Fits without the suspects at most (the fixed point is reached in two or three).
 ROUNDS = 5
 #: Singular value of the whitened regressor (parameters in units of their tolerance) above which a
 #: combination is the measurements' (known better than its tolerance, as
-#: :func:`~deltacal.printer.identification.measured_combinations` counts them): the snooping's design.
+#: :func:`~deltacal.printer.identification.fit.measured_combinations` counts them): the snooping's design.
 #: The others are held by the priors: free in the design, a row alone seeing one of them would have
 #: a leverage near 1 and a tiny residual blown up into a false alarm.
 SEEN = 1.0
@@ -51,7 +51,7 @@ class Outliers:
     Attributes:
         indices: The measurements flagged, sorted (a printer's: its probe heights, then its
             distances, then its measured positions, in the order of
-            :class:`~deltacal.printer.identification.PrinterMeasurements`).
+            :class:`~deltacal.printer.identification.fit.PrinterMeasurements`).
         residual: The whitened residual (measured − the fit's, divided by σ) of every row at the
             fit without them, (m,).
         kept: The measurements not flagged, a mask, (number of measurements,).

@@ -20,7 +20,7 @@ against the bed it prints on). What no probe height and no distance sees (the pr
 the bed and turned about its normal: 3 rigid motions, and what the data leave out) is held at its
 start value by the base parameters (Savoure 2006, Eq. 23-26): the pivoted QR keeps one parameter
 per identifiable combination, preferring endstops, step scales, leans and rods
-(:class:`~deltacal.printer.errormodels.PrinterModel`). Gauss-Newton then iterates the kept
+(:class:`~deltacal.printer.identification.errormodels.PrinterModel`). Gauss-Newton then iterates the kept
 parameters to convergence, linearised at the exact kinematics of each estimate. Vectorised over
 measurements. Units: mm and rad.
 """
@@ -33,18 +33,18 @@ from typing import Literal, TypedDict, Unpack, get_args
 
 import numpy as np
 
-from ..errormodels import ErrorModel, get_model
-from ..exceptions import AssemblyError, ConvergenceError
-from ..geometry import DeltaGeometry, Tolerances
-from ..identifiability import BaseParameters, base_parameters
-from ..identification.columns import build_columns
-from ..identification.options import Method
-from ..identification.result import IdentificationResult, ResidualStats
-from ..identification.solver import solve_wls
-from ..kinematics import exact
-from ..observations import rigid_alignment
-from ..options import with_overrides
-from ..rotations import skew
+from ...errormodels import ErrorModel, get_model
+from ...exceptions import AssemblyError, ConvergenceError
+from ...geometry import DeltaGeometry, Tolerances
+from ...identifiability import BaseParameters, base_parameters
+from ...identification.columns import build_columns
+from ...identification.options import Method
+from ...identification.result import IdentificationResult, ResidualStats
+from ...identification.solver import solve_wls
+from ...kinematics import exact
+from ...observations import rigid_alignment
+from ...options import with_overrides
+from ...rotations import skew
 from .evidence import SCALE_RANGE, evidence_scale
 from .outliers import Outliers, find_outliers
 
@@ -272,7 +272,7 @@ def identify_printer(
 
     How wide the tolerances are is rarely known (a well-built printer's errors are a tenth of a
     kit's): by default they are scaled by the factor the measurements make most probable
-    (:func:`~deltacal.printer.evidence.evidence_scale`, at the fit with the tolerances as
+    (:func:`~deltacal.printer.identification.evidence.evidence_scale`, at the fit with the tolerances as
     given), then the fit is made again with them. On the 10 well-built printers of
     ``scripts/printer_compare.py`` (the object then planned, 150 mm caliper) it took the G-code
     route's 3-D max error from 0.033 to 0.026 mm; on its 10 kits from 0.031 to 0.035 mm (a single
@@ -407,7 +407,7 @@ def measurements_kept(data: PrinterMeasurements, kept: np.ndarray) -> PrinterMea
 
 def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str | ErrorModel = "printer",
                      options: PrinterFitOptions | None = None) -> Outliers:
-    """The measurements that do not fit the others (:func:`~deltacal.printer.outliers.find_outliers`).
+    """The measurements that do not fit the others (:func:`~.outliers.find_outliers`).
 
     Each trial fit is :func:`identify_printer`'s (the tolerances' scale chosen again without the
     suspects), and every row is tested about it.

@@ -14,13 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..exceptions import GeometryError, InputError
-from ..geometry import Workspace
-from ..io.robot import _check_plausible, _is_printer_file, _points, _robot_name
-from ..io.toml import _Table, read_toml
-from ..kinematics.closed_form import VirtualDelta
-from ..towers import TOWERS
-from .robot import NominalLinearDelta
+from ...exceptions import GeometryError, InputError
+from ...geometry import Workspace
+from ...io.robot import _check_plausible, _is_printer_file, _points, _robot_name
+from ...io.toml import _Table, read_toml
+from ...kinematics.closed_form import VirtualDelta
+from ...towers import TOWERS
+from ..robot import NominalLinearDelta
 
 #: A step distance [mm] at or above this is not a printer's (steps per mm given instead?).
 MAX_STEP_DISTANCE_MM = 1.0
