@@ -16,8 +16,8 @@ import numpy as np
 from .controller import CommandModel, Controller
 from .geometry import NominalDelta
 from .io.controller_file import load_controller_file
-from .io.robot import _is_printer_file, load_nominal
-from .io.toml import _Table, read_toml
+from .io.robot import is_printer_file, load_nominal
+from .io.toml import TomlTable, read_toml
 from .printer.files.robot_file import load_printer
 from .printer.firmware import config_firmware
 from .printer.robot import NominalLinearDelta
@@ -29,7 +29,7 @@ def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:
     Raises:
         InputError: naming the file and the key of the first problem found.
     """
-    if _is_printer_file(_Table(read_toml(path), str(path))):
+    if is_printer_file(TomlTable(read_toml(path), str(path))):
         return load_printer(path)
     return load_nominal(path)
 

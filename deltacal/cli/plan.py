@@ -28,7 +28,7 @@ from ..planning import (
     require_workspace,
     rough_poses,
 )
-from ..planning.regressor import _RTOL
+from ..planning.regressor import RANK_RTOL
 from ..printer.robot import NominalLinearDelta
 from ..robots import load_robot
 from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
@@ -179,7 +179,7 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
     rng = np.random.default_rng(args.seed)
     pool = candidate_pool(nominal, args.pool, rng)
     H = identification_matrix(nominal.geometry(), model, pool.q[:200], measurement, points)
-    rank = base_parameters(H, model.names, rtol=_RTOL).rank  # what such measurements can identify
+    rank = base_parameters(H, model.names, rtol=RANK_RTOL).rank  # what such measurements can identify
     count = max(math.ceil(2 * rank / rows), 3) if args.count is None else args.count
     if args.pool >= LARGE_POOL:
         cost = pool_cost(len(pool), rows, model.size, rank, count)
@@ -191,7 +191,7 @@ def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, 
     design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points,
                        payloads=payloads)
     chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
-    got = base_parameters(chosen, model.names, rtol=_RTOL).rank
+    got = base_parameters(chosen, model.names, rtol=RANK_RTOL).rank
     if got < rank or not math.isfinite(design.log_det):
         need = math.ceil(rank / rows)
         raise PlanningError(

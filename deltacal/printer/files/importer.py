@@ -28,7 +28,7 @@ import numpy as np
 
 from ...exceptions import InputError
 from ...io.atomic import atomic_write_text
-from ...io.toml import _toml_value
+from ...io.toml import toml_value
 from ...towers import written_per_tower
 
 #: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
@@ -124,16 +124,16 @@ def printer_file_text(values: ImportedValues, measured: Measured) -> str:
     lines = [f"# Imported by deltacal from {source.name}: {values.firmware}'s model of that configuration.",
              *defaults,
              *(f"# {note}" for note in values.notes),
-             f"name = {_toml_value(source.stem)}",
-             f"description = {_toml_value(f'imported from {source.name} ({values.radius[1]} {rho:g} mm)')}",
+             f"name = {toml_value(source.stem)}",
+             f"description = {toml_value(f'imported from {source.name} ({values.radius[1]} {rho:g} mm)')}",
              'kind = "linear"', "", "[geometry]",
              f"tower_radius_mm = {rho + measured.effector_radius!r}   # {values.radius[1]} + effector radius",
              f"effector_radius_mm = {measured.effector_radius!r}",
              f"rod_length_mm = {_per_tower(rods)}   # {values.rods[1]}",
              f"rod_spacing_mm = {measured.rod_spacing!r}",
-             f"tower_azimuth_deg = {_toml_value([float(v) for v in values.azimuth_deg[0]])}   "
+             f"tower_azimuth_deg = {toml_value([float(v) for v in values.azimuth_deg[0]])}   "
              f"# {values.azimuth_deg[1]}",
-             f"nozzle_mm = {_toml_value([0.0, 0.0, -drop])}",
+             f"nozzle_mm = {toml_value([0.0, 0.0, -drop])}",
              f"endstop_height_mm = {_per_tower(top + drop)}   # {values.carriage_top[1]} + nozzle drop",
              f"step_distance_mm = {_per_tower(values.step_distance[0])}" + (f"   # {steps}" if steps else ""),
              "", "[workspace]",
@@ -188,4 +188,4 @@ class PrinterImport:
 
 def _per_tower(values: np.ndarray) -> str:
     """A per-tower value as TOML: a number when the three towers agree, ``[a, b, c]`` otherwise."""
-    return _toml_value(written_per_tower(np.asarray(values, dtype=float)))
+    return toml_value(written_per_tower(np.asarray(values, dtype=float)))
