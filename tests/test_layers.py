@@ -4,7 +4,7 @@ Every import of a ``deltacal`` module, at module level or inside a function, mus
 layers below (a module may import one of its own layer or a lower one), the graph has no cycle,
 nothing outside ``deltacal.cli`` imports the command line, no module grows past 700 lines and no
 function past 80 lines of code (issue 20: its docstring aside). A name another module needs is public
-where it lives (issue 37).
+where it lives, and no two classes share a name (issue 37).
 """
 
 from __future__ import annotations
@@ -196,6 +196,21 @@ def test_a_name_another_module_needs_is_public_where_it_lives():
                              "or justify them in PRIVATE_CROSSINGS):\n" + "\n".join(unexplained))
 
 
+def class_definitions(path: Path) -> list[tuple[str, int]]:
+    """Every class the file defines, nested ones too, with its line."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    return [(node.name, node.lineno) for node in ast.walk(tree) if isinstance(node, ast.ClassDef)]
+
+
+def test_no_class_name_is_defined_twice():
+    where: dict[str, list[str]] = {}
+    for name, path in modules().items():
+        for cls, line in class_definitions(path):
+            where.setdefault(cls, []).append(f"{name}:{line}")
+    twice = {cls: places for cls, places in where.items() if len(places) > 1}
+    assert not twice, f"class names defined more than once (one name per class): {twice}"
+
+
 def test_no_import_cycle():
     edges = graph()
     state: dict[str, int] = {}
@@ -270,8 +285,8 @@ def test_the_checker_sees_a_cycle_and_an_upward_import(tmp_path, monkeypatch):
         test_nothing_but_the_command_line_imports_it()
 
 
-def test_the_checker_sees_private_names(tmp_path, monkeypatch):
-    """A private name taken by import or through a module is caught."""
+def test_the_checker_sees_private_names_and_twin_classes(tmp_path, monkeypatch):
+    """A private name taken by import or through a module, and a class defined twice, are caught."""
     pkg = tmp_path / "deltacal"
     (pkg / "io").mkdir(parents=True)
     (pkg / "__init__.py").write_text("")
@@ -287,6 +302,8 @@ def test_the_checker_sees_private_names(tmp_path, monkeypatch):
                                                        "deltacal.io.toml._y"]
     with pytest.raises(AssertionError, match="deltacal.io.toml._shown"):
         test_a_name_another_module_needs_is_public_where_it_lives()
+    with pytest.raises(AssertionError, match="'Plane'"):
+        test_no_class_name_is_defined_twice()
 
 
 def test_third_party_imports_are_declared_dependencies():

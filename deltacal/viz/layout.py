@@ -116,7 +116,7 @@ def text_block(
     Returns:
         Corners of the text's bounding rectangle in {O} [mm], (4 * len(lines), 3).
     """
-    TextTexture, Plane = text_objects()
+    TextTexture, PlaneGeometry = text_objects()
     g = writer.g
     size = line_height * 256.0 / 30.0  # the 256 px canvas holds a 30 px line
     corners = []
@@ -128,7 +128,8 @@ def text_block(
             map=TextTexture(text, font_size=30), transparent=True, depthWrite=False, color=0x000000
         )
         writer.object(
-            f"labels/{name}{k}", Plane(size, size), material, mesh_transform(camera.rotation, plane_centre)
+            f"labels/{name}{k}", PlaneGeometry(size, size), material,
+            mesh_transform(camera.rotation, plane_centre),
         )
         half_w = min(0.5 * size, 0.27 * line_height * len(text))
         for sx in (-1.0, 1.0):

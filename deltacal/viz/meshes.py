@@ -160,7 +160,7 @@ def text_objects() -> tuple[type, type]:
                 "font_face": self.font_face,
             }
 
-    class Plane(g.Geometry):  # type: ignore[misc,name-defined]
+    class PlaneGeometry(g.Geometry):  # type: ignore[misc,name-defined]
         """A rectangle in the local xy plane, facing +z."""
 
         def __init__(self, width: float, height: float) -> None:
@@ -177,4 +177,4 @@ def text_objects() -> tuple[type, type]:
                 "heightSegments": 1,
             }
 
-    return TextTexture, Plane
+    return TextTexture, PlaneGeometry
