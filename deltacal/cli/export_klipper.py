@@ -36,8 +36,8 @@ def run_klipper(args: argparse.Namespace) -> int:
                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
         budget = source_budget(KLIPPER, begun, args.keep_rotation_distance)
     lines = summary(KLIPPER, fit.before, fit.after, budget, begun, fit.held, args.config is not None)
-    values = KLIPPER.admit_bed(fit.klipper, geometry, step, workspace.radius)
-    if values is not fit.klipper:
+    values = KLIPPER.admit_bed(fit.values, geometry, step, workspace.radius)
+    if values is not fit.values:
         lines.append(f"minimum_z_position {values.minimum_z_position:g} mm: the true bed is below these "
                      f"values' z 0 over radius {workspace.radius:g} mm; a corrected first layer goes there "
                      "(compensate --controller)")

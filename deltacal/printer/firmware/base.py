@@ -16,7 +16,8 @@ firmware gives through one :class:`Firmware`:
   :class:`~deltacal.controller.targets.CommandModel`: what corrected targets and G-code go
   through), also from its configuration file (:meth:`Firmware.load_controller`);
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
-* the values that fit an identified geometry best (:meth:`Firmware.fit`);
+* the values that fit an identified geometry best (:meth:`Firmware.fit`: a :class:`FirmwareFit`, the
+  same value for every firmware);
 * two sets of values refused when they are of different printers (:meth:`Firmware.check_same_printer`:
   a calibration and the configuration of another printer);
 * a program in its own dialect that probes the bed at given points and says each result on its
@@ -38,6 +39,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -154,26 +156,6 @@ class ErrorFigures(Protocol):
         """The figures by name [mm]."""
 
 
-class FirmwareFit(Protocol):
-    """A firmware's values fitted to an identified printer, and what they leave."""
-
-    @property
-    def values(self) -> FirmwareModel:
-        """The fitted values."""
-
-    @property
-    def before(self) -> ErrorFigures:
-        """The errors with the start's values."""
-
-    @property
-    def after(self) -> ErrorFigures:
-        """The errors with the fitted values."""
-
-    @property
-    def held(self) -> list[str]:
-        """The values held at the start's, in the firmware's names."""
-
-
 class Measuring(Protocol):
     """A printer measured through a firmware's values (a real one, or a simulation)."""
 
@@ -185,6 +167,34 @@ class Measuring(Protocol):
 
 
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
+
+
+@dataclass(frozen=True)
+class FirmwareFit(Generic[ModelT]):
+    """A firmware's values fitted to an identified printer, and what they leave (any firmware's).
+
+    Attributes:
+        values: The fitted values, as the firmware writes them.
+        fitted: Names (the firmware's) of the values fitted.
+        held: Names held at the start's values (asked, a gauge the firmware holds, or not
+            identifiable over the grid).
+        unidentifiable: The held values the grid cannot tell apart from the others.
+        singular_values: Singular values of the column-scaled Jacobian, largest first.
+        before: Errors with the start's values [mm].
+        after: Errors with the fitted values, through the firmware's model [mm].
+        iterations: Gauss-Newton iterations (of the last fit, where the firmware fits twice).
+        points: Number of grid points.
+    """
+
+    values: ModelT
+    fitted: list[str]
+    held: list[str]
+    unidentifiable: list[str]
+    singular_values: np.ndarray
+    before: ErrorFigures
+    after: ErrorFigures
+    iterations: int
+    points: int
 
 
 def classical_values(model: FirmwareModel) -> tuple[float, np.ndarray, np.ndarray]:
@@ -272,7 +282,7 @@ class Firmware(ABC, Generic[ModelT]):
     @abstractmethod
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> FirmwareFit:
+            first_layer_weight: float = 0.0) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:

@@ -17,7 +17,7 @@ from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import (
     BASIC_TITLE,
@@ -35,7 +35,7 @@ from .config import (
     load_klipper,
     read_klipper_config,
 )
-from .fit import KlipperFit, fit_klipper
+from .fit import fit_klipper
 from .importer import import_klipper, write_import
 from .log import is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
@@ -89,7 +89,7 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> KlipperFit:
+            first_layer_weight: float = 0.0) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            first_layer_weight=first_layer_weight)

@@ -19,10 +19,10 @@ from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
-from .fit import MarlinFit, fit_marlin
+from .fit import fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
@@ -74,7 +74,7 @@ class Marlin(Firmware[MarlinDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> MarlinFit:
+            first_layer_weight: float = 0.0) -> FirmwareFit[MarlinDelta]:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight)
 

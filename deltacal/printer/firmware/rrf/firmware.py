@@ -16,7 +16,7 @@ import numpy as np
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
     APPLY_NOTE,
@@ -26,7 +26,7 @@ from .config import (
     rrf_config_text,
     rrf_probe_offsets,
 )
-from .fit import RRFFit, fit_rrf
+from .fit import fit_rrf
 from .homing import homed_position
 from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
@@ -90,7 +90,7 @@ class RRF(Firmware[RRFDelta]):
         workspace: Workspace,
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
-    ) -> RRFFit:
+    ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
             geometry,
