@@ -21,7 +21,11 @@ does. Where controllers differ, it asks a :class:`Dialect`:
   number: Marlin's G33 changes the very values the program is corrected for);
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
-  (:meth:`Dialect.command`).
+  (:meth:`Dialect.command`);
+* how it finds a line's command (:class:`LineReading`): what a line of axis words without a G word
+  (``X40 Y0 Z10``) does, and one with text before its command's first letter (a byte-order mark
+  where two files were joined, a NUL, a digit: ``1G1 X40``), the blanks it skips before a command,
+  and whether a NUL byte ends a line.
 
 A firmware gives its dialect (:meth:`deltacal.printer.firmware.base.Firmware.dialect`); a
 rotary Delta's controller reads G-code as :data:`GENERIC` does. Units: mm.
@@ -35,7 +39,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
-__all__ = ["GENERIC", "ArcP", "Dialect", "MacroEffect", "MacroStep"]
+__all__ = ["GENERIC", "ArcP", "Dialect", "LineReading", "MacroEffect", "MacroStep", "Unread"]
 
 #: A Klipper command's name: its first word of letters and underscores, and the text to the next
 #: letter (``klippy/gcode.py``: ``START_PRINT``, ``M600``, ``G28``), after a line number.
@@ -48,6 +52,40 @@ class ArcP(enum.Enum):
     REFUSED = "refused"  #: firmwares differ: refused by the line
     IGNORED = "ignored"  #: never read (Klipper): the arc as if it had none
     CIRCLES = "circles"  #: P full circles before the arc, an integer 0..100 (Marlin's ARC_P_CIRCLES)
+
+
+class Unread(enum.Enum):
+    """What a controller does with a line whose command it does not find where a G-code reader would."""
+
+    MODAL = "modal"  #: axis words alone repeat the motion mode (LinuxCNC), as a reader of G-code does
+    IGNORED = "ignored"  #: an unknown command, not run: the line is kept, the position not moved, a warning
+    REFUSED = "refused"  #: the controller's reading depends on how it is built or set up: refused by the line
+
+
+@dataclass(frozen=True)
+class LineReading:
+    """How a controller finds a line's command, where controllers differ.
+
+    Attributes:
+        axis_words: What a line of axis words without a G word first (``X40 Y0 Z10``) does.
+        axis_words_why: What the controller does with one, for the message (its firmware's words).
+        junk: What a line with text before its command's first letter (a byte-order mark, a NUL, a
+            digit: ``1G1 X40``) does (never :attr:`Unread.MODAL`).
+        unknown: The controller's answer to a command it does not know, for messages.
+        blanks: The characters the controller skips before a command, or None: any whitespace (as
+            Python's ``str.strip``, Klipper's). A line whose command follows another blank is refused:
+            a host (OctoPrint) strips it and sends the command, the controller reading its own card
+            does not run it.
+        nul_ends_line: Whether a NUL byte ends a line, what follows it running as a line of its own
+            (RepRapFirmware): a line holding one is refused.
+    """
+
+    axis_words: Unread = Unread.MODAL
+    axis_words_why: str = ""
+    junk: Unread = Unread.REFUSED
+    unknown: str = "Unknown command"
+    blanks: str | None = None
+    nul_ends_line: bool = False
 
 
 class MacroStep(enum.Enum):
@@ -104,6 +142,7 @@ class Dialect:
         macros: The controller's macros by upper-case name.
         distance_sets_e: Whether G90 and G91 set E's mode too, forgetting M82/M83 (Marlin 2).
         refused: G codes refused by their line (G number -> why), the controller's own.
+        lines: How it finds a line's command.
     """
 
     name: str = "generic"
@@ -114,6 +153,7 @@ class Dialect:
     e_by_m83: bool = False
     distance_sets_e: bool = False
     refused: Mapping[float, str] = field(default_factory=lambda: MappingProxyType({}))
+    lines: LineReading = LineReading()
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
