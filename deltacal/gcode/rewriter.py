@@ -341,7 +341,7 @@ class _Reader:
         if self.macros and s and s[0] != ";":
             effect = self.dialect.macro(s)
             if effect is not None:  # the controller's macro: where it leaves the nozzle
-                apply_macro(self.state, effect, number, self.home, self.start)
+                self.refuse(number, apply_macro(self.state, effect, number, self.home, self.start))
                 return KEPT
         if not s or s[0] not in READ:
             if s[:1] == "/":
