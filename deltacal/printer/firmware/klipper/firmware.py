@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect
+from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
@@ -120,11 +120,13 @@ class Klipper(Firmware[KlipperDelta]):
         leaves every carriage at its endstop; the macros are ``printer.cfg``'s
         (:func:`~.macros.read_macros`), and a program's own probing or bed mesh command
         (``BED_MESH_CALIBRATE``, ``PROBE`` ...) leaves the position unknown as in a macro
-        (:func:`~.macros.with_moving_commands`).
+        (:func:`~.macros.with_moving_commands`). A line's command is its first word, after any
+        whitespace (``str.strip``) and a line number (:data:`KLIPPER_LINES`).
         """
         home = load_klipper(path).positions(np.zeros((1, 3)))[0]
-        return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
-                       macros=with_moving_commands(read_macros(read_klipper_config(path))))
+        return Dialect(self.title, g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
+                       macros=with_moving_commands(read_macros(read_klipper_config(path))),
+                       lines=KLIPPER_LINES)
 
     def is_probe_log(self, text: str) -> bool:
         """Klipper's probe results, or a log's or a console's marks (:func:`~.log.is_probe_log`)."""
@@ -156,6 +158,14 @@ class Klipper(Firmware[KlipperDelta]):
             said.append(f"wrote {file}: {rows} rows saved by Klipper's DELTA_CALIBRATE / DELTA_ANALYZE")
         return PrinterImport(tuple(written), tuple(said))
 
+
+#: How Klipper finds a line's command (``klippy/gcode.py``, ``_process_commands``): the line stripped
+#: of whitespace (``str.strip``), upper case, split at its letters; the command is the text before the
+#: first letter, the letters and the number after them (after an ``N`` line number). A line of axis
+#: words (``X40 Y0 Z10``) is the command ``X40``, and one with text before its first letter
+#: (``\ufeffG1``, ``\0G1``, ``1G1``) the command ``\ufeffG1``: "Unknown command", not run.
+KLIPPER_LINES = LineReading(axis_words=Unread.IGNORED, axis_words_why="Klipper answers 'Unknown command' "
+                            "and does not move", junk=Unread.IGNORED)
 
 #: Klipper, the firmware.
 KLIPPER = Klipper()

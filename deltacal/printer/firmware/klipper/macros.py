@@ -26,7 +26,7 @@ import re
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from ....gcode.dialect import MacroEffect, MacroStep
+from ....gcode.dialect import MacroEffect, MacroStep, command_params
 from .config import KlipperConfig
 
 __all__ = ["MAX_DEPTH", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
@@ -46,6 +46,7 @@ _COMMAND_UNKNOWN = "it leaves the nozzle where only the printer knows"
 _EXPRESSION = "\x00"
 _PARTS = re.compile(r"([A-Z_]+|[A-Z*])")  # klippy/gcode.py's split of a command line
 _TRADITIONAL = re.compile(r"[A-Z][0-9]")
+_STATES = (MacroStep.SAVE, MacroStep.RESTORE)
 _OPEN = ("if", "for", "macro", "call", "filter", "with", "raw")
 _CLOSE = ("endif", "endfor", "endmacro", "endcall", "endfilter", "endwith", "endraw")
 
@@ -56,7 +57,9 @@ def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
     A program's ``BED_MESH_CALIBRATE`` or ``PROBE`` leaves the nozzle where only the printer
     knows, as in a macro; a macro of the same name (``rename_existing``) is the macro. The G-codes
     of :data:`MOVING_COMMANDS` (arcs, G29, G30, G38.x) are read as G-code, and ``RESUME`` in a
-    program goes back where its ``PAUSE`` left the program.
+    program goes back where its ``PAUSE`` left the program. A program's own ``SAVE_GCODE_STATE``
+    and ``RESTORE_GCODE_STATE`` save and restore states as in a macro, with the line's ``NAME`` and
+    ``MOVE`` (:meth:`~deltacal.gcode.dialect.MacroEffect.on_line`).
 
     Args:
         macros: The configuration's macros (:func:`read_macros`).
@@ -66,6 +69,8 @@ def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
     """
     commands = {name: MacroEffect(name, unknown=_COMMAND_UNKNOWN, builtin=True)
                 for name in MOVING_COMMANDS if not _TRADITIONAL.match(name) and name != "RESUME"}
+    for name, step in (("SAVE_GCODE_STATE", MacroStep.SAVE), ("RESTORE_GCODE_STATE", MacroStep.RESTORE)):
+        commands[name] = MacroEffect(name, ((step, {}, ""),), builtin=True, from_line=True)
     return MappingProxyType({**commands, **macros})
 
 
@@ -83,10 +88,15 @@ class _Reading:
 
     steps: list = field(default_factory=list)
     unknown: str = ""
+    refused: str = ""
 
     def unknowable(self, why: str) -> None:
         if not self.unknown:
             self.unknown = why
+
+    def refuse(self, why: str) -> None:
+        if not self.refused:
+            self.refused = why
 
 
 def read_macros(config: KlipperConfig) -> MappingProxyType:
@@ -123,7 +133,7 @@ class _MacroReader:
         reading = _Reading()
         for line in _lines(self.templates[name]):
             self.command(line, reading, (*calling, name))
-        effect = MacroEffect(name, tuple(reading.steps), reading.unknown)
+        effect = MacroEffect(name, tuple(reading.steps), reading.unknown, refused=reading.refused)
         self.done[name] = effect
         return effect
 
@@ -145,13 +155,8 @@ class _MacroReader:
             return
         if _TRADITIONAL.match(cmd) and cmd[0] in "GM":
             _traditional(cmd, params, line, reading)
-        elif cmd == "SAVE_GCODE_STATE":
-            reading.steps.append((MacroStep.SAVE, {}, params.get("NAME", "default")))
-        elif cmd == "RESTORE_GCODE_STATE":
-            if line.conditional:
-                reading.unknowable("RESTORE_GCODE_STATE under a Jinja condition")
-            move = {"MOVE": 1.0} if params.get("MOVE", "0") not in ("0", "") else {}
-            reading.steps.append((MacroStep.RESTORE, move, params.get("NAME", "default")))
+        elif cmd in ("SAVE_GCODE_STATE", "RESTORE_GCODE_STATE"):
+            _state(cmd, line, reading)
         elif cmd in MOVING_COMMANDS or cmd == "SET_GCODE_OFFSET" and params.get("MOVE", "0") not in ("0", ""):
             reading.unknowable(f"{cmd} leaves the nozzle where only the printer knows")
 
@@ -164,7 +169,39 @@ class _MacroReader:
             reading.unknowable(f"{cmd}, which moves the nozzle, under a Jinja condition")
         if effect.unknown:
             reading.unknowable(f"{cmd}: {effect.unknown}")
-        reading.steps.extend(effect.steps)
+        if effect.refused:
+            reading.refuse(f"{cmd}: {effect.refused}")
+        conditional = {"CONDITIONAL": 1.0} if line.conditional else {}
+        reading.steps.extend((step, {**values, **conditional} if step in _STATES else values, name)
+                             for step, values, name in effect.steps)
+
+
+def _state(cmd: str, line: _Line, reading: _Reading) -> None:
+    """SAVE_GCODE_STATE or RESTORE_GCODE_STATE in a template: ``NAME`` as written (case kept), ``MOVE``."""
+    params = command_params(line.text.replace(_EXPRESSION, "{...}"))
+    if params is None:
+        reading.refuse(f"{line.text.strip()!r}: Klipper answers 'Malformed command' (parameters are "
+                       "KEY=value)")
+        return
+    name = params.get("NAME", "default")
+    if "{...}" in name:
+        reading.refuse(f"{cmd} NAME={name}: a Jinja expression gives the state's name: which state "
+                       "RESTORE_GCODE_STATE brings back cannot be known")
+        return
+    values = {"CONDITIONAL": 1.0} if line.conditional else {}
+    if cmd == "SAVE_GCODE_STATE":
+        reading.steps.append((MacroStep.SAVE, values, name))
+        return
+    move = params.get("MOVE", "0")
+    if "{...}" in move:
+        reading.unknowable(f"RESTORE_GCODE_STATE MOVE={move}: a Jinja expression says whether it moves back")
+    elif move.lstrip("+-").isdigit() and int(move):
+        values["MOVE"] = 1.0
+        if line.conditional:
+            reading.unknowable("RESTORE_GCODE_STATE MOVE=1 under a Jinja condition")
+    elif not move.lstrip("+-").isdigit():
+        reading.refuse(f"RESTORE_GCODE_STATE MOVE={move}: not an integer, Klipper stops there")
+    reading.steps.append((MacroStep.RESTORE, values, name))
 
 
 def _traditional(cmd: str, params: dict[str, str], line: _Line, reading: _Reading) -> None:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect
+from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
@@ -113,13 +113,22 @@ class Marlin(Firmware[MarlinDelta]):
         that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
         ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
         towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
-        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
+        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros;
+        a line's command is its first letter after spaces (:data:`MARLIN_LINES`).
         """
         model = load_marlin(path)
         home = (0.0, 0.0, model.home_height)
         return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
-                       refused=MappingProxyType({33.0: G33_REFUSED}))
+                       refused=MappingProxyType({33.0: G33_REFUSED}), lines=MARLIN_LINES)
 
+
+#: How Marlin finds a line's command (``gcode/parser.cpp``, ``GCodeParser::parse``): spaces and an ``N``
+#: line number skipped, the next character must be G, M or T, else the line is an unknown command;
+#: built with ``GCODE_MOTION_MODES`` (off by default) an axis letter first repeats the last G0-G3. A NUL
+#: ends the command's text (``queue.cpp`` stores it, ``parse`` reads a C string).
+MARLIN_LINES = LineReading(axis_words=Unread.REFUSED, axis_words_why="Marlin repeats the last G0/G1 only "
+                           "when built with GCODE_MOTION_MODES, else answers 'Unknown command' and does "
+                           "not move", junk=Unread.IGNORED, blanks=" ")
 
 #: Why a program's G33 is refused.
 G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the settings the program is "
