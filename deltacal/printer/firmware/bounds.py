@@ -42,8 +42,8 @@ class Bound:
         return None
 
 
-#: Rods, radii, print radii, rotation distances: above 0, up to 10 m [mm].
-LENGTH = Bound(0.0, 10_000.0, "length [mm]", open_low=True)
+#: Rods, radii, print radii, rotation distances: from a micrometre to 10 m [mm].
+LENGTH = Bound(0.001, 10_000.0, "length [mm]")
 #: Heights and positions along an axis (homed height, endstop positions, Z limits) [mm].
 POSITION = Bound(-10_000.0, 10_000.0, "position [mm]")
 #: Endstop adjustments and rod trims: corrections of a few mm on a built printer [mm].

@@ -89,8 +89,9 @@ BOUNDS = {"M665 L": LENGTH, "M665 R": LENGTH, "M665 B": LENGTH, "M665 H": POSITI
           "G31 Y": PROBE_OFFSET, "G31 Z": PROBE_OFFSET}
 #: A line's command: an optional line number, then G/M/T and its number.
 _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
-#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}`` whole).
-_PARAM = re.compile(r"([A-Za-z])\s*((?:\"[^\"]*\"|\{[^}]*\}?|[^A-Za-z\"{])*)")
+#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}``
+#: whole; an ``E`` after a digit is an exponent, as RRF's ``StringParser::Seen`` takes it).
+_PARAM = re.compile(r"([A-Za-z])\s*((?:\"[^\"]*\"|\{[^}]*\}?|(?<=[0-9.])[eE][-+]?(?=\d)|[^A-Za-z\"{])*)")
 #: ``M98``'s file: ``P"name"``, or (RRF 1.x/2.x) ``Pname`` up to white space.
 _FILE_NAME = re.compile(r"[Pp]\s*(?:\"([^\"]*)\"|([^\s\"]+))")
 #: An M665 or M666 line recognises a file as RRF's (beside M669, the kinematics).
