@@ -41,6 +41,7 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
+from ..bounds import ANGLE, FULL_STEPS, LENGTH, MICROSTEPS, POSITION, PROBE_OFFSET, STEP_DISTANCE, Bound
 from .model import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
 
 #: How to put the keys :func:`klipper_config_text` writes into the printer (its header's second line).
@@ -54,6 +55,19 @@ AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW
 STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
 #: The sections deltacal reads (a duplicate key in another section is Klipper's business alone).
 READ_SECTIONS = ("printer", *STEPPERS, "delta_calibrate")
+#: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
+PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
+#: What each value deltacal reads can be (:mod:`..bounds`), by section (``stepper`` for the three
+#: towers', ``probe`` for any of :data:`PROBE_SECTIONS`) and key.
+BOUNDS: dict[tuple[str, str], Bound] = {
+    ("printer", "delta_radius"): LENGTH, ("printer", "print_radius"): LENGTH,
+    ("printer", "minimum_z_position"): POSITION, ("stepper", "arm_length"): LENGTH,
+    ("stepper", "position_endstop"): POSITION, ("stepper", "angle"): ANGLE,
+    ("stepper", "rotation_distance"): LENGTH, ("stepper", "step_distance"): STEP_DISTANCE,
+    ("stepper", "microsteps"): MICROSTEPS, ("stepper", "full_steps_per_rotation"): FULL_STEPS,
+    ("delta_calibrate", "radius"): LENGTH, ("probe", "x_offset"): PROBE_OFFSET,
+    ("probe", "y_offset"): PROBE_OFFSET, ("probe", "z_offset"): PROBE_OFFSET,
+}
 
 #: A Klipper configuration's ``[printer]`` section header, on a line of its own.
 _PRINTER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
@@ -102,7 +116,7 @@ class KlipperConfig:
 
     def number(self, section: str, option: str, default: float | None = None, above: float | None = None,
                integer: bool = False) -> float:
-        """An option's number as Klipper's ``getfloat``/``getint`` parse it, or the default."""
+        """An option's number as Klipper's ``getfloat``/``getint`` parse it (bounded), or the default."""
         if default is not None and not self.has(section, option):
             return default
         text = self.text(section, option)
@@ -113,6 +127,11 @@ class KlipperConfig:
             raise self.error(section, option, f"value {text!r} is not {what}") from None
         if not math.isfinite(value):
             raise self.error(section, option, f"value {text!r} is not a finite number")
+        family = "stepper" if section in STEPPERS else "probe" if section in PROBE_SECTIONS else section
+        bound = BOUNDS.get((family, option))
+        problem = bound.problem(value) if bound is not None else None
+        if problem is not None:
+            raise self.error(section, option, f"value {text!r} {problem}")
         if above is not None and value <= above:
             raise self.error(section, option, f"value {text!r} must be above {above:g}")
         return value

@@ -25,9 +25,9 @@ from pathlib import Path
 
 from ....exceptions import InputError
 from ..probe_log import ProbeLog, ProbeOffsets, log_text, probe_log
-from .config import KlipperConfig
+from .config import PROBE_SECTIONS, KlipperConfig
 
-__all__ = ["ProbeLog", "ProbeOffsets", "is_probe_log", "probe_offsets", "read_probe_log"]
+__all__ = ["PROBE_SECTIONS", "ProbeLog", "ProbeOffsets", "is_probe_log", "probe_offsets", "read_probe_log"]
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
 #: Klipper's answer to a probe before 2026: the toolhead's position.
@@ -44,8 +44,6 @@ _DROPPED = re.compile(r"Probe samples exceed (?:tolerance\. Retrying|samples_tol
 _DISCARDED = re.compile(r"\[discarded\]|SKIPPED", re.IGNORECASE)
 #: A line only a log or a console has: Klipper's start banner or its config dump, or a console's ``// ``.
 _LOG_MARK = re.compile(r"^(?:Start printer at|===== Config file =====|// |\$ |Args: )", re.MULTILINE)
-#: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
-PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
 
 
 def probe_offsets(config: KlipperConfig) -> ProbeOffsets:

@@ -13,6 +13,13 @@ Y0.00 Z0.00 A0.00 B0.00 C0.00``); deltacal reads
 * ``M211 S`` and the line after it, ``Min:  X Y Z  Max:  X Y Z`` (``gcode/host/M211.cpp``; without
   it Marlin's delta defaults, :meth:`~.model.SoftEndstops.default`).
 
+``M503`` opens with the units it reports in (``G21 ; (mm)``, or ``G20 ; (in)`` after a ``G20``,
+with ``INCH_MODE_SUPPORT``): in inches every value of ``M665`` but ``S``, of ``M666``, ``M92`` and
+``M851`` is printed divided by 25.4 (``LINEAR_UNIT``, ``module/settings.cpp`` and each
+``Mxxx_report``), to 2 decimals, which is 0.254 mm: such a report is refused naming its line (send
+``G21``, then ``M503``). ``M211``'s limits are printed in mm whatever the units (``print_pos``).
+Every value is held to what a printer can be (:data:`BOUNDS`).
+
 A later line wins, as Marlin applies them in turn. Every other line is left alone. Errors are one
 line naming the file, the line and the key. Units: mm, trims in degrees.
 """
@@ -27,6 +34,16 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import GeometryError, InputError
+from ..bounds import (
+    ADJUSTMENT,
+    LENGTH,
+    POSITION,
+    PROBE_OFFSET,
+    SEGMENTS_PER_SECOND,
+    STEPS_PER_MM,
+    TRIM_ANGLE,
+    Bound,
+)
 from .model import DEFAULT_SEGMENTS_PER_SECOND, MarlinDelta, SoftEndstops
 
 #: A host's and Marlin's prefixes of a console line.
@@ -41,6 +58,15 @@ _MARK = re.compile(r"^\s*(?:Recv:\s*)?echo:"
 _DELTA = re.compile(r"^\s*(?:Recv:\s*)?(?:echo:\s*)*M665\s", re.IGNORECASE | re.MULTILINE)
 #: The commands read, and the keys each holds.
 KEYS = {"M665": "LRHSXYZABC", "M666": "XYZ", "M92": "XYZE", "M851": "XYZ", "M211": "S"}
+#: What each value deltacal reads can be (:mod:`..bounds`), by command and key (``M665 B``: a rod trim
+#: beside ``A`` and ``C``, Marlin 2.0's calibration radius otherwise, so bounded as a position).
+BOUNDS: dict[tuple[str, str], Bound] = {
+    ("M665", "L"): LENGTH, ("M665", "R"): LENGTH, ("M665", "H"): POSITION, ("M665", "S"): SEGMENTS_PER_SECOND,
+    **{("M665", k): TRIM_ANGLE for k in "XYZ"}, ("M665", "A"): ADJUSTMENT, ("M665", "B"): POSITION,
+    ("M665", "C"): ADJUSTMENT, **{("M666", k): ADJUSTMENT for k in "XYZ"},
+    **{("M92", k): STEPS_PER_MM for k in "XYZE"}, **{("M851", k): PROBE_OFFSET for k in "XYZ"},
+    **{("M211", k): POSITION for k in ("Min X", "Min Y", "Min Z", "Max X", "Max Y", "Max Z")},
+}
 
 
 @dataclass
@@ -98,6 +124,7 @@ def read_marlin_settings(path: str | Path) -> MarlinSettings:
     except UnicodeDecodeError as exc:
         raise InputError(f"not a text file (byte {exc.start} is not UTF-8)", source) from None
     settings = MarlinSettings(source)
+    inches = 0  # the line of a G20 in force (Marlin then reports lengths in inches), else 0
     for number, raw in enumerate(text.splitlines(), start=1):
         line = _PREFIX.sub("", raw, count=1).strip()
         body = line.lstrip(";").strip()
@@ -108,24 +135,36 @@ def read_marlin_settings(path: str | Path) -> MarlinSettings:
             continue
         line = line.split(";", 1)[0].strip()
         command = line.split(None, 1)[0].upper() if line else ""
+        if command in ("G20", "G21"):
+            inches = number if command == "G20" else 0
         if command not in KEYS:
             continue
+        if inches and command != "M211":
+            raise InputError(f"reported in inches (G20, line {inches}): Marlin prints each length divided by "
+                             "25.4 to 2 decimals (0.254 mm, and M92 as steps per mm / 25.4), too coarse to "
+                             "calibrate: send G21, then M503, and capture that", source,
+                             f"line {number}, {command}")
         for key, value in _WORD.findall(line[len(command):]):
             key = key.upper()
             if key not in KEYS[command]:
                 continue
-            settings.values.setdefault(command, {})[key] = _number(value, source, number, f"{command} {key}")
+            settings.values.setdefault(command, {})[key] = _number(value, source, number, command, key)
             settings.lines[(command, key)] = number
     return settings
 
 
-def _number(text: str, source: str, line: int, where: str) -> float:
+def _number(text: str, source: str, line: int, command: str, key: str) -> float:
+    """A value of the report, within :data:`BOUNDS`."""
+    where = f"line {line}, {command} {key}"
     try:
         value = float(text)
     except ValueError:
-        raise InputError(f"value {text!r} is not a number", source, f"line {line}, {where}") from None
-    if not math.isfinite(value):
-        raise InputError(f"value {text!r} is not a finite number", source, f"line {line}, {where}")
+        raise InputError(f"value {text!r} is not a number", source, where) from None
+    bound = BOUNDS.get((command, key))
+    problem = "is not a finite number" if not math.isfinite(value) else \
+        bound.problem(value) if bound is not None else None
+    if problem is not None:
+        raise InputError(f"value {text!r} {problem}", source, where)
     return value
 
 
@@ -134,7 +173,7 @@ def _xyz(text: str, source: str, line: int, where: str) -> tuple[float, float, f
     words = {k.upper(): v for k, v in _WORD.findall(text)}
     if not all(k in words for k in "XYZ"):
         raise InputError(f"expected X, Y and Z, got {text.strip()!r}", source, f"line {line}, M211 {where}")
-    x, y, z = (_number(words[k], source, line, f"M211 {where} {k}") for k in "XYZ")
+    x, y, z = (_number(words[k], source, line, "M211", f"{where} {k}") for k in "XYZ")
     return x, y, z
 
 
