@@ -14,7 +14,8 @@ a quoted string, ``(...)`` is a comment, parameter letters are read in any case,
   from the same folder where it stands (as RRF does), with a warning if it is not there;
 * ``G31 X Y Z`` of the first Z probe (``K0``, or no ``K``): the probe's offsets from the nozzle
   and its trigger height (``ZProbe::HandleG31``; RRF's defaults X0 Y0 Z0.7), for the probe's
-  results (:func:`rrf_probe_offsets`).
+  results (:func:`rrf_probe_offsets`); ``M558 H`` of the same probe: its dive height above the
+  trigger height (``H5``, or ``H5:2`` in RRF 3.5.1; default 5), for the probe program's travel.
 
 Everything else (meta commands, other codes) is left alone. A value RRF computes at run time
 (``{...}``) cannot be read: it is refused naming its line. Errors are one line naming the file,
@@ -44,7 +45,7 @@ from .model import (
 )
 
 #: The M-codes deltacal runs.
-READ_CODES = (92, 208, 350, 501, 564, 665, 666, 669)
+READ_CODES = (92, 208, 350, 501, 558, 564, 665, 666, 669)
 #: ``M669 K``: RRF's kinematics number of a linear delta.
 LINEAR_DELTA = 3
 #: RRF's Z probe trigger height when no ``G31 Z`` sets it (``DefaultZProbeTriggerHeight``) [mm].
@@ -264,6 +265,8 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
+    elif line.code == "M558" and "H" in p and ("K" not in p or line.number("K") == 0):
+        settings.set(line, "H", line.numbers("H", 2))
 
 
 def _apply_g31(line: RRFLine, settings: RRFSettings) -> None:
