@@ -92,6 +92,7 @@ def run_object(args: argparse.Namespace) -> int:
     kind = controller_firmware(args.controller, args.firmware)
     firmware = kind.read_config(args.controller)
     kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
+    travel = kind.probe_travel(args.controller)
     caliper = args.caliper or CALIPER_RANGE
     plan = plan_object(printer, firmware, count=args.distances,
                        probe_count=args.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -104,7 +105,8 @@ def run_object(args: argparse.Namespace) -> int:
     write_printed_distances(outputs[2], plan.pair_positions,
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
     atomic_write_text(outputs[3], kind.probe_program(
-        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
+        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
+        clearance=travel))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))

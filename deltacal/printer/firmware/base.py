@@ -21,8 +21,9 @@ firmware gives through one :class:`Firmware`:
 * two sets of values refused when they are of different printers (:meth:`Firmware.check_same_printer`:
   a calibration and the configuration of another printer);
 * a program in its own dialect that probes the bed at given points and says each result on its
-  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
-  (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
+  console (:meth:`Firmware.probe_program`), travelling between them above the probe's trigger
+  height as its configuration sets it (:meth:`Firmware.probe_travel`), whose log is read back
+  into probe heights (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
 * its configuration read into deltacal's robot file and measurement files, as ``deltacal import``
   writes them (:meth:`Firmware.import_config`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
@@ -52,14 +53,12 @@ from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .probe_log import ProbeLog
+from .probing import PROBE_CLEARANCE, ProbeTravel
 
 if TYPE_CHECKING:
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
 
-#: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
-#: ``horizontal_move_z`` default).
-PROBE_CLEARANCE = 5.0
 
 
 #: Spacing of the bed's points :meth:`Firmware.admit_bed` corrects [mm].
@@ -295,7 +294,8 @@ class Firmware(ABC, Generic[ModelT]):
         """
 
     @abstractmethod
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """A program that homes, then probes the bed at each point in order, each result on the console.
 
         The nozzle is moved above each point at ``clearance`` and the firmware's probing command
@@ -305,8 +305,22 @@ class Firmware(ABC, Generic[ModelT]):
         Args:
             points: The commanded nozzle positions to probe [mm], (N, 2) or (N, 3) (z ignored).
             title: A first comment line (what the points are).
-            clearance: The nozzle's height above the bed while it moves between points [mm].
+            clearance: The nozzle's height above the bed while it moves between points [mm], or
+                the configuration's :meth:`probe_travel` (its reason then in the header).
         """
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """The height :meth:`probe_program` travels at between points, from the firmware's configuration.
+
+        Above the probe's trigger height (the nozzle's height above the bed when the probe
+        triggers), by the firmware's own travel height or a margin
+        (:func:`~.probing.probe_travel`).
+
+        Raises:
+            InputError: the trigger height is not known (by default: the firmware's is never read).
+        """
+        raise InputError(f"deltacal does not read {self.title}'s probe: the height to travel at between "
+                         "probe points, above the probe's trigger height, is not known", str(path))
 
     def own_calibrations(self, model: ModelT, measuring: Measuring, radius: float) -> dict[str, ModelT]:
         """The firmware's own calibration of a printer, emulated: the values each variant leaves, by name.

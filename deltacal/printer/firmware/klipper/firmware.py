@@ -40,11 +40,12 @@ from .importer import import_klipper, write_import
 from .log import is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
-from .probing import klipper_probe_program
+from .probing import klipper_probe_program, klipper_probe_travel
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
+    from ..probing import ProbeTravel
 
 
 class Klipper(Firmware[KlipperDelta]):
@@ -108,9 +109,14 @@ class Klipper(Firmware[KlipperDelta]):
         return {BASIC_TITLE: klipper_basic(model, probe),
                 ENHANCED_TITLE: klipper_enhanced(model, probe, pairs, distances)}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
+        return klipper_probe_travel(read_klipper_config(path))
 
     def dialect(self, path: str | Path) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.

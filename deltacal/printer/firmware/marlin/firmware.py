@@ -26,12 +26,13 @@ from .fit import fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
-from .probing import marlin_probe_program
-from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text
+from .probing import marlin_probe_program, marlin_probe_travel
+from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text, read_marlin_settings
 from .values import marlin_from_geometry, marlin_from_printer
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
+    from ..probing import ProbeTravel
 
 
 class Marlin(Firmware[MarlinDelta]):
@@ -84,9 +85,14 @@ class Marlin(Firmware[MarlinDelta]):
         result = marlin_g33(model, measuring.heights, radius, DEFAULT_POINTS)
         return {f"{self.title} G33 (P{DEFAULT_POINTS})": result.values}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
         return marlin_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.marlin_probe_travel`: above ``-M851 Z`` of the ``M503`` capture."""
+        return marlin_probe_travel(read_marlin_settings(path))
 
     def is_probe_log(self, text: str) -> bool:
         """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""

@@ -17,7 +17,8 @@ a quoted string, ``(...)`` is a comment, parameter letters are read in any case,
   warning naming the line, a file calling itself refused;
 * ``G31 X Y Z`` of the first Z probe (``K0``, or no ``K``): the probe's offsets from the nozzle
   and its trigger height (``ZProbe::HandleG31``; RRF's defaults X0 Y0 Z0.7), for the probe's
-  results (:func:`rrf_probe_offsets`);
+  results (:func:`rrf_probe_offsets`); ``M558 H`` of the same probe: its dive height above the
+  trigger height (``H5``, or ``H5:2`` in RRF 3.5.1; default 5), for the probe program's travel;
 * ``M579`` (axis scaling, ``GCodes::ToolOffsetTransform``) and ``M556 S X Y Z`` (axis skew,
   ``Move::AxisTransform``) move the nozzle off RRF's delta model: deltacal does not model them, so
   a value other than the identity (scale 1, skew 0) is refused naming its line.
@@ -64,7 +65,7 @@ from .model import (
 )
 
 #: The M-codes deltacal runs.
-READ_CODES = (92, 208, 350, 501, 564, 665, 666, 669)
+READ_CODES = (92, 208, 350, 501, 558, 564, 665, 666, 669)
 #: The M-code that runs another file: ``M98 P"file"``.
 CALLS = (98,)
 #: What moves the nozzle off RRF's delta model and deltacal does not model: ``M556`` (axis skew),
@@ -86,7 +87,7 @@ BOUNDS = {"M665 L": LENGTH, "M665 R": LENGTH, "M665 B": LENGTH, "M665 H": POSITI
           "M666 Z": ADJUSTMENT, "M666 A": TILT_PERCENT, "M666 B": TILT_PERCENT, "M92 X": STEPS_PER_MM,
           "M92 Y": STEPS_PER_MM, "M92 Z": STEPS_PER_MM, "M92 S": MICROSTEPS, "M350 X": MICROSTEPS,
           "M350 Y": MICROSTEPS, "M350 Z": MICROSTEPS, "M208 Z": POSITION, "G31 X": PROBE_OFFSET,
-          "G31 Y": PROBE_OFFSET, "G31 Z": PROBE_OFFSET}
+          "G31 Y": PROBE_OFFSET, "G31 Z": PROBE_OFFSET, "M558 H": PROBE_OFFSET}
 #: A line's command: an optional line number, then G/M/T and its number.
 _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
 #: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}``
@@ -354,6 +355,8 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
+    elif line.code == "M558" and "H" in p and ("K" not in p or line.number("K") == 0):
+        settings.set(line, "H", line.numbers("H", 2))
     elif line.code == "M579" or (line.code == "M556" and "S" in p):
         _refuse_unread(line)
 

@@ -31,12 +31,13 @@ from .homing import homed_position
 from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
-from .probing import rrf_probe_program
+from .probing import rrf_probe_program, rrf_probe_travel
 
 if TYPE_CHECKING:
     from ...files.importer import PrinterImport
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
+    from ..probing import ProbeTravel
 
 
 class RRF(Firmware[RRFDelta]):
@@ -109,9 +110,14 @@ class RRF(Firmware[RRFDelta]):
         return {f"{self.title} G32 (S{s})": rrf_g32(model, measuring.heights, radius - BED_MARGIN, s)
                 for s in (DEFAULT_FACTORS, TILT_FACTORS)}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
         return rrf_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed)."""
+        return rrf_probe_travel(read_rrf_settings(path))
 
     def dialect(self, path: str | Path) -> Dialect:
         """RepRapFirmware's reading of G-code with ``config.g``.
