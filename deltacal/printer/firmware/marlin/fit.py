@@ -64,7 +64,7 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0) -> MarlinFit:
+               first_layer_weight: float = 0.0, minimax: bool = False) -> MarlinFit:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     Args:
@@ -74,6 +74,8 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         workspace: The printable cylinder (heights 0.2 mm to its top).
         hold_step_distance: Keep the start's ``M92``.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        minimax: Then the least largest error over the volume, the first layer no less flat
+            (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
@@ -81,15 +83,15 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
     """
     grid = printable_grid(workspace)
 
-    def fit(klipper_start):
+    def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight)
+                           first_layer_weight=first_layer_weight, minimax=least_largest)
 
     first = fit(to_klipper(start))
     mean = float(np.mean(from_klipper(first.klipper, start).angle_trim))
     restart = first.klipper.angle.copy()
     restart[2] -= np.radians(mean)
-    result = fit(replace(first.klipper, angle=restart))
+    result = fit(replace(first.klipper, angle=restart), minimax)
     marlin = from_klipper(result.klipper, start, turn=True)
     return MarlinFit(
         marlin=marlin,
