@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import MODELS, kossel_printer_cfg
+from deltacal.printer.robot_file import load_printer
 
 from deltacal import InputError, InputWarning
 from deltacal.cli import main
@@ -26,7 +27,6 @@ from deltacal.io.geometry_file import save_geometry
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
-from deltacal.printer.robot_file import load_printer
 
 DATA = Path(__file__).parent / "data"
 XYZ = re.compile(r"^G1 X(-?\d+\.\d{4}) Y(-?\d+\.\d{4}) Z(-?\d+\.\d{4})", re.MULTILINE)

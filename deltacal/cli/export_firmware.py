@@ -39,7 +39,7 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
     with fit_refusals(args, begun, "the firmware's"):
         fit = firmware.fit(begun.geometry, begun.start, begun.step, begun.workspace,
                            hold_step_distance=args.keep_rotation_distance,
-                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True)
         budget = source_budget(firmware, begun, args.keep_rotation_distance)
     lines = summary(firmware, fit.before, fit.after, budget, begun, fit.held, begun.config is not None)
     firmware.save_config(args.output, fit.values, args.config,

@@ -281,7 +281,7 @@ class Firmware(ABC, Generic[ModelT]):
     @abstractmethod
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> FirmwareFit[ModelT]:
+            first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -291,6 +291,9 @@ class Firmware(ABC, Generic[ModelT]):
             workspace: The printable cylinder.
             hold_step_distance: Keep the start's step distances.
             first_layer_weight: Weight of the first layer's height errors (0: the volume alone).
+            minimax: The least largest error over the volume, not the least squares, the first layer
+                no less flat than the least squares leave it (:func:`~.fitting.least_largest`):
+                what ``export`` writes.
         """
 
     @abstractmethod

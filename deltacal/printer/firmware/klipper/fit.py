@@ -84,6 +84,7 @@ def fit_klipper(
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
     part_frame: bool = True,
+    minimax: bool = False,
 ) -> FirmwareFit[KlipperDelta]:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
 
@@ -105,6 +106,8 @@ def fit_klipper(
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         part_frame: Judge the volume's errors in the printed part's frame (see above).
+        minimax: Then the least largest error over the grid, the first layer no less flat
+            (:func:`~..fitting.least_largest`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -113,7 +116,7 @@ def fit_klipper(
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
     wanted = [c for c in range(10 if hold_step_distance else 13) if not (part_frame and c == _ANGLE_C)]
     found = gauss_newton(geometry, start, KLIPPER_VALUES, step_distance, workspace, grid, wanted, max_iter,
-                         first_layer_weight, part_frame, "Klipper")
+                         first_layer_weight, part_frame, "Klipper", minimax)
     fitted = [KLIPPER_NAMES[c] for c in found.columns]
     return FirmwareFit(
         values=found.model,

@@ -39,7 +39,7 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0) -> FirmwareFit[MarlinDelta]:
+               first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[MarlinDelta]:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     The fit's names are :data:`MARLIN_NAMES`; its singular values and iterations are those of the
@@ -52,6 +52,8 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         workspace: The printable cylinder (heights 0.2 mm to its top).
         hold_step_distance: Keep the start's ``M92``.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        minimax: Then the least largest error over the volume, the first layer no less flat
+            (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
@@ -59,15 +61,15 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
     """
     grid = printable_grid(workspace)
 
-    def fit(klipper_start):
+    def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight)
+                           first_layer_weight=first_layer_weight, minimax=least_largest)
 
     first = fit(to_klipper(start))
     mean = float(np.mean(from_klipper(first.values, start).angle_trim))
     restart = first.values.angle.copy()
     restart[2] -= np.radians(mean)
-    result = fit(replace(first.values, angle=restart))
+    result = fit(replace(first.values, angle=restart), minimax)
     marlin = from_klipper(result.values, start, turn=True)
     return FirmwareFit(
         values=marlin,
