@@ -16,13 +16,20 @@ from __future__ import annotations
 
 import argparse
 
+from ..exceptions import UsageError
+from ..io import load_calibration
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
+from ..printer.firmware.klipper.live.export import LIVE_FILES, export_live
+from .common import check_input, check_output_folder
 from .export_firmware import export_start, fit_refusals, source_budget, summary
+from .firmware import check_config_printer, refuse_deltacal_file
 
 
 def run_klipper(args: argparse.Namespace) -> int:
     """Run ``export --controller klipper``; returns the exit status."""
+    if args.live:
+        return run_live(args)
     begun = export_start(
         args, KLIPPER, "CALIBRATED.cfg, the Klipper values to write", "Klipper's values",
         needs_config="--controller klipper: rotation_distance is the step distance times each tower's "
@@ -48,3 +55,25 @@ def run_klipper(args: argparse.Namespace) -> int:
     print("\n".join(lines))
     return 0
 
+
+
+def run_live(args: argparse.Namespace) -> int:
+    """``export --controller klipper --config printer.cfg --live -o OUTDIR``: the live module and its data."""
+    if args.config is None or args.output is None:
+        raise UsageError("--live needs --config printer.cfg (the values Klipper runs: the correction is "
+                         "computed through them) and -o OUTDIR (the folder of deltacal_geometry.py, .cfg)")
+    if args.keep_rotation_distance or args.robot is not None or args.home is not None:
+        raise UsageError("--live takes Klipper's values and volume from --config alone: leave out "
+                         "--keep-rotation-distance, --robot and --home")
+    inputs = [args.calibration, args.config]
+    for path in inputs:
+        check_input(path)
+    refuse_deltacal_file(args.config, "--config")
+    check_output_folder(args.output, LIVE_FILES, inputs, "export --live")
+    calibration = load_calibration(args.calibration)
+    if not calibration.geometry.chain.firmware:
+        raise UsageError(f"--live: {args.calibration} is a rotary Delta's calibration; the live module is a "
+                         "printer's")
+    check_config_printer(args.config, "klipper", calibration.geometry, args.calibration)
+    print("\n".join(export_live(calibration, args.config, args.output, str(args.calibration)).lines))
+    return 0

@@ -1,0 +1,1 @@
+"""Klipper correcting every move itself: the live module and the data it needs (``export --live``)."""
