@@ -107,8 +107,9 @@ class PrinterErrors:
                        f"lean outwards {t.lean_out.words('deg', 3)}, sideways {t.lean_side.words('deg', 3)}; "
                        f"rods {t.rods.words('mm')} (the pair {t.rods_apart.words('mm')} apart)")
         if self.bed_tilt.determined and self.bed_tilt.value > 2.0 * self.bed_tilt.sigma:
-            out.append(f"bed: tilted {self.bed_tilt.value:.3f} ± {self.bed_tilt.sigma:.3f} deg relative to the "
-                       f"towers, low towards azimuth {self.bed_low_azimuth:.0f} deg")
+            tilt = self.bed_tilt
+            out.append(f"bed: tilted {tilt.value:.3f} ± {tilt.sigma:.3f} deg relative to the towers, "
+                       f"low towards azimuth {self.bed_low_azimuth:.0f} deg")
         elif self.bed_tilt.determined:
             out.append(f"bed: level relative to the towers within {2.0 * self.bed_tilt.sigma:.3f} deg")
         else:
@@ -125,7 +126,9 @@ def _high(e: Estimate) -> str:
 def _travel(e: Estimate) -> str:
     if not e.determined:
         return "unknown"
-    return "travels long: its step distance is short" if e.value > 0 else "travels short: its step distance is long"
+    if e.value > 0:
+        return "travels long: its step distance is short"
+    return "travels short: its step distance is long"
 
 
 def printer_errors(calibration: Calibration, tolerances: Tolerances | None = None,
