@@ -5,10 +5,13 @@ from numpy.testing import assert_allclose
 
 from deltacal import Tolerances, UnreachableError
 from deltacal.compensation import (
+    METHODS,
+    CompensationMethod,
     LinearCalibration,
     compensate,
     compensate_bai,
     compensate_exact,
+    compensate_linear,
     compensate_savoure,
     predicted_plate_displacement,
     singularity_margin,
@@ -49,6 +52,14 @@ def test_each_method_takes_what_it_needs_and_compensate_dispatches_by_name(bai):
             compensate(g, targets, *args)
     with pytest.raises(ValueError, match="method 'bai' cannot represent a payload"):
         compensate(g, targets, "bai", linear, payload=1.0)
+    # the method as a value: the same readings as its word, and the same refusals
+    assert METHODS == ("exact", "savoure", "bai") == tuple(CompensationMethod)
+    assert np.array_equal(compensate(g, targets, CompensationMethod.BAI, linear, min_margin=0.5),
+                          compensate(g, targets, "bai", linear, min_margin=0.5))
+    with pytest.raises(ValueError, match="method 'exact' takes no linear calibration"):
+        compensate(g, targets, CompensationMethod.EXACT, linear)
+    with pytest.raises(ValueError, match="method must be 'savoure' or 'bai', got 'exact'"):
+        compensate_linear(linear, targets, CompensationMethod.EXACT)
 
 
 @pytest.mark.parametrize("name", ["complete", "bai42", "classical"])
