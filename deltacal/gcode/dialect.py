@@ -17,8 +17,10 @@ does. Where controllers differ, it asks a :class:`Dialect`:
   ``ARC_P_CIRCLES``) turns P full circles before the arc, Z and E spread over the whole sweep
   (``G2_G3.cpp``); elsewhere it is refused;
 * where a homing (G28) leaves the TCP (:attr:`Dialect.home`);
-* G codes the controller runs that the correction cannot follow (:attr:`Dialect.refused`, by G
-  number: Marlin's G33 changes the very values the program is corrected for);
+* G and M commands the controller runs that the correction cannot follow (:attr:`Dialect.rules`,
+  :class:`CommandRule`): refused by their line where they change the very values the program is
+  corrected for (Marlin's G33, M665, M666, M92 X Y Z, M501, M502; RepRapFirmware's G32, M98 of
+  ``config-override.g`` ...), or kept with a warning;
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
   (:meth:`Dialect.command`);
@@ -36,11 +38,11 @@ from __future__ import annotations
 import enum
 import re
 import shlex
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
-__all__ = ["GENERIC", "ArcP", "Dialect", "LineReading", "MacroEffect", "MacroStep", "Unread",
+__all__ = ["GENERIC", "ArcP", "CommandRule", "Dialect", "LineReading", "MacroEffect", "MacroStep", "Unread",
            "command_params"]
 
 #: A Klipper command's name: its first word of letters and underscores, and the text to the next
@@ -90,6 +92,42 @@ class LineReading:
     unknown: str = "Unknown command"
     blanks: str | None = None
     nul_ends_line: bool = False
+
+
+def _always(params: Mapping[str, str]) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class CommandRule:
+    """What the reader does with a G or M command the controller runs that the correction cannot follow.
+
+    Attributes:
+        why: What the line does, why it is refused or what to do (the message after the command's
+            name: ``M665: ...``).
+        warn: Whether the line is kept, with a warning (a bed mesh turned on), rather than refused.
+        applies: Whether the rule holds for a line of these parameters (upper-case letter -> the
+            text of its value, a quoted string with its quotes); by default, always.
+    """
+
+    why: str
+    warn: bool = False
+    applies: Callable[[Mapping[str, str]], bool] = _always
+
+    @staticmethod
+    def given(letters: str) -> Callable[[Mapping[str, str]], bool]:
+        """A rule's ``applies``: one of ``letters`` is given (``M92 X``, not ``M92 E``)."""
+        return lambda params: any(letter in params for letter in letters)
+
+    @staticmethod
+    def nonzero(letter: str) -> Callable[[Mapping[str, str]], bool]:
+        """A rule's ``applies``: ``letter`` is given a number other than 0 (``M211 S1``)."""
+        def applies(params: Mapping[str, str]) -> bool:
+            try:
+                return letter in params and float(params[letter] or "0") != 0.0
+            except ValueError:
+                return True  # not a number: the firmware's reading is not known
+        return applies
 
 
 class MacroStep(enum.Enum):
@@ -176,7 +214,8 @@ class Dialect:
         home: Where a homing (G28) leaves the TCP [mm] (X, Y, Z), or None: unknown after it.
         macros: The controller's macros by upper-case name.
         distance_sets_e: Whether G90 and G91 set E's mode too, forgetting M82/M83 (Marlin 2).
-        refused: G codes refused by their line (G number -> why), the controller's own.
+        rules: What is done with the G and M commands the correction cannot follow, by command
+            (``"G33"``, ``"M665"``: upper case, the number without leading zeros).
         lines: How it finds a line's command.
     """
 
@@ -187,7 +226,7 @@ class Dialect:
     macros: Mapping[str, MacroEffect] = field(default_factory=lambda: MappingProxyType({}))
     e_by_m83: bool = False
     distance_sets_e: bool = False
-    refused: Mapping[float, str] = field(default_factory=lambda: MappingProxyType({}))
+    rules: Mapping[str, CommandRule] = field(default_factory=lambda: MappingProxyType({}))
     lines: LineReading = LineReading()
 
     def with_home(self, home) -> Dialect:

@@ -93,13 +93,13 @@ from typing import TYPE_CHECKING
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
 from .batch import CHUNK_LINES, CHUNK_POINTS, MAX_COORDINATE_MM, XYZ_DECIMALS, Batch, Correct, Progress
-from .dialect import GENERIC, ArcP, Dialect, Unread
+from .dialect import GENERIC, ArcP, CommandRule, Dialect, Unread
 from .homing import FromHome
 from .macros import apply_macro
 from .marker import is_marker
 from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
 from .notes import Notes
-from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
+from .path import ARC_RADIUS_TOLERANCE_MM, ARC_TOLERANCE_RATIO, ArcPath, StraightPath, arc_path
 from .source import SUFFIXES, is_gcode_path, opened_lines, read_lines
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
 from .syntax import (
@@ -113,6 +113,7 @@ from .syntax import (
     bytes_refusal,
     command_then_g_refusal,
     junk_split,
+    line_params,
     semicolon_refusal,
     split_line,
 )
@@ -147,10 +148,6 @@ DEFAULT_SEGMENT_MM = 5.0
 #: (0.09 µm at most) shorter segments' own bend never reaches (0.1-0.15 µm at 5 mm already, as the
 #: length squared); and below it a program grows without useful bound (1e-9 mm: 10^6 lines a µm).
 MIN_SEGMENT_MM = 0.01
-#: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
-ARC_TOLERANCE_RATIO = 1e-3
-#: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
-ARC_RADIUS_TOLERANCE_MM = 0.0127
 _LINE = re.compile(r"(?:\s*[A-Za-z]\s*[-+]?[0-9.]*)*\s*")
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
 #: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
@@ -312,6 +309,8 @@ class _Reader:
         self.modal_axis_words = dialect.lines.axis_words is Unread.MODAL
         self.nul = dialect.lines.nul_ends_line
         self.notes = Notes(source)
+        self.g_rules = {float(k[1:]): v for k, v in dialect.rules.items() if k[0] == "G"}
+        self.m_rules = {k[1:]: v for k, v in dialect.rules.items() if k[0] == "M"}
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
     def fail(self, number: int, detail: str) -> InputError:
@@ -358,6 +357,8 @@ class _Reader:
                 self.refuse(number, command_then_g_refusal(s))
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
+            elif m.group(1) in self.m_rules:
+                self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
             return KEPT
         code, comment, ending = split_line(line)
         parens = ""
@@ -376,6 +377,14 @@ class _Reader:
         """Refuse line ``number`` for ``why``, if given."""
         if why is not None:
             raise self.fail(number, why)
+
+    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> None:
+        """A command the correction cannot follow: refused, or said (:attr:`Dialect.rules`)."""
+        if not rule.applies(line_params(code)):
+            return
+        if not rule.warn:
+            raise self.fail(number, f"{command}: {rule.why}")
+        self.notes.add(command, number, f"{code.strip()!r}: {rule.why}")
 
     def check_bytes(self, number: int, line: str, s: str) -> None:
         """Refuse a NUL where the controller ends a line, or a blank before a command it does not skip."""
@@ -467,8 +476,8 @@ class _Reader:
             raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
                                     "put it on a line of its own")
         for g in gs:
-            if g in self.dialect.refused:
-                raise self.fail(number, f"G{g:g}: {self.dialect.refused[g]}")
+            if g in self.g_rules:
+                self.rule(number, f"G{g:g}", self.g_rules[g], code)
         if any(g in _HOMING for g in gs):
             if self.home is not None and all(g == 28.0 for g in gs if g in _HOMING):
                 st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
@@ -607,7 +616,13 @@ class _Reader:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
                                         "move before it")
             self.far(number, start, end)
-            path = self.arc(number, start, end, given)
+            if self.state.plane is not Plane.XY:
+                raise self.fail(number, f"arc in the plane of G{self.state.plane.value}: only XY arcs (G17) "
+                                        "are supported")
+            try:
+                path = arc_path(start, end, given, motion is Motion.CLOCKWISE, self.segment_mm)
+            except InputError as exc:
+                raise self.fail(number, exc.detail) from None
         elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
             self.far(number, start, end)
             path = StraightPath(start, end, self.segment_mm)
@@ -667,33 +682,3 @@ class _Reader:
             raise self.fail(number, f"word P{value} on an arc: {self.dialect.name} takes P as a whole "
                                     "number of full circles, 0 to 100")
         return str(int(float(value)))
-
-    def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
-        """The chords of a G2/G3 arc from start to end."""
-        st = self.state
-        values = {k: float(v) for k, v in given.items() if k in "IJR"}
-        clockwise = st.motion is Motion.CLOCKWISE
-        if st.plane is not Plane.XY:
-            raise self.fail(number, f"arc in the plane of G{st.plane.value}: only XY arcs (G17) are "
-                                    "supported")
-        if "R" in values:
-            if "I" in values or "J" in values:
-                raise self.fail(number, "arc with both R and I/J")
-            centre = centre_from_radius(start, end, values["R"], clockwise)
-            if centre is None:
-                raise self.fail(number, f"arc of radius R{values['R']:g} cannot join its ends "
-                                        "(they coincide, or are further apart than the diameter)")
-        elif "I" in values or "J" in values:
-            centre = (start[0] + values.get("I", 0.0), start[1] + values.get("J", 0.0))
-        else:
-            raise self.fail(number, "arc without I, J or R")
-        r0 = math.hypot(start[0] - centre[0], start[1] - centre[1])
-        r1 = math.hypot(end[0] - centre[0], end[1] - centre[1])
-        if r0 == 0.0 or abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, 1e-3 * r0):
-            raise self.fail(number, f"arc's end is not on its circle: radius {r0:.4f} mm at the start, "
-                                    f"{r1:.4f} mm at the end")
-        sweep = arc_sweep(start, end, centre, clockwise)
-        sweep += math.copysign(2.0 * math.pi * int(given.get("P", "0")), sweep)  # Marlin's P circles first
-        tolerance = ARC_TOLERANCE_RATIO * self.segment_mm
-        return ArcPath(start, end, centre, sweep, self.segment_mm, tolerance)
-

@@ -18,7 +18,7 @@ from .dialect import LineReading
 from .source import line_ending
 
 __all__ = ["JUNK", "M_LINE", "PARENS", "READ", "TEXT_M", "WORD", "block_delete_refusal", "bytes_refusal",
-           "command_then_g_refusal", "junk_split", "semicolon_refusal", "split_line"]
+           "command_then_g_refusal", "junk_split", "line_params", "semicolon_refusal", "split_line"]
 
 #: A word: its letter and the text of its number (which may not be one).
 WORD = re.compile(r"([A-Za-z])\s*([-+]?[0-9.]*)")
@@ -33,6 +33,19 @@ READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
 #: Text before a command's first letter (a byte-order mark, a NUL, a digit ...), then a G-code word.
 JUNK = re.compile(r"[^A-Za-z_;(/%@][^A-Za-z;(]*[A-Za-z][ \t]*[-+]?\.?[0-9]")
 _JUNK_PREFIX = re.compile(r"[^A-Za-z]*")
+_PARAM = re.compile(r'([A-Za-z])[ \t]*("[^"]*"?|[^\sA-Za-z"]*)')
+
+
+def line_params(s: str) -> dict[str, str]:
+    """The parameters of a G or M command's line: upper-case letter -> the text of its value.
+
+    The line's first word (the command; after a line number) is left out; a quoted value (RRF's
+    ``P"config-override.g"``) keeps its quotes; the comment is not read.
+    """
+    code = PARENS.sub(" ", split_line(s)[0])
+    words = _PARAM.findall(code[: code.find("*")] if "*" in code else code)
+    first = 1 if words and words[0][0] in "Nn" else 0
+    return {letter.upper(): value for letter, value in words[first + 1:]}
 
 
 def split_line(line: str) -> tuple[str, str, str]:

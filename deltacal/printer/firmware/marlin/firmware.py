@@ -10,18 +10,18 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
+from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
+from .dialect import marlin_dialect
 from .fit import fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
@@ -113,33 +113,19 @@ class Marlin(Firmware[MarlinDelta]):
         return import_marlin(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
     def dialect(self, path: str | Path) -> Dialect:
-        """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
+        """Marlin 2's reading of G-code with an ``M503`` capture (:func:`~.dialect.marlin_dialect`).
 
         G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
         (``gcode.h``, ``set_relative_mode``: the last of the four decides); a ``P`` on an arc is
         that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
         ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
-        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
-        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros;
-        a line's command is its first letter after spaces (:data:`MARLIN_LINES`).
+        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33, and
+        the commands that set the values the program is corrected for (``M665``, ``M666``, ``M92 X
+        Y Z``, ``M851 Z``, ``M501``, ``M502``), are refused (:func:`~.dialect.marlin_rules`); no
+        macros; a line's command is its first letter after spaces (:data:`~.dialect.MARLIN_LINES`).
         """
-        model = load_marlin(path)
-        home = (0.0, 0.0, model.home_height)
-        return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
-                       refused=MappingProxyType({33.0: G33_REFUSED}), lines=MARLIN_LINES)
+        return marlin_dialect(load_marlin(path))
 
-
-#: How Marlin finds a line's command (``gcode/parser.cpp``, ``GCodeParser::parse``): spaces and an ``N``
-#: line number skipped, the next character must be G, M or T, else the line is an unknown command;
-#: built with ``GCODE_MOTION_MODES`` (off by default) an axis letter first repeats the last G0-G3. A NUL
-#: ends the command's text (``queue.cpp`` stores it, ``parse`` reads a C string).
-MARLIN_LINES = LineReading(axis_words=Unread.REFUSED, axis_words_why="Marlin repeats the last G0/G1 only "
-                           "when built with GCODE_MOTION_MODES, else answers 'Unknown command' and does "
-                           "not move", junk=Unread.IGNORED, blanks=" ")
-
-#: Why a program's G33 is refused.
-G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the settings the program is "
-               "corrected for: run G33 and M500 once, capture M503 again, and remove G33 from the program")
 
 #: Marlin, the firmware.
 MARLIN = Marlin()

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
+from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
@@ -26,6 +26,7 @@ from .config import (
     rrf_config_text,
     rrf_probe_offsets,
 )
+from .dialect import rrf_dialect
 from .fit import fit_rrf
 from .homing import homed_position
 from .importer import import_rrf
@@ -131,15 +132,17 @@ class RRF(Firmware[RRFDelta]):
         moves stop each carriage at its endstop (``OnHomingSwitchTriggered``): the nozzle is where
         RRF's model puts those carriages, moved on by the literal moves ``homedelta.g`` makes after
         them when it lies beside ``config.g`` (:func:`~.homing.homed_position`). No macros are read.
-        A line's command is its first letter after the indentation (:data:`RRF_LINES`).
+        A line's command is its first letter after the indentation (:data:`~.dialect.RRF_LINES`);
+        the commands that set the values the program is corrected for are refused
+        (:func:`~.dialect.rrf_rules`).
 
         Raises:
             InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
                 is not known.
         """
-        home, _ = homed_position(path, load_rrf(path))
-        return Dialect(self.title, arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True,
-                       lines=RRF_LINES)
+        model = load_rrf(path)
+        home, _ = homed_position(path, model)
+        return rrf_dialect(model, home)
 
     def is_probe_log(self, text: str) -> bool:
         """RRF's answers to ``G30 S-1`` (:func:`~.log.is_rrf_probe_log`)."""
@@ -161,14 +164,6 @@ class RRF(Firmware[RRFDelta]):
         """:func:`~.importer.import_rrf`: ``printer.toml`` of RRF's model of ``config.g``."""
         return import_rrf(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
-
-#: How RepRapFirmware finds a line's command (``GCodes/GCodeBuffer/StringParser.cpp``: ``Put`` skips
-#: the spaces and tabs of the indentation and a line number, and ends the line at a NUL as at a
-#: newline; ``DecodeCommand`` takes G, M or T first, repeats the last G0-G3 for an axis letter first
-#: in CNC and laser mode only, and else answers "Bad command").
-RRF_LINES = LineReading(axis_words=Unread.REFUSED, axis_words_why="RepRapFirmware repeats the last G0/G1 "
-                        "in CNC or laser mode (M453, M452) and answers 'Bad command' in FFF mode (M451)",
-                        junk=Unread.IGNORED, unknown="Bad command", blanks=" \t", nul_ends_line=True)
 
 #: RepRapFirmware, the firmware.
 RRF_FIRMWARE = RRF()
