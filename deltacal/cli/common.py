@@ -13,6 +13,7 @@ import numpy as np
 
 from ..exceptions import InputError, UsageError
 from ..io.atomic import check_output_path, output_problem
+from ..io.inputs import input_problem
 from ..io.names import name_problem
 
 EXIT_DATA = 1
@@ -131,12 +132,10 @@ def int_at_most(maximum: int, why: str):
 
 
 def check_input(path: str | Path) -> None:
-    """A usage error (exit 2) unless ``path`` is an existing file."""
-    p = Path(path)
-    if not p.exists():
-        raise UsageError(f"{path}: file not found")
-    if not p.is_file():
-        raise UsageError(f"{path}: not a file")
+    """A usage error (exit 2) unless ``path`` is a regular file (``io.inputs.input_problem``)."""
+    problem = input_problem(path)
+    if problem is not None:
+        raise UsageError(f"{path}: {problem}")
 
 
 def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
