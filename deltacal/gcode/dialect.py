@@ -19,6 +19,8 @@ does. Where controllers differ, it asks a :class:`Dialect`:
 * where a homing (G28) leaves the TCP (:attr:`Dialect.home`);
 * G codes the controller runs that the correction cannot follow (:attr:`Dialect.refused`, by G
   number: Marlin's G33 changes the very values the program is corrected for);
+* the M code whose ``S`` switches the controller's limits off (``S0``) and on (Marlin's ``M211``:
+  :attr:`Dialect.limits_switch`), followed for the commands after it;
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
   (:meth:`Dialect.command`).
@@ -40,6 +42,8 @@ __all__ = ["GENERIC", "ArcP", "Dialect", "MacroEffect", "MacroStep"]
 #: A Klipper command's name: its first word of letters and underscores, and the text to the next
 #: letter (``klippy/gcode.py``: ``START_PRINT``, ``M600``, ``G28``), after a line number.
 _COMMAND = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?([A-Z_]+)([^A-Z_*;]*)")
+#: The S word of an M code that switches the limits, and its number (``M211 S0``; ``S`` alone is on).
+_SWITCH = re.compile(r"[Ss]\s*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))?")
 
 
 class ArcP(enum.Enum):
@@ -104,6 +108,8 @@ class Dialect:
         macros: The controller's macros by upper-case name.
         distance_sets_e: Whether G90 and G91 set E's mode too, forgetting M82/M83 (Marlin 2).
         refused: G codes refused by their line (G number -> why), the controller's own.
+        limits_switch: The M number whose ``S0`` switches the controller's limits off and ``S1``
+            on (Marlin's soft endstops, ``M211``), or None.
     """
 
     name: str = "generic"
@@ -114,11 +120,26 @@ class Dialect:
     e_by_m83: bool = False
     distance_sets_e: bool = False
     refused: Mapping[float, str] = field(default_factory=lambda: MappingProxyType({}))
+    limits_switch: int | None = None
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
         value = None if home is None else tuple(float(v) for v in home)
         return replace(self, home=value)  # type: ignore[arg-type]
+
+    def switches_limits(self, code: str, words: str) -> bool | None:
+        """Whether an M code's line switches the controller's limits on (True) or off (False), or None.
+
+        Args:
+            code: The M number as written, without leading zeros (``"211"``).
+            words: The line's words after it, its comment cut (``" S0"``).
+        """
+        if self.limits_switch is None or code != str(self.limits_switch):
+            return None
+        value = _SWITCH.search(words)
+        if value is None:  # M211 alone reports the soft endstops
+            return None
+        return value.group(1) is None or float(value.group(1)) != 0.0
 
     def macro(self, line: str) -> MacroEffect | None:
         """The macro a program's line calls (by its command's name, any case), or None."""

@@ -119,12 +119,13 @@ class Marlin(Firmware[MarlinDelta]):
         that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
         ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
         towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
-        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
+        refused (it changes ``M665``/``M666``, the values the program is corrected for); ``M211 S0``
+        switches the soft endstops off for the lines after it (``M211.cpp``), ``S1`` on; no macros.
         """
         model = load_marlin(path)
         home = (0.0, 0.0, model.home_height)
         return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
-                       refused=MappingProxyType({33.0: G33_REFUSED}))
+                       refused=MappingProxyType({33.0: G33_REFUSED}), limits_switch=211)
 
 
 #: Why a program's G33 is refused.
