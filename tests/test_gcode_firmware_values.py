@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from deltacal.printer.robot_file import load_printer
 
 from deltacal import InputError
 from deltacal.cli import main
@@ -20,7 +21,6 @@ from deltacal.io.geometry_file import save_geometry
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
-from deltacal.printer.robot_file import load_printer
 
 DATA = Path(__file__).parent / "data"
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

@@ -47,7 +47,7 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
                          notes=lines)
     print(f"wrote the {firmware.title} values that best fit {args.calibration} to {args.output}")
     print("\n".join(lines))
-    print(f"to apply: {firmware.apply_note}")
+    print(f"to apply: {firmware.apply_note_for(args.config)}")
     return 0
 
 

@@ -4,7 +4,9 @@ A controller that checks its commands (a printer's firmware: Klipper refuses a m
 range) gives its :class:`CommandLimits`; what writes commands for it (``compensate``'s corrected
 targets, the G-code filter) checks every command as written and gathers those refused over the
 whole file in a :class:`RefusedCommands`, so that one refusal names the first line and the value
-that admits them all. Units: mm.
+that admits them all. A program may switch the limits itself (Marlin's ``M211 S0`` turns its soft
+endstops off): :meth:`RefusedCommands.switch` records it, and the commands of the lines after a
+switch off are not checked, as the controller does not. Units: mm.
 """
 
 from __future__ import annotations
@@ -45,6 +47,20 @@ class RefusedCommands:
         self.lines: list[int] = []
         self.first = ""
         self._kept: list[np.ndarray] = []
+        self._switched_at: list[int] = []  # the lines of the program's switches, in order
+        self._switched_on: list[bool] = [True]  # the limits before the first switch, and after each
+
+    def switch(self, line: int, enabled: bool) -> None:
+        """The program switches the limits on or off at ``line`` (read in order): later lines follow it."""
+        self._switched_at.append(int(line))
+        self._switched_on.append(bool(enabled))
+
+    def enabled(self, lines: np.ndarray) -> np.ndarray:
+        """Whether the limits hold at each line, as the program's switches before it leave them, (N,)."""
+        if not self._switched_at:
+            return np.ones(np.shape(lines), dtype=bool)
+        state = np.asarray(self._switched_on)
+        return state[np.searchsorted(np.asarray(self._switched_at), np.asarray(lines), side="left")]
 
     def check(self, commands: np.ndarray, lines: np.ndarray, where=None) -> bool:
         """Check commands as written; keep those refused. Returns whether all pass.
@@ -56,6 +72,8 @@ class RefusedCommands:
         """
         lines = np.asarray(lines)
         bad = (self.limits.outside(commands) != 0) & (lines != 0)
+        if self._switched_at and np.any(bad):
+            bad &= self.enabled(lines)
         if not np.any(bad):
             return True
         index = np.flatnonzero(bad)

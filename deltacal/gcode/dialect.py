@@ -21,6 +21,8 @@ does. Where controllers differ, it asks a :class:`Dialect`:
   :class:`CommandRule`): refused by their line where they change the very values the program is
   corrected for (Marlin's G33, M665, M666, M92 X Y Z, M501, M502; RepRapFirmware's G32, M98 of
   ``config-override.g`` ...), or kept with a warning;
+* the M code whose ``S`` switches the controller's limits off (``S0``) and on (Marlin's ``M211``:
+  :attr:`Dialect.limits_switch`), followed for the commands after it;
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
   (:meth:`Dialect.command`);
@@ -50,6 +52,8 @@ __all__ = ["GENERIC", "ArcP", "CommandRule", "Dialect", "LineReading", "MacroEff
 _COMMAND = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?([A-Z_]+)([^A-Z_*;]*)")
 #: A named command's name, in any case (its parameters follow).
 _NAMED = re.compile(r"[ \t]*(?:[Nn][ \t]*[0-9]+[ \t]*)?[A-Za-z_]+")
+#: The S word of an M code that switches the limits, and its number (``M211 S0``; ``S`` alone is on).
+_SWITCH = re.compile(r"[Ss]\s*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))?")
 
 
 class ArcP(enum.Enum):
@@ -217,6 +221,8 @@ class Dialect:
         rules: What is done with the G and M commands the correction cannot follow, by command
             (``"G33"``, ``"M665"``: upper case, the number without leading zeros).
         lines: How it finds a line's command.
+        limits_switch: The M number whose ``S0`` switches the controller's limits off and ``S1``
+            on (Marlin's soft endstops, ``M211``), or None.
     """
 
     name: str = "generic"
@@ -228,11 +234,26 @@ class Dialect:
     distance_sets_e: bool = False
     rules: Mapping[str, CommandRule] = field(default_factory=lambda: MappingProxyType({}))
     lines: LineReading = LineReading()
+    limits_switch: int | None = None
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
         value = None if home is None else tuple(float(v) for v in home)
         return replace(self, home=value)  # type: ignore[arg-type]
+
+    def switches_limits(self, code: str, words: str) -> bool | None:
+        """Whether an M code's line switches the controller's limits on (True) or off (False), or None.
+
+        Args:
+            code: The M number as written, without leading zeros (``"211"``).
+            words: The line's words after it, its comment cut (``" S0"``).
+        """
+        if self.limits_switch is None or code != str(self.limits_switch):
+            return None
+        value = _SWITCH.search(words)
+        if value is None:  # M211 alone reports the soft endstops
+            return None
+        return value.group(1) is None or float(value.group(1)) != 0.0
 
     def macro(self, line: str) -> MacroEffect | None:
         """The macro a program's line calls (by its command's name, any case), or None."""

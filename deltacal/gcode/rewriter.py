@@ -86,7 +86,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -213,6 +213,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     reader = _Reader(source, float(segment_mm), start, dialect if home is None else dialect.with_home(home))
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source, limits)
+    if batch.refused is not None:
+        reader.switch_limits = batch.refused.switch
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
@@ -312,6 +314,8 @@ class _Reader:
         self.g_rules = {float(k[1:]): v for k, v in dialect.rules.items() if k[0] == "G"}
         self.m_rules = {k[1:]: v for k, v in dialect.rules.items() if k[0] == "M"}
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
+        #: The controller's limits switched by a line: ``switch_limits(number, enabled)``, or None.
+        self.switch_limits: Callable[[int, bool], None] | None = None
 
     def fail(self, number: int, detail: str) -> InputError:
         """The error for line ``number``."""
@@ -359,6 +363,10 @@ class _Reader:
                 self.state.set_extruder(m.group(1) == "83")
             elif m.group(1) in self.m_rules:
                 self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
+            if self.switch_limits is not None:  # Marlin's M211 S0: its soft endstops off
+                switched = self.dialect.switches_limits(m.group(1), split_line(s)[0][m.end():])
+                if switched is not None:
+                    self.switch_limits(number, switched)
             return KEPT
         code, comment, ending = split_line(line)
         parens = ""

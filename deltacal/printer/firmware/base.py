@@ -225,7 +225,8 @@ class Firmware(ABC, Generic[ModelT]):
         calibrated_file: The name deltacal gives a file of fitted values (``printer_calibrated.cfg``).
         minimum_z_key: Where its configuration sets the lowest Z it accepts (``minimum_z_position``).
         apply_note: How to put the values :meth:`config_text` writes into the printer (one line,
-            the first comment of the file and said by ``deltacal export``).
+            the first comment of the file and said by ``deltacal export``), whatever the
+            configuration the printer runs (:meth:`apply_note_for` says it for one).
     """
 
     name: ClassVar[str]
@@ -324,6 +325,17 @@ class Firmware(ABC, Generic[ModelT]):
         """
         raise InputError(f"deltacal does not read {self.title}'s probe: the height to travel at between "
                          "probe points, above the probe's trigger height, is not known", str(path))
+
+    def apply_note_for(self, source: str | Path | None) -> str:
+        """How to put the values written for the configuration ``source`` into the printer, in one line.
+
+        Where the configuration keeps them (RepRapFirmware's ``config.g`` or ``config-override.g``);
+        by default :attr:`apply_note`.
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return self.apply_note
 
     def own_calibrations(self, model: ModelT, measuring: Measuring, radius: float) -> dict[str, ModelT]:
         """The firmware's own calibration of a printer, emulated: the values each variant leaves, by name.

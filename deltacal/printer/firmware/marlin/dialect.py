@@ -62,4 +62,4 @@ def marlin_rules(model: MarlinDelta) -> MappingProxyType:
 def marlin_dialect(model: MarlinDelta) -> Dialect:
     """Marlin 2's reading of G-code with the values ``model`` of an ``M503`` capture."""
     return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=(0.0, 0.0, model.home_height), distance_sets_e=True,
-                   rules=marlin_rules(model), lines=MARLIN_LINES)
+                   rules=marlin_rules(model), lines=MARLIN_LINES, limits_switch=211)

@@ -121,8 +121,9 @@ class Marlin(Firmware[MarlinDelta]):
         ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
         towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33, and
         the commands that set the values the program is corrected for (``M665``, ``M666``, ``M92 X
-        Y Z``, ``M851 Z``, ``M501``, ``M502``), are refused (:func:`~.dialect.marlin_rules`); no
-        macros; a line's command is its first letter after spaces (:data:`~.dialect.MARLIN_LINES`).
+        Y Z``, ``M851 Z``, ``M501``, ``M502``), are refused (:func:`~.dialect.marlin_rules`); ``M211 S0``
+        switches the soft endstops off for the lines after it (``M211.cpp``), ``S1`` on; no macros; a
+        line's command is its first letter after spaces (:data:`~.dialect.MARLIN_LINES`).
         """
         return marlin_dialect(load_marlin(path))
 

@@ -290,7 +290,8 @@ class MarlinDelta:
             lowest = float(np.min(commands[:, 2]))
             return (f"corrected Z {z:.4f} mm is below the soft endstop Min Z {limits.minimum[2]:g}{of} "
                     f"(lowest {lowest:.4f} mm): Marlin would clamp it; send M211 S0 (soft endstops off) "
-                    "before the program, or a firmware built with a lower Z_MIN_POS")
+                    "before the program (its first line M211 S0 does), or a firmware built with a lower "
+                    "Z_MIN_POS")
         if codes[0] == ABOVE_MAX_Z:
             return (f"corrected Z {z:.4f} mm is above Marlin's top {self.home_height:g}{of}: lower the "
                     "program's moves")

@@ -77,10 +77,12 @@ LINEAR_DELTA = 3
 DEFAULT_TRIGGER_HEIGHT = 0.7
 #: The file ``M501`` runs.
 OVERRIDE = "config-override.g"
-#: How to put the lines :func:`rrf_config_text` writes into the printer (its header's second line):
-#: ``M500`` saves ``M665`` and ``M666`` to config-override.g, not ``M92``, and rewrites that file.
-APPLY_NOTE = ("Replace the M665 and M666 lines of config-override.g with these (or send them, then M500), "
-              "and the M92 X Y Z line of config.g (M500 does not save M92).")
+#: How to put the lines :func:`rrf_config_text` writes into the printer (its header's second line) when
+#: the configuration is not known (:func:`~.apply.rrf_apply_note` says it for one): ``M500`` saves
+#: ``M665`` and ``M666`` to config-override.g, not ``M92``, and rewrites that file.
+APPLY_NOTE = ("Replace the M665, M666 and M92 lines where the printer's configuration sets them last: "
+              "M665 and M666 in config-override.g when config.g runs M501 after its own (M500 saves them "
+              "there), else in config.g; M92 in config.g (M500 does not save M92).")
 #: What each value deltacal reads can be (:mod:`..bounds`), by its command and key.
 BOUNDS = {"M665 L": LENGTH, "M665 R": LENGTH, "M665 B": LENGTH, "M665 H": POSITION, "M665 X": TRIM_ANGLE,
           "M665 Y": TRIM_ANGLE, "M665 Z": TRIM_ANGLE, "M666 X": ADJUSTMENT, "M666 Y": ADJUSTMENT,
@@ -206,12 +208,14 @@ class RRFSettings:
         values: Key (``"M665 L"``) -> its value(s).
         where: Key -> the line that set it last (for messages).
         microstepping: Each tower's microstepping (M350), (3,).
+        overrides: The ``M501`` lines run, in order (``config-override.g`` read when it is there).
     """
 
     source: str
     values: dict[str, list[float]] = field(default_factory=dict)
     where: dict[str, RRFLine] = field(default_factory=dict)
     microstepping: list[float] = field(default_factory=lambda: [float(DEFAULT_MICROSTEPPING)] * 3)
+    overrides: list[RRFLine] = field(default_factory=list)
 
     def set(self, line: RRFLine, key: str, values: list[float]) -> None:
         """Keep a value and the line that set it."""
@@ -284,6 +288,7 @@ def _call(line: RRFLine, settings: RRFSettings, running: list[Path], variables: 
         name, called = OVERRIDE, sys_dir / OVERRIDE
         if called.resolve() in running:
             return  # config-override.g running M501 again: RRF reads its values once
+        settings.overrides.append(line)
     else:
         given = _FILE_NAME.search(line.rest)
         if given is None or "{" in given.group(0):
@@ -469,6 +474,7 @@ def rrf_config_text(
     title: str = "",
     notes: list[str] | tuple[str, ...] = (),
     complete: bool = False,
+    apply_note: str = APPLY_NOTE,
 ) -> str:
     """RRF's values as ``M665``, ``M666`` and ``M92`` lines for ``config-override.g`` (or ``config.g``).
 
@@ -485,6 +491,8 @@ def rrf_config_text(
         title: A first comment line (what the values are).
         notes: More comment lines, each after ``; ``.
         complete: A whole configuration, values exact.
+        apply_note: How to put the lines into the printer (the second line; not with ``complete``):
+            :func:`~.apply.rrf_apply_note` of ``source``.
     """
     micro = (
         read_rrf_settings(source).microstepping if source is not None else [float(DEFAULT_MICROSTEPPING)] * 3
@@ -499,7 +507,7 @@ def rrf_config_text(
     mm, deg = (lambda v: _number(v, MM_DECIMALS, complete)), (lambda v: _number(v, DEG_DECIMALS, complete))
     lines = [f"; {title}" if title else "; RepRapFirmware delta values written by deltacal"]
     if not complete:
-        lines.append(f"; {APPLY_NOTE}")
+        lines.append(f"; {apply_note}")
     lines += [f"; {note}".rstrip() for note in notes]
     if complete:
         lines.append(f"M669 K{3}")

@@ -17,6 +17,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from .apply import rrf_apply_note
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
     APPLY_NOTE,
@@ -81,8 +82,13 @@ class RRF(Firmware[RRFDelta]):
         notes: list[str] | tuple[str, ...] = (),
         complete: bool = False,
     ) -> str:
-        """:func:`~.config.rrf_config_text`."""
-        return rrf_config_text(model, source, title, notes, complete)
+        """:func:`~.config.rrf_config_text`, its second line :meth:`apply_note_for` ``source``."""
+        note = self.apply_note_for(None if complete else source)
+        return rrf_config_text(model, source, title, notes, complete, note)
+
+    def apply_note_for(self, source: str | Path | None) -> str:
+        """:func:`~.apply.rrf_apply_note`: the lines of ``config.g`` or ``config-override.g`` to replace."""
+        return rrf_apply_note(source)
 
     def fit(
         self,
