@@ -206,6 +206,188 @@ def test_the_module_is_standard_library_python_and_knows_deltacals_marker():
     assert live.MARKER == MARKER
 
 
+class _Error(Exception):
+    """Klipper's command error."""
+
+
+class _Toolhead:
+    """What the module sees of Klipper under it: the moves it is sent, its position, its kinematics."""
+
+    def __init__(self, firmware: KlipperDelta) -> None:
+        self.moves: list[list[float]] = []
+        self.position = [0.0, 0.0, 150.0, 0.0]
+        self.firmware = firmware
+
+    def move(self, newpos, speed):
+        self.moves.append(list(newpos))
+        self.position = list(newpos)
+
+    def get_position(self):
+        return list(self.position)
+
+    def get_kinematics(self):
+        return self
+
+    def get_calibration(self):  # Klipper's DeltaCalibration's attributes
+        f = self.firmware
+        return type("DeltaCalibration", (), {
+            "radius": f.delta_radius, "angles": np.degrees(f.angle).tolist(), "arms": f.arm_length.tolist(),
+            "endstops": f.position_endstop.tolist(), "stepdists": f.step_distance.tolist()})()
+
+    def get_status(self, eventtime):
+        f = self.firmware
+        return {"homed_axes": "xyz", "axis_minimum": (-f.max_radius, -f.max_radius, f.minimum_z_position),
+                "axis_maximum": (f.max_radius, f.max_radius, f.max_z), "cone_start_z": f.limit_z}
+
+
+class _Printer:
+    """Klipper's printer object as the module uses it (objects, events, errors)."""
+
+    config_error = configparser.Error
+
+    def __init__(self, toolhead: _Toolhead) -> None:
+        self.handlers: dict[str, list] = {}
+        self.commands: dict[str, object] = {}
+        self.toolhead = toolhead
+        self.gcode = type("GCode", (), {"error": _Error, "cmd_default": staticmethod(lambda gcmd: "default"),
+                                        "register_command": lambda _, name, f, desc=None:
+                                        self.commands.__setitem__(name, f)})()
+        self.gcode_move = type("GCodeMove", (), {"move_transform": None, "resets": 0})()
+        self.gcode_move.set_move_transform = self._set_transform
+        self.gcode_move.reset_last_position = self._reset
+
+    def _set_transform(self, transform, force=False):
+        self.gcode_move.move_transform = transform
+        return None
+
+    def _reset(self):
+        self.gcode_move.resets += 1
+
+    def load_object(self, config, name):
+        return self.gcode_move
+
+    def lookup_object(self, name):
+        return {"gcode": self.gcode, "toolhead": self.toolhead}[name]
+
+    def register_event_handler(self, event, handler):
+        self.handlers.setdefault(event, []).append(handler)
+
+    def get_reactor(self):
+        return type("Reactor", (), {"monotonic": staticmethod(lambda: 0.0)})()
+
+
+class _Config(_Section):
+    def __init__(self, text: str, printer: _Printer) -> None:
+        super().__init__(text)
+        self.printer = printer
+
+    def get_printer(self):
+        return self.printer
+
+    def get_name(self):
+        return "deltacal_geometry"
+
+    def has_section(self, name):
+        return False
+
+
+class _Command:
+    def __init__(self, line: str, **params) -> None:
+        self.line, self.params, self.said = line, params, []
+
+    def get_commandline(self):
+        return line if (line := self.line) else ""
+
+    def get_int(self, key, default=None, minval=None, maxval=None):
+        return int(self.params[key]) if key in self.params else default
+
+    def respond_info(self, text):
+        self.said.append(text)
+
+    def error(self, text):
+        return _Error(text)
+
+
+def _transform():
+    """The module's transform of a made-up field over a fake Klipper of the Kossel's values, connected."""
+    firmware = KlipperDelta.from_printer(PRINTER)
+    toolhead = _Toolhead(firmware)
+    printer = _Printer(toolhead)
+    section = section_text(_smooth_field(), SamplingError(0.002, 0.0005, 0.001, 100, 0), firmware, "c")
+    for key, value in (("maximum_z: 80.0", firmware.max_z), ("build_radius: 60.0", firmware.max_radius),
+                       ("coverage_margin: 10.0", 400.0)):  # Klipper's volume within the section's
+        section = section.replace(key, f"{key.split(':')[0]}: {value!r}")
+    module = live.DeltacalGeometry(_Config(section, printer))
+    for handler in printer.handlers["klippy:connect"]:
+        handler()
+    module.get_position()
+    return module, toolhead, printer
+
+
+def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
+    module, toolhead, _ = _transform()
+    module.grid.curvature = [4e-4] * len(module.grid.curvature)  # segments of 10 mm at most
+    start = list(module.last_position)
+    module.move([start[0] + 60.0, start[1], start[2], 3.0], 50.0)
+    sent = np.array(toolhead.moves)
+    assert len(sent) == 6
+    program = np.array(start[:3]) + np.outer(np.arange(1, 7) / 6, [60.0, 0.0, 0.0])
+    assert np.allclose(sent[:, :3], program + _smooth_field()(program), rtol=0.0, atol=2e-6)
+    assert np.allclose(sent[:, 3], np.arange(1, 7) / 6 * 3.0)  # the extrusion shared out along it
+    assert module.last_position == [start[0] + 60.0, start[1], start[2], 3.0]
+    # the position read back is the program's
+    assert np.allclose(module.get_position()[:3], module.last_position[:3], rtol=0.0, atol=1e-9)
+
+
+def test_a_move_out_of_klippers_limits_once_corrected_is_refused_whole():
+    module, toolhead, _ = _transform()
+    module.limits.max_xy = 40.0  # a tight print_radius
+    module.grid.curvature = [4e-4] * len(module.grid.curvature)
+    start = module.last_position
+    # its end at radius 39.97 mm is inside, its corrected end beyond 40 mm
+    end = [39.97, 0.0, 40.0, 0.0]
+    assert math.hypot(*module.grid.command(*end[:3])[:2]) > 40.0
+    refusal = r"radius 4\d\.\d+ beyond Klipper's 40\.0000: set \[printer\] print_radius"
+    with pytest.raises(_Error, match=refusal):
+        module.move(end, 50.0)
+    assert toolhead.moves == [] and module.last_position == start
+
+
+def test_turned_off_it_sends_moves_as_they_are_and_reports_its_state():
+    module, toolhead, printer = _transform()
+    command = _Command("DELTACAL_GEOMETRY ENABLE=0", ENABLE="0")
+    printer.commands["DELTACAL_GEOMETRY"](command)
+    assert not module.enabled and printer.gcode_move.resets == 1
+    assert "deltacal_geometry: off" in command.said[0]
+    module.move([10.0, 5.0, 20.0, 0.0], 50.0)
+    assert toolhead.moves == [[10.0, 5.0, 20.0, 0.0]]
+    assert module.get_position() == [10.0, 5.0, 20.0, 0.0]
+    command = _Command("DELTACAL_GEOMETRY ENABLE=1", ENABLE="1")
+    printer.commands["DELTACAL_GEOMETRY"](command)
+    assert module.enabled and "on: every move corrected" in command.said[0]
+    assert "move transforms: deltacal_geometry > _Toolhead" in command.said[0]
+    assert module.get_status()["enabled"] is True
+
+
+def test_the_marker_line_is_refused_and_other_lines_go_to_klippers_handler():
+    module, _, printer = _transform()
+    handler = printer.gcode.cmd_default
+    assert handler(_Command("; sliced by someone")) == "default"
+    assert handler(_Command("M999")) == "default"
+    for line in (MARKER + "0.9 for printer.cfg with cal.toml", "\ufeff" + MARKER + "0.9"):
+        with pytest.raises(_Error, match="already corrected by deltacal"):
+            handler(_Command(line))
+    module.enabled = False
+    assert handler(_Command(MARKER + "0.9")) == "default"
+
+
+def test_get_position_never_raises():
+    module, toolhead, _ = _transform()
+    for made_up in ([0.0, 0.0, -365.0, 0.0], [math.nan, 0.0, 0.0, 0.0], [1e300, 1e300, 1e300, 0.0]):
+        toolhead.position = made_up
+        assert module.get_position()[2] == made_up[2] or math.isnan(made_up[0])
+
+
 # ------------------------------------------------------------------ the real Klipper
 @pytest.fixture(scope="session")
 def klipper(tmp_path_factory) -> Path:
@@ -596,3 +778,139 @@ def test_after_homing_the_position_is_where_the_identified_nozzle_is(kossel, kli
     assert np.linalg.norm(reported[0] - home) < 0.01
     assert np.linalg.norm(reported[0] - kossel["firmware"].home_position) > 0.05  # not Klipper's own home
     assert np.allclose(reported[1], [10.0, -20.0, 100.0], atol=1e-6)
+
+
+@pytest.mark.slow
+def test_a_program_corrected_offline_is_refused(kossel, klipper):
+    """Its marker line reaches Klipper's dispatcher as a comment: the module refuses it there.
+
+    Printed from Klipper's virtual SD card (as Mainsail and Fluidd print), the print stops at it.
+    """
+    points = np.array([[10.0, 10.0, 20.0], [-30.0, 5.0, 10.0]])
+    corrected = _offline(kossel, _program(points), "marked")
+    assert corrected.startswith(MARKER)
+    folder = kossel["folder"]
+    config = folder / "printer_sdcard.cfg"
+    config.write_text(kossel["live_config"].read_text() + f"\n[virtual_sdcard]\npath: {folder}\n")
+    run = run_klippy(klipper, config, "SDCARD_PRINT_FILE FILENAME=marked_corrected.gcode\n", "marked_live")
+    assert run.status != 0
+    assert "deltacal_geometry: this program is already corrected by deltacal" in run.log
+    assert not toolhead_positions(run.log).size  # the print stopped at its first line, before any move
+    # with the module turned off first, it runs (corrected once, offline)
+    run = run_klippy(klipper, kossel["live_config"], "DELTACAL_GEOMETRY ENABLE=0\n" + corrected, "marked_off")
+    assert run.status == 0, run.log[-3000:]
+    assert "deltacal_geometry: off" in run.log
+    assert len(toolhead_positions(run.log)) == 2
+
+
+@pytest.mark.slow
+def test_klipper_values_other_than_the_corrections_are_refused_at_start(kossel, klipper):
+    changed = kossel["folder"] / "printer_changed.cfg"
+    text = kossel["live_config"].read_text()
+    arm = f"arm_length: {float(kossel['firmware'].arm_length[1])!r}"
+    assert arm in text
+    head, tail = text.split("[stepper_b]", 1)
+    changed.write_text(head + "[stepper_b]" + tail.replace(arm, "arm_length: 269.2", 1))
+    run = run_klippy(klipper, changed, "G28\n", "changed")
+    assert run.status != 0
+    refusal = r"deltacal_geometry: \[stepper_b\] arm_length is 269\.2 in Klipper, but the correction was "
+    assert re.search(refusal + r"computed for 269", run.log), run.log[-3000:]
+
+
+def _beyond_the_rim(kossel) -> np.ndarray:
+    """A point of Klipper's volume at its rim whose corrected command Klipper's radius refuses [mm]."""
+    from deltacal.printer.firmware.klipper.live.field import exact_correction
+
+    firmware = kossel["firmware"]
+    angle = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
+    rim = firmware.max_radius - 0.05
+    points = np.column_stack([rim * np.cos(angle), rim * np.sin(angle), np.full(angle.size, 20.0)])
+    controller = firmware_controller(kossel)
+    commands = points + exact_correction(load_calibration(kossel["calibration"]), controller, points)
+    beyond = np.hypot(commands[:, 0], commands[:, 1]) > firmware.max_radius + 0.01
+    assert np.any(beyond)
+    return points[np.flatnonzero(beyond)[0]]
+
+
+def firmware_controller(kossel):
+    from deltacal.printer.firmware.klipper.model import KlipperController
+
+    return KlipperController(kossel["firmware"], STEP)
+
+
+@pytest.mark.slow
+def test_a_move_whose_correction_leaves_klippers_limits_is_refused_whole(kossel, klipper):
+    point = _beyond_the_rim(kossel)
+    program = (f"SET_KINEMATIC_POSITION X=0 Y=0 Z=150\nG1 X0 Y0 Z20 F6000\nG4 P{DWELL_S * 1000:g}\n"
+               f"G1 X{point[0]:.4f} Y{point[1]:.4f} Z20\n")
+    run = run_klippy(klipper, kossel["live_config"], program, "rim_live")
+    assert run.status != 0
+    assert re.search(r"deltacal_geometry: the program's point X\S+ Y\S+ Z20\.0000, corrected, is .*: radius "
+                     r"\S+ beyond Klipper's \S+: set \[printer\] print_radius", run.log), run.log[-3000:]
+    assert "Move out of range" not in run.log  # refused before Klipper's own check
+    run = run_klippy(klipper, kossel["live_config"], "DELTACAL_GEOMETRY ENABLE=0\n" + program, "rim_off")
+    assert run.status == 0, run.log[-3000:]  # the point itself is inside Klipper's limits
+
+
+@pytest.mark.slow
+def test_it_sits_under_skew_correction_and_exclude_object_and_over_bed_mesh(kossel, klipper):
+    mesh = ("\n[probe]\npin: PA1\nz_offset: 1\n\n[bed_mesh]\nmesh_radius: 80\nround_probe_count: 5\n\n"
+            "[skew_correction]\n\n[exclude_object]\n")
+    config = kossel["folder"] / "printer_chain.cfg"
+    config.write_text(printer_cfg(kossel["firmware"], f"\n[include {kossel['out'] / SECTION_FILE}]\n" + mesh))
+    program = ("G28\nBED_MESH_CALIBRATE\nSET_SKEW XY=141.42,141.42,100\nDELTACAL_GEOMETRY\n"
+               "EXCLUDE_OBJECT_DEFINE NAME=a CENTER=0,0\nEXCLUDE_OBJECT_DEFINE NAME=b CENTER=50,0\n"
+               "EXCLUDE_OBJECT_START NAME=a\nG1 X10 Y10 Z5 F6000\nEXCLUDE_OBJECT_END NAME=a\n"
+               "EXCLUDE_OBJECT NAME=b\nDELTACAL_GEOMETRY\nG1 X-10 Y20 Z5\nGET_POSITION\n")
+    run = run_klippy(klipper, config, program, "chain")
+    assert run.status == 0, run.log[-3000:]
+    chains = re.findall(r"move transforms: (.*)$", run.log, flags=re.M)
+    assert chains == ["PrinterSkew > deltacal_geometry > BedMesh",
+                      "ExcludeObject > PrinterSkew > deltacal_geometry > BedMesh"]
+    assert np.allclose(gcode_positions(run.log)[-1], [-10.0, 20.0, 5.0], atol=1e-6)
+
+
+def _example_delta_test(klipper: Path, folder: Path, name: str, config: str, commands: str) -> None:
+    """One of Klipper's own test cases run by its harness, ``scripts/test_klippy.py``, with this config."""
+    (folder / f"{name}.cfg").write_text(config)
+    (folder / f"{name}.test").write_text(f"CONFIG {name}.cfg\nDICTIONARY atmega2560.dict\n{commands}")
+    done = subprocess.run([sys.executable, "scripts/test_klippy.py", "-d", "dict", "-t", str(folder),
+                           str(folder / f"{name}.test")], cwd=klipper, capture_output=True, text=True,
+                          timeout=900)
+    assert done.returncode == 0, done.stderr[-4000:]
+    assert "All 1 test cases passed" in done.stderr
+
+
+@pytest.mark.slow
+def test_klippers_own_delta_bed_mesh_and_skew_cases_pass_with_the_module(klipper, tmp_path):
+    """Klipper's delta.test on its example-delta.cfg; bed_mesh.test's commands and a skew case on it too.
+
+    The printer behind the correction: a kit printer built to example-delta.cfg's values (its
+    geometry standing for the calibration).
+    """
+    from dataclasses import replace
+
+    from deltacal.io import save_geometry
+
+    example = (klipper / "config" / "example-delta.cfg").read_text()
+    (tmp_path / "example-delta.cfg").write_text(example)
+    firmware = load_klipper(tmp_path / "example-delta.cfg")
+    nominal = replace(PRINTER, name="example-delta", rod_length=np.array(firmware.arm_length),
+                      tower_radius=firmware.delta_radius + PRINTER.effector_radius,
+                      endstop_height=firmware.carriage_top - PRINTER.tool[2])
+    truth = random_printer(nominal, np.random.default_rng(4102), typical_kit())
+    save_geometry(truth, tmp_path / "truth.toml")
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["export", str(tmp_path / "truth.toml"), "--controller", "klipper", "--config",
+                     str(tmp_path / "example-delta.cfg"), "--live", "-o", str(tmp_path / "live")]) == 0
+    live_config = example + "\n[include live/deltacal_geometry.cfg]\n"
+    own = {name: (klipper / "test" / "klippy" / f"{name}.test").read_text() for name in ("delta", "bed_mesh")}
+    commands = {name: re.sub(r"^(CONFIG|DICTIONARY) .*$", "", text, flags=re.M) for name, text in own.items()}
+    _example_delta_test(klipper, tmp_path, "delta_live", live_config, commands["delta"])
+    mesh = "\n[probe]\npin: PA1\nz_offset: 1\n\n[bed_mesh]\nmesh_radius: 80\nround_probe_count: 5\n"
+    _example_delta_test(klipper, tmp_path, "bed_mesh_live", live_config + mesh, commands["bed_mesh"])
+    skew = ("G28\nG1 X10 Y10 Z10 F6000\nSET_SKEW XY=141.42,141.42,100 XZ=141.42,141.42,100\n"
+            "GET_CURRENT_SKEW\n"
+            "G1 X-40 Y30 Z20\nSKEW_PROFILE SAVE=live\nSET_SKEW CLEAR=1\nG1 X0 Y0 Z5\nSKEW_PROFILE LOAD=live\n"
+            "G1 X20 Y-20 Z5\n")
+    _example_delta_test(klipper, tmp_path, "skew_live", live_config + "\n[skew_correction]\n", skew)
