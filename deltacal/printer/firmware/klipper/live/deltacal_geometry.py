@@ -289,7 +289,17 @@ class DeltacalGeometry:
                     "(DELTACAL_GEOMETRY ENABLE=1 to correct them)")
         return (f"deltacal_geometry: on: every move corrected for the calibration {self.calibration} "
                 f"(grid {self.grid.step:g} mm; {self.error_text}; long moves cut within "
-                f"{self.tolerance:g} mm of their line)")
+                f"{self.tolerance:g} mm of their line); move transforms: {self.chain_text()}")
+
+    def chain_text(self):
+        """Klipper's move transforms in the order a move goes through them, this one's place among them."""
+        names = []
+        transform = getattr(self.gcode_move, "move_transform", None)
+        while transform is not None and transform is not self and len(names) < 16:
+            names.append(type(transform).__name__)
+            transform = getattr(transform, "next_transform", None)
+        names += ["deltacal_geometry", type(self.next_transform).__name__]
+        return " > ".join(names)
 
     def get_status(self, eventtime=None):
         """The state for Klipper's status (``printer.deltacal_geometry``)."""
