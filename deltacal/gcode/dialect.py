@@ -121,10 +121,13 @@ class CommandRule:
 
     @staticmethod
     def nonzero(letter: str) -> Callable[[Mapping[str, str]], bool]:
-        """A rule's ``applies``: ``letter`` is given a number other than 0 (``M211 S1``)."""
+        """A rule's ``applies``: ``letter`` is given, alone or with a number other than 0 (``M211 S1``).
+
+        A letter alone is true, as Marlin's ``parser.value_bool()`` reads it (``M420 S``).
+        """
         def applies(params: Mapping[str, str]) -> bool:
             try:
-                return letter in params and float(params[letter] or "0") != 0.0
+                return letter in params and float(params[letter] or "1") != 0.0
             except ValueError:
                 return True  # not a number: the firmware's reading is not known
         return applies
@@ -161,6 +164,9 @@ class MacroEffect:
             expression gives, a malformed command), or "".
         from_line: Whether its steps take the ``NAME`` and ``MOVE`` of the line that calls it
             (Klipper's own ``SAVE_GCODE_STATE`` and ``RESTORE_GCODE_STATE``: :meth:`on_line`).
+        warning: What a warning says of a program's line that calls it (it turns a bed mesh on), or "".
+        warn_with: The parameter the line must give for the warning (``LOAD`` of
+            ``BED_MESH_PROFILE``), or "": always.
     """
 
     name: str
@@ -169,6 +175,8 @@ class MacroEffect:
     builtin: bool = False
     refused: str = ""
     from_line: bool = False
+    warning: str = ""
+    warn_with: str = ""
 
     @property
     def moves(self) -> bool:
@@ -182,6 +190,10 @@ class MacroEffect:
         ``gcmd.get_int('MOVE', 0)``) from the extended parameters (:func:`command_params`); a
         malformed line or a ``MOVE`` that is not an integer stops Klipper's print: refused.
         """
+        if self.warn_with:
+            params = command_params(line)
+            return replace(self, warning=self.warning if params and self.warn_with in params else "",
+                           warn_with="")
         if not self.from_line:
             return self
         params = command_params(line)

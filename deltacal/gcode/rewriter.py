@@ -341,6 +341,8 @@ class _Reader:
             effect = self.dialect.macro(s)
             if effect is not None:  # the controller's macro: where it leaves the nozzle
                 self.refuse(number, apply_macro(self.state, effect, number, self.home, self.start))
+                if effect.warning:
+                    self.notes.add(effect.name, number, f"{s.strip()!r}: {effect.warning}")
                 return KEPT
         if not s or s[0] not in READ:
             if s[:1] == "/":
