@@ -41,6 +41,7 @@ import shlex
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
+from typing import Any
 
 __all__ = ["GENERIC", "ArcP", "CommandRule", "Dialect", "LineReading", "MacroEffect", "MacroStep", "Unread",
            "command_params"]
@@ -108,11 +109,16 @@ class CommandRule:
         warn: Whether the line is kept, with a warning (a bed mesh turned on), rather than refused.
         applies: Whether the rule holds for a line of these parameters (upper-case letter -> the
             text of its value, a quoted string with its quotes); by default, always.
+        limits: How the line changes the controller's limits on its commands (Marlin's ``M211 S1``
+            switches its soft endstops on), or None: ``limits(before, params)`` -> the limits after
+            it (:class:`~deltacal.controller.limits.CommandLimits`, the firmware's model); the line is
+            kept and the commands after it are checked against them (``why`` is then unused).
     """
 
     why: str
     warn: bool = False
     applies: Callable[[Mapping[str, str]], bool] = _always
+    limits: Callable[[Any, Mapping[str, str]], Any] | None = None
 
     @staticmethod
     def given(letters: str) -> Callable[[Mapping[str, str]], bool]:

@@ -97,7 +97,7 @@ from .dialect import GENERIC, ArcP, CommandRule, Dialect, Unread
 from .homing import FromHome
 from .macros import apply_macro
 from .marker import is_marker
-from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
+from .moves import E_DECIMALS, KEPT, LimitsChange, MoveText, Plan, SingleMove, SplitMove
 from .notes import Notes
 from .path import ARC_RADIUS_TOLERANCE_MM, ARC_TOLERANCE_RATIO, ArcPath, StraightPath, arc_path
 from .source import SUFFIXES, is_gcode_path, opened_lines, read_lines
@@ -236,6 +236,11 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             else:
                 yield from _split_out(batch, plan.plan, number)
             batch.home_move(plan.home, end=True)
+        elif isinstance(plan, LimitsChange):  # the commands after it checked against the limits it sets
+            items.append(line)
+            if batch.refused is not None:
+                yield batch.flush()
+                batch.refused.switch(plan.limits(batch.refused.limits), plan.by)
         else:  # KEPT
             items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
@@ -360,7 +365,7 @@ class _Reader:
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
             elif m.group(1) in self.m_rules:
-                self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
+                return self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
             return KEPT
         code, comment, ending = split_line(line)
         parens = ""
@@ -380,13 +385,18 @@ class _Reader:
         if why is not None:
             raise self.fail(number, why)
 
-    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> None:
-        """A command the correction cannot follow: refused, or said (:attr:`Dialect.rules`)."""
-        if not rule.applies(line_params(code)):
-            return
+    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> Plan:
+        """A command the correction cannot follow: refused, said, or limits it sets (``Dialect.rules``)."""
+        params = line_params(code)
+        if not rule.applies(params):
+            return KEPT
+        if rule.limits is not None:
+            change = rule.limits
+            return LimitsChange(lambda before: change(before, params), f"line {number} ({code.strip()})")
         if not rule.warn:
             raise self.fail(number, f"{command}: {rule.why}")
         self.notes.add(command, number, f"{code.strip()!r}: {rule.why}")
+        return KEPT
 
     def check_bytes(self, number: int, line: str, s: str) -> None:
         """Refuse a NUL where the controller ends a line, or a blank before a command it does not skip."""

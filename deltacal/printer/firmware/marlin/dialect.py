@@ -11,13 +11,16 @@ What differs from a generic reader, from Marlin's source (``Marlin/src``):
   auto-calibration), ``M665`` and ``M666`` with values, ``M92 X Y Z``, ``M851 Z`` (it moves where
   ``G28`` leaves the nozzle), ``M501`` (the EEPROM's settings) and ``M502`` (the firmware's defaults);
   those that turn Marlin's bed levelling on (``M420 S1``, ``G29``) are kept with a warning that
-  says how to turn it off (``M420 S0``).
+  says how to turn it off (``M420 S0``); ``M211 S1`` (``S0``) switches the soft endstops on (off):
+  the commands after it are checked against them (a capture with ``M211 S0`` and a program that
+  switches them on: a corrected first layer below Min Z is refused naming that line).
 
 Units: mm.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from types import MappingProxyType
 
 from ....gcode.dialect import ArcP, CommandRule, Dialect, LineReading, Unread
@@ -43,6 +46,11 @@ G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the setti
                "corrected for: run G33 and M500 once, capture M503 again, and remove G33 from the program")
 
 
+def _soft_endstops(before: MarlinDelta, params: Mapping[str, str]) -> MarlinDelta:
+    """The limits after ``M211 S..``: the soft endstops on or off (``S`` alone: on, as Marlin reads it)."""
+    return before.with_soft_endstops(CommandRule.nonzero("S")(params))
+
+
 def marlin_rules(model: MarlinDelta) -> MappingProxyType:
     """The commands of a program that Marlin runs and the correction cannot follow (see the module's text).
 
@@ -65,6 +73,8 @@ def marlin_rules(model: MarlinDelta) -> MappingProxyType:
                             "after it", warn=True, applies=CommandRule.nonzero("S")),
         "G29": CommandRule(f"it probes the bed, and most builds then turn Marlin's bed levelling on: "
                            f"{_TWICE}: leave it out, or send M420 S0 after it", warn=True),
+        "M211": CommandRule("it switches Marlin's soft endstops on or off", applies=CommandRule.given("S"),
+                            limits=_soft_endstops),
     })
 
 
