@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from deltacal.printer.plan import plan_object
+from deltacal.printer.robot_file import load_printer
 
 from deltacal.cli import main
 from deltacal.gcode.marker import MARKER
@@ -39,9 +41,7 @@ from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FI
 from deltacal.printer.firmware.klipper.live.field import CorrectionField, LiveVolume, SamplingError
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
-from deltacal.printer.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
-from deltacal.printer.robot_file import load_printer
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"

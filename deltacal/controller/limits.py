@@ -35,10 +35,12 @@ class RefusedCommands:
     """The commands of a file that a controller's limits refuse, gathered as the file is written.
 
     Attributes:
-        limits: The controller's limits.
+        limits: The controller's limits (those in force now, see :meth:`switch`).
         count: Commands refused so far.
         lines: Their lines in the input file, in order (the first :data:`KEPT_COMMANDS`).
         first: Where the first refused command is (``"line 412"``), or "".
+        by: What set the limits the first refused commands broke (``"line 3 (M211 S1)"``), or "":
+            the controller's own.
     """
 
     def __init__(self, limits: CommandLimits) -> None:
@@ -46,21 +48,18 @@ class RefusedCommands:
         self.count = 0
         self.lines: list[int] = []
         self.first = ""
+        self.by = ""
         self._kept: list[np.ndarray] = []
-        self._switched_at: list[int] = []  # the lines of the program's switches, in order
-        self._switched_on: list[bool] = [True]  # the limits before the first switch, and after each
+        self._judged = limits  # the limits the kept commands broke: the refusal's value is theirs
 
-    def switch(self, line: int, enabled: bool) -> None:
-        """The program switches the limits on or off at ``line`` (read in order): later lines follow it."""
-        self._switched_at.append(int(line))
-        self._switched_on.append(bool(enabled))
+    def switch(self, limits: CommandLimits, by: str) -> None:
+        """Check the commands from here on against ``limits``, which ``by`` set (a program's line).
 
-    def enabled(self, lines: np.ndarray) -> np.ndarray:
-        """Whether the limits hold at each line, as the program's switches before it leave them, (N,)."""
-        if not self._switched_at:
-            return np.ones(np.shape(lines), dtype=bool)
-        state = np.asarray(self._switched_on)
-        return state[np.searchsorted(np.asarray(self._switched_at), np.asarray(lines), side="left")]
+        Commands already refused keep the refusal's value; later ones are counted and named.
+        """
+        if not self.count:
+            self._judged, self.by = limits, by
+        self.limits = limits
 
     def check(self, commands: np.ndarray, lines: np.ndarray, where=None) -> bool:
         """Check commands as written; keep those refused. Returns whether all pass.
@@ -72,8 +71,6 @@ class RefusedCommands:
         """
         lines = np.asarray(lines)
         bad = (self.limits.outside(commands) != 0) & (lines != 0)
-        if self._switched_at and np.any(bad):
-            bad &= self.enabled(lines)
         if not np.any(bad):
             return True
         index = np.flatnonzero(bad)
@@ -81,7 +78,8 @@ class RefusedCommands:
             k = int(index[0])
             self.first = where(k) if where is not None else f"line {int(lines[k])}"
         room = KEPT_COMMANDS - len(self.lines)
-        self._kept.append(np.asarray(commands, dtype=float)[index[:room]])
+        if self.limits is self._judged:
+            self._kept.append(np.asarray(commands, dtype=float)[index[:room]])
         self.lines.extend(int(v) for v in lines[index[:room]])
         self.count += index.size
         return False
@@ -95,7 +93,9 @@ class RefusedCommands:
         """
         if not self.count:
             return None
-        detail = self.limits.refusal(np.concatenate(self._kept))
+        detail = self._judged.refusal(np.concatenate(self._kept))
+        if self.by:
+            detail += f" (the limits {self.by} set)"
         if self.count > 1:
             lines = sorted(set(self.lines))
             shown = ", ".join(str(n) for n in lines[:10]) + (", ..." if len(lines) > 10 else "")

@@ -21,8 +21,6 @@ does. Where controllers differ, it asks a :class:`Dialect`:
   :class:`CommandRule`): refused by their line where they change the very values the program is
   corrected for (Marlin's G33, M665, M666, M92 X Y Z, M501, M502; RepRapFirmware's G32, M98 of
   ``config-override.g`` ...), or kept with a warning;
-* the M code whose ``S`` switches the controller's limits off (``S0``) and on (Marlin's ``M211``:
-  :attr:`Dialect.limits_switch`), followed for the commands after it;
 * the macros the controller defines (:attr:`Dialect.macros`, by upper-case name), each read for
   where it leaves the nozzle (:class:`MacroEffect`), and how a line names one
   (:meth:`Dialect.command`);
@@ -43,6 +41,7 @@ import shlex
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from types import MappingProxyType
+from typing import Any
 
 __all__ = ["GENERIC", "ArcP", "CommandRule", "Dialect", "LineReading", "MacroEffect", "MacroStep", "Unread",
            "command_params"]
@@ -52,8 +51,6 @@ __all__ = ["GENERIC", "ArcP", "CommandRule", "Dialect", "LineReading", "MacroEff
 _COMMAND = re.compile(r"[ \t]*(?:N[ \t]*[0-9]+[ \t]*)?([A-Z_]+)([^A-Z_*;]*)")
 #: A named command's name, in any case (its parameters follow).
 _NAMED = re.compile(r"[ \t]*(?:[Nn][ \t]*[0-9]+[ \t]*)?[A-Za-z_]+")
-#: The S word of an M code that switches the limits, and its number (``M211 S0``; ``S`` alone is on).
-_SWITCH = re.compile(r"[Ss]\s*([-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))?")
 
 
 class ArcP(enum.Enum):
@@ -112,11 +109,16 @@ class CommandRule:
         warn: Whether the line is kept, with a warning (a bed mesh turned on), rather than refused.
         applies: Whether the rule holds for a line of these parameters (upper-case letter -> the
             text of its value, a quoted string with its quotes); by default, always.
+        limits: How the line changes the controller's limits on its commands (Marlin's ``M211 S1``
+            switches its soft endstops on), or None: ``limits(before, params)`` -> the limits after
+            it (:class:`~deltacal.controller.limits.CommandLimits`, the firmware's model); the line is
+            kept and the commands after it are checked against them (``why`` is then unused).
     """
 
     why: str
     warn: bool = False
     applies: Callable[[Mapping[str, str]], bool] = _always
+    limits: Callable[[Any, Mapping[str, str]], Any] | None = None
 
     @staticmethod
     def given(letters: str) -> Callable[[Mapping[str, str]], bool]:
@@ -125,10 +127,13 @@ class CommandRule:
 
     @staticmethod
     def nonzero(letter: str) -> Callable[[Mapping[str, str]], bool]:
-        """A rule's ``applies``: ``letter`` is given a number other than 0 (``M211 S1``)."""
+        """A rule's ``applies``: ``letter`` is given, alone or with a number other than 0 (``M211 S1``).
+
+        A letter alone is true, as Marlin's ``parser.value_bool()`` reads it (``M420 S``).
+        """
         def applies(params: Mapping[str, str]) -> bool:
             try:
-                return letter in params and float(params[letter] or "0") != 0.0
+                return letter in params and float(params[letter] or "1") != 0.0
             except ValueError:
                 return True  # not a number: the firmware's reading is not known
         return applies
@@ -165,6 +170,9 @@ class MacroEffect:
             expression gives, a malformed command), or "".
         from_line: Whether its steps take the ``NAME`` and ``MOVE`` of the line that calls it
             (Klipper's own ``SAVE_GCODE_STATE`` and ``RESTORE_GCODE_STATE``: :meth:`on_line`).
+        warning: What a warning says of a program's line that calls it (it turns a bed mesh on), or "".
+        warn_with: The parameter the line must give for the warning (``LOAD`` of
+            ``BED_MESH_PROFILE``), or "": always.
     """
 
     name: str
@@ -173,6 +181,8 @@ class MacroEffect:
     builtin: bool = False
     refused: str = ""
     from_line: bool = False
+    warning: str = ""
+    warn_with: str = ""
 
     @property
     def moves(self) -> bool:
@@ -186,6 +196,10 @@ class MacroEffect:
         ``gcmd.get_int('MOVE', 0)``) from the extended parameters (:func:`command_params`); a
         malformed line or a ``MOVE`` that is not an integer stops Klipper's print: refused.
         """
+        if self.warn_with:
+            params = command_params(line)
+            return replace(self, warning=self.warning if params and self.warn_with in params else "",
+                           warn_with="")
         if not self.from_line:
             return self
         params = command_params(line)
@@ -221,8 +235,6 @@ class Dialect:
         rules: What is done with the G and M commands the correction cannot follow, by command
             (``"G33"``, ``"M665"``: upper case, the number without leading zeros).
         lines: How it finds a line's command.
-        limits_switch: The M number whose ``S0`` switches the controller's limits off and ``S1``
-            on (Marlin's soft endstops, ``M211``), or None.
     """
 
     name: str = "generic"
@@ -234,26 +246,11 @@ class Dialect:
     distance_sets_e: bool = False
     rules: Mapping[str, CommandRule] = field(default_factory=lambda: MappingProxyType({}))
     lines: LineReading = LineReading()
-    limits_switch: int | None = None
 
     def with_home(self, home) -> Dialect:
         """The same dialect with where a homing leaves the TCP [mm] (None: unknown)."""
         value = None if home is None else tuple(float(v) for v in home)
         return replace(self, home=value)  # type: ignore[arg-type]
-
-    def switches_limits(self, code: str, words: str) -> bool | None:
-        """Whether an M code's line switches the controller's limits on (True) or off (False), or None.
-
-        Args:
-            code: The M number as written, without leading zeros (``"211"``).
-            words: The line's words after it, its comment cut (``" S0"``).
-        """
-        if self.limits_switch is None or code != str(self.limits_switch):
-            return None
-        value = _SWITCH.search(words)
-        if value is None:  # M211 alone reports the soft endstops
-            return None
-        return value.group(1) is None or float(value.group(1)) != 0.0
 
     def macro(self, line: str) -> MacroEffect | None:
         """The macro a program's line calls (by its command's name, any case), or None."""

@@ -86,7 +86,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -97,7 +97,7 @@ from .dialect import GENERIC, ArcP, CommandRule, Dialect, Unread
 from .homing import FromHome
 from .macros import apply_macro
 from .marker import is_marker
-from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
+from .moves import E_DECIMALS, KEPT, LimitsChange, MoveText, Plan, SingleMove, SplitMove
 from .notes import Notes
 from .path import ARC_RADIUS_TOLERANCE_MM, ARC_TOLERANCE_RATIO, ArcPath, StraightPath, arc_path
 from .source import SUFFIXES, is_gcode_path, opened_lines, read_lines
@@ -213,8 +213,6 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     reader = _Reader(source, float(segment_mm), start, dialect if home is None else dialect.with_home(home))
     read, plain, match_plain = reader.line, reader.plain, _PLAIN.fullmatch
     batch = Batch(correct, source, limits)
-    if batch.refused is not None:
-        reader.switch_limits = batch.refused.switch
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
@@ -238,6 +236,11 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             else:
                 yield from _split_out(batch, plan.plan, number)
             batch.home_move(plan.home, end=True)
+        elif isinstance(plan, LimitsChange):  # the commands after it checked against the limits it sets
+            items.append(line)
+            if batch.refused is not None:
+                yield batch.flush()
+                batch.refused.switch(plan.limits(batch.refused.limits), plan.by)
         else:  # KEPT
             items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
@@ -314,8 +317,6 @@ class _Reader:
         self.g_rules = {float(k[1:]): v for k, v in dialect.rules.items() if k[0] == "G"}
         self.m_rules = {k[1:]: v for k, v in dialect.rules.items() if k[0] == "M"}
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
-        #: The controller's limits switched by a line: ``switch_limits(number, enabled)``, or None.
-        self.switch_limits: Callable[[int, bool], None] | None = None
 
     def fail(self, number: int, detail: str) -> InputError:
         """The error for line ``number``."""
@@ -345,6 +346,8 @@ class _Reader:
             effect = self.dialect.macro(s)
             if effect is not None:  # the controller's macro: where it leaves the nozzle
                 self.refuse(number, apply_macro(self.state, effect, number, self.home, self.start))
+                if effect.warning:
+                    self.notes.add(effect.name, number, f"{s.strip()!r}: {effect.warning}")
                 return KEPT
         if not s or s[0] not in READ:
             if s[:1] == "/":
@@ -362,11 +365,7 @@ class _Reader:
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
             elif m.group(1) in self.m_rules:
-                self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
-            if self.switch_limits is not None:  # Marlin's M211 S0: its soft endstops off
-                switched = self.dialect.switches_limits(m.group(1), split_line(s)[0][m.end():])
-                if switched is not None:
-                    self.switch_limits(number, switched)
+                return self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
             return KEPT
         code, comment, ending = split_line(line)
         parens = ""
@@ -386,13 +385,18 @@ class _Reader:
         if why is not None:
             raise self.fail(number, why)
 
-    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> None:
-        """A command the correction cannot follow: refused, or said (:attr:`Dialect.rules`)."""
-        if not rule.applies(line_params(code)):
-            return
+    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> Plan:
+        """A command the correction cannot follow: refused, said, or limits it sets (``Dialect.rules``)."""
+        params = line_params(code)
+        if not rule.applies(params):
+            return KEPT
+        if rule.limits is not None:
+            change = rule.limits
+            return LimitsChange(lambda before: change(before, params), f"line {number} ({code.strip()})")
         if not rule.warn:
             raise self.fail(number, f"{command}: {rule.why}")
         self.notes.add(command, number, f"{code.strip()!r}: {rule.why}")
+        return KEPT
 
     def check_bytes(self, number: int, line: str, s: str) -> None:
         """Refuse a NUL where the controller ends a line, or a blank before a command it does not skip."""

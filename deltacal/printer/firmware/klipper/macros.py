@@ -23,13 +23,13 @@ the printer knows. An E an expression gives makes the extruder's position unknow
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
 from ....gcode.dialect import MacroEffect, MacroStep, command_params
 from .config import KlipperConfig
 
-__all__ = ["MAX_DEPTH", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
+__all__ = ["MAX_DEPTH", "MESH_ON", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
 
 #: Macros nested deeper than this are not followed (their caller's end is unknown).
 MAX_DEPTH = 10
@@ -40,6 +40,10 @@ MOVING_COMMANDS = frozenset((
     "QUAD_GANTRY_LEVEL", "SCREWS_TILT_CALCULATE", "BED_TILT_CALIBRATE", "MANUAL_PROBE",
     "Z_ENDSTOP_CALIBRATE", "SET_KINEMATIC_POSITION", "FORCE_MOVE", "RESUME",
 ))
+#: What a command that turns Klipper's bed mesh on does (said of the program's line that runs it).
+MESH_ON = ("turns Klipper's bed mesh on: Klipper adds it to every move, on top of deltacal's correction, "
+           "which already holds the bed the calibration measured (the first layer corrected twice): leave "
+           "it out, or send BED_MESH_CLEAR after it")
 #: Why a program's line running one of them leaves the position unknown.
 _COMMAND_UNKNOWN = "it leaves the nozzle where only the printer knows"
 #: A placeholder for the value of a Jinja expression.
@@ -71,6 +75,10 @@ def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
                 for name in MOVING_COMMANDS if not _TRADITIONAL.match(name) and name != "RESUME"}
     for name, step in (("SAVE_GCODE_STATE", MacroStep.SAVE), ("RESTORE_GCODE_STATE", MacroStep.RESTORE)):
         commands[name] = MacroEffect(name, ((step, {}, ""),), builtin=True, from_line=True)
+    commands["BED_MESH_CALIBRATE"] = replace(commands["BED_MESH_CALIBRATE"], warning=f"it probes the bed and "
+                                             f"{MESH_ON}")
+    commands["BED_MESH_PROFILE"] = MacroEffect("BED_MESH_PROFILE", builtin=True, warning=f"it {MESH_ON}",
+                                               warn_with="LOAD")
     return MappingProxyType({**commands, **macros})
 
 
@@ -89,6 +97,7 @@ class _Reading:
     steps: list = field(default_factory=list)
     unknown: str = ""
     refused: str = ""
+    warning: str = ""
 
     def unknowable(self, why: str) -> None:
         if not self.unknown:
@@ -97,6 +106,10 @@ class _Reading:
     def refuse(self, why: str) -> None:
         if not self.refused:
             self.refused = why
+
+    def warn(self, what: str) -> None:
+        if not self.warning:
+            self.warning = what
 
 
 def read_macros(config: KlipperConfig) -> MappingProxyType:
@@ -133,7 +146,8 @@ class _MacroReader:
         reading = _Reading()
         for line in _lines(self.templates[name]):
             self.command(line, reading, (*calling, name))
-        effect = MacroEffect(name, tuple(reading.steps), reading.unknown, refused=reading.refused)
+        effect = MacroEffect(name, tuple(reading.steps), reading.unknown, refused=reading.refused,
+                             warning=reading.warning)
         self.done[name] = effect
         return effect
 
@@ -153,6 +167,9 @@ class _MacroReader:
         elif cmd in self.templates:
             self.nested(cmd, line, reading, calling)
             return
+        loads = cmd == "BED_MESH_PROFILE" and "LOAD" in (command_params(text) or {})
+        if cmd == "BED_MESH_CALIBRATE" or loads:
+            reading.warn(f"it runs {line.text.strip()}, which {MESH_ON}")
         if _TRADITIONAL.match(cmd) and cmd[0] in "GM":
             _traditional(cmd, params, line, reading)
         elif cmd in ("SAVE_GCODE_STATE", "RESTORE_GCODE_STATE"):
@@ -163,6 +180,8 @@ class _MacroReader:
     def nested(self, cmd: str, line: _Line, reading: _Reading, calling: tuple[str, ...]) -> None:
         """A call of another macro."""
         effect = self.effect(cmd, calling)
+        if effect.warning:
+            reading.warn(f"it runs {cmd}: {effect.warning}")
         if not effect.moves:
             return
         if line.conditional:

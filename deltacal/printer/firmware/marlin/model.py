@@ -298,6 +298,10 @@ class MarlinDelta:
         return (f"corrected point at radius {np.hypot(x, y):.4f} mm is beyond the soft endstops' radius "
                 f"{limits.radius:g}{of}: Marlin would clamp it; bring the program nearer the centre")
 
+    def with_soft_endstops(self, enabled: bool) -> MarlinDelta:
+        """The same values with the soft endstops on (``M211 S1``) or off (``M211 S0``)."""
+        return replace(self, soft_endstops=replace(self.soft_endstops, enabled=bool(enabled)))
+
     def with_minimum_z(self, minimum_z: float) -> MarlinDelta:
         """The same values with the soft endstops' Min Z = ``minimum_z`` [mm]."""
         limits = self.soft_endstops

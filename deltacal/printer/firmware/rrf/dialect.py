@@ -10,7 +10,10 @@ What differs from a generic reader, from RRF's source (``src/GCodes``) and its G
   auto-calibration), ``G30`` with ``S`` 0 or more (the calibration of ``bed.g``'s last line),
   ``M665``, ``M666``, ``M669`` with values, ``M92 X Y Z``, the scales and skew of ``M579`` and
   ``M556``, ``M501`` (it runs ``config-override.g``), ``M502`` (``config.g``'s values again) and
-  ``M98`` of ``config.g``, ``config-override.g`` or ``bed.g``.
+  ``M98`` of ``config.g``, ``config-override.g`` or ``bed.g``; ``G29`` that turns the mesh bed
+  compensation on (``G29``, ``S0``, ``S1``) is kept with a warning that says how to turn it off
+  (``G29 S2``); ``M564 S`` (limits on or off) and ``M208`` (``S1 Z`` or ``Zmin:max``: the Z minimum)
+  set the limits the commands after them are checked against.
 
 Units: mm.
 """
@@ -56,6 +59,30 @@ def _runs_config(params: Mapping[str, str]) -> bool:
     return name in _CONFIG_FILES
 
 
+def _loads_mesh(params: Mapping[str, str]) -> bool:
+    """``G29``, ``G29 S0`` (probe, then compensate) or ``G29 S1`` (load the height map); not S2, S3."""
+    return params.get("S", "0").strip() in ("", "0", "1")
+
+
+def _limits_on(before: RRFDelta, params: Mapping[str, str]) -> RRFDelta:
+    """The limits after ``M564 S..``: on or off."""
+    return before.with_limits(CommandRule.nonzero("S")(params))
+
+
+def _minimum_z(before: RRFDelta, params: Mapping[str, str]) -> RRFDelta:
+    """The limits after ``M208 ... Z``: the Z minimum of ``Zmin:max``, or of ``S1 Z`` (else Z is the maximum).
+
+    A value that is not a number (an expression) leaves the minimum as it was.
+    """
+    values = params["Z"].split(":")
+    if len(values) < 2 and params.get("S", "0").strip() != "1":
+        return before  # Z alone (S0, the default): the maximum
+    try:
+        return before.with_minimum_z(float(values[0]))
+    except ValueError:
+        return before
+
+
 def rrf_rules(model: RRFDelta) -> MappingProxyType:
     """The commands of a program that RRF runs and the correction cannot follow (see the module's text).
 
@@ -83,6 +110,14 @@ def rrf_rules(model: RRFDelta) -> MappingProxyType:
         "M502": CommandRule(f"it sets config.g's values again, without config-override.g's: {_INSTEAD}"),
         "M98": CommandRule(f"it runs config.g, config-override.g or bed.g, which set M665 and M666: "
                            f"{_INSTEAD}", applies=_runs_config),
+        "G29": CommandRule("it turns RepRapFirmware's mesh bed compensation on (G29 and G29 S0 probe the "
+                           "bed, G29 S1 loads the height map): RRF adds the mesh to every move, on top of "
+                           "deltacal's correction, which already holds the bed the calibration measured (the "
+                           "first layer corrected twice): leave it out, or send G29 S2 after it", warn=True,
+                           applies=_loads_mesh),
+        "M564": CommandRule("it switches RepRapFirmware's limits on or off", applies=CommandRule.given("S"),
+                            limits=_limits_on),
+        "M208": CommandRule("it sets the axes' limits", applies=CommandRule.given("Z"), limits=_minimum_z),
     })
 
 
