@@ -9,7 +9,7 @@
 * ``endstop_height_mm`` = ``M665 H + sqrt(L_i² − R²) + M666 X Y Z`` (``homedCarriageHeights``) + the
   nozzle drop; ``step_distance_mm`` = ``1 / M92 X Y Z`` at the ``M350`` microstepping;
 * ``[workspace] radius_mm`` = ``M665 B`` (RRF's default 80 without it), never beyond the reach of
-  the rods at the bed, ``min(L) − R``;
+  the rods at the bed with a margin (:func:`~...files.importer.reach_radius`);
 * the bed tilt ``M666 A B`` is RRF's plane of the bed under its model, not a value of a robot
   file, whose printer stands on its bed (z = 0): the file says so. Measurements are taken through
   ``--controller config.g``, whose model has the tilt: the identified printer's true bed is its z
@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...files.importer import ImportedValues, PrinterImport, write_imported
+from ...files.importer import ImportedValues, PrinterImport, reach_radius, within_reach, write_imported
 from .config import read_rrf_settings, rrf_from_settings
 from .model import DEFAULT_PRINT_RADIUS, RRFDelta
 
@@ -38,13 +38,11 @@ def rrf_imported_values(path: str | Path) -> tuple[RRFDelta, ImportedValues]:
     """
     settings = read_rrf_settings(path)
     rrf = rrf_from_settings(settings)
-    radius = rrf.print_radius
     note = "M665 B"
     if "M665 B" not in settings.values:
         note = f"RepRapFirmware's default M665 B{DEFAULT_PRINT_RADIUS:g}"
-    bound = float(np.min(rrf.diagonal)) - rrf.radius
-    if radius > bound:
-        radius, note = bound, f"{note} {rrf.print_radius:g} mm, held to the rods' reach min(L) - R"
+    radius, note = within_reach(rrf.print_radius, note, reach_radius(rrf.diagonal, rrf.radius),
+                                "the rods' reach (a carriage at most 12 times faster than the nozzle)")
     a, b = rrf.tilt * 100.0
     tilt = (f"Bed tilt M666 A{a:g} B{b:g} (percent) of {Path(path).name}: not a robot file value (its "
             "printer stands on its bed, z = 0). identify --controller config.g takes the commanded "
