@@ -142,3 +142,22 @@ def test_a_capture_without_m211_imports_a_workspace_plan_accepts(tmp_path, capsy
     assert main(["plan", str(out / "printer.toml"), "--object", "--controller", str(NO_M211), "-o",
                  str(tmp_path / "plan")]) == 0
     assert (tmp_path / "plan" / "probe.gcode").exists()
+
+
+# ------------------------------------------------------------------ 7: what import says of RRF's values
+def test_an_rrf_import_writes_the_azimuths_as_given_and_no_tilt_it_has_not(tmp_path, capsys):
+    plain = tmp_path / "plain" / "config.g"  # without its '//' line (item 3 aside)
+    plain.parent.mkdir()
+    plain.write_text(MINI_KOSSEL.read_text().replace("// Z probe", "; Z probe"))
+    assert main(["import", str(plain), "-o", str(tmp_path / "a")]) == 0
+    said = capsys.readouterr().out
+    text = (tmp_path / "a" / "printer.toml").read_text()
+    assert "tower_azimuth_deg = [210.0, 330.0, 90.0]" in text
+    assert "tilt" not in said and "Bed tilt" not in text  # no M666 A B: nothing to say of them
+    tilted = tmp_path / "config.g"
+    tilted.write_text(plain.read_text().replace("M666 X0 Y0 Z0", "M666 X0 Y0 Z0 A0.05 B-0.02")
+                      .replace("M665 R105.6 L215.0 B85 H240", "M665 R105.6 L215.0 B85 H240 X-0.2 Y0.1"))
+    assert main(["import", str(tilted), "-o", str(tmp_path / "b")]) == 0
+    assert "its bed tilt M666 A B (0.05, -0.02 %) is not in the file" in capsys.readouterr().out
+    text = (tmp_path / "b" / "printer.toml").read_text()
+    assert "tower_azimuth_deg = [209.8, 330.1, 90.0]" in text and "# Bed tilt M666 A0.05 B-0.02" in text
