@@ -24,6 +24,7 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import load_calibration
+from ..printer.firmware import check_config_firmware
 from ..printer.firmware.base import ErrorFigures, Firmware, FirmwareModel
 from ..printer.firmware.budget import BED_TILT, error_budget
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
@@ -105,6 +106,7 @@ def export_start(args: argparse.Namespace, firmware: Firmware[Any], output: str,
                          f"{values} are a printer's (--controller offsets|limbs serve a rotary Delta)")
     if args.config is not None:
         refuse_deltacal_file(args.config, "--config")
+        check_config_firmware(args.config, firmware)
     config = firmware.read_config(args.config) if args.config is not None else None
     step = step_distance(calibration.geometry.step_distance, config, args,  # type: ignore[arg-type]
                          "geometry.step_distance_mm" if calibration.base else "step_distance_mm")

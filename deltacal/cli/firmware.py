@@ -16,7 +16,7 @@ from typing import Any
 
 from ..exceptions import GeometryError, InputError, UsageError
 from ..geometry import DeltaGeometry
-from ..printer.firmware import config_firmware, firmware_named, firmwares
+from ..printer.firmware import check_config_firmware, config_firmware, firmware_named, firmwares
 from ..printer.firmware.base import Firmware, FirmwareModel
 
 
@@ -25,11 +25,11 @@ def firmware_names() -> tuple[str, ...]:
     return tuple(firmware.name for firmware in firmwares())
 
 
-def add_firmware_argument(p: argparse.ArgumentParser) -> None:
-    """Register ``--firmware``."""
+def add_firmware_argument(p: argparse.ArgumentParser, subject: str = "--controller") -> None:
+    """Register ``--firmware``: the firmware whose file ``subject`` (an option or argument) is."""
     names = firmware_names()
     p.add_argument("--firmware", choices=names, default=None,
-                   help=f"a printer: the firmware whose settings --controller is ({'|'.join(names)}; "
+                   help=f"a printer: the firmware whose settings {subject} is ({'|'.join(names)}; "
                         "default: told from the file's content)")
 
 
@@ -44,6 +44,7 @@ def controller_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
     if name is not None:
         named = firmware_named(name)
         assert named is not None  # argparse's choices are the firmwares' names
+        check_config_firmware(path, named)
         return named
     firmware = config_firmware(path)
     if firmware is None:

@@ -4,10 +4,8 @@
 and, from Klipper's SAVE_CONFIG block's ``[delta_calibrate]``, ``DIR/probe.csv`` and
 ``DIR/distances.csv``; ``deltacal import LOG [--config CONFIG] -o probe.csv`` writes the log's probe
 results (the configuration gives the probe's offsets: Klipper's lines from 2026 need them). The
-kind of input is told by its content, each firmware asked in turn
-(:meth:`~deltacal.printer.firmware.base.Firmware.is_probe_log`, then
-:meth:`~deltacal.printer.firmware.base.Firmware.is_config`); a file none recognises is read as a
-Klipper ``printer.cfg``.
+kind of input is told by its content (:func:`~deltacal.printer.firmware.input_firmware`), or
+``--firmware`` names it; a file none recognises is refused in one line asking for ``--firmware``.
 """
 
 from __future__ import annotations
@@ -19,9 +17,10 @@ from typing import Any
 from ..exceptions import InputError, UsageError
 from ..printer.files.importer import OUTPUT_FILES
 from ..printer.files.measurements import write_probe_heights
-from ..printer.firmware import config_firmware, firmwares, log_firmware
+from ..printer.firmware import input_firmware
 from ..printer.firmware.base import Firmware
 from .common import check_input, check_output, check_output_folder, positive_float
+from .firmware import add_firmware_argument
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,11 +30,9 @@ def run(args: argparse.Namespace) -> int:
         text = Path(args.input).read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise InputError(f"cannot read the file ({exc.strerror})", args.input) from None
-    logged = log_firmware(text)
-    if logged is not None:
-        return _run_log(args, text, logged)
-    # a file no firmware recognises is read as the first firmware's (Klipper's printer.cfg)
-    firmware = config_firmware(args.input) or firmwares()[0]
+    firmware, is_log = input_firmware(args.input, text, args.firmware)
+    if is_log:
+        return _run_log(args, text, firmware)
     if args.config is not None:
         raise UsageError(f"--config applies to a log; {args.input} is read as {firmware.title}'s "
                          "configuration")
@@ -80,16 +77,17 @@ def _run_log(args: argparse.Namespace, text: str, firmware: Firmware[Any]) -> in
 
 def add_parser(sub) -> None:
     """Register ``import``."""
-    p = sub.add_parser("import", help="a printer as it is found: printer.cfg or config.g -> DIR/printer.toml "
-                                      "(+ probe.csv, distances.csv saved by DELTA_CALIBRATE); a log -> "
-                                      "probe.csv")
-    p.add_argument("input", metavar="printer.cfg|config.g|LOG",
-                   help="a Klipper or RepRapFirmware configuration, or a log (klippy.log, a saved console) "
+    p = sub.add_parser("import", help="a printer as it is found: printer.cfg, config.g or an M503 capture -> "
+                                      "DIR/printer.toml (+ probe.csv, distances.csv saved by "
+                                      "DELTA_CALIBRATE); a log -> probe.csv")
+    p.add_argument("input", metavar="printer.cfg|config.g|m503.txt|LOG",
+                   help="a Klipper printer.cfg, a RepRapFirmware config.g, Marlin's settings (the printer's "
+                        "answer to M503, saved from its console), or a log (klippy.log, a saved console) "
                         "with probe results")
     p.add_argument("-o", "--output", required=True, metavar="DIR|probe.csv",
                    help="a configuration: the folder to write into (made if its parent exists); a log: the "
                         "file")
-    p.add_argument("--config", metavar="printer.cfg|config.g",
+    p.add_argument("--config", metavar="printer.cfg|config.g|m503.txt",
                    help="a log: the printer's configuration, for its probe's offsets (Klipper's [probe] "
                         "x_offset, y_offset, z_offset, needed by its 'probe: at X,Y bed will contact at "
                         "z=Z'; RepRapFirmware's G31 X Y Z): each row's trigger_height_mm")
@@ -99,4 +97,5 @@ def add_parser(sub) -> None:
                    help="between the two balls of a pair [mm] (in no configuration; default 50)")
     p.add_argument("--nozzle-drop", type=positive_float, metavar="MM",
                    help="the nozzle below the effector's ball plane [mm] (in no configuration; default 30)")
+    add_firmware_argument(p, "INPUT")
     p.set_defaults(func=run)

@@ -12,8 +12,9 @@
   when the three towers agree, ``[a, b, c]`` otherwise (the azimuths always three);
 * ``nozzle_mm`` = ``[0, 0, −drop]``; the effector radius, the rod spacing and the nozzle drop are
   in no firmware's configuration: given (measured), or defaults that the file names;
-* ``[workspace]``: ``radius_mm`` = the printable radius, ``height_mm`` = the height up to which the
-  full radius is reachable, ``min(carriage top − rod)``.
+* ``[workspace]``: ``radius_mm`` = the printable radius, never beyond what the rods reach with a
+  margin (:func:`reach_radius`), ``height_mm`` = the height up to which the full radius is
+  reachable, ``min(carriage top − rod)``.
 
 Each line names the firmware's words it came from. Units: mm and deg in the file.
 """
@@ -39,6 +40,9 @@ DEFAULT_NOZZLE_DROP = 30.0
 OUTPUT_FILES = ("printer.toml", "probe.csv", "distances.csv")
 #: The options that give what a configuration does not say.
 MEASURED_OPTIONS = "--effector-radius, --rod-spacing, --nozzle-drop"
+#: How much faster than the nozzle a carriage may move at the rim of an imported printable radius
+#: (Klipper's ``4 × SLOW_RATIO``): the rods' reach with a margin (:func:`reach_radius`).
+REACH_SLOPE = 12.0
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,38 @@ class ImportedValues:
     height_words: str
     notes: tuple[str, ...] = ()
     where: str = ""
+
+
+def reach_radius(rods: np.ndarray, rho: float) -> float:
+    """The radius the rods reach at the bed with a margin: ``S min(rods) / sqrt(S² + 1) − ρ`` [mm].
+
+    At ``min(rods) − ρ`` the rod of the tower opposite lies flat (its carriage at the nozzle's
+    height): the rim is not reachable. Held to :data:`REACH_SLOPE` instead, where that rod is
+    ``atan(1/S)`` (4.8°) above flat and its carriage moves ``S`` times faster than the nozzle, the
+    bound Klipper puts on its own radius (``ratio_to_xy(4 × SLOW_RATIO)``).
+
+    Args:
+        rods: Each tower's rod [mm], (3,).
+        rho: ρ, carriage point to effector point, horizontal [mm].
+    """
+    return REACH_SLOPE * float(np.min(rods)) / math.hypot(REACH_SLOPE, 1.0) - rho
+
+
+def within_reach(radius: float, words: str, bound: float, reach: str) -> tuple[float, str]:
+    """A printable radius held to what the rods reach (:func:`reach_radius`), and where it came from.
+
+    Args:
+        radius: The firmware's printable radius [mm] (its print radius, soft limits...).
+        words: Where it came from (``"print_radius"``).
+        bound: The radius the rods reach [mm].
+        reach: The words for the bound (``"Klipper's reach ..."``).
+
+    Returns:
+        The radius [mm] and its words: ``words`` when within the reach, else the reach and both said.
+    """
+    if radius > bound:
+        return bound, f"{words} {radius:g} mm, held to {reach} {bound:.6g} mm"
+    return radius, words
 
 
 def printer_file_text(values: ImportedValues, measured: Measured) -> str:

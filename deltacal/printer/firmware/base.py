@@ -241,7 +241,14 @@ class Firmware(ABC, Generic[ModelT]):
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
-        """Whether a file (a command's ``--controller``) is this firmware's configuration."""
+        """Whether a file (a command's ``--controller``) is this firmware's configuration by its content."""
+
+    def is_config_name(self, path: str | Path) -> bool:
+        """Whether a file's name alone says it is this firmware's configuration (none by default).
+
+        Asked only when no firmware recognises the file by its content (:meth:`is_config`).
+        """
+        return False
 
     @abstractmethod
     def read_config(self, path: str | Path) -> ModelT:
@@ -448,7 +455,19 @@ class Firmware(ABC, Generic[ModelT]):
         return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])
 
     def is_probe_log(self, text: str) -> bool:
-        """Whether a file's text is a log of this firmware with its probe results (none by default)."""
+        """Whether a file's text is a log of this firmware: its probe results, or marks only a log has.
+
+        None by default.
+        """
+        return False
+
+    def is_console(self, text: str) -> bool:
+        """Whether a file's text has the marks of this firmware's console that other files may share too.
+
+        (Klipper's ``// `` lines: a RepRapFirmware ``config.g`` or a Marlin ``Configuration.h`` may
+        hold one.) Asked only when no firmware recognises the file as a configuration by its content.
+        None by default.
+        """
         return False
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,

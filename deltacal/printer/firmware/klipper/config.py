@@ -72,6 +72,8 @@ BOUNDS: dict[tuple[str, str], Bound] = {
 
 #: A Klipper configuration's ``[printer]`` section header, on a line of its own.
 _PRINTER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
+#: What opens the configuration ``klippy.log`` holds (a log, not a configuration).
+_LOG_DUMP = re.compile(r"^(?:===== Config file =====|Start printer at)", re.MULTILINE)
 _COMMENT = re.compile(r"[#;].*$")
 _FIELD = re.compile(r"[^A-Za-z0-9_].*$")
 
@@ -139,15 +141,23 @@ class KlipperConfig:
 
 
 def is_klipper_config(path: str | Path) -> bool:
-    """Whether a file is a Klipper configuration: named ``*.cfg``, or with a ``[printer]`` section."""
-    if Path(path).suffix.lower() == ".cfg":
-        return True
+    """Whether a file is a Klipper configuration by its content: a ``[printer]`` section, and not a log.
+
+    (``klippy.log`` holds its configuration after ``===== Config file =====``.)
+    """
+    if input_problem(path) is not None:
+        return False  # the reader of the file taken instead names the problem
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
             head = f.read(1 << 16)
     except OSError:
-        return False  # the reader of the file taken instead names the problem
-    return _PRINTER_SECTION.search(head) is not None
+        return False
+    return _PRINTER_SECTION.search(head) is not None and _LOG_DUMP.search(head) is None
+
+
+def is_klipper_config_name(path: str | Path) -> bool:
+    """Whether a file is named as a Klipper configuration is: ``*.cfg``."""
+    return Path(path).suffix.lower() == ".cfg"
 
 
 def read_klipper_config(path: str | Path) -> KlipperConfig:

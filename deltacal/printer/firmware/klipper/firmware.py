@@ -31,13 +31,14 @@ from .config import (
     APPLY_NOTE,
     KlipperConfig,
     is_klipper_config,
+    is_klipper_config_name,
     klipper_config_text,
     load_klipper,
     read_klipper_config,
 )
 from .fit import fit_klipper
 from .importer import import_klipper, write_import
-from .log import is_probe_log, probe_offsets, read_probe_log
+from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program, klipper_probe_travel
@@ -61,8 +62,12 @@ class Klipper(Firmware[KlipperDelta]):
     apply_note: ClassVar[str] = APPLY_NOTE
 
     def is_config(self, path: str | Path) -> bool:
-        """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
+        """A file with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
         return is_klipper_config(path)
+
+    def is_config_name(self, path: str | Path) -> bool:
+        """A ``*.cfg`` file (:func:`~.config.is_klipper_config_name`)."""
+        return is_klipper_config_name(path)
 
     def read_config(self, path: str | Path) -> KlipperDelta:
         """``printer.cfg`` read as Klipper reads it (:func:`~.config.load_klipper`)."""
@@ -135,8 +140,12 @@ class Klipper(Firmware[KlipperDelta]):
                        lines=KLIPPER_LINES)
 
     def is_probe_log(self, text: str) -> bool:
-        """Klipper's probe results, or a log's or a console's marks (:func:`~.log.is_probe_log`)."""
+        """Klipper's probe results, or a log's marks (:func:`~.log.is_probe_log`)."""
         return is_probe_log(text)
+
+    def is_console(self, text: str) -> bool:
+        """A console's ``// `` lines (:func:`~.log.is_console`)."""
+        return is_console(text)
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,
                        text: str | None = None) -> ProbeLog:

@@ -27,7 +27,8 @@ from ....exceptions import InputError
 from ..probe_log import ProbeLog, ProbeOffsets, log_text, probe_log
 from .config import PROBE_SECTIONS, KlipperConfig
 
-__all__ = ["PROBE_SECTIONS", "ProbeLog", "ProbeOffsets", "is_probe_log", "probe_offsets", "read_probe_log"]
+__all__ = ["PROBE_SECTIONS", "ProbeLog", "ProbeOffsets", "is_console", "is_probe_log", "probe_offsets",
+           "read_probe_log"]
 
 _NUMBER = r"([-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)"
 #: Klipper's answer to a probe before 2026: the toolhead's position.
@@ -43,7 +44,10 @@ _DROPPED = re.compile(r"Probe samples exceed (?:tolerance\. Retrying|samples_tol
 #: What forks add to a result they do not keep.
 _DISCARDED = re.compile(r"\[discarded\]|SKIPPED", re.IGNORECASE)
 #: A line only a log or a console has: Klipper's start banner or its config dump, or a console's ``// ``.
-_LOG_MARK = re.compile(r"^(?:Start printer at|===== Config file =====|// |\$ |Args: )", re.MULTILINE)
+_LOG_MARK = re.compile(r"^(?:Start printer at|===== Config file =====|Args: )", re.MULTILINE)
+#: A console's marks (Mainsail's or Fluidd's ``// `` answers, a ``$ `` command): a RepRapFirmware
+#: ``config.g`` or a Marlin ``Configuration.h`` may have ``//`` lines too.
+_CONSOLE_MARK = re.compile(r"^(?:// |\$ )", re.MULTILINE)
 
 
 def probe_offsets(config: KlipperConfig) -> ProbeOffsets:
@@ -65,9 +69,14 @@ def probe_offsets(config: KlipperConfig) -> ProbeOffsets:
 
 
 def is_probe_log(text: str) -> bool:
-    """Whether a file's text is a log (Klipper's or a console's), told by its content."""
+    """Whether a file's text is Klipper's log: its probe results, or the marks only ``klippy.log`` has."""
     return any(pattern.search(text) is not None
                for pattern in (PROBE_RESULT, PROBE_CONTACT, PROBE_ESTIMATE, _LOG_MARK))
+
+
+def is_console(text: str) -> bool:
+    """Whether a file's text has a console's ``// `` (or ``$ ``) lines, which other files may have too."""
+    return _CONSOLE_MARK.search(text) is not None
 
 
 def read_probe_log(path: str | Path, text: str | None = None,

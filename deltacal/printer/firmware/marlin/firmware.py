@@ -49,7 +49,7 @@ class Marlin(Firmware[MarlinDelta]):
     apply_note: ClassVar[str] = APPLY_NOTE
 
     def is_config(self, path: str | Path) -> bool:
-        """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""
+        """An ``M503`` capture, or a ``Configuration.h`` (:func:`~.settings.is_marlin_settings`)."""
         return is_marlin_settings(path)
 
     def read_config(self, path: str | Path) -> MarlinDelta:

@@ -43,6 +43,7 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
+from ....io.inputs import input_problem
 from ..bounds import (
     ADJUSTMENT,
     LENGTH,
@@ -189,7 +190,7 @@ def parse_line(text: str, source: str, number: int) -> RRFLine | None:
 
 def is_rrf_config(path: str | Path) -> bool:
     """Whether a file is a RepRapFirmware configuration: a ``*.g`` file that sets M665 or M669."""
-    if Path(path).suffix.lower() != ".g":
+    if Path(path).suffix.lower() != ".g" or input_problem(path) is not None:
         return False
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
