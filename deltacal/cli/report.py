@@ -6,12 +6,13 @@ import argparse
 
 import numpy as np
 
-from ..exceptions import InputError
+from ..exceptions import InputError, UsageError
 from ..identification.quality import implausible_deviations
 from ..io import load_calibration, load_geometry
 from ..report import write_report
 from ..robots import load_robot
 from .common import check_input, check_output, non_negative_float, three_numbers, warn
+from .firmware import add_firmware_argument, check_printer_values, controller_firmware
 
 
 def tool_vector(text: str) -> np.ndarray:
@@ -21,12 +22,13 @@ def tool_vector(text: str) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal report``; returns the exit status."""
-    inputs = [args.calibration, args.measurements, args.truth, args.robot]
+    inputs = [args.calibration, *(args.measurements or ()), args.truth, args.robot, args.controller]
     for path in inputs:
         if path is not None:
             check_input(path)
     check_output(args.output, inputs)
     calibration = load_calibration(args.calibration)
+    controller = _controller(args, calibration)
     nominal = calibration.nominal
     truth = load_geometry(args.truth) if args.truth is not None else None
     robot = load_robot(args.robot) if args.robot is not None else None
@@ -48,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
         payload=args.payload,
         workspace=workspace,
         view=not args.no_view,
+        controller=controller,
     )
     warn(summary.warnings)
     w = summary.worst_point
@@ -55,6 +58,23 @@ def run(args: argparse.Namespace) -> int:
           f"({w[0]:.1f}, {w[1]:.1f}, {w[2]:.1f}) mm")
     print(f"wrote {args.output}")
     return 0
+
+
+def _controller(args: argparse.Namespace, calibration):
+    """A printer's firmware values its measurements were commanded with (``--controller``), or None."""
+    if not calibration.geometry.chain.firmware:
+        if args.controller is not None:
+            raise UsageError("--controller applies to a printer's calibration (its measurements' firmware)")
+        return None
+    if args.measurements and args.controller is None:
+        raise UsageError(f"{args.calibration}: a printer's measurements are of commanded positions: give "
+                         "--controller printer.cfg|config.g|M503.txt (the settings they were made with)")
+    if args.controller is None:
+        return None
+    kind = controller_firmware(args.controller, args.firmware)
+    model = kind.read_config(args.controller)
+    check_printer_values(kind, calibration.geometry, model, args.calibration, args.controller)
+    return model
 
 
 def add_parser(sub) -> None:
@@ -71,8 +91,13 @@ def add_parser(sub) -> None:
     )
     p.add_argument("calibration", metavar="CALIBRATION.toml", help="calibration file written by identify")
     p.add_argument("-o", "--output", required=True, metavar="REPORT.html", help="HTML file to write")
-    p.add_argument("--measurements", metavar="MEAS.csv",
-                   help="the measurements the calibration was identified from (residual plots)")
+    p.add_argument("--measurements", metavar="MEAS.csv", nargs="+",
+                   help="the measurements the calibration was identified from (residual plots); a printer's "
+                        "probe.csv and distances.csv, with --controller")
+    p.add_argument("--controller", metavar="SETTINGS",
+                   help="a printer: the firmware's settings its measurements were made with (printer.cfg, "
+                        "config.g, an M503 capture)")
+    add_firmware_argument(p)
     p.add_argument("--truth", metavar="TRUE.toml",
                    help="true geometry of a simulation (simulate --perturb writes MEAS.truth.toml): actual "
                         "TCP errors beside the predicted σ")

@@ -10,8 +10,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -34,6 +36,9 @@ from .controllers import ControllerRoutes, controller_routes
 from .deflection import deflection_map
 from .html import Page, render_page
 from .residuals import MeasurementResiduals, measurement_residuals
+
+if TYPE_CHECKING:
+    from ..printer.firmware.base import FirmwareModel
 
 
 @dataclass(frozen=True)
@@ -76,7 +81,7 @@ def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, 
 def write_report(
     calibration: Calibration | str | Path,
     output: str | Path,
-    measurements: str | Path | None = None,
+    measurements: str | Path | Sequence[str | Path] | None = None,
     truth: DeltaGeometry | None = None,
     truth_source: str | None = None,
     tool: np.ndarray | None = None,
@@ -84,13 +89,15 @@ def write_report(
     view: bool = True,
     grid: int = 41,
     payload: float = 0.0,
+    controller: FirmwareModel | None = None,
 ) -> ReportSummary:
     """Write the HTML report of a calibration, atomically.
 
     Args:
         calibration: The calibration, or its file (written by ``deltacal identify``; read first).
         output: The HTML file to write.
-        measurements: The measurement CSV the calibration was identified from (residual plots).
+        measurements: The measurement CSV the calibration was identified from (residual plots); a
+            printer's: its probe heights and distances files.
         truth: The true geometry (simulations): actual TCP errors beside the predicted σ.
         truth_source: Where the truth came from (shown).
         tool: TCP in the plate frame for the accuracy map [mm] (default: the calibration's).
@@ -99,6 +106,8 @@ def write_report(
         grid: Points along each side of a slice.
         payload: For a calibration that identified compliances: the payload [kg] whose TCP
             deflection the report maps (beside the robot's own weight).
+        controller: A printer's firmware values its measurements were commanded with (its
+            ``--controller`` settings), for their residuals.
 
     Returns:
         A summary of what was written.
@@ -117,7 +126,7 @@ def write_report(
     warnings: list[str] = []
     res: MeasurementResiduals | None = None
     if measurements is not None:
-        res = measurement_residuals(cal, measurements)
+        res = measurement_residuals(cal, measurements, controller)
         warnings += list(res.warnings)
     amap = accuracy_map(cal, ws, tool, truth, grid)
     svg = {
@@ -133,13 +142,20 @@ def write_report(
     scene, note = _scene(cal, ws) if view else (None, "3-D view left out.")
     page = Page(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
-        measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
+        measurements_source=_file_names(measurements), workspace_text=ws_text,
         scene_html=scene, scene_note=note, warnings=warnings, controllers=controller_routes(cal, amap, truth),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
     )
     path = Path(output)
     atomic_write_text(path, render_page(page))
     return ReportSummary(path, amap.worst, amap.worst_point, tuple(svg), tuple(warnings))
+
+
+def _file_names(paths: str | Path | Sequence[str | Path] | None) -> str | None:
+    """The measurement files as the page names them (one, or several separated by commas)."""
+    if paths is None:
+        return None
+    return str(paths) if isinstance(paths, str | Path) else ", ".join(str(p) for p in paths)
 
 
 __all__ = [

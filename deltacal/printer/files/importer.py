@@ -16,18 +16,22 @@
   margin (:func:`reach_radius`), ``height_mm`` = the height up to which the full radius is
   reachable, ``min(carriage top − rod)``.
 
-Each line names the firmware's words it came from. Units: mm and deg in the file.
+Each line names the firmware's words it came from. A folder that holds an output this import does
+not write (another printer's ``probe.csv``, say) is refused before anything is written
+(:func:`check_stale_outputs`): left beside the new ``printer.toml`` it would be taken for its
+measurements. Units: mm and deg in the file.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, UsageError
 from ...io.atomic import atomic_write_text
 from ...io.toml import toml_value
 from ...towers import written_per_tower
@@ -205,8 +209,32 @@ def write_imported(folder: str | Path, values: ImportedValues, effector_radius: 
         InputError: no printable volume above the bed.
     """
     measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
+    check_stale_outputs(folder, OUTPUT_FILES[:1], "its configuration holds no measurements")
     written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
     return written, f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+
+
+def check_stale_outputs(folder: str | Path, writes: Sequence[str], why: str) -> None:
+    """Refuse a folder holding outputs of ``deltacal import`` that this import does not write.
+
+    A ``probe.csv`` or ``distances.csv`` of an earlier import (another printer's, or measurements the
+    configuration no longer holds), left beside the new ``printer.toml``, would be identified as its
+    measurements; deleting it could lose a user's file. Nothing is written.
+
+    Args:
+        folder: The output folder.
+        writes: The names of :data:`OUTPUT_FILES` this import writes.
+        why: Why it writes no others (``"its configuration holds no measurements"``).
+
+    Raises:
+        UsageError: naming the folder and each file left over.
+    """
+    stale = [name for name in OUTPUT_FILES if name not in writes and (Path(folder) / name).exists()]
+    if stale:
+        them = " and ".join(stale)
+        raise UsageError(f"{folder}: holds {them}, which this import does not write ({why}): left beside "
+                         f"the new {OUTPUT_FILES[0]} they would be taken for its measurements; move or "
+                         f"delete {'them' if len(stale) > 1 else 'it'}, or import into another folder")
 
 
 @dataclass(frozen=True)

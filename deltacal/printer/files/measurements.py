@@ -256,3 +256,21 @@ def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.nd
         fields = [repr(float(v)) for v in row] + [csv_field(one), csv_field(two)]
         lines.append(",".join([*fields, "" if np.isnan(value) else repr(float(value))]))
     return atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def printer_file_kind(path: str | Path) -> str | None:
+    """What a printer's measurement file holds, by its header: ``"probe"``, ``"distances"``, or None.
+
+    A file with the pairs' columns (``x1_mm..z2_mm``) holds distances; one with ``x_mm``, ``y_mm``
+    probe heights; anything else (a rotary Delta's measurements: ``q1_deg...``) neither. A file that
+    cannot be read is None (its reader names the problem).
+    """
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            line = next((text for text in handle if text.strip()), "")
+    except (OSError, UnicodeDecodeError):
+        return None
+    columns = {name.strip().strip('"') for name in line.split(",")}
+    if set(PAIR_COLUMNS) <= columns:
+        return "distances"
+    return "probe" if set(PROBE_COLUMNS[:2]) <= columns else None

@@ -36,6 +36,7 @@ from ...files.importer import (
     OUTPUT_FILES,
     ImportedValues,
     Measured,
+    check_stale_outputs,
     printer_file_text,
     within_reach,
     write_printer_file,
@@ -138,10 +139,17 @@ def write_import(imported: ImportedPrinter, out_dir: str | Path) -> list[Path]:
 
     Returns:
         The files written.
+
+    Raises:
+        UsageError: the folder holds ``probe.csv`` or ``distances.csv`` not written here
+            (:func:`~deltacal.printer.files.importer.check_stale_outputs`).
     """
     out = Path(out_dir)
-    written = [write_printer_file(out / OUTPUT_FILES[0], imported.values, imported.measured)]
     saved = imported.saved
+    writes = [OUTPUT_FILES[0]] + [name for name, rows in zip(OUTPUT_FILES[1:], (saved.height, saved.distance),
+                                                             strict=True) if rows.size]
+    check_stale_outputs(out, writes, "its SAVE_CONFIG block holds no [delta_calibrate] measurements of them")
+    written = [write_printer_file(out / OUTPUT_FILES[0], imported.values, imported.measured)]
     if saved.height.size:
         written.append(write_probe_heights(out / OUTPUT_FILES[1], imported.probe[:, :2], imported.probe[:, 2],
                                            trigger_height=saved.height))
