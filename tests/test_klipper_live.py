@@ -73,7 +73,8 @@ def _smooth_field(step: float = 10.0) -> CorrectionField:
 def _grid(field: CorrectionField) -> live.CorrectionGrid:
     """The module's grid of a field, as the section gives it (its values in nm)."""
     values = live.decode_values("\n".join(_encoded(field)), ValueError)
-    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, [1e-4], 1e-6)
+    curvature = [[1e-4] * field.shape[2]]
+    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6)
 
 
 def _encoded(field: CorrectionField) -> list[str]:
@@ -112,13 +113,18 @@ def test_the_modules_inverse_is_exact_and_never_raises():
 
 def test_long_moves_are_cut_to_keep_the_chord_within_tolerance():
     grid = _grid(_smooth_field())
-    grid.curvature = [1e-4] * 6 + [1e-3]  # per ring of 10 mm
+    layers = grid.nz
+    grid.curvature = [[1e-4] * layers] * 6 + [[1e-3] * layers]  # per ring of 10 mm
+    grid.curvature[2] = [1e-4] * 12 + [0.1] * (layers - 12)  # high above z = 70 mm there
     # within radius 50: s^2 K / 8 <= 0.005 -> segments of 20 mm
     assert grid.segments([0, 0, 1, 0], [40.0, 0, 1, 0], 0.005) == 2
     assert grid.segments([0, 0, 1, 0], [5.0, 0, 1, 0], 0.005) == 1
     assert grid.segments([0, 0, 1, 0], [0, 0, 1, 5], 0.005) == 1  # extrusion alone
     # its larger radius sets the bound (K 1e-3 beyond 50 mm: segments of 6.3 mm)
     assert grid.segments([30.0, 0, 1, 0], [55.0, 0, 1, 0], 0.005) == 4
+    # the layers of its heights set it too
+    assert grid.segments([5.0, 0, 1, 0], [15.0, 0, 1, 0], 0.005) == 1
+    assert grid.segments([5.0, 0, 100, 0], [15.0, 0, 100, 0], 0.005) == 16
 
 
 class _Section:
@@ -172,7 +178,8 @@ def test_the_section_reads_back_into_the_module():
 
 @pytest.mark.parametrize(("change", "message"), [
     (("format: deltacal-klipper-live-1", "format: deltacal-klipper-live-9"), "this module reads"),
-    (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "values, expected"),
+    (("grid_shape: 21, 21, 17", "grid_shape: 20, 21, 17"), "values, expected"),
+    (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "key split_curvature"),
     (("correction:\n  eN", "correction:\n  #N"), "key correction"),
 ])
 def test_a_broken_section_is_refused_naming_its_key(change, message):
@@ -326,7 +333,7 @@ def _transform():
 
 def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
     module, toolhead, _ = _transform()
-    module.grid.curvature = [4e-4] * len(module.grid.curvature)  # segments of 10 mm at most
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)  # segments of 10 mm
     start = list(module.last_position)
     module.move([start[0] + 60.0, start[1], start[2], 3.0], 50.0)
     sent = np.array(toolhead.moves)
@@ -342,7 +349,7 @@ def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
 def test_a_move_out_of_klippers_limits_once_corrected_is_refused_whole():
     module, toolhead, _ = _transform()
     module.limits.max_xy = 40.0  # a tight print_radius
-    module.grid.curvature = [4e-4] * len(module.grid.curvature)
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
     start = module.last_position
     # its end at radius 39.97 mm is inside, its corrected end beyond 40 mm
     end = [39.97, 0.0, 40.0, 0.0]

@@ -180,14 +180,16 @@ def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperD
              "split_tolerance": f"{SPLIT_TOLERANCE_MM:g}",
              "grid_origin": ", ".join(_number(x) for x in field.origin), "grid_step": _number(field.step),
              "grid_shape": ", ".join(str(n) for n in field.shape),
-             "split_curvature": ", ".join(f"{k:.3g}" for k in curvature_bound(field)),
              "correction_unit": f"{VALUE_UNIT_MM:g}"}
+    bound = curvature_bound(field)
     lines = ["# deltacal's live correction: the [deltacal_geometry] section deltacal_geometry.py reads.",
              f"# To install: {INSTALL_NOTE}.",
              "# Computed for the Klipper values below: the module refuses to start under others (export "
              "again).",
              *(f"# {line}" for line in notes), "", "[deltacal_geometry]",
              *(f"{key}: {value}" for key, value in keys.items()),
+             "# split_curvature: per ring of grid_step (from the axis), the bound at each z node [1/mm]",
+             "split_curvature:", *("  " + ", ".join(f"{k:.3g}" for k in row) for row in bound),
              "# correction: base64 of the zlib-compressed little-endian int32 values (in correction_unit), "
              "3 per node, x slowest, then y, z, the component fastest",
              "correction:", *("  " + line for line in encode_values(field.values))]
