@@ -636,7 +636,7 @@ def bench_printer(setup: Setup) -> list[Row]:
 
 
 def bench_klipper_live(setup: Setup) -> list[Row]:
-    """Klipper's batch run of one program: baseline, with bed_mesh, with the live module (bench_klipper_live.py)."""
+    """Klipper's batch run of a program: baseline, bed_mesh, the live module (bench_klipper_live.py)."""
     from bench_klipper_live import live_rows
 
     return [Row(*row) for row in live_rows(max(3, setup.repeat), SEED)]
