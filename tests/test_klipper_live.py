@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from deltacal.cli import main
+from deltacal.exceptions import GeometryError
 from deltacal.gcode.marker import MARKER
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration, save_calibration
@@ -36,8 +37,15 @@ from deltacal.kinematics import exact
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
 from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FILE, module_text, section_text
-from deltacal.printer.firmware.klipper.live.field import CorrectionField, LiveVolume, SamplingError
-from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.firmware.klipper.live.field import (
+    CorrectionField,
+    LiveVolume,
+    SamplingError,
+    correction_field,
+    exact_correction,
+    sampling_error,
+)
+from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
 from deltacal.printer.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
@@ -395,6 +403,34 @@ def test_get_position_never_raises():
         assert module.get_position()[2] == made_up[2] or math.isnan(made_up[0])
 
 
+def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_holds():
+    """At its nodes in the volume the field is the exact correction; a weight function multiplies it."""
+
+    truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
+    firmware = KlipperDelta.from_printer(PRINTER)
+    controller = KlipperController(firmware, STEP)
+    volume = LiveVolume(30.0, 0.0, 30.0, firmware.limit_z, firmware.delta_radius, 269.0, 25.0)
+    field = correction_field(truth, controller, volume, step=10.0)
+    nx, ny, nz = field.shape
+    axes = [field.origin[k] + 10.0 * np.arange(n) for k, n in enumerate((nx, ny, nz))]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = volume.distance(nodes) == 0.0
+    exact_values = exact_correction(truth, controller, nodes[inside])
+    assert np.allclose(field.values.reshape(-1, 3)[inside], exact_values, rtol=0.0, atol=1e-12)
+    assert np.max(np.abs(field.values)) > 0.1 and not np.any(field.values[[0, -1]])  # 0 at the border
+    error = sampling_error(field, truth, controller, count=300)
+    assert error.points == 300 and error.max < 0.002
+
+    def holds(points):  # where a calibration holds: x > 10 mm fully, nothing below x = -10 mm
+        return np.clip((points[:, 0] + 10.0) / 20.0, 0.0, 1.0)
+
+    weighted = correction_field(truth, controller, volume, step=10.0, weight=holds)
+    assert np.allclose(weighted.values.reshape(-1, 3), field.values.reshape(-1, 3) * holds(nodes)[:, None],
+                       rtol=0.0, atol=1e-12)
+    with pytest.raises(GeometryError, match=r"in \[0, 1\]"):
+        correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
+
+
 # ------------------------------------------------------------------ the real Klipper
 @pytest.fixture(scope="session")
 def klipper(tmp_path_factory) -> Path:
@@ -640,6 +676,7 @@ def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_err
     # far below the calibration's sigma where Klipper prints at full speed, and stated
     assert int(error[1]) > 3000 and float(error[2]) < 0.002 and float(error[4]) < 0.05
     assert "to install: copy deltacal_geometry.py into klippy/extras/" in said
+    print("\n" + said)
     text = (out / SECTION_FILE).read_text(encoding="utf-8")
     assert f"sampling_error: max {error[2]} mm within radius {error[3]} mm" in text
 
@@ -826,23 +863,15 @@ def test_klipper_values_other_than_the_corrections_are_refused_at_start(kossel, 
 
 def _beyond_the_rim(kossel) -> np.ndarray:
     """A point of Klipper's volume at its rim whose corrected command Klipper's radius refuses [mm]."""
-    from deltacal.printer.firmware.klipper.live.field import exact_correction
-
     firmware = kossel["firmware"]
     angle = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
     rim = firmware.max_radius - 0.05
     points = np.column_stack([rim * np.cos(angle), rim * np.sin(angle), np.full(angle.size, 20.0)])
-    controller = firmware_controller(kossel)
+    controller = KlipperController(firmware, STEP)
     commands = points + exact_correction(load_calibration(kossel["calibration"]), controller, points)
     beyond = np.hypot(commands[:, 0], commands[:, 1]) > firmware.max_radius + 0.01
     assert np.any(beyond)
     return points[np.flatnonzero(beyond)[0]]
-
-
-def firmware_controller(kossel):
-    from deltacal.printer.firmware.klipper.model import KlipperController
-
-    return KlipperController(kossel["firmware"], STEP)
 
 
 @pytest.mark.slow

@@ -29,6 +29,7 @@ from .deltacal_geometry import FORMAT, TOWERS
 from .field import (
     COVERAGE_NODES,
     DEFAULT_STEP_MM,
+    TRUST_NODES,
     CorrectionField,
     LiveVolume,
     SamplingError,
@@ -119,8 +120,9 @@ def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta
     nx, ny, nz = field.shape
     lines = [f"correction field: grid {field.step:g} mm, {nx} x {ny} x {nz} nodes over Klipper's volume "
              f"(radius {v.radius:.2f} mm, z {v.min_z:g} to {v.max_z:.2f} mm), Catmull-Rom interpolation; "
-             f"{field.refused} nodes near it refused by the library (out of the printer's reach or near a "
-             "singularity): the correction blends to Klipper's own command there",
+             f"{field.refused} nodes of it, or within {TRUST_NODES * field.step:g} mm of it, refused by the "
+             "library (out of the printer's reach, near a singularity): the correction blends to Klipper's "
+             "own command there",
              f"sampling error against the exact correction at {error.points} points of the volume: max "
              f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm (where Klipper moves at "
              f"full speed), {error.max:.4f} mm out to the rim (Klipper's model nears a flat rod there); RMS "
