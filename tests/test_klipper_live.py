@@ -31,6 +31,7 @@ from deltacal.printer.plan import plan_object
 from deltacal.printer.robot_file import load_printer
 
 from deltacal.cli import main
+from deltacal.exceptions import GeometryError
 from deltacal.gcode.marker import MARKER
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration, save_calibration
@@ -38,8 +39,15 @@ from deltacal.kinematics import exact
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
 from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FILE, module_text, section_text
-from deltacal.printer.firmware.klipper.live.field import CorrectionField, LiveVolume, SamplingError
-from deltacal.printer.firmware.klipper.model import KlipperDelta
+from deltacal.printer.firmware.klipper.live.field import (
+    CorrectionField,
+    LiveVolume,
+    SamplingError,
+    correction_field,
+    exact_correction,
+    sampling_error,
+)
+from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
 from deltacal.printer.robot import less_bed_motion
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
@@ -73,7 +81,8 @@ def _smooth_field(step: float = 10.0) -> CorrectionField:
 def _grid(field: CorrectionField) -> live.CorrectionGrid:
     """The module's grid of a field, as the section gives it (its values in nm)."""
     values = live.decode_values("\n".join(_encoded(field)), ValueError)
-    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, [1e-4], 1e-6)
+    curvature = [[1e-4] * field.shape[2]]
+    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6)
 
 
 def _encoded(field: CorrectionField) -> list[str]:
@@ -112,13 +121,18 @@ def test_the_modules_inverse_is_exact_and_never_raises():
 
 def test_long_moves_are_cut_to_keep_the_chord_within_tolerance():
     grid = _grid(_smooth_field())
-    grid.curvature = [1e-4] * 6 + [1e-3]  # per ring of 10 mm
+    layers = grid.nz
+    grid.curvature = [[1e-4] * layers] * 6 + [[1e-3] * layers]  # per ring of 10 mm
+    grid.curvature[2] = [1e-4] * 12 + [0.1] * (layers - 12)  # high above z = 70 mm there
     # within radius 50: s^2 K / 8 <= 0.005 -> segments of 20 mm
     assert grid.segments([0, 0, 1, 0], [40.0, 0, 1, 0], 0.005) == 2
     assert grid.segments([0, 0, 1, 0], [5.0, 0, 1, 0], 0.005) == 1
     assert grid.segments([0, 0, 1, 0], [0, 0, 1, 5], 0.005) == 1  # extrusion alone
     # its larger radius sets the bound (K 1e-3 beyond 50 mm: segments of 6.3 mm)
     assert grid.segments([30.0, 0, 1, 0], [55.0, 0, 1, 0], 0.005) == 4
+    # the layers of its heights set it too
+    assert grid.segments([5.0, 0, 1, 0], [15.0, 0, 1, 0], 0.005) == 1
+    assert grid.segments([5.0, 0, 100, 0], [15.0, 0, 100, 0], 0.005) == 16
 
 
 class _Section:
@@ -172,7 +186,8 @@ def test_the_section_reads_back_into_the_module():
 
 @pytest.mark.parametrize(("change", "message"), [
     (("format: deltacal-klipper-live-1", "format: deltacal-klipper-live-9"), "this module reads"),
-    (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "values, expected"),
+    (("grid_shape: 21, 21, 17", "grid_shape: 20, 21, 17"), "values, expected"),
+    (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "key split_curvature"),
     (("correction:\n  eN", "correction:\n  #N"), "key correction"),
 ])
 def test_a_broken_section_is_refused_naming_its_key(change, message):
@@ -326,7 +341,7 @@ def _transform():
 
 def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
     module, toolhead, _ = _transform()
-    module.grid.curvature = [4e-4] * len(module.grid.curvature)  # segments of 10 mm at most
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)  # segments of 10 mm
     start = list(module.last_position)
     module.move([start[0] + 60.0, start[1], start[2], 3.0], 50.0)
     sent = np.array(toolhead.moves)
@@ -342,7 +357,7 @@ def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
 def test_a_move_out_of_klippers_limits_once_corrected_is_refused_whole():
     module, toolhead, _ = _transform()
     module.limits.max_xy = 40.0  # a tight print_radius
-    module.grid.curvature = [4e-4] * len(module.grid.curvature)
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
     start = module.last_position
     # its end at radius 39.97 mm is inside, its corrected end beyond 40 mm
     end = [39.97, 0.0, 40.0, 0.0]
@@ -386,6 +401,34 @@ def test_get_position_never_raises():
     for made_up in ([0.0, 0.0, -365.0, 0.0], [math.nan, 0.0, 0.0, 0.0], [1e300, 1e300, 1e300, 0.0]):
         toolhead.position = made_up
         assert module.get_position()[2] == made_up[2] or math.isnan(made_up[0])
+
+
+def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_holds():
+    """At its nodes in the volume the field is the exact correction; a weight function multiplies it."""
+
+    truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
+    firmware = KlipperDelta.from_printer(PRINTER)
+    controller = KlipperController(firmware, STEP)
+    volume = LiveVolume(30.0, 0.0, 30.0, firmware.limit_z, firmware.delta_radius, 269.0, 25.0)
+    field = correction_field(truth, controller, volume, step=10.0)
+    nx, ny, nz = field.shape
+    axes = [field.origin[k] + 10.0 * np.arange(n) for k, n in enumerate((nx, ny, nz))]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = volume.distance(nodes) == 0.0
+    exact_values = exact_correction(truth, controller, nodes[inside])
+    assert np.allclose(field.values.reshape(-1, 3)[inside], exact_values, rtol=0.0, atol=1e-12)
+    assert np.max(np.abs(field.values)) > 0.1 and not np.any(field.values[[0, -1]])  # 0 at the border
+    error = sampling_error(field, truth, controller, count=300)
+    assert error.points == 300 and error.max < 0.002
+
+    def holds(points):  # where a calibration holds: x > 10 mm fully, nothing below x = -10 mm
+        return np.clip((points[:, 0] + 10.0) / 20.0, 0.0, 1.0)
+
+    weighted = correction_field(truth, controller, volume, step=10.0, weight=holds)
+    assert np.allclose(weighted.values.reshape(-1, 3), field.values.reshape(-1, 3) * holds(nodes)[:, None],
+                       rtol=0.0, atol=1e-12)
+    with pytest.raises(GeometryError, match=r"in \[0, 1\]"):
+        correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
 
 
 # ------------------------------------------------------------------ the real Klipper
@@ -633,6 +676,7 @@ def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_err
     # far below the calibration's sigma where Klipper prints at full speed, and stated
     assert int(error[1]) > 3000 and float(error[2]) < 0.002 and float(error[4]) < 0.05
     assert "to install: copy deltacal_geometry.py into klippy/extras/" in said
+    print("\n" + said)
     text = (out / SECTION_FILE).read_text(encoding="utf-8")
     assert f"sampling_error: max {error[2]} mm within radius {error[3]} mm" in text
 
@@ -819,23 +863,15 @@ def test_klipper_values_other_than_the_corrections_are_refused_at_start(kossel, 
 
 def _beyond_the_rim(kossel) -> np.ndarray:
     """A point of Klipper's volume at its rim whose corrected command Klipper's radius refuses [mm]."""
-    from deltacal.printer.firmware.klipper.live.field import exact_correction
-
     firmware = kossel["firmware"]
     angle = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
     rim = firmware.max_radius - 0.05
     points = np.column_stack([rim * np.cos(angle), rim * np.sin(angle), np.full(angle.size, 20.0)])
-    controller = firmware_controller(kossel)
+    controller = KlipperController(firmware, STEP)
     commands = points + exact_correction(load_calibration(kossel["calibration"]), controller, points)
     beyond = np.hypot(commands[:, 0], commands[:, 1]) > firmware.max_radius + 0.01
     assert np.any(beyond)
     return points[np.flatnonzero(beyond)[0]]
-
-
-def firmware_controller(kossel):
-    from deltacal.printer.firmware.klipper.model import KlipperController
-
-    return KlipperController(kossel["firmware"], STEP)
 
 
 @pytest.mark.slow

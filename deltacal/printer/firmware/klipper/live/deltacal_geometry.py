@@ -67,7 +67,8 @@ class CorrectionGrid:
         values: The correction's 3 components at each node, x slowest, the component fastest, in
             units of ``scale`` [mm].
         curvature: The bound of the correction's second derivative [1/mm] at radius k x step
-            (non-decreasing in k), for the splitting of moves.
+            (non-decreasing in k) and height j (the z nodes): ``curvature[k][j]``, for the splitting
+            of moves.
         scale: The unit of ``values`` [mm].
     """
 
@@ -153,15 +154,19 @@ class CorrectionGrid:
 
         The chord of a segment of length s departs from the correction by s^2 K / 8 at most, K the
         bound of the correction's second derivative at the move's larger radius (a straight line's
-        radius is largest at one of its ends).
+        radius is largest at one of its ends), over the layers of its heights.
         """
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
         if length <= 0.0:
             return 1
         radius = max(math.hypot(start[0], start[1]), math.hypot(end[0], end[1]))
-        k = min(int(radius * self.inverse_step) + 1, len(self.curvature) - 1)
-        longest = math.sqrt(8.0 * tolerance / self.curvature[k]) if self.curvature[k] > 0.0 else length
+        row = self.curvature[min(int(radius * self.inverse_step) + 1, len(self.curvature) - 1)]
+        last = len(row) - 1
+        low = min(max(int((min(start[2], end[2]) - self.z0) * self.inverse_step), 0), last)
+        high = min(max(int((max(start[2], end[2]) - self.z0) * self.inverse_step) + 1, 0), last)
+        bound = max(row[low:high + 1])
+        longest = math.sqrt(8.0 * tolerance / bound) if bound > 0.0 else length
         return max(1, int(math.ceil(length / longest)))
 
 
@@ -250,13 +255,12 @@ class DeltacalGeometry:
         is out of range (Klipper's own error says so).
         """
         limits = self.limits
-        if limits is None or self.kinematics.get_status(None).get("homed_axes") != "xyz":
-            return
-        if limits.outside(newpos[0], newpos[1], newpos[2]):
+        if limits is None:
             return
         for command in commands:
             broken = limits.outside(command[0], command[1], command[2])
-            if broken:
+            if broken and self.kinematics.get_status(None).get("homed_axes") == "xyz" \
+                    and not limits.outside(newpos[0], newpos[1], newpos[2]):
                 raise self.gcode.error(
                     f"deltacal_geometry: the program's point X{newpos[0]:.4f} Y{newpos[1]:.4f} "
                     f"Z{newpos[2]:.4f}, corrected, is X{command[0]:.4f} Y{command[1]:.4f} Z{command[2]:.4f}: "
@@ -366,10 +370,9 @@ def read_section(config):
     origin = config.getfloatlist("grid_origin", count=3)
     step = config.getfloat("grid_step", above=0.0)
     shape = config.getintlist("grid_shape", count=3)
-    curvature = config.getfloatlist("split_curvature")
-    if min(shape) < 4 or not curvature or min(curvature) < 0.0:
-        raise config.error("deltacal_geometry: grid_shape needs 4 nodes or more along each axis, and "
-                           "split_curvature non-negative values")
+    curvature = read_curvature(config.get("split_curvature"), shape[2], config.error)
+    if min(shape) < 4:
+        raise config.error("deltacal_geometry: grid_shape needs 4 nodes or more along each axis")
     unit = config.getfloat("correction_unit", above=0.0)
     correction = decode_values(config.get("correction"), config.error)
     expected = 3 * shape[0] * shape[1] * shape[2]
@@ -377,6 +380,18 @@ def read_section(config):
         raise config.error(f"deltacal_geometry: key correction: {len(correction)} values, expected "
                            f"{expected} (3 per node of grid_shape {tuple(shape)})")
     return CorrectionGrid(origin, step, shape, correction, curvature, unit), values, volume
+
+
+def read_curvature(text, layers, error):
+    """The bound of the correction's curvature: a line per ring, a value per z node, non-negative."""
+    try:
+        rows = [[float(v) for v in line.split(",")] for line in text.split("\n") if line.strip()]
+    except ValueError as exc:
+        raise error(f"deltacal_geometry: key split_curvature: {exc}") from None
+    if not rows or any(len(row) != layers or min(row) < 0.0 for row in rows):
+        raise error(f"deltacal_geometry: key split_curvature: a line per ring of {layers} non-negative "
+                    "values (one per z node of grid_shape)")
+    return rows
 
 
 def decode_values(text, error):

@@ -29,6 +29,7 @@ from .deltacal_geometry import FORMAT, TOWERS
 from .field import (
     COVERAGE_NODES,
     DEFAULT_STEP_MM,
+    TRUST_NODES,
     CorrectionField,
     LiveVolume,
     SamplingError,
@@ -119,8 +120,9 @@ def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta
     nx, ny, nz = field.shape
     lines = [f"correction field: grid {field.step:g} mm, {nx} x {ny} x {nz} nodes over Klipper's volume "
              f"(radius {v.radius:.2f} mm, z {v.min_z:g} to {v.max_z:.2f} mm), Catmull-Rom interpolation; "
-             f"{field.refused} nodes near it refused by the library (out of the printer's reach or near a "
-             "singularity): the correction blends to Klipper's own command there",
+             f"{field.refused} nodes of it, or within {TRUST_NODES * field.step:g} mm of it, refused by the "
+             "library (out of the printer's reach, near a singularity): the correction blends to Klipper's "
+             "own command there",
              f"sampling error against the exact correction at {error.points} points of the volume: max "
              f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm (where Klipper moves at "
              f"full speed), {error.max:.4f} mm out to the rim (Klipper's model nears a flat rod there); RMS "
@@ -180,14 +182,16 @@ def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperD
              "split_tolerance": f"{SPLIT_TOLERANCE_MM:g}",
              "grid_origin": ", ".join(_number(x) for x in field.origin), "grid_step": _number(field.step),
              "grid_shape": ", ".join(str(n) for n in field.shape),
-             "split_curvature": ", ".join(f"{k:.3g}" for k in curvature_bound(field)),
              "correction_unit": f"{VALUE_UNIT_MM:g}"}
+    bound = curvature_bound(field)
     lines = ["# deltacal's live correction: the [deltacal_geometry] section deltacal_geometry.py reads.",
              f"# To install: {INSTALL_NOTE}.",
              "# Computed for the Klipper values below: the module refuses to start under others (export "
              "again).",
              *(f"# {line}" for line in notes), "", "[deltacal_geometry]",
              *(f"{key}: {value}" for key, value in keys.items()),
+             "# split_curvature: per ring of grid_step (from the axis), the bound at each z node [1/mm]",
+             "split_curvature:", *("  " + ", ".join(f"{k:.3g}" for k in row) for row in bound),
              "# correction: base64 of the zlib-compressed little-endian int32 values (in correction_unit), "
              "3 per node, x slowest, then y, z, the component fastest",
              "correction:", *("  " + line for line in encode_values(field.values))]

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
+from scipy.ndimage import distance_transform_edt, maximum_filter
 
 from .....calibration import Calibration
 from .....controller import CommandModel, corrected_targets
@@ -297,13 +297,14 @@ def _shifted(a: np.ndarray, axis: int, offset: int) -> np.ndarray:
 
 
 def curvature_bound(field: CorrectionField) -> np.ndarray:
-    """A bound of the correction's second derivative along any direction, per ring of the volume [1/mm].
+    """A bound of the correction's second derivative along any direction, per ring and layer [1/mm].
 
-    At ring k (radius k × step), the largest ``sqrt(Σ ‖H‖²)`` over the nodes of the volume within
-    one ring of it, H each component's Hessian by finite differences (its norm bounds the second
-    derivative along any unit direction); non-decreasing outwards, so that a move's larger radius
-    (one of its ends) gives its bound. The chord of a segment of length s is then off the field
-    by at most s² K / 8: the module's cut of long moves.
+    At ring k (radius k × step) and layer j (the grid's z nodes), the largest ``sqrt(Σ ‖H‖²)`` over
+    the nodes Klipper admits within one ring and one layer of it, H each component's Hessian by
+    finite differences (its norm bounds the second derivative along any unit direction);
+    non-decreasing outwards, so that a move's larger radius (one of its ends) and the layers of its
+    heights give its bound. The chord of a segment of length s is then off the field by at most
+    s² K / 8: the module's cut of long moves. Shape (rings, nz).
     """
     v, h = field.values, field.step
     hessian = np.zeros(v.shape[:3])
@@ -319,15 +320,13 @@ def curvature_bound(field: CorrectionField) -> np.ndarray:
     nx, ny, nz = field.shape
     axes = [field.origin[k] + h * np.arange(n) for k, n in enumerate((nx, ny, nz))]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    inside = field.volume.distance(grid) <= 0.0
-    ring = np.rint(np.hypot(grid[:, 0], grid[:, 1]) / h).astype(int)
+    inside = field.volume.admits(grid)
     rings = int(np.ceil(field.volume.radius / h)) + 2
-    bound = np.zeros(rings + 1)
-    np.maximum.at(bound, np.minimum(ring[inside], rings), norm.reshape(-1)[inside])
-    near = bound.copy()  # within one ring: a node's neighbourhood
-    near[1:] = np.maximum(near[1:], bound[:-1])
-    near[:-1] = np.maximum(near[:-1], bound[1:])
-    return np.maximum.accumulate(near)
+    ring = np.minimum(np.rint(np.hypot(grid[:, 0], grid[:, 1]) / h).astype(int), rings - 1)
+    layer = np.tile(np.arange(nz), nx * ny)
+    bound = np.zeros((rings, nz))
+    np.maximum.at(bound, (ring[inside], layer[inside]), norm.reshape(-1)[inside])
+    return np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0)
 
 
 @dataclass(frozen=True)
