@@ -358,10 +358,10 @@ def klipper_from_config(config: KlipperConfig) -> KlipperDelta:
         InputError: naming the file, section, key and value of the first problem found.
     """
     kinematics = config.text("printer", "kinematics").strip()
-    _say_unfollowed(config)
     if kinematics != "delta":
         raise config.error("printer", "kinematics", f"value {kinematics!r}: deltacal reads Klipper's linear "
                                                     "Delta printers (kinematics: delta)")
+    _say_unfollowed(config)
     radius = config.number("printer", "delta_radius", above=0.0)
     endstop_a = config.number("stepper_a", "position_endstop")
     arm_a = config.number("stepper_a", "arm_length", above=radius)
