@@ -19,7 +19,8 @@ and a log's probe results (:mod:`.probe_log`).
 
 Klipper (:mod:`.klipper`), RepRapFirmware (:mod:`.rrf`) and Marlin (:mod:`.marlin`). :func:`firmwares`
 lists them; :func:`config_firmware`
-finds the one whose configuration a file is, :func:`log_firmware` the one whose probe results a log holds.
+finds the one whose configuration a file is, :func:`config_files` every file that configuration reads,
+:func:`log_firmware` the one whose probe results a log holds.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ...exceptions import DeltacalError
 from .base import Firmware
 
 
@@ -52,3 +54,21 @@ def log_firmware(text: str) -> Firmware[Any] | None:
 def config_firmware(path: str | Path) -> Firmware[Any] | None:
     """The firmware whose configuration file ``path`` is, or None (a file of deltacal's own)."""
     return next((firmware for firmware in firmwares() if firmware.is_config(path)), None)
+
+
+def config_files(path: str | Path, name: str | None = None) -> tuple[Path, ...]:
+    """Every file a firmware's configuration reads (:meth:`~.base.Firmware.config_files`), itself first.
+
+    Args:
+        path: The configuration (a command's ``--controller`` or ``--config``).
+        name: The firmware's name (``--firmware``), or None: told from the file. A file no firmware
+            recognises, or that its firmware cannot read, is itself alone (its reader names the
+            problem when the command reads it).
+    """
+    firmware = firmware_named(name) if name is not None else config_firmware(path)
+    if firmware is None:
+        return (Path(path),)
+    try:
+        return firmware.config_files(path)
+    except (DeltacalError, OSError):
+        return (Path(path),)

@@ -70,12 +70,14 @@ class KlipperConfig:
         sections: Section name -> option (lower case) -> value text.
         origin: (section, option) -> the file its value came from.
         missing: The include files that do not exist: (the including file, its line, the path).
+        files: Every file read, in order (the main file first, then its includes).
     """
 
     source: str
     sections: dict[str, dict[str, str]] = field(default_factory=dict)
     origin: dict[tuple[str, str], str] = field(default_factory=dict)
     missing: list[tuple[str, int, str]] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
 
     def missing_hint(self) -> str:
         """Where a value not found may be: `` (it may be in the missing include X, Y)``, or ""."""
@@ -221,6 +223,7 @@ def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str]) -
     if path in visited:
         raise InputError("recursive include of this file", filename)
     visited.add(path)
+    config.files.append(filename)
     buffer: list[str] = []
     start = 1
     for number, line in enumerate(data.split("\n"), start=1):

@@ -7,12 +7,14 @@ instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....exceptions import InputWarning
 from ....gcode.dialect import ArcP, Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
@@ -117,6 +119,15 @@ class Klipper(Firmware[KlipperDelta]):
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
         return klipper_probe_travel(read_klipper_config(path))
+
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """``printer.cfg`` and every file it includes (:attr:`~.config.KlipperConfig.files`).
+
+        Missing includes are not warned of here: the reading of the configuration warns once.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return tuple(Path(name) for name in read_klipper_config(path).files)
 
     def dialect(self, path: str | Path) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
