@@ -254,6 +254,22 @@ def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str],
         _parse(_read_text(name, filename), name, config, visited)
 
 
+def config_from_text(text: str, source: str, first_line: int = 1) -> KlipperConfig:
+    """The options of a configuration's text, no includes read (the configuration a ``klippy.log`` dumps).
+
+    Args:
+        text: The text (``[section]`` headers and ``key = value`` options).
+        source: Its file, for messages.
+        first_line: The line of the text's first line in that file.
+
+    Raises:
+        InputError: a syntax error, naming the file and line.
+    """
+    config = KlipperConfig(source)
+    _parse_unit(text.split("\n"), first_line, source, config)
+    return config
+
+
 def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperConfig) -> None:
     """Lines of one file between includes, read by configparser with Klipper's settings."""
     if not any(line.strip() for line in buffer):

@@ -8,7 +8,6 @@ instance. Units: mm, angles in rad.
 from __future__ import annotations
 
 import warnings
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
@@ -149,12 +148,10 @@ class Klipper(Firmware[KlipperDelta]):
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,
                        text: str | None = None) -> ProbeLog:
-        """:func:`~.log.read_probe_log`, the offsets from ``printer.cfg`` (:func:`~.log.probe_offsets`)."""
+        """:func:`~.log.read_probe_log`: the offsets of the log's own configuration, else printer.cfg's."""
         if config is None:
             return read_probe_log(path, text)
-        offsets = probe_offsets(read_klipper_config(config))
-        log = read_probe_log(path, text, offsets)
-        return replace(log, trigger_source=f"z_offset of {config}")
+        return read_probe_log(path, text, probe_offsets(read_klipper_config(config)), str(config))
 
     def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
