@@ -119,10 +119,11 @@ def cpu_time(args: list[str], cwd: Path) -> float:
 
 def live_rows(repeat: int, seed: int) -> list[tuple]:
     """The rows (name, value, unit, target, (least, greatest)); none without ``KLIPPER_DIR``."""
+    from deltacal.printer.robot_file import load_printer
+
     from deltacal.io import load_calibration, save_geometry
     from deltacal.printer.firmware.klipper.firmware import KLIPPER
     from deltacal.printer.firmware.klipper.live.export import export_live, module_text
-    from deltacal.printer.robot_file import load_printer
     from deltacal.printer.simulation import random_printer, typical_kit
 
     source = os.environ.get("KLIPPER_DIR")

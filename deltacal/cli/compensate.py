@@ -42,7 +42,7 @@ from ..io import (
     lines_text,
     load_calibration,
 )
-from ..printer.firmware import config_firmware
+from ..printer.firmware import config_files, config_firmware
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .firmware import add_firmware_argument, check_config_printer, controller_firmware
@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     inputs = [p for p in (args.calibration, args.targets, args.controller) if p is not None]
     for path in inputs:
         check_input(path)
-    check_output(args.output, inputs)
+    read = config_files(args.controller, args.firmware) if args.controller is not None else ()
+    check_output(args.output, [*inputs, *read])
     if args.controller is not None and args.method != "exact":
         raise UsageError("--method applies to joint readings: --controller's corrected targets come from the "
                          "exact compensation")

@@ -24,7 +24,7 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import load_calibration
-from ..printer.firmware import check_config_firmware
+from ..printer.firmware import check_config_firmware, config_files
 from ..printer.firmware.base import ErrorFigures, Firmware, FirmwareModel
 from ..printer.firmware.budget import BED_TILT, error_budget
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
@@ -99,7 +99,7 @@ def export_start(args: argparse.Namespace, firmware: Firmware[Any], output: str,
     inputs = [p for p in (args.calibration, args.robot, args.config) if p is not None]
     for path in inputs:
         check_input(path)
-    check_output(args.output, inputs)
+    check_output(args.output, [*inputs, *(config_files(args.config, firmware.name) if args.config else ())])
     calibration = load_calibration(args.calibration)
     if not calibration.geometry.chain.firmware:
         raise UsageError(f"--controller {firmware.name}: {args.calibration} is a rotary Delta's calibration; "

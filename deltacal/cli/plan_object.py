@@ -17,6 +17,7 @@ from ..exceptions import UsageError
 from ..io import write_stl
 from ..io.atomic import atomic_write_text
 from ..printer.files.measurements import write_printed_distances, write_probe_heights
+from ..printer.firmware import config_files
 from ..printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ..printer.printed.plan import ObjectPlan, plan_object
 from ..printer.printed.sheet import sheet_html
@@ -84,7 +85,8 @@ def run_object(args: argparse.Namespace) -> int:
         raise UsageError("--object needs --controller printer.cfg: the firmware the object is printed with")
     check_input(args.controller)
     folder = Path(args.output)
-    outputs = check_output_folder(folder, OBJECT_FILES, (args.nominal, args.controller), "plan --object")
+    read = config_files(args.controller, args.firmware)
+    outputs = check_output_folder(folder, OBJECT_FILES, (args.nominal, *read), "plan --object")
     printer = load_robot(args.nominal)
     if not isinstance(printer, NominalLinearDelta):
         raise UsageError(f"{args.nominal}: --object plans a linear Delta printer's object; this robot file "

@@ -21,7 +21,8 @@ Klipper (:mod:`.klipper`), RepRapFirmware (:mod:`.rrf`) and Marlin (:mod:`.marli
 lists them; :func:`config_firmware` finds the one whose configuration a file is, :func:`log_firmware` the
 one whose probe results a log holds, :func:`input_firmware` which of the two a file given to ``import``
 is, told by what it holds; :func:`check_config_firmware` refuses a file named as one firmware's
-configuration that another firmware's content claims.
+configuration that another firmware's content claims; :func:`config_files` every file a configuration
+reads.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from ...exceptions import InputError, UsageError
+from ...exceptions import DeltacalError, InputError, UsageError
 from .base import Firmware
 
 
@@ -116,3 +117,21 @@ def check_config_firmware(path: str | Path, firmware: Firmware[Any]) -> None:
     if other is not None:
         raise InputError(f"{other.title}'s configuration by its content ({other.config_file}), not "
                          f"{firmware.title}'s: name {other.name} as its firmware", str(path))
+
+
+def config_files(path: str | Path, name: str | None = None) -> tuple[Path, ...]:
+    """Every file a firmware's configuration reads (:meth:`~.base.Firmware.config_files`), itself first.
+
+    Args:
+        path: The configuration (a command's ``--controller`` or ``--config``).
+        name: The firmware's name (``--firmware``), or None: told from the file. A file no firmware
+            recognises, or that its firmware cannot read, is itself alone (its reader names the
+            problem when the command reads it).
+    """
+    firmware = firmware_named(name) if name is not None else config_firmware(path)
+    if firmware is None:
+        return (Path(path),)
+    try:
+        return firmware.config_files(path)
+    except (DeltacalError, OSError):
+        return (Path(path),)

@@ -454,6 +454,17 @@ class Firmware(ABC, Generic[ModelT]):
         """
         return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])
 
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """Every file the configuration ``path`` reads (itself first): none may be overwritten by an output.
+
+        Klipper's includes, RepRapFirmware's files ``config.g`` runs (``M501``'s ``config-override.g``,
+        ``M98``'s) and its ``homedelta.g``; by default the file alone.
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return (Path(path),)
+
     def is_probe_log(self, text: str) -> bool:
         """Whether a file's text is a log of this firmware: its probe results, or marks only a log has.
 

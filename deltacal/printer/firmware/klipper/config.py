@@ -87,12 +87,14 @@ class KlipperConfig:
         sections: Section name -> option (lower case) -> value text.
         origin: (section, option) -> the file its value came from.
         missing: The include files that do not exist: (the including file, its line, the path).
+        files: Every file read, in order (the main file first, then its includes).
     """
 
     source: str
     sections: dict[str, dict[str, str]] = field(default_factory=dict)
     origin: dict[tuple[str, str], str] = field(default_factory=dict)
     missing: list[tuple[str, int, str]] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
 
     def missing_hint(self) -> str:
         """Where a value not found may be: `` (it may be in the missing include X, Y)``, or ""."""
@@ -276,6 +278,7 @@ def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str], f
     """
     path = os.path.realpath(filename)
     visited.add(path)
+    config.files.append(filename)
     buffer: list[str] = []
     start = first
     for number, line in enumerate(data.split("\n"), start=first):
@@ -317,6 +320,22 @@ def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str],
             raise InputError(f"recursive include of this file{link}, by [include {spec}] at line {number} of "
                              f"{filename}", os.path.realpath(name))
         _parse(_read_text(name, filename), name, config, visited)
+
+
+def config_from_text(text: str, source: str, first_line: int = 1) -> KlipperConfig:
+    """The options of a configuration's text, no includes read (the configuration a ``klippy.log`` dumps).
+
+    Args:
+        text: The text (``[section]`` headers and ``key = value`` options).
+        source: Its file, for messages.
+        first_line: The line of the text's first line in that file.
+
+    Raises:
+        InputError: a syntax error, naming the file and line.
+    """
+    config = KlipperConfig(source)
+    _parse_unit(text.split("\n"), first_line, source, config)
+    return config
 
 
 def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperConfig) -> None:

@@ -7,12 +7,13 @@ instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
-from dataclasses import replace
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....exceptions import InputWarning
 from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
@@ -123,6 +124,15 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
         return klipper_probe_travel(read_klipper_config(path))
 
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """``printer.cfg`` and every file it includes (:attr:`~.config.KlipperConfig.files`).
+
+        Missing includes are not warned of here: the reading of the configuration warns once.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return tuple(Path(name) for name in read_klipper_config(path).files)
+
     def dialect(self, path: str | Path) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
 
@@ -149,12 +159,10 @@ class Klipper(Firmware[KlipperDelta]):
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,
                        text: str | None = None) -> ProbeLog:
-        """:func:`~.log.read_probe_log`, the offsets from ``printer.cfg`` (:func:`~.log.probe_offsets`)."""
+        """:func:`~.log.read_probe_log`: the offsets of the log's own configuration, else printer.cfg's."""
         if config is None:
             return read_probe_log(path, text)
-        offsets = probe_offsets(read_klipper_config(config))
-        log = read_probe_log(path, text, offsets)
-        return replace(log, trigger_source=f"z_offset of {config}")
+        return read_probe_log(path, text, probe_offsets(read_klipper_config(config)), str(config))
 
     def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:

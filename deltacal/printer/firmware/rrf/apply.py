@@ -1,5 +1,8 @@
 """Where a RepRapFirmware configuration keeps the values deltacal writes, and how to put them there.
 
+:func:`rrf_config_files` lists the files the configuration runs (none may be overwritten by an
+output); :func:`rrf_apply_note` says where the values go.
+
 RRF runs ``config.g`` at start-up; its ``M501`` runs ``config-override.g``, the file ``M500``
 rewrites with the values of ``M665`` and ``M666`` (among others, never ``M92``). Values sent to
 the printer last until the next start-up only: they live where the configuration sets them last.
@@ -11,9 +14,14 @@ stands. :func:`rrf_apply_note` says it in one line, naming each file and line.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
-from .config import APPLY_NOTE, OVERRIDE, RRFLine, RRFSettings, read_rrf_settings
+from .config import APPLY_NOTE, OVERRIDE, RRFLine, RRFSettings, parse_line, read_rrf_settings
+from .homing import HOME_FILE
+
+#: A drive prefix of an RRF path (``0:/sys/delta.g``).
+_DRIVE = re.compile(r"^\d+:")
 
 #: The keys of each command deltacal writes (:func:`~.config.rrf_config_text`).
 WRITTEN = {"M665": "LRHBXYZ", "M666": "XYZAB", "M92": "XYZ"}
@@ -74,3 +82,48 @@ def _m500_holds(line: RRFLine, settings: RRFSettings) -> bool:
     if Path(line.source).name == OVERRIDE:
         return True
     return any(m501.source == line.source and m501.line > line.line for m501 in settings.overrides)
+
+
+def rrf_config_files(path: str | Path) -> tuple[Path, ...]:
+    """``config.g`` and the files it runs at start-up, in order, and ``homedelta.g`` (what ``G28`` runs).
+
+    ``M501`` runs ``config-override.g`` beside it; ``M98 P"file"`` runs a file of ``/sys`` (a path
+    without a folder, ``/sys/...`` or ``0:/sys/...``: beside ``config.g``) or of the card (``/macros/x``:
+    beside the ``sys`` folder); each is read for the files it runs in turn. A file that does not exist
+    is listed all the same (an output there would be run).
+
+    Raises:
+        InputError: a file that cannot be read.
+    """
+    main = Path(path)
+    files: list[Path] = []
+    _collect(main, main.parent, files)
+    home = main.with_name(HOME_FILE)
+    return (*files, *([] if home in files else [home]))
+
+
+def _collect(path: Path, sys: Path, files: list[Path]) -> None:
+    """``path`` and the files its lines run (``M501``, ``M98 P``), depth first, each once."""
+    if path in files:
+        return
+    files.append(path)
+    if not path.is_file():
+        return
+    text = path.read_text(encoding="utf-8", errors="replace")
+    for number, raw in enumerate(text.split("\n"), start=1):
+        line = parse_line(raw, str(path), number)
+        if line is None:
+            continue
+        if line.code == "M501":
+            _collect(path.with_name(OVERRIDE), sys, files)
+        elif line.code == "M98" and "P" in line.params:
+            _collect(_called(line.params["P"], sys), sys, files)
+
+
+def _called(spec: str, sys: Path) -> Path:
+    """The file ``M98 P"spec"`` runs, ``sys`` being the folder of ``config.g``."""
+    name = _DRIVE.sub("", spec.strip().strip('"'))
+    if not name.startswith("/"):
+        return sys / name
+    parts = Path(name).parts[1:]
+    return sys.joinpath(*parts[1:]) if parts[:1] == ("sys",) else sys.parent.joinpath(*parts)

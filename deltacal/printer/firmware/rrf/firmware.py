@@ -17,7 +17,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
-from .apply import rrf_apply_note
+from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
     APPLY_NOTE,
@@ -127,6 +127,10 @@ class RRF(Firmware[RRFDelta]):
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed)."""
         return rrf_probe_travel(read_rrf_settings(path))
+
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """:func:`~.apply.rrf_config_files`: ``config.g``, the files it runs and ``homedelta.g``."""
+        return rrf_config_files(path)
 
     def dialect(self, path: str | Path) -> Dialect:
         """RepRapFirmware's reading of G-code with ``config.g``.
