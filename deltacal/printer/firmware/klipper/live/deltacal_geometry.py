@@ -33,8 +33,8 @@ import math
 import sys
 import zlib
 from array import array
-from itertools import product, starmap
-from operator import mul
+from itertools import product, repeat, starmap
+from operator import add, mul
 
 #: The format of the ``[deltacal_geometry]`` section this module reads.
 FORMAT = "deltacal-klipper-live-1"
@@ -85,6 +85,8 @@ class CorrectionGrid:
         self.scale = scale
         self._plane = None
         self._px = self._py = self._pz = ()
+        self._cells = {}
+        self._free = {}
 
     def at(self, x, y, z):
         """The correction at (x, y, z), or None beyond the grid (none there).
@@ -109,16 +111,26 @@ class CorrectionGrid:
     def _contract(self, i, j, w):
         """The 16 columns of 4 nodes around cell (i, j) at height w (in nodes), contracted along z."""
         k = int(w)
-        z0, z1, z2, z3 = catmull_rom(w - k)
+        cell = self._cells.get((i, j, k))
+        if cell is None:
+            cell = self._gather(i, j, k)
+        z0, z1, z2, z3 = (repeat(f) for f in catmull_rom(w - k))
+        self._px, self._py, self._pz = (
+            list(map(add, map(add, map(mul, c0, z0), map(mul, c1, z1)),
+                     map(add, map(mul, c2, z2), map(mul, c3, z3))))
+            for c0, c1, c2, c3 in cell)
+        self._plane = (i, j, w)
+
+    def _gather(self, i, j, k):
+        """The 64 nodes around cell (i, j, k): per component, per z node, the 16 columns' values (kept)."""
         values, sx, sy = self.values, self.stride_x, self.stride_y
         columns = [(i - 1 + a) * sx + (j - 1 + b) * sy + (k - 1) * 3 for a in range(4) for b in range(4)]
-        self._px = [z0 * values[n] + z1 * values[n + 3] + z2 * values[n + 6] + z3 * values[n + 9]
-                    for n in columns]
-        self._py = [z0 * values[n + 1] + z1 * values[n + 4] + z2 * values[n + 7] + z3 * values[n + 10]
-                    for n in columns]
-        self._pz = [z0 * values[n + 2] + z1 * values[n + 5] + z2 * values[n + 8] + z3 * values[n + 11]
-                    for n in columns]
-        self._plane = (i, j, w)
+        cell = tuple(tuple([values[n + 3 * c + component] for n in columns] for c in range(4))
+                     for component in range(3))
+        if len(self._cells) >= 4096:  # a print's cells, many times over
+            self._cells.clear()
+        self._cells[(i, j, k)] = cell
+        return cell
 
     def command(self, x, y, z):
         """The command for the program point (x, y, z): the point plus its correction."""
@@ -158,7 +170,11 @@ class CorrectionGrid:
         """
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
-        if length <= 0.0:
+        free = self._free.get(tolerance)
+        if free is None:  # the longest segment the largest bound allows: shorter moves are never cut
+            largest = max(max(row) for row in self.curvature)
+            free = self._free[tolerance] = math.sqrt(8.0 * tolerance / largest) if largest > 0.0 else math.inf
+        if length <= free:
             return 1
         radius = max(math.hypot(start[0], start[1]), math.hypot(end[0], end[1]))
         row = self.curvature[min(int(radius * self.inverse_step) + 1, len(self.curvature) - 1)]
@@ -178,7 +194,7 @@ class DeltacalGeometry:
         self.name = config.get_name()
         self.grid, self.values, self.volume = read_section(config)
         self.calibration = config.get("calibration")
-        self.tolerance = config.getfloat("split_tolerance", 0.005, above=0.0)
+        self.tolerance = config.getfloat("split_tolerance", 0.01, above=0.0)
         self.error_text = config.get("sampling_error", "")
         self.enabled = True
         self.last_position = [0.0, 0.0, 0.0, 0.0]
@@ -234,15 +250,13 @@ class DeltacalGeometry:
             return
         start = self.last_position
         count = self.grid.segments(start, newpos, self.tolerance)
-        commands = []
-        for n in range(1, count + 1):
-            if n == count:
-                point = list(newpos)
-            else:
-                t = n / count
-                point = [s + t * (e - s) for s, e in zip(start, newpos)]  # noqa: B905 (Python 3.7+)
-            point[:3] = self.grid.command(point[0], point[1], point[2])
-            commands.append(point)
+        if count == 1:
+            commands = [list(newpos)]
+        else:
+            commands = [[s + n / count * (e - s) for s, e in zip(start, newpos)]  # noqa: B905 (Python 3.7+)
+                        for n in range(1, count)] + [list(newpos)]
+        for command in commands:
+            command[:3] = self.grid.command(command[0], command[1], command[2])
         self._check_limits(newpos, commands)
         for command in commands:
             self.next_transform.move(command, speed)
