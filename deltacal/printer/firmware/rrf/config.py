@@ -270,8 +270,11 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
-    elif line.code == "M558" and "H" in p and ("K" not in p or line.number("K") == 0):
-        settings.set(line, "H", line.numbers("H", 2))
+    elif line.code == "M558" and "H" in p and p.get("K", "0").strip() in ("0", ""):
+        try:
+            settings.set(line, "H", line.numbers("H", 2))
+        except InputError:  # an expression: refused only where the dive height is needed (the probe program)
+            settings.set(line, "H", [math.nan])
 
 
 def _apply_g31(line: RRFLine, settings: RRFSettings) -> None:
