@@ -21,6 +21,7 @@ LAYERS = {
     "__init__": 100,
     "cli": 90,
     "demo": 80,
+    "wings": 75,  # each robot kind's jobs behind one interface: over the report, the export and both wings
     "report": 70,
     "export": 70,
     "viz": 60,

@@ -17,11 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from ..exceptions import InputError, UsageError
+from ..io.paths import check_input, check_output, check_output_folder
 from ..printer.files.importer import OUTPUT_FILES
 from ..printer.files.measurements import write_probe_heights
 from ..printer.firmware import config_firmware, firmwares, log_firmware
 from ..printer.firmware.base import Firmware
-from .common import check_input, check_output, check_output_folder, positive_float
+from .common import positive_float
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,4 +1,4 @@
-"""``deltacal report``: one self-contained HTML page of a calibration."""
+"""``deltacal report``: an HTML page of a calibration (a printer's in its firmware's words)."""
 
 from __future__ import annotations
 
@@ -6,12 +6,10 @@ import argparse
 
 import numpy as np
 
-from ..exceptions import InputError
-from ..identification.quality import implausible_deviations
-from ..io import load_calibration, load_geometry
-from ..report import write_report
-from ..robots import load_robot
-from .common import check_input, check_output, non_negative_float, three_numbers, warn
+from .. import wings
+from ..printer.firmware.config_file import firmware_names
+from ..wings.requests import ReportRequest
+from .common import non_negative_float, request, show, three_numbers
 
 
 def tool_vector(text: str) -> np.ndarray:
@@ -21,40 +19,7 @@ def tool_vector(text: str) -> np.ndarray:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal report``; returns the exit status."""
-    inputs = [args.calibration, args.measurements, args.truth, args.robot]
-    for path in inputs:
-        if path is not None:
-            check_input(path)
-    check_output(args.output, inputs)
-    calibration = load_calibration(args.calibration)
-    nominal = calibration.nominal
-    truth = load_geometry(args.truth) if args.truth is not None else None
-    robot = load_robot(args.robot) if args.robot is not None else None
-    for path, geometry, what in ((args.truth, truth, "true robot"),
-                                 (args.robot, robot.geometry() if robot else None, "robot file")):
-        odd = implausible_deviations(nominal, geometry) if geometry is not None else []
-        if odd:
-            name = nominal.name or "robot"
-            raise InputError(f"this {what} is not the calibration's robot ({'; '.join(odd)} from the "
-                             f"calibration's nominal {name!r}): the file of another robot?", str(path))
-    workspace = robot.workspace if robot is not None else None
-    summary = write_report(
-        calibration,
-        args.output,
-        measurements=args.measurements,
-        truth=truth,
-        truth_source=args.truth,
-        tool=args.tool,
-        payload=args.payload,
-        workspace=workspace,
-        view=not args.no_view,
-    )
-    warn(summary.warnings)
-    w = summary.worst_point
-    print(f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "
-          f"({w[0]:.1f}, {w[1]:.1f}, {w[2]:.1f}) mm")
-    print(f"wrote {args.output}")
-    return 0
+    return show(wings.report(request(ReportRequest, args)))
 
 
 def add_parser(sub) -> None:
@@ -85,4 +50,7 @@ def add_parser(sub) -> None:
     p.add_argument("--payload", type=non_negative_float, default=0.0, metavar="KG",
                    help="a calibration with compliances: map the TCP deflection under this payload [kg] too")
     p.add_argument("--no-view", action="store_true", help="leave out the 3-D view (a smaller file)")
+    p.add_argument("--firmware", choices=firmware_names(), default=None,
+                   help="a printer's calibration: the firmware whose values the page fits and names "
+                        f"({'|'.join(firmware_names())}; default {firmware_names()[0]})")
     p.set_defaults(func=run)

@@ -15,9 +15,10 @@ import numpy as np
 from ..exceptions import InputError, UsageError
 from ..geometry import Tolerances
 from ..io import load_geometry
+from ..io.paths import check_input, check_output
 from ..robots import load_robot
 from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server, words
-from .common import check_input, check_output, positive_float, seed
+from .common import positive_float, seed
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from ..calibration import Calibration
 from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
+from ..printer.firmware.base import Firmware
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
@@ -84,6 +86,7 @@ def write_report(
     view: bool = True,
     grid: int = 41,
     payload: float = 0.0,
+    firmware: Firmware[Any] | None = None,
 ) -> ReportSummary:
     """Write the HTML report of a calibration, atomically.
 
@@ -99,6 +102,8 @@ def write_report(
         grid: Points along each side of a slice.
         payload: For a calibration that identified compliances: the payload [kg] whose TCP
             deflection the report maps (beside the robot's own weight).
+        firmware: A printer's firmware, whose values the page fits and names (default: the first of
+            :func:`~deltacal.printer.firmware.firmwares`, Klipper).
 
     Returns:
         A summary of what was written.
@@ -134,7 +139,8 @@ def write_report(
     page = Page(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
         measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
-        scene_html=scene, scene_note=note, warnings=warnings, controllers=controller_routes(cal, amap, truth),
+        scene_html=scene, scene_note=note, warnings=warnings,
+        controllers=controller_routes(cal, amap, truth, firmware),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
     )
     path = Path(output)

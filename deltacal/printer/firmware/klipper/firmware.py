@@ -58,6 +58,14 @@ class Klipper(Firmware[KlipperDelta]):
     calibrated_file: ClassVar[str] = "printer_calibrated.cfg"
     minimum_z_key: ClassVar[str] = "minimum_z_position"
     apply_note: ClassVar[str] = APPLY_NOTE
+    export_file: ClassVar[str] = "CALIBRATED.cfg"
+    values_words: ClassVar[str] = "the [printer] and [stepper_a..c] values of printer.cfg"
+    export_needs_config: ClassVar[str] = (
+        "--controller klipper: rotation_distance is the step distance times each tower's "
+        "full_steps_per_rotation x microsteps, which the calibration does not hold: give --config "
+        "printer.cfg (the configuration the printer runs), or --keep-rotation-distance to keep the printer's "
+        "own rotation_distance")
+    exports_minimum_z: ClassVar[bool] = True
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
@@ -89,10 +97,10 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> KlipperFit:
+            first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> KlipperFit:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           first_layer_weight=first_layer_weight)
+                           grid=grid, first_layer_weight=first_layer_weight)
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:
@@ -112,7 +120,7 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: KlipperDelta | None = None) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
 
         G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
@@ -122,7 +130,7 @@ class Klipper(Firmware[KlipperDelta]):
         (``BED_MESH_CALIBRATE``, ``PROBE`` ...) leaves the position unknown as in a macro
         (:func:`~.macros.with_moving_commands`).
         """
-        home = load_klipper(path).positions(np.zeros((1, 3)))[0]
+        home = (load_klipper(path) if model is None else model).positions(np.zeros((1, 3)))[0]
         return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
                        macros=with_moving_commands(read_macros(read_klipper_config(path))))
 

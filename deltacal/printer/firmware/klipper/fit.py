@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
+from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
 from ..fitting import ErrorStats as ErrorStats
@@ -43,11 +44,6 @@ KLIPPER_NAMES = (
 )
 #: The index of ``angle_c`` in :data:`KLIPPER_NAMES`.
 _ANGLE_C = 3
-#: The first layer's weight of ``export --controller klipper`` and the report (:func:`fit_klipper`):
-#: it trades the volume's largest error for the first layer's flatness, which the firmware's values
-#: must not leave worse than the firmware's own calibration (the figures: docs/printers.md and
-#: docs/results.md).
-EXPORT_FIRST_LAYER_WEIGHT = 30.0
 
 
 @dataclass(frozen=True)

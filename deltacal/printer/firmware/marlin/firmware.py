@@ -46,6 +46,8 @@ class Marlin(Firmware[MarlinDelta]):
     calibrated_file: ClassVar[str] = "printer_calibrated.gcode"
     minimum_z_key: ClassVar[str] = "M211 Min Z"
     apply_note: ClassVar[str] = APPLY_NOTE
+    export_file: ClassVar[str] = "CALIBRATED.gcode"
+    values_words: ClassVar[str] = "M665, M666 and M92 lines, saved by M500"
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""
@@ -74,9 +76,10 @@ class Marlin(Firmware[MarlinDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> MarlinFit:
+            first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> MarlinFit:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
-        return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight)
+        return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,
+                          grid)
 
     def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
                          radius: float) -> dict[str, MarlinDelta]:
@@ -105,7 +108,7 @@ class Marlin(Firmware[MarlinDelta]):
         """:func:`~.importer.import_marlin`: ``printer.toml`` of Marlin's model of an ``M503`` capture."""
         return import_marlin(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: MarlinDelta | None = None) -> Dialect:
         """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
 
         G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
@@ -115,7 +118,7 @@ class Marlin(Firmware[MarlinDelta]):
         towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
         refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
         """
-        model = load_marlin(path)
+        model = load_marlin(path) if model is None else model
         home = (0.0, 0.0, model.home_height)
         return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
                        refused=MappingProxyType({33.0: G33_REFUSED}))

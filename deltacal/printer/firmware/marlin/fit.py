@@ -64,7 +64,7 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0) -> MarlinFit:
+               first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> MarlinFit:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     Args:
@@ -74,12 +74,13 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         workspace: The printable cylinder (heights 0.2 mm to its top).
         hold_step_distance: Keep the start's ``M92``.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
         UnreachableError: a target out of Marlin's reach.
     """
-    grid = printable_grid(workspace)
+    grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
 
     def fit(klipper_start):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,

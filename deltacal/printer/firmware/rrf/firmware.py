@@ -50,6 +50,8 @@ class RRF(Firmware[RRFDelta]):
     calibrated_file: ClassVar[str] = "config-override.g"
     minimum_z_key: ClassVar[str] = "M208 Z minimum"
     apply_note: ClassVar[str] = APPLY_NOTE
+    export_file: ClassVar[str] = "CALIBRATED.g"
+    values_words: ClassVar[str] = "M665 and M666 lines for config-override.g, M92 for config.g"
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
@@ -90,6 +92,7 @@ class RRF(Firmware[RRFDelta]):
         workspace: Workspace,
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
+        grid: np.ndarray | None = None,
     ) -> RRFFit:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -98,6 +101,7 @@ class RRF(Firmware[RRFDelta]):
             step_distance,
             workspace,
             hold_step_distance=hold_step_distance,
+            grid=grid,
             first_layer_weight=first_layer_weight,
         )
 
@@ -113,7 +117,7 @@ class RRF(Firmware[RRFDelta]):
         """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
         return rrf_probe_program(points, title, clearance)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: RRFDelta | None = None) -> Dialect:
         """RepRapFirmware's reading of G-code with ``config.g``.
 
         E is relative exactly when M83 holds: G90/G91 set only ``axesRelative``, M82/M83
@@ -128,7 +132,7 @@ class RRF(Firmware[RRFDelta]):
             InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
                 is not known.
         """
-        home, _ = homed_position(path, load_rrf(path))
+        home, _ = homed_position(path, load_rrf(path) if model is None else model)
         return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
 
     def is_probe_log(self, text: str) -> bool:
