@@ -72,5 +72,6 @@ def test_a_rotary_deltas_report_takes_no_firmware(tmp_path, capsys):
     save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), geometry)
     assert main(["report", str(geometry), "-o", str(tmp_path / "r.html"), "--firmware", "marlin"]) == 2
     err = capsys.readouterr().err
-    assert err.strip().endswith(f"--firmware applies to a printer's calibration; {geometry} is a rotary Delta's")
+    expected = f"--firmware applies to a printer's calibration; {geometry} is a rotary Delta's"
+    assert err.strip().endswith(expected)
     assert not (tmp_path / "r.html").exists()
