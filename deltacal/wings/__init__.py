@@ -28,10 +28,12 @@ from ..io.robot import robot_kind
 from .base import Done, Robot, Wing, check_files
 from .compensate_job import Progress, compensate_targets
 from .printer import PRINTER, PrinterWing
+from .printer.importing import import_found as import_found_printer
 from .requests import (
     CompensateRequest,
     ExportRequest,
     IdentifyRequest,
+    ImportRequest,
     PlanRequest,
     ReportRequest,
     SimulateRequest,
@@ -113,6 +115,11 @@ def report(request: ReportRequest) -> Done:
     return wing_for(calibration.geometry.chain).report(request, calibration)
 
 
+def import_found(request: ImportRequest) -> Done:
+    """``deltacal import``: a printer as its firmware's configuration finds it, or a log's probe results."""
+    return import_found_printer(request)
+
+
 def compensate(request: CompensateRequest, progress: Progress | None = None) -> Done:
     """``deltacal compensate``: joint readings, a controller's corrected targets or a corrected program."""
     return compensate_targets(request, progress)
@@ -126,6 +133,7 @@ __all__ = [
     "Done",
     "ExportRequest",
     "IdentifyRequest",
+    "ImportRequest",
     "PlanRequest",
     "PrinterWing",
     "ReportRequest",
@@ -135,6 +143,7 @@ __all__ = [
     "compensate",
     "export",
     "identify",
+    "import_found",
     "plan",
     "report",
     "robot_wing",

@@ -431,3 +431,36 @@ class ReportRequest:
 
     def __post_init__(self) -> None:
         _check_firmware(self.firmware)
+
+
+@dataclass(frozen=True, eq=False)
+class ImportRequest:
+    """``deltacal import INPUT -o OUTPUT``: a printer as its configuration finds it, or a log's probe results.
+
+    A configuration (``printer.cfg``, ``config.g``): ``output`` is the folder of the robot file (and
+    the measurements the configuration saved); ``effector_radius``, ``rod_spacing`` and ``nozzle_drop``
+    [mm] are what no configuration holds (:meth:`check_config`). A log: ``output`` is the probe
+    heights file; ``config`` the printer's configuration, for its probe's offsets (:meth:`check_log`).
+    What the input is, its content tells.
+    """
+
+    input: Path_
+    output: Path_
+    config: Path_ | None = None
+    effector_radius: float | None = None
+    rod_spacing: float | None = None
+    nozzle_drop: float | None = None
+
+    def check_config(self, title: str) -> None:
+        """A configuration, read as the firmware ``title``'s: no log's option."""
+        if self.config is not None:
+            raise UsageError(f"--config applies to a log; {self.input} is read as {title}'s configuration")
+
+    def check_log(self) -> None:
+        """A log: no configuration's option, and a file (not a folder) to write."""
+        given = _given(self, ("effector_radius", "rod_spacing", "nozzle_drop"))
+        if given:
+            raise UsageError(f"{_option(given[0])} applies to a configuration; {self.input} is a log")
+        if Path(self.output).is_dir():
+            raise UsageError(f"{self.output}: a log's probe results go to a file (-o probe.csv); this is a "
+                             "folder")
