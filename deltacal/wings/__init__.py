@@ -58,9 +58,14 @@ def robot_wing(path: str | Path) -> tuple[Wing, Robot]:
     """
     check_input(path)
     data = read_toml(path)
-    kind = robot_kind(data, str(path))
-    wing = next(wing for wing in WINGS if wing.chain.robot_kind == kind)
+    wing = _wing_of_file(data, path)
     return wing, wing.load(path, data)
+
+
+def _wing_of_file(data: dict, path: str | Path) -> Wing:
+    """The wing of a robot file's parsed TOML (its ``kind``, checked)."""
+    kind = robot_kind(data, str(path))
+    return next(wing for wing in WINGS if wing.chain.robot_kind == kind)
 
 
 def plan(request: PlanRequest, notify: Callable[[str], None] | None = None) -> Done:
@@ -102,8 +107,7 @@ def _exported_geometry(path: str | Path) -> tuple[DeltaGeometry, list[str]]:
     geometry = data.get("geometry")
     if "format" not in data and (data.get("kind") is not None or (
             isinstance(geometry, Mapping) and "base_radius_mm" in geometry)):  # a robot file: no format key
-        kind = robot_kind(data, str(path))
-        return next(wing for wing in WINGS if wing.chain.robot_kind == kind).load(path, data).geometry(), []
+        return _wing_of_file(data, path).load(path, data).geometry(), []
     calibration = load_calibration(path)  # a calibration or geometry file, checked as every command does
     return calibration.geometry, list(calibration.frames)
 
