@@ -17,8 +17,8 @@ in ``threadpoolctl.threadpool_limits(1)`` or set ``OPENBLAS_NUM_THREADS=1``.
 
 from __future__ import annotations
 
-from . import _moved
 from ._lazy import lazy_getattr
+from ._moved import install as _install_moved_paths
 from ._version import __version__
 from .exceptions import (
     AssemblyError,
@@ -141,7 +141,7 @@ __all__ = [
     *sorted(_LAZY),
 ]
 
-_moved.install()
+_install_moved_paths()
 __getattr__ = lazy_getattr(__name__, _LAZY, _FORMER)
 
 

@@ -1,7 +1,7 @@
 """Compensation: the joint readings to command so the real robot's TCP reaches targets.
 
-Three methods, vectorised over targets, each a function taking what it needs
-(:func:`compensate` picks one by name, for the command line):
+Three methods (:class:`CompensationMethod`), vectorised over targets, each a function taking what it
+needs (:func:`compensate` picks one by name, for the command line):
 
 * ``exact`` (default, :func:`compensate_exact`): Newton through the identified geometry
   with the vectorised exact solver (:func:`deltacal.kinematics.exact.inverse`). It uses every
@@ -25,8 +25,9 @@ Units: mm and rad.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Literal
+from enum import StrEnum
 
 import numpy as np
 
@@ -41,10 +42,59 @@ from .kinematics.exact import PlatePose
 from .kinematics.singularity import COMMAND_MARGIN
 from .kinematics.workspace import default_workspace
 
-#: The compensation methods (``deltacal compensate --method``).
-METHODS = ("exact", "savoure", "bai")
-#: The linear compensators' names.
-LinearMethod = Literal["savoure", "bai"]
+
+class CompensationMethod(StrEnum):
+    """A compensation method; its value is the word files and ``deltacal compensate --method`` use."""
+
+    EXACT = "exact"
+    SAVOURE = "savoure"
+    BAI = "bai"
+
+    @classmethod
+    def of(cls, method: str | CompensationMethod) -> CompensationMethod:
+        """The method of a word (or the method itself).
+
+        Raises:
+            ValueError: an unknown word, naming the methods.
+        """
+        try:
+            return cls(method)
+        except ValueError:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}") from None
+
+    @property
+    def linear(self) -> bool:
+        """Whether it is a linear compensator (first order in the deviations, a rotary Delta's)."""
+        return _SCHEMES[self].linear
+
+    @property
+    def check_tolerance(self) -> float:
+        """How far from the target its readings may leave the identified robot's TCP [mm]."""
+        return _SCHEMES[self].check_tolerance
+
+
+@dataclass(frozen=True)
+class _Scheme:
+    """What a method is: linear or not, its check's tolerance [mm], whether it moves the TCP (Eq. 31)."""
+
+    linear: bool
+    check_tolerance: float
+    tool_lever: bool
+
+
+#: How far from the target the identified robot may put the TCP at the readings a method
+#: gives [mm]: exact solves the closed loops (Newton to 1e-9 mm); Savoure's linear scheme
+#: leaves the products of deviations (micrometres for real robots); Bai's ignores the tilt's
+#: lever on the tool (Eq. 22-25 move the plate centre), millimetres with a long tool.
+_SCHEMES = {
+    CompensationMethod.EXACT: _Scheme(linear=False, check_tolerance=1e-6, tool_lever=True),
+    CompensationMethod.SAVOURE: _Scheme(linear=True, check_tolerance=0.1, tool_lever=True),
+    CompensationMethod.BAI: _Scheme(linear=True, check_tolerance=5.0, tool_lever=False),
+}
+#: The compensation methods' words (``deltacal compensate --method``).
+METHODS = tuple(method.value for method in CompensationMethod)
+#: The linear compensators' words.
+LINEAR_METHODS = tuple(method.value for method in CompensationMethod if method.linear)
 
 
 @dataclass(frozen=True)
@@ -89,7 +139,7 @@ def _inverse_jacobian(geometry: DeltaGeometry, q: np.ndarray, x: np.ndarray) -> 
 
 
 def compensate_linear(
-    calibration: LinearCalibration, targets: np.ndarray, method: LinearMethod = "savoure"
+    calibration: LinearCalibration, targets: np.ndarray, method: str | CompensationMethod = "savoure"
 ) -> np.ndarray:
     """Readings from a linear compensator (``"savoure"`` Eq. 29-33 or ``"bai"`` Eq. 22-25).
 
@@ -100,7 +150,13 @@ def compensate_linear(
 
     Returns:
         Readings [rad], shape (N, 3).
+
+    Raises:
+        ValueError: a method that is not a linear compensator.
     """
+    if method not in LINEAR_METHODS:
+        raise ValueError(f"method must be 'savoure' or 'bai', got {str(method)!r}")
+    scheme = _SCHEMES[CompensationMethod(method)]
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     g = calibration.nominal
     virtual = VirtualDelta.from_geometry(g)
@@ -108,10 +164,8 @@ def compensate_linear(
     q = _checked_inverse(virtual, x, targets)  # Eq. 29
     dX = predicted_plate_displacement(calibration, q, x)  # Eq. 30
     dx = dX[:, :3]
-    if method == "savoure":
+    if scheme.tool_lever:
         dx = dx + np.cross(dX[:, 3:], g.tool[None])  # Eq. 31: the TCP's displacement
-    elif method != "bai":
-        raise ValueError(f"method must be 'savoure' or 'bai', got {method!r}")
     dq = np.einsum("nkl,nl->nk", _inverse_jacobian(g, q, x), dx)  # Eq. 32
     return q - dq  # Eq. 33
 
@@ -124,14 +178,13 @@ def _checked_inverse(virtual: VirtualDelta, x: np.ndarray, targets: np.ndarray) 
     return q
 
 
-#: How far from the target the identified robot may put the TCP at the readings a method
-#: gives [mm]: exact solves the closed loops (Newton to 1e-9 mm); Savoure's linear scheme
-#: leaves the products of deviations (micrometres for real robots); Bai's ignores the tilt's
-#: lever on the tool (Eq. 22-25 move the plate centre), millimetres with a long tool.
-CHECK_TOLERANCE = {"exact": 1e-6, "savoure": 0.1, "bai": 5.0}
+#: How far from the target the identified robot may put the TCP at the readings a method gives
+#: [mm], by method (its word, or the method: :attr:`CompensationMethod.check_tolerance`).
+CHECK_TOLERANCE = {method: scheme.check_tolerance for method, scheme in _SCHEMES.items()}
 
 
-def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str) -> np.ndarray:
+def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray,
+                   method: str | CompensationMethod) -> np.ndarray:
     """Targets whose readings are not finite, out of range, or miss the target, (N,) bool.
 
     The range is the chain's :attr:`~deltacal.chains.Chain.reading_range`: an arm's
@@ -144,7 +197,11 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     For the exact method too: its inverse closes the loops wherever Newton led it, which far
     out can be another assembly than the working one (readings that would put the real robot
     millimetres away); those targets are refused.
+
+    Raises:
+        ValueError: an unknown method.
     """
+    tolerance = CompensationMethod.of(method).check_tolerance
     bad = _beyond_range(geometry, q)
     ok = np.flatnonzero(~bad)
     while ok.size:
@@ -154,7 +211,7 @@ def check_readings(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
             bad[ok[exc.indices]] = True
             ok = np.delete(ok, exc.indices)
             continue
-        miss = np.linalg.norm(pose.point(geometry.tool) - targets[ok], axis=1) > CHECK_TOLERANCE[method]
+        miss = np.linalg.norm(pose.point(geometry.tool) - targets[ok], axis=1) > tolerance
         bad[ok[miss]] = True
         break
     return bad
@@ -227,8 +284,8 @@ def other_assembly(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray |
     return flagged
 
 
-def _refuse_unsafe(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, method: str,
-                   min_margin: float) -> None:
+def _refuse_unsafe(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray,
+                   method: CompensationMethod, min_margin: float) -> None:
     """Refuse readings that miss their targets, are another assembly's, or are near a singularity.
 
     :func:`check_readings`, then :func:`other_assembly`, then :func:`singularity_margin`.
@@ -247,7 +304,7 @@ def _refuse_unsafe(geometry: DeltaGeometry, targets: np.ndarray, q: np.ndarray, 
     failed = check_readings(geometry, targets, q, method)
     if np.any(failed):
         raise UnreachableError.from_mask(failed, targets, UnreachableError.CHECK_FAILED)
-    elsewhere = other_assembly(geometry, targets, q if method == "exact" else None)
+    elsewhere = other_assembly(geometry, targets, None if method.linear else q)  # exact: q is the inverse
     if np.any(elsewhere):
         raise UnreachableError.from_mask(elsewhere, targets, UnreachableError.OTHER_ASSEMBLY)
     margin = np.nan_to_num(singularity_margin(geometry, q), nan=0.0)  # no virtual assembly: at the limit
@@ -292,7 +349,7 @@ def compensate_exact(
     """
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     q = exact.inverse(geometry, targets)
-    _refuse_unsafe(geometry, targets, q, "exact", min_margin)
+    _refuse_unsafe(geometry, targets, q, CompensationMethod.EXACT, min_margin)
     if np.any(geometry.compliance):
         q = q - geometry.compliance * statics.gravity_torque(geometry, q, payload)
     return q
@@ -317,7 +374,7 @@ def compensate_savoure(
             :data:`CHECK_TOLERANCE`, or too close to a singularity.
         GeometryError: a printer (a prismatic chain): the linear schemes are a rotary Delta's.
     """
-    return _compensate_linearly(geometry, linear, targets, "savoure", min_margin)
+    return _compensate_linearly(geometry, linear, targets, CompensationMethod.SAVOURE, min_margin)
 
 
 def compensate_bai(
@@ -341,10 +398,10 @@ def compensate_bai(
         UnreachableError: as :func:`compensate_savoure`.
         GeometryError: a printer (a prismatic chain).
     """
-    return _compensate_linearly(geometry, linear, targets, "bai", min_margin)
+    return _compensate_linearly(geometry, linear, targets, CompensationMethod.BAI, min_margin)
 
 
-def _require_rotary(geometry: DeltaGeometry, method: str) -> None:
+def _require_rotary(geometry: DeltaGeometry, method: CompensationMethod) -> None:
     if not geometry.chain.linear_compensation:  # their error models are a rotary Delta's
         raise GeometryError(f"the {method} compensation serves rotary Delta robots; "
                             f"{geometry.name or 'this geometry'!r} is a {geometry.chain.name} chain: use the "
@@ -352,7 +409,7 @@ def _require_rotary(geometry: DeltaGeometry, method: str) -> None:
 
 
 def _compensate_linearly(geometry: DeltaGeometry, linear: LinearCalibration, targets: np.ndarray,
-                         method: LinearMethod, min_margin: float) -> np.ndarray:
+                         method: CompensationMethod, min_margin: float) -> np.ndarray:
     _require_rotary(geometry, method)
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     q = compensate_linear(linear, targets, method)
@@ -360,32 +417,45 @@ def _compensate_linearly(geometry: DeltaGeometry, linear: LinearCalibration, tar
     return q
 
 
-def _check_arguments(geometry: DeltaGeometry, method: str, linear: LinearCalibration | None,
-                     payload: float) -> None:
-    """Refuse a method that does not exist, or an argument that does not belong to it.
+def _checked_method(geometry: DeltaGeometry, method: str | CompensationMethod,
+                    linear: LinearCalibration | None, payload: float) -> CompensationMethod:
+    """The method of a word, refused if it does not exist or an argument does not belong to it.
 
     Raises:
         ValueError: naming the method and the argument.
         GeometryError: a linear method asked of a printer.
     """
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
-    if method == "exact":
+    method = CompensationMethod.of(method)
+    if not method.linear:
         if linear is not None:
-            raise ValueError("method 'exact' takes no linear calibration (it computes from the identified "
-                             "geometry alone): give linear to the savoure or bai method only")
-        return
+            raise ValueError(f"method {method.value!r} takes no linear calibration (it computes from the "
+                             f"identified geometry alone): give linear to the {' or '.join(LINEAR_METHODS)} "
+                             "method only")
+        return method
     _require_rotary(geometry, method)
     if payload:
-        raise ValueError(f"method {method!r} cannot represent a payload: use the exact method")
+        raise ValueError(f"method {method.value!r} cannot represent a payload: use the exact method")
     if linear is None:
-        raise ValueError(f"method {method!r} needs the nominal geometry and identified deviations")
+        raise ValueError(f"method {method.value!r} needs the nominal geometry and identified deviations")
+    return method
+
+
+#: Each method's function of (geometry, targets, linear, min_margin, payload), once
+#: :func:`_checked_method` has checked them against the method.
+_COMPENSATORS: dict[CompensationMethod, Callable[..., np.ndarray]] = {
+    CompensationMethod.EXACT: lambda geometry, targets, linear, min_margin, payload: compensate_exact(
+        geometry, targets, min_margin=min_margin, payload=payload),
+    CompensationMethod.SAVOURE: lambda geometry, targets, linear, min_margin, payload: compensate_savoure(
+        geometry, linear, targets, min_margin=min_margin),
+    CompensationMethod.BAI: lambda geometry, targets, linear, min_margin, payload: compensate_bai(
+        geometry, linear, targets, min_margin=min_margin),
+}
 
 
 def compensate(
     geometry: DeltaGeometry,
     targets: np.ndarray,
-    method: str = "exact",
+    method: str | CompensationMethod = "exact",
     linear: LinearCalibration | None = None,
     min_margin: float = 1.0,
     payload: float = 0.0,
@@ -399,7 +469,7 @@ def compensate(
     Args:
         geometry: The identified geometry.
         targets: Desired TCP positions in the base frame [mm], shape (N, 3).
-        method: ``"exact"``, ``"savoure"`` or ``"bai"``.
+        method: ``"exact"``, ``"savoure"`` or ``"bai"`` (or the :class:`CompensationMethod`).
         linear: Nominal geometry, model and deviations (the linear methods' alone, and required by them).
         min_margin: Targets whose readings have a :func:`singularity_margin` below this
             are refused (1: the thresholds MIN_TRANSMISSION_ANGLE, MIN_ROD_CONDITIONING).
@@ -415,18 +485,14 @@ def compensate(
         UnreachableError: naming the targets out of reach or too close to a singularity.
         GeometryError: a linear method asked of a printer (a prismatic chain).
     """
-    _check_arguments(geometry, method, linear, payload)
-    if method == "exact":
-        return compensate_exact(geometry, targets, min_margin=min_margin, payload=payload)
-    assert linear is not None
-    scheme = compensate_savoure if method == "savoure" else compensate_bai
-    return scheme(geometry, linear, targets, min_margin=min_margin)
+    method = _checked_method(geometry, method, linear, payload)
+    return _COMPENSATORS[method](geometry, targets, linear, min_margin, payload)
 
 
 def screen(
     geometry: DeltaGeometry,
     targets: np.ndarray,
-    method: str = "exact",
+    method: str | CompensationMethod = "exact",
     linear: LinearCalibration | None = None,
     min_margin: float = 1.0,
 ) -> None:
@@ -447,7 +513,7 @@ def screen(
         UnreachableError: as :func:`compensate` would, its indices among ``targets``.
         ValueError, GeometryError: arguments :func:`compensate` refuses, whatever the targets.
     """
-    _check_arguments(geometry, method, linear, 0.0)
+    method = _checked_method(geometry, method, linear, 0.0)
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
     virtual = VirtualDelta.from_geometry(geometry)
     x = targets - geometry.tool[None]

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .compensation import METHODS, compensate, linear_calibration_from_result
+from .compensation import METHODS, CompensationMethod, compensate, linear_calibration_from_result
 from .controller import FIT_KINDS, Controller, corrected_targets, fit_controller
 from .controller.fit import tcp_errors
 from .exceptions import ViewerError
@@ -179,7 +179,7 @@ def _validation_rows(truth, nominal: NominalDelta, fits: dict, progress: Callabl
             linear = linear_calibration_from_result(result, tool)
             for method in METHODS:
                 q = compensate(result.geometry.with_tool(tool), targets, method,
-                               None if method == "exact" else linear)
+                               linear if CompensationMethod(method).linear else None)
                 rows.append(_row(tool_name, name, method, validate(true_tool, q, targets)))
         progress(f"validated every model and method on the true robot, {tool_name}")
     return rows

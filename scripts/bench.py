@@ -635,6 +635,13 @@ def bench_printer(setup: Setup) -> list[Row]:
     return [Row(*row) for row in printer_rows(setup.repeat, run_times, SEED)]
 
 
+def bench_klipper_live(setup: Setup) -> list[Row]:
+    """Klipper's batch run of a program: baseline, bed_mesh, the live module (bench_klipper_live.py)."""
+    from bench_klipper_live import live_rows
+
+    return [Row(*row) for row in live_rows(max(3, setup.repeat), SEED)]
+
+
 BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_pinocchio_forward,
     bench_exact_batch,
@@ -650,6 +657,7 @@ BENCHMARKS: list[Callable[[Setup], list[Row]]] = [
     bench_identify_compliance,
     bench_gcode_filter,
     bench_klipper,
+    bench_klipper_live,
     bench_printer,
     bench_cli_doptimal_pool,
 ]

@@ -63,11 +63,11 @@ def one_printer(seed: int, tolerances, tilt: float) -> dict[str, dict[str, float
         "uncalibrated": klipper[UNCALIBRATED],
         "basic": klipper[BASIC],
         "enhanced": klipper[ENHANCED],
-        "best firmware values": fit_klipper(truth, firmware, step, WORKSPACE, **absolute).klipper,
+        "best firmware values": fit_klipper(truth, firmware, step, WORKSPACE, **absolute).values,
         "best firmware values, step distances held": fit_klipper(truth, firmware, step, WORKSPACE,
-                                                                 hold_step_distance=True, **absolute).klipper,
+                                                                 hold_step_distance=True, **absolute).values,
         "best firmware values, first layer weighted 10": fit_klipper(
-            truth, firmware, step, WORKSPACE, first_layer_weight=FIRST_LAYER_WEIGHT, **absolute).klipper,
+            truth, firmware, step, WORKSPACE, first_layer_weight=FIRST_LAYER_WEIGHT, **absolute).values,
     }
     out = {name: error_stats(truth, config, step, WORKSPACE).as_dict() for name, config in configs.items()}
     budget = error_budget(KLIPPER, nominal.geometry(), made.errors, made.bed_rotation, made.bed_translation,

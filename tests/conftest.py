@@ -25,8 +25,11 @@ ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "deltacal" / "models"
 
 
-def kossel_printer_cfg(path: Path) -> Path:
-    """A printer.cfg as a user writes it, of Klipper's model of the nominal models/kossel.toml."""
+def kossel_printer_cfg(path: Path, probe_z_offset: float | None = 0.0) -> Path:
+    """A printer.cfg as a user writes it, of Klipper's model of the nominal models/kossel.toml.
+
+    Its ``[probe]`` triggers with the nozzle ``probe_z_offset`` above the bed (None: no probe section).
+    """
     fw = KlipperDelta.from_printer(load_printer(MODELS / "kossel.toml"))
     text = "[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n"
     text += f"delta_radius: {fw.delta_radius}\n"
@@ -34,6 +37,8 @@ def kossel_printer_cfg(path: Path) -> Path:
         text += (f"\n[stepper_{tower}]\nstep_pin: PF0\ndir_pin: PF1\nenable_pin: !PD7\nmicrosteps: 16\n"
                  f"rotation_distance: 40\nendstop_pin: ^PE4\narm_length: {fw.arm_length[k]}\n"
                  f"position_endstop: {fw.position_endstop[k]}\n")
+    if probe_z_offset is not None:
+        text += f"\n[probe]\npin: ^PA4\nz_offset: {probe_z_offset}\n"
     path.write_text(text)
     return path
 

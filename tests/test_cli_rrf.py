@@ -75,9 +75,12 @@ def test_plan_simulate_identify_export_compensate_with_config_g(tmp_path, capsys
     printed = capsys.readouterr().out
     assert "these values: 3-D max" in printed
     assert "what RepRapFirmware's values cannot hold of each error source alone" in printed
-    note = RRF_FIRMWARE.apply_note
-    assert f"to apply: {note}" in printed and "config-override.g" in note
-    assert out.read_text().splitlines()[1] == f"; {RRF_FIRMWARE.apply_note}"
+    note = printed.split("to apply: ")[1].splitlines()[0]
+    # config.g holds M665 and M666 and runs no M501: its own lines, named, are replaced
+    assert note.startswith("Replace the M665 line of config.g (line 3), the M666 line of config.g (line 4)")
+    assert "config.g runs no M501, so M500 (config-override.g) would be lost" in note
+    assert out.read_text().splitlines()[1] == f"; {note}"
+    assert note == RRF_FIRMWARE.apply_note_for(config)
     fitted = load_rrf(out)
     assert not np.array_equal(values_of(fitted), values_of(load_rrf(config)))
     assert_allclose(fitted.print_radius, load_rrf(config).print_radius)  # the --config's kept

@@ -109,6 +109,10 @@ def test_model_contract(bai):
     bai32 = get_model("bai32")
     assert isinstance(bai32, SubModel)
     assert set(bai32.names) < set(get_model("bai42").names)
+    assert [get_model(n).rigid_motion_free for n in MODEL_NAMES] == [False] * 4 + [True] * 3  # Eq. 11
+    assert get_model("bai42") is not get_model("bai42")  # made anew: a caller may change its own
+    with pytest.raises(ValueError, match="unknown model 'bai99'; choose one of classical, bai42, .*klipper"):
+        get_model("bai99")
 
 
 def _parallelogram_mismatch(geometry: DeltaGeometry) -> float:

@@ -17,7 +17,7 @@ import pytest
 
 from deltacal.geometry import Workspace
 from deltacal.printer.files.robot_file import load_printer
-from deltacal.printer.firmware.budget import BED_TILT, error_budget, error_groups
+from deltacal.printer.firmware.budget import BED_TILT, ErrorSource, error_budget, error_groups
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
@@ -48,6 +48,7 @@ def test_error_groups_split_the_rods_and_keep_every_error():
     made = random_true_printer(KOSSEL, np.random.default_rng(5), typical_kit())
     groups = error_groups(made.errors)
     assert set(groups) == GROUPS and groups[BED_TILT] == {}
+    assert list(groups) == list(ErrorSource) and set(ErrorSource) == GROUPS  # the labels, in order
     rods = [n for n in made.errors if n.endswith(".length")]
     for name in rods:  # each rod's error is its pair's common part plus its difference
         total = groups["rod lengths"][name] + groups["rods of a pair that differ"][name]

@@ -15,10 +15,10 @@ from deltacal.exceptions import InputError
 from deltacal.geometry import NominalDelta
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares
-from deltacal.printer.firmware.base import Firmware
+from deltacal.printer.firmware.base import Firmware, FirmwareFit
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.firmware.klipper.fit import fit_klipper
+from deltacal.printer.firmware.klipper.fit import KlipperFit, fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.robot import NominalLinearDelta
 from deltacal.printer.simulation import random_true_printer, typical_kit
@@ -75,8 +75,9 @@ def test_the_interfaces_fit_is_fit_klipper(kossel):
     start, step = KLIPPER.nominal(kossel), kossel.step_distance
     fit = KLIPPER.fit(made.geometry, start, step, kossel.workspace, first_layer_weight=30.0)
     direct = fit_klipper(made.geometry, start, step, kossel.workspace, first_layer_weight=30.0)
-    assert fit.values is fit.klipper
-    assert np.array_equal(fit.values.position_endstop, direct.klipper.position_endstop)
+    assert type(fit) is type(direct) is FirmwareFit is KlipperFit  # one fit value for every firmware
+    assert isinstance(fit.values, KlipperDelta)
+    assert np.array_equal(fit.values.position_endstop, direct.values.position_endstop)
 
 
 def test_files_of_either_kind(kossel, tmp_path):

@@ -79,7 +79,7 @@ def test_fit_recovers_klipper_shaped_values(kossel):
     fit = fit_klipper(printer, KlipperDelta.from_printer(kossel), kossel.step_distance, WORKSPACE,
                       part_frame=False)
     assert fit.fitted == list(KLIPPER_NAMES) and fit.unidentifiable == []
-    found, want = values_of(fit.klipper), values_of(truth)
+    found, want = values_of(fit.values), values_of(truth)
     assert_allclose(found[:10], want[:10], atol=1e-6, rtol=0)  # mm and rad
     assert_allclose(found[10:], want[10:], rtol=1e-6, atol=0)  # step distances, relative
     assert fit.after.max_3d < 1e-6 < 0.5 < fit.before.max_3d
@@ -91,7 +91,7 @@ def test_fit_with_step_distances_held_keeps_them(kossel):
     start = KlipperDelta.from_printer(kossel)
     fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, hold_step_distance=True,
                       part_frame=False)
-    assert_allclose(fit.klipper.step_distance, start.step_distance, rtol=0, atol=0)
+    assert_allclose(fit.values.step_distance, start.step_distance, rtol=0, atol=0)
     assert fit.held == list(KLIPPER_NAMES[10:])
     free = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, part_frame=False)
     assert free.after.rms_3d < fit.after.rms_3d < fit.before.rms_3d
@@ -126,9 +126,9 @@ def test_in_the_parts_frame_a_printer_turned_and_shifted_on_its_bed_is_klippers(
     absolute = fit_klipper(printer, start, kossel.step_distance, WORKSPACE, part_frame=False)
     fit = fit_klipper(printer, start, kossel.step_distance, WORKSPACE)
     assert fit.held == ["angle_c"] and "angle_c" not in fit.unidentifiable
-    assert fit.after.max_3d < 1e-6 < 0.1 < error_stats(printer, absolute.klipper, kossel.step_distance,
+    assert fit.after.max_3d < 1e-6 < 0.1 < error_stats(printer, absolute.values, kossel.step_distance,
                                                         WORKSPACE).max_3d
-    assert error_stats(printer, fit.klipper, kossel.step_distance, WORKSPACE, part_frame=True).max_3d < 1e-6
+    assert error_stats(printer, fit.values, kossel.step_distance, WORKSPACE, part_frame=True).max_3d < 1e-6
 
 
 def test_error_budget_groups(kossel):

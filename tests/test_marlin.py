@@ -196,7 +196,7 @@ def test_the_fit_leaves_what_klippers_leaves_in_the_same_gauge(kossel, seed):
     Marlin's rules it leaves the same errors (the trims' sum 0, M666 <= 0)."""
     made = random_true_printer(kossel, np.random.default_rng(seed), typical_kit())
     fit = MARLIN.fit(made.geometry, MARLIN.nominal(kossel), kossel.step_distance, kossel.workspace)
-    same = KLIPPER.fit(made.geometry, replace(KLIPPER.nominal(kossel), angle=fit.klipper.klipper.angle),
+    same = KLIPPER.fit(made.geometry, replace(KLIPPER.nominal(kossel), angle=to_klipper(fit.values).angle),
                        kossel.step_distance, kossel.workspace)
     assert abs(fit.after.max_3d - same.after.max_3d) < 1e-6 and fit.after.max_3d < 0.5 * fit.before.max_3d
     assert abs(fit.values.angle_trim.sum()) < 1e-12 and np.all(fit.values.endstop_adj <= 0.0)

@@ -101,3 +101,54 @@ def test_g33_is_refused_and_g29_leaves_the_position_unknown(marlin):
         run(["G28", "G29", "G1 X10 Y0 F3000"], marlin)
     out = run(["G28", "G29", "G1 X10 Y0 Z0.3 F3000", "G1 X20 Y0"], marlin)
     assert_allclose(sent(out)[0], [10.0, 0.0, 0.3], atol=0.0)  # the first move after G29 sent whole
+
+
+# ------------------------------------------------------------------ M211: the program's own soft endstops
+BELOW_BED = ["G28", "G90", "G1 X0 Y0 Z5 F3000", "G1 X10 Y0 Z-0.1", "G1 X20 Y0 Z0.2"]
+
+
+def test_the_programs_own_m211_s0_lets_its_moves_below_min_z(marlin):
+    """The refusal's advice followed: M211 S0 at the program's start switches Marlin's soft endstops off."""
+    limits = load_marlin(M503)
+    with pytest.raises(InputError, match=r"line 4: corrected Z -0.1000 mm is below the soft endstop Min Z 0 "
+                                         r".*send M211 S0 \(soft endstops off\)"):
+        "".join(filter_lines([line + "\n" for line in BELOW_BED], same, dialect=marlin, limits=limits))
+    program = ["M211 S0 ; soft endstops off", *BELOW_BED]
+    out = "".join(filter_lines([line + "\n" for line in program], same, dialect=marlin, limits=limits))
+    assert "G1 X10.0000 Y0.0000 Z-0.1000" in out and out.startswith("M211 S0 ; soft endstops off\n")
+
+
+@pytest.mark.parametrize(("switch", "line"), [
+    (["M211 S0", "M211 S1"], 7),  # on again: the moves after S1 are checked, named by their line
+    (["M211", ""], 5),  # M211 alone reports the soft endstops, switches nothing
+    (["M211 ; S0 in a comment", ""], 5),
+    (["M117 S0", ""], 5),  # another M code's S
+])
+def test_m211_s1_switches_the_soft_endstops_on_again(marlin, switch, line):
+    limits = load_marlin(M503)
+    program = [switch[0], "G28", "G90", "G1 X0 Y0 Z5 F3000", "G1 X10 Y0 Z-0.1", switch[1], "G1 X20 Y0 Z-0.2"]
+    program = [text for text in program if text]
+    with pytest.raises(InputError, match=rf"line {line}: corrected Z -0.\d+ mm is below the soft endstop"):
+        "".join(filter_lines([text + "\n" for text in program], same, dialect=marlin, limits=limits))
+
+
+def test_compensate_follows_a_programs_m211_s0(tmp_path, capsys):
+    """``compensate PART.gcode --controller m503.txt``: refused with the advice, then run with it followed."""
+    from deltacal.cli import main
+    from deltacal.io.geometry_file import save_geometry
+    from deltacal.printer.files.robot_file import load_printer
+
+    printer = load_printer(Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml")
+    capture = MARLIN.save_config(tmp_path / "m503.txt", MARLIN.nominal(printer), complete=True)
+    cal = tmp_path / "cal.toml"
+    save_geometry(printer.geometry(), cal)
+    part, out = tmp_path / "part.gcode", tmp_path / "out.gcode"
+    part.write_text("\n".join(BELOW_BED) + "\n")
+    argv = ["compensate", str(cal), str(part), "--controller", str(capture), "--firmware", "marlin",
+            "-o", str(out)]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "part.gcode: line 4: corrected Z -0.1000 mm" in err and "send M211 S0" in err and not out.exists()
+    part.write_text("M211 S0\n" + part.read_text())
+    assert main(argv) == 0
+    assert "G1 X10.0000 Y0.0000 Z-0.1000" in out.read_text()

@@ -18,7 +18,7 @@ from deltacal.cli import main
 from deltacal.identifiability import base_parameters
 from deltacal.planning import candidate_pool, d_optimal, planning_model, pool_memory, pose_blocks
 from deltacal.planning import doptimal as doptimal_module
-from deltacal.planning.regressor import _RTOL, default_points
+from deltacal.planning.regressor import RANK_RTOL, default_points
 
 ROBOT = str(MODELS / "bai2015.toml")
 
@@ -36,7 +36,7 @@ def reference_selection(nominal, model, count, pool, measurement, max_passes=10)
     pts = default_points(geometry, error_model, measurement)
     raw = pose_blocks(geometry, error_model, pool.q, measurement, pts)
     N, b, n = raw.shape
-    base = base_parameters(raw.reshape(N * b, n), error_model.names, rtol=_RTOL)
+    base = base_parameters(raw.reshape(N * b, n), error_model.names, rtol=RANK_RTOL)
     scale = np.linalg.norm(raw.reshape(N * b, n), axis=0) / math.sqrt(N)
     blocks = raw[:, :, base.base] / np.where(scale > 0.0, scale, 1.0)[base.base]
     r = blocks.shape[2]

@@ -51,12 +51,13 @@ def plan(printer, firmware):
 
 
 def write_printer_cfg(path: Path, klipper: KlipperDelta) -> Path:
-    """A minimal Klipper configuration of a delta printer with these values."""
+    """A minimal Klipper configuration of a delta printer with these values (a probe at the nozzle)."""
     lines = ["[printer]", "kinematics: delta", f"delta_radius: {klipper.delta_radius!r}"]
     for k, axis in enumerate("abc"):
         lines += [f"[stepper_{axis}]", "microsteps: 16", "rotation_distance: 40",
                   f"arm_length: {float(klipper.arm_length[k])!r}",
                   f"position_endstop: {float(klipper.position_endstop[k])!r}"]
+    lines += ["[probe]", "pin: ^PA4", "z_offset: 0"]
     path.write_text("\n".join(lines) + "\n")
     return path
 

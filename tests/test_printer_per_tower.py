@@ -149,6 +149,7 @@ def test_a_calibration_compares_its_step_distances_per_tower(tmp_path):
 
 def _identified(folder: Path, robot: Path, cfg: Path) -> Path:
     """plan --object, simulate (a perturbed printer) and identify: the calibration file."""
+    cfg.write_text(cfg.read_text() + "\n[probe]\npin: ^PA4\nz_offset: 0\n")  # the probe program needs one
     plan = folder / "plan"
     assert main(["plan", str(robot), "--object", "--controller", str(cfg), "-o", str(plan)]) == 0
     assert main(["simulate", str(robot), str(plan / "probe.csv"), str(plan / "distances.csv"), "--controller",

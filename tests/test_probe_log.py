@@ -159,10 +159,10 @@ def test_probe_accuracy_each_sample_a_row_a_failed_probe_none_a_lone_result_one(
 
 def test_the_probe_offsets_come_from_the_configs_probe_section(probed, tmp_path):
     assert probe_offsets(read_klipper_config(probed[1])) == OFFSETS
-    bare = kossel_printer_cfg(tmp_path / "printer.cfg")
+    bare = kossel_printer_cfg(tmp_path / "printer.cfg", probe_z_offset=None)
     bare.write_text(bare.read_text() + "\n[smart_effector]\npin: PC1\nz_offset: 0.1\n")
     assert probe_offsets(read_klipper_config(bare)) == ProbeOffsets(0.0, 0.0, 0.1)
-    kossel_printer_cfg(bare)
+    kossel_printer_cfg(bare, probe_z_offset=None)
     with pytest.raises(InputError, match=r"printer.cfg: no probe section \(\[probe\]"):
         probe_offsets(read_klipper_config(bare))
     bare.write_text(bare.read_text() + "\n[probe]\npin: PC1\n")

@@ -266,11 +266,11 @@ def test_fit_recovers_a_printer_on_a_tilted_bed(kossel):
     start = RRF_FIRMWARE.nominal(kossel)
     fit = fit_rrf(printer, start, kossel.step_distance, WORKSPACE)
     # the bed rises toward +x (tan 0.05 deg) and +y (tan 0.1 deg): RRF raises Z there (positive tilts)
-    assert np.all(fit.rrf.tilt > 0.5 * np.tan(np.radians([0.05, 0.1])))
+    assert np.all(fit.values.tilt > 0.5 * np.tan(np.radians([0.05, 0.1])))
     klipper = fit_klipper(printer, KLIPPER.nominal(kossel), kossel.step_distance, WORKSPACE)
     assert fit.after.max_3d < 0.15 * fit.before.max_3d and fit.after.max_3d < klipper.after.max_3d
     assert "M665 Z" in fit.held
-    assert abs(np.mean(fit.rrf.endstop_adjustment)) < 1e-12  # normalised as RRF leaves them
+    assert abs(np.mean(fit.values.endstop_adjustment)) < 1e-12  # normalised as RRF leaves them
 
 
 def test_fit_on_simulated_printers_beats_the_start(kossel):

@@ -145,11 +145,11 @@ def show(done: Done) -> int:
     return 0
 
 
-def add_firmware_argument(p: argparse.ArgumentParser) -> None:
-    """Register ``--firmware``: which firmware's settings ``--controller`` is (default: told by the file)."""
+def add_firmware_argument(p: argparse.ArgumentParser, subject: str = "--controller") -> None:
+    """Register ``--firmware``: the firmware whose file ``subject`` (an option or argument) is."""
     names = firmware_names()
     p.add_argument("--firmware", choices=names, default=None,
-                   help=f"a printer: the firmware whose settings --controller is ({'|'.join(names)}; "
+                   help=f"a printer: the firmware whose settings {subject} is ({'|'.join(names)}; "
                         "default: told from the file's content)")
 
 

@@ -66,6 +66,10 @@ def add_parser(sub) -> None:
     p.add_argument("--keep-rotation-distance", action="store_true",
                    help="with --controller klipper|marlin|rrf: hold each tower's rotation_distance (Marlin, "
                         "RRF: M92) (the --config's, else the nominal step distance's)")
+    p.add_argument("--live", action="store_true",
+                   help="with --controller klipper --config printer.cfg: -o OUTDIR gets "
+                        "deltacal_geometry.py, a Klipper module that corrects every move itself, and "
+                        "deltacal_geometry.cfg, its section (docs: printers, live correction)")
     p.add_argument("--robot", metavar="ROBOT.toml",
                    help="with --controller: the robot file (its nominal values start the fit and hold "
                         "what the fit cannot identify; its [workspace] is the fit's; default: the "

@@ -36,8 +36,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument("calibration", metavar="CALIBRATION.toml", help="calibration file written by identify")
     p.add_argument("-o", "--output", required=True, metavar="REPORT.html", help="HTML file to write")
-    p.add_argument("--measurements", metavar="MEAS.csv",
-                   help="the measurements the calibration was identified from (residual plots)")
+    p.add_argument("--measurements", metavar="MEAS.csv", nargs="+",
+                   help="the measurements the calibration was identified from (residual plots); a printer's "
+                        "probe.csv and distances.csv, with --controller")
+    p.add_argument("--controller", metavar="SETTINGS",
+                   help="a printer: the firmware's settings its measurements were made with (printer.cfg, "
+                        "config.g, an M503 capture)")
     p.add_argument("--truth", metavar="TRUE.toml",
                    help="true geometry of a simulation (simulate --perturb writes MEAS.truth.toml): actual "
                         "TCP errors beside the predicted σ")
@@ -51,6 +55,7 @@ def add_parser(sub) -> None:
                    help="a calibration with compliances: map the TCP deflection under this payload [kg] too")
     p.add_argument("--no-view", action="store_true", help="leave out the 3-D view (a smaller file)")
     p.add_argument("--firmware", choices=firmware_names(), default=None,
-                   help="a printer's calibration: the firmware whose values the page fits and names "
-                        f"({'|'.join(firmware_names())}; default {firmware_names()[0]})")
+                   help="a printer's calibration: the firmware whose values the page fits and names, and "
+                        f"whose settings --controller is ({'|'.join(firmware_names())}; default: "
+                        f"--controller's, told from its content, else {firmware_names()[0]})")
     p.set_defaults(func=run)

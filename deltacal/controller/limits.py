@@ -4,7 +4,9 @@ A controller that checks its commands (a printer's firmware: Klipper refuses a m
 range) gives its :class:`CommandLimits`; what writes commands for it (``compensate``'s corrected
 targets, the G-code filter) checks every command as written and gathers those refused over the
 whole file in a :class:`RefusedCommands`, so that one refusal names the first line and the value
-that admits them all. Units: mm.
+that admits them all. A program may switch the limits itself (Marlin's ``M211 S0`` turns its soft
+endstops off): :meth:`RefusedCommands.switch` records it, and the commands of the lines after a
+switch off are not checked, as the controller does not. Units: mm.
 """
 
 from __future__ import annotations
@@ -33,10 +35,12 @@ class RefusedCommands:
     """The commands of a file that a controller's limits refuse, gathered as the file is written.
 
     Attributes:
-        limits: The controller's limits.
+        limits: The controller's limits (those in force now, see :meth:`switch`).
         count: Commands refused so far.
         lines: Their lines in the input file, in order (the first :data:`KEPT_COMMANDS`).
         first: Where the first refused command is (``"line 412"``), or "".
+        by: What set the limits the first refused commands broke (``"line 3 (M211 S1)"``), or "":
+            the controller's own.
     """
 
     def __init__(self, limits: CommandLimits) -> None:
@@ -44,7 +48,18 @@ class RefusedCommands:
         self.count = 0
         self.lines: list[int] = []
         self.first = ""
+        self.by = ""
         self._kept: list[np.ndarray] = []
+        self._judged = limits  # the limits the kept commands broke: the refusal's value is theirs
+
+    def switch(self, limits: CommandLimits, by: str) -> None:
+        """Check the commands from here on against ``limits``, which ``by`` set (a program's line).
+
+        Commands already refused keep the refusal's value; later ones are counted and named.
+        """
+        if not self.count:
+            self._judged, self.by = limits, by
+        self.limits = limits
 
     def check(self, commands: np.ndarray, lines: np.ndarray, where=None) -> bool:
         """Check commands as written; keep those refused. Returns whether all pass.
@@ -63,7 +78,8 @@ class RefusedCommands:
             k = int(index[0])
             self.first = where(k) if where is not None else f"line {int(lines[k])}"
         room = KEPT_COMMANDS - len(self.lines)
-        self._kept.append(np.asarray(commands, dtype=float)[index[:room]])
+        if self.limits is self._judged:
+            self._kept.append(np.asarray(commands, dtype=float)[index[:room]])
         self.lines.extend(int(v) for v in lines[index[:room]])
         self.count += index.size
         return False
@@ -77,7 +93,9 @@ class RefusedCommands:
         """
         if not self.count:
             return None
-        detail = self.limits.refusal(np.concatenate(self._kept))
+        detail = self._judged.refusal(np.concatenate(self._kept))
+        if self.by:
+            detail += f" (the limits {self.by} set)"
         if self.count > 1:
             lines = sorted(set(self.lines))
             shown = ", ".join(str(n) for n in lines[:10]) + (", ..." if len(lines) > 10 else "")

@@ -11,13 +11,33 @@
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
 
 from .bai import DISTANCE_GAUGE, MODEL32_REMOVED, BaiModel
 from .base import ErrorModel, SubModel
 from .classical import ClassicalModel
 from .complete import CompleteModel
 
-MODEL_NAMES = ("classical", "bai42", "complete", "bai24", "bai18", "bai36", "bai32")
+
+def _distance_model(orientation: bool, removed: list[str], name: str) -> ErrorModel:
+    """Bai's model for distance measurements: without the gauge (Eq. 11), rigid motion left free."""
+    model = BaiModel(orientation=orientation).without(removed, name)
+    model.rigid_motion_free = True  # Bai's Eq. 11 gauge
+    return model
+
+
+#: The rotary Delta's error models: name -> the model, made anew.
+_MODELS: dict[str, Callable[[], ErrorModel]] = {
+    "classical": ClassicalModel,
+    "bai42": lambda: BaiModel(orientation=True),
+    "complete": CompleteModel,
+    "bai24": lambda: BaiModel(orientation=False),
+    "bai18": lambda: _distance_model(False, DISTANCE_GAUGE, "bai18"),
+    "bai36": lambda: _distance_model(True, DISTANCE_GAUGE, "bai36"),
+    "bai32": lambda: _distance_model(True, DISTANCE_GAUGE + MODEL32_REMOVED, "bai32"),
+}
+#: The names of the rotary Delta's models (:func:`get_model`).
+MODEL_NAMES = tuple(_MODELS)
 #: The models of a linear Delta printer (a prismatic chain), defined in the printer's wing: name ->
 #: (module, class). Imported on first use, so the engine never imports the wing.
 _PRINTER_MODELS = {
@@ -28,31 +48,19 @@ PRINTER_MODEL_NAMES = tuple(_PRINTER_MODELS)
 
 
 def get_model(name: str) -> ErrorModel:
-    """The error model of a name in :data:`MODEL_NAMES`."""
-    if name == "classical":
-        return ClassicalModel()
-    if name == "complete":
-        return CompleteModel()
+    """The error model of a name in :data:`MODEL_NAMES` or :data:`PRINTER_MODEL_NAMES`.
+
+    Raises:
+        ValueError: an unknown name, naming the models.
+    """
     if name in _PRINTER_MODELS:
         module, cls = _PRINTER_MODELS[name]
         model_class: type[ErrorModel] = getattr(importlib.import_module(module), cls)
         return model_class()
-    if name == "bai42":
-        return BaiModel(orientation=True)
-    if name == "bai24":
-        return BaiModel(orientation=False)
-    model: ErrorModel
-    if name == "bai18":
-        model = BaiModel(orientation=False).without(DISTANCE_GAUGE, "bai18")
-    elif name == "bai36":
-        model = BaiModel(orientation=True).without(DISTANCE_GAUGE, "bai36")
-    elif name == "bai32":
-        model = BaiModel(orientation=True).without(DISTANCE_GAUGE + MODEL32_REMOVED, "bai32")
-    else:
+    if name not in _MODELS:
         known = ", ".join(MODEL_NAMES + PRINTER_MODEL_NAMES)
         raise ValueError(f"unknown model {name!r}; choose one of {known}")
-    model.rigid_motion_free = True  # Bai's Eq. 11 gauge
-    return model
+    return _MODELS[name]()
 
 
 __all__ = [

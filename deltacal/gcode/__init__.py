@@ -8,6 +8,10 @@
 * :mod:`.batch`: a chunk of output, its points corrected once per chunk.
 * :mod:`.source`: a program's text as read (its name, its lines with their endings, a byte-order mark).
 * :mod:`.marker`: the first line of a corrected program, which says it is one.
+* :mod:`.dialect`: a controller's reading of G-code where controllers differ (its lines, macros, rules).
+* :mod:`.syntax`: a line's text as controllers read it (comment, ending, what they read differently).
+* :mod:`.notes`: what is said of a program without refusing it (warnings, by kind).
+* :mod:`.macros`, :mod:`.homing`: a controller's macro applied to the state; the first move after a homing.
 """
 
 from .marker import MARKER, marker_line

@@ -1,11 +1,12 @@
 """The plan of a G-code line, as the reader (:mod:`deltacal.gcode.rewriter`) hands it out.
 
-Every line read has one plan, of one of three types (told apart by their class):
+Every line read has one plan, of one of four types (told apart by their class):
 
 * :data:`KEPT` (:class:`KeptLine`): the line is written as it is, byte for byte.
 * :class:`SingleMove`: a move sent whole: its end is corrected, the text around it kept.
 * :class:`SplitMove`: a move cut into segments along its path (a long line or an arc), each
   segment's end corrected and written with the move's words (:class:`MoveText`).
+* :class:`LimitsChange`: a line kept that changes the controller's limits on its commands.
 
 Numbers written: a split E is written with at least :data:`E_DECIMALS` decimals as integers of
 10^-d (d decimals) that add up exactly to the move's E. Units: mm.
@@ -13,8 +14,9 @@ Numbers written: a split E is written with at least :data:`E_DECIMALS` decimals 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 from .path import ArcPath, StraightPath
 from .state import Extrusion
@@ -144,5 +146,18 @@ class SplitMove:
     text: MoveText
 
 
+@dataclass(frozen=True, slots=True)
+class LimitsChange:
+    """A line kept that changes the controller's limits: the commands after it are checked against the new.
+
+    Attributes:
+        limits: ``limits(before)`` -> the limits after the line.
+        by: The line, as messages name it (``line 3 (M211 S1)``).
+    """
+
+    limits: Callable[[Any], Any]
+    by: str
+
+
 #: The plan of a line.
-Plan = KeptLine | SingleMove | SplitMove
+Plan = KeptLine | SingleMove | SplitMove | LimitsChange

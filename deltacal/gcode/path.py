@@ -13,8 +13,16 @@ Units: mm and rad.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
+
+from ..exceptions import InputError
+
+#: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
+ARC_TOLERANCE_RATIO = 1e-3
+#: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
+ARC_RADIUS_TOLERANCE_MM = 0.0127
 
 
 class StraightPath:
@@ -116,3 +124,42 @@ def centre_from_radius(start_xy, end_xy, radius: float, clockwise: bool) -> tupl
     side = (-1.0 if clockwise else 1.0) * (1.0 if radius > 0.0 else -1.0)
     mx, my = start_xy[0] + dx / 2.0, start_xy[1] + dy / 2.0
     return mx - side * h * dy / chord, my + side * h * dx / chord
+
+
+def arc_path(start, end, given: Mapping[str, str], clockwise: bool, segment_mm: float) -> ArcPath:
+    """The chords of a G2/G3 arc in the XY plane from ``start`` to ``end`` [mm].
+
+    Args:
+        start: The arc's start (X, Y, Z) [mm].
+        end: Its end [mm].
+        given: Its words' texts: the centre by ``I J`` (offsets from the start) or the radius ``R``
+            (> 0: at most a half turn), ``P`` whole turns first (Marlin's), all checked numbers.
+        clockwise: G2 (else G3).
+        segment_mm: Longest chord [mm]; each strays from the arc by :data:`ARC_TOLERANCE_RATIO` times it
+            at most.
+
+    Raises:
+        InputError: (without a place: the reader names the line) the arc cannot be drawn: R with
+            I/J, neither, a radius that cannot join the ends, an end off the start's circle by more
+            than :data:`ARC_RADIUS_TOLERANCE_MM` or 0.1 %.
+    """
+    values = {k: float(v) for k, v in given.items() if k in "IJR"}
+    if "R" in values:
+        if "I" in values or "J" in values:
+            raise InputError("arc with both R and I/J")
+        centre = centre_from_radius(start, end, values["R"], clockwise)
+        if centre is None:
+            raise InputError(f"arc of radius R{values['R']:g} cannot join its ends (they coincide, or are "
+                             "further apart than the diameter)")
+    elif "I" in values or "J" in values:
+        centre = (start[0] + values.get("I", 0.0), start[1] + values.get("J", 0.0))
+    else:
+        raise InputError("arc without I, J or R")
+    r0 = math.hypot(start[0] - centre[0], start[1] - centre[1])
+    r1 = math.hypot(end[0] - centre[0], end[1] - centre[1])
+    if r0 == 0.0 or abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, 1e-3 * r0):
+        raise InputError(f"arc's end is not on its circle: radius {r0:.4f} mm at the start, {r1:.4f} mm at "
+                         "the end")
+    sweep = arc_sweep(start, end, centre, clockwise)
+    sweep += math.copysign(2.0 * math.pi * int(given.get("P", "0")), sweep)  # Marlin's P circles first
+    return ArcPath(start, end, centre, sweep, segment_mm, ARC_TOLERANCE_RATIO * segment_mm)

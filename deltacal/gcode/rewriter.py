@@ -12,10 +12,11 @@ The filter reads one line at a time and keeps at most :data:`CHUNK_POINTS` point
 
 What is rewritten, and how:
 
-- **Moves**: G0/G00/G1/G01 (and a line of axis words alone, in the current G0/G1 mode), with X,
-  Y or Z. Written ``G0``/``G1`` then ``X Y Z`` (always all three), ``E``, ``F``, ``S``, in that
-  order, upper case, XYZ with :data:`XYZ_DECIMALS` decimals (0.1 µm). A move without X, Y or Z
-  (``G1 E-2 F2400``, ``G1 F1500``) does not move the TCP and is kept byte for byte.
+- **Moves**: G0/G00/G1/G01 (and a line of axis words alone, in the current G0/G1 mode, where the
+  dialect reads it so: :class:`~deltacal.gcode.dialect.LineReading`), with X, Y or Z. Written
+  ``G0``/``G1`` then ``X Y Z`` (always all three), ``E``, ``F``, ``S``, in that order, upper case,
+  XYZ with :data:`XYZ_DECIMALS` decimals (0.1 µm). A move without X, Y or Z (``G1 E-2 F2400``,
+  ``G1 F1500``) does not move the TCP and is kept byte for byte.
 - **Split moves**: a move longer than ``segment_mm`` (default :data:`DEFAULT_SEGMENT_MM` mm) is
   cut into equal segments. The first segment's line carries what the move line held besides its
   motion: its ``N`` label, its G90/G91/G17/G21 words, ``F`` and ``S`` (modal: they hold for the
@@ -39,6 +40,10 @@ What is rewritten, and how:
   G-code words (``EXCLUDE_OBJECT_START NAME=a``), line endings (LF, CRLF) and bytes that are not
   UTF-8. A UTF-8 byte-order mark is kept at the start, and the line after it read as senders send
   it, without the mark. A ``;`` inside a ``(...)`` comment is the comment's.
+- **Lines the controller does not run** (:class:`~deltacal.gcode.dialect.LineReading`): a command
+  behind junk (a byte-order mark, a NUL, a digit: ``1G1 X40``), axis words without a G word where
+  the firmware answers "Unknown command" (Klipper): kept byte for byte, the position not moved, and a warning
+  (:class:`~deltacal.gcode.notes.Notes`) names the first line of each kind at the program's end.
 
 Position: X, Y and Z are unknown at the start unless ``start`` gives them, and again after a
 homing or probing line (G28, G29, G30, G38.x): the filter cannot know where the real robot then
@@ -68,7 +73,11 @@ its end by the first one's line, with the configuration key and the value that a
 word after an M code on its line (``M83 G1 X40``: Marlin and Klipper read the first command alone,
 LinuxCNC and grbl both); a block-delete line (``/G1 ...``) that would be read (it runs or not by the
 controller's switch); words after a ``(...;...)`` comment (Klipper ends the line at the ``;``); a
-line that starts with :data:`~deltacal.gcode.marker.MARKER` (the program is already corrected).
+line that starts with :data:`~deltacal.gcode.marker.MARKER` (the program is already corrected); as
+the dialect says (:class:`~deltacal.gcode.dialect.LineReading`): junk before a command where the
+controller's reading is not known, axis words alone where the firmware's build or mode decides
+(Marlin, RepRapFirmware), a NUL where it ends a line (RepRapFirmware), a blank the firmware does not
+skip before a command (a tab, for Marlin).
 
 Units: mm (G21); the file's numbers are written as they are read where they are kept.
 """
@@ -84,14 +93,30 @@ from typing import TYPE_CHECKING
 from ..exceptions import InputError
 from ..io.atomic import atomic_output
 from .batch import CHUNK_LINES, CHUNK_POINTS, MAX_COORDINATE_MM, XYZ_DECIMALS, Batch, Correct, Progress
-from .dialect import GENERIC, ArcP, Dialect
+from .dialect import GENERIC, ArcP, CommandRule, Dialect, Unread
 from .homing import FromHome
 from .macros import apply_macro
 from .marker import is_marker
-from .moves import E_DECIMALS, KEPT, MoveText, Plan, SingleMove, SplitMove
-from .path import ArcPath, StraightPath, arc_sweep, centre_from_radius
-from .source import SUFFIXES, is_gcode_path, line_ending, opened_lines, read_lines
+from .moves import E_DECIMALS, KEPT, LimitsChange, MoveText, Plan, SingleMove, SplitMove
+from .notes import Notes
+from .path import ARC_RADIUS_TOLERANCE_MM, ARC_TOLERANCE_RATIO, ArcPath, StraightPath, arc_path
+from .source import SUFFIXES, is_gcode_path, opened_lines, read_lines
 from .state import MOTIONS, PLANES, Extrusion, ModalState, Motion, Plane
+from .syntax import (
+    JUNK,
+    M_LINE,
+    PARENS,
+    READ,
+    TEXT_M,
+    WORD,
+    block_delete_refusal,
+    bytes_refusal,
+    command_then_g_refusal,
+    junk_split,
+    line_params,
+    semicolon_refusal,
+    split_line,
+)
 
 if TYPE_CHECKING:
     from ..controller.limits import CommandLimits
@@ -123,14 +148,8 @@ DEFAULT_SEGMENT_MM = 5.0
 #: (0.09 µm at most) shorter segments' own bend never reaches (0.1-0.15 µm at 5 mm already, as the
 #: length squared); and below it a program grows without useful bound (1e-9 mm: 10^6 lines a µm).
 MIN_SEGMENT_MM = 0.01
-#: Chord error allowed when an arc is cut, as a fraction of the segment length (5 µm at 5 mm).
-ARC_TOLERANCE_RATIO = 1e-3
-#: Difference between an arc's start and end radii refused beyond this [mm] (or 0.1 % of the radius).
-ARC_RADIUS_TOLERANCE_MM = 0.0127
 _LINE = re.compile(r"(?:\s*[A-Za-z]\s*[-+]?[0-9.]*)*\s*")
-_WORD = re.compile(r"([A-Za-z])\s*([-+]?[0-9.]*)")
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)")
-_PARENS = re.compile(r"\([^)]*\)")
 #: A plain move: G0/G1 (or axis words alone) then X, Y, Z, E, F with plain numbers, upper case.
 _FAST = re.compile(r"[ \t]*(G0?[01](?=[ \t]))?((?:[ \t]*[XYZEF][-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))+)[ \t]*"
                    r"(;[^\r\n]*)?(\r\n|\n|\r)?")
@@ -139,11 +158,6 @@ _NUM = r"[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
 _PLAIN = re.compile(rf"(G0?[01]) (?:F({_NUM}) )?X({_NUM}) Y({_NUM})(?: Z({_NUM}))?(?: E({_NUM}))?"
                     rf"(?: F({_NUM}))?(\r\n|\n|\r)?")
 _FAST_WORD = re.compile(r"([XYZEF])([-+]?[0-9.]+)")
-_M_LINE = re.compile(r"(?:[Nn]\s*[0-9]+\s*)?[Mm]\s*0*([0-9]+)?(?![0-9.])")
-#: M codes whose parameter is text (a message, a file name): a G in it is not a command.
-_TEXT_M = frozenset(("23", "28", "30", "32", "117", "118"))
-#: First letters of a line the filter reads (others are kept without reading them).
-_READ = frozenset("GgXxYyZzIiJjRrEeFfNnMm")
 _HOMING = (28.0, 29.0, 30.0, 38.2, 38.3, 38.4, 38.5)
 _FRAMES = (52.0, 53.0, 54.0, 55.0, 56.0, 57.0, 58.0, 59.0, 59.1, 59.2, 59.3, 92.1, 92.2, 92.3, 68.0, 51.0)
 _MODES = (90.0, 91.0, 17.0, 21.0)  # kept on a move's first segment
@@ -222,6 +236,11 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
             else:
                 yield from _split_out(batch, plan.plan, number)
             batch.home_move(plan.home, end=True)
+        elif isinstance(plan, LimitsChange):  # the commands after it checked against the limits it sets
+            items.append(line)
+            if batch.refused is not None:
+                yield batch.flush()
+                batch.refused.switch(plan.limits(batch.refused.limits), plan.by)
         else:  # KEPT
             items.append(line)
         if len(points) >= CHUNK_POINTS or len(items) >= CHUNK_LINES:
@@ -230,6 +249,7 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     refusal = None if batch.refused is None else batch.refused.error(source)
     if refusal is not None:
         raise refusal
+    reader.notes.say()
 
 
 def _split_out(batch: Batch, plan: SplitMove, number: int) -> Iterator[str]:
@@ -279,21 +299,6 @@ def filter_gcode(source: str | Path, destination: str | Path, correct: Correct,
                 progress(min(done / size, 1.0), "")
 
 
-def _split(line: str) -> tuple[str, str, str]:
-    """(code, comment, ending) of a line: the comment from ';' on, the ending LF, CR LF, CR or ""."""
-    ending = line_ending(line)
-    body = line[: len(line) - len(ending)]
-    cut = body.find(";")
-    if cut > 0 and "(" in body[:cut]:  # a ';' within a '(...)' comment is the comment's
-        inside, cut = False, -1
-        for k, c in enumerate(body):
-            if c == ";" and not inside:
-                cut = k
-                break
-            inside = (inside or c == "(") and c != ")"
-    return (body, "", ending) if cut < 0 else (body[:cut], body[cut:], ending)
-
-
 class _Reader:
     """Reads the program line by line: the state, and the plan of each move."""
 
@@ -305,6 +310,12 @@ class _Reader:
         self.dialect = dialect
         self.macros = bool(dialect.macros)
         self.home = dialect.home
+        self.lines = dialect.lines
+        self.modal_axis_words = dialect.lines.axis_words is Unread.MODAL
+        self.nul = dialect.lines.nul_ends_line
+        self.notes = Notes(source)
+        self.g_rules = {float(k[1:]): v for k, v in dialect.rules.items() if k[0] == "G"}
+        self.m_rules = {k[1:]: v for k, v in dialect.rules.items() if k[0] == "M"}
         self.newline = "\n"  # the last line ending read: it separates the segments of a last line
 
     def fail(self, number: int, detail: str) -> InputError:
@@ -316,40 +327,52 @@ class _Reader:
         fast = _FAST.fullmatch(line)
         if fast is not None:  # the plain move of most programs, read at once
             g, body, comment, ending = fast.groups()
+            if line[0] <= " " or (comment is not None and self.nul):  # blanks first, a NUL in its comment
+                self.check_bytes(number, line, line.lstrip())
             st = self.state
             if g is not None:
                 st.motion = _LINEAR if g[-1] == "1" else _RAPID
+            elif not self.modal_axis_words:  # axis words alone: an unknown command, or refused
+                return self.axis_words(number, line, any(c in body for c in "XYZE"))
             if st.motion is _RAPID or st.motion is _LINEAR:
                 words = _FAST_WORD.findall(body)
                 given = dict(words)
                 if len(given) == len(words):  # else a word given twice: refused below
                     return self.plan(number, given, "", comment or "", ending or "")
         s = line.lstrip()
+        if len(s) != len(line) or self.nul:
+            self.check_bytes(number, line, s)
         if self.macros and s and s[0] != ";":
             effect = self.dialect.macro(s)
             if effect is not None:  # the controller's macro: where it leaves the nozzle
-                apply_macro(self.state, effect, number, self.home, self.start)
+                self.refuse(number, apply_macro(self.state, effect, number, self.home, self.start))
+                if effect.warning:
+                    self.notes.add(effect.name, number, f"{s.strip()!r}: {effect.warning}")
                 return KEPT
-        if not s or s[0] not in _READ:
+        if not s or s[0] not in READ:
             if s[:1] == "/":
-                self.block_delete(number, s)
+                self.refuse(number, block_delete_refusal(s))
             elif is_marker(s):
                 raise self.fail(number, f"the program is already corrected ({s.strip()!r}): correct the "
                                         "program it was made from")
+            elif JUNK.match(s):
+                self.junk(number, s)
             return KEPT
-        m = _M_LINE.match(s)
+        m = M_LINE.match(s)
         if m is not None:  # M codes are kept as they are; M82 and M83 set the extruder's mode
-            if ("G" in s or "g" in s) and m.group(1) not in _TEXT_M:
-                self.command_then_g(number, s)
+            if ("G" in s or "g" in s) and m.group(1) not in TEXT_M:
+                self.refuse(number, command_then_g_refusal(s))
             if m.group(1) in ("82", "83"):
                 self.state.set_extruder(m.group(1) == "83")
+            elif m.group(1) in self.m_rules:
+                return self.rule(number, f"M{m.group(1)}", self.m_rules[m.group(1)], s)
             return KEPT
-        code, comment, ending = _split(line)
+        code, comment, ending = split_line(line)
         parens = ""
         if "(" in code:
-            parens = " ".join(_PARENS.findall(code))
-            self.after_semicolon(number, code)
-            code = _PARENS.sub(" ", code)
+            parens = " ".join(PARENS.findall(code))
+            self.refuse(number, semicolon_refusal(code))
+            code = PARENS.sub(" ", code)
             if "(" in code:
                 raise self.fail(number, "a '(' comment is not closed on its line")
         read = self.words(number, code)
@@ -357,41 +380,53 @@ class _Reader:
             return KEPT
         return self.dispatch(number, read, code, " ".join(p for p in (parens, comment) if p), ending)
 
-    def block_delete(self, number: int, s: str) -> None:
-        """Refuse a block-delete line (``/G1 ...``) the filter would read.
+    def refuse(self, number: int, why: str | None) -> None:
+        """Refuse line ``number`` for ``why``, if given."""
+        if why is not None:
+            raise self.fail(number, why)
 
-        Whether it runs is the controller's switch: LinuxCNC runs it while the switch is off;
-        Klipper and Marlin run none (an unknown command).
-        """
-        rest = s[1:].lstrip()
-        m = _M_LINE.match(rest)
-        if rest[:1] in _READ and (m is None or m.group(1) in ("82", "83")):
-            raise self.fail(number, "a block-delete line ('/'): whether it runs depends on the controller's "
-                                    "block-delete switch: remove the '/' or the line")
+    def rule(self, number: int, command: str, rule: CommandRule, code: str) -> Plan:
+        """A command the correction cannot follow: refused, said, or limits it sets (``Dialect.rules``)."""
+        params = line_params(code)
+        if not rule.applies(params):
+            return KEPT
+        if rule.limits is not None:
+            change = rule.limits
+            return LimitsChange(lambda before: change(before, params), f"line {number} ({code.strip()})")
+        if not rule.warn:
+            raise self.fail(number, f"{command}: {rule.why}")
+        self.notes.add(command, number, f"{code.strip()!r}: {rule.why}")
+        return KEPT
 
-    def command_then_g(self, number: int, s: str) -> None:
-        """Refuse a G word after an M code on its line (``M83 G1 X40``).
+    def check_bytes(self, number: int, line: str, s: str) -> None:
+        """Refuse a NUL where the controller ends a line, or a blank before a command it does not skip."""
+        self.refuse(number, bytes_refusal(line, s, self.lines, self.dialect.name))
 
-        Marlin and Klipper read the first command alone (the rest are its parameters: Klipper's
-        ``gcode.py`` takes the first letter and number as the command); LinuxCNC and grbl run both.
-        """
-        code = _PARENS.sub(" ", _split(s)[0])
-        words = _WORD.findall(code[: code.find("*")] if "*" in code else code)
-        if all(value for _, value in words) and any(letter in "Gg" for letter, _ in words):
-            g, m = (next(f"{a.upper()}{v}" for a, v in words if a in c) for c in ("Gg", "Mm"))
-            raise self.fail(number, f"{g} after {m} on one line: Marlin and Klipper read only the first "
-                                    f"command, LinuxCNC and grbl both: put {g} on a line of its own")
+    def junk(self, number: int, s: str) -> None:
+        """A line with text before its command's first letter (a byte-order mark, a NUL, ``1G1``)."""
+        prefix, command = junk_split(s)
+        if self.lines.junk is Unread.REFUSED:
+            raise self.fail(number, f"text {prefix!r} before the command {command!r}: controllers differ on "
+                                    "whether the line runs (Klipper and Marlin answer 'Unknown command', "
+                                    "RepRapFirmware runs what follows a NUL): remove it")
+        self.notes.add("junk", number, f"{prefix + command!r}: text {prefix!r} before its command, which "
+                       f"{self.dialect.name} answers with '{self.lines.unknown}' and does not run (files "
+                       "joined?): kept as it is, the position not moved; remove the text if the line "
+                       "should run")
 
-    def after_semicolon(self, number: int, code: str) -> None:
-        """Refuse words after a ``(...;...)`` comment.
-
-        Klipper ends the line at the ';'; Marlin (with its parenthesis comments) and LinuxCNC
-        read on.
-        """
-        for found in _PARENS.finditer(code):
-            if ";" in found.group() and code[found.end():].strip():
-                raise self.fail(number, f"words after the comment {found.group()!r}: Klipper ends the line "
-                                        "at its ';', others read on: put the comment at the end")
+    def axis_words(self, number: int, text: str, moves: bool) -> Plan:
+        """A line of axis words without a G word first, as the controller reads it (not as G-code's modal)."""
+        if not moves:
+            return KEPT  # F, S, T ... alone: nothing moves
+        text = text.strip()
+        if self.lines.axis_words is Unread.REFUSED:
+            why = self.lines.axis_words_why
+            raise self.fail(number, f"axis words without G0/G1 first ({text!r}): {why}: write G1 (or G0) "
+                                    "before them, or remove the line")
+        self.notes.add("axis words", number, f"{text!r}: axis words without G0/G1 first: "
+                       f"{self.lines.axis_words_why}: kept as it is, the position not moved; write G1 "
+                       "before them if the move is meant")
+        return KEPT
 
     def plain(self, match: re.Match) -> SingleMove | None:
         """A short absolute ``G0/G1 X Y [Z] [E] [F]`` from a known position, sent whole; else None.
@@ -428,7 +463,7 @@ class _Reader:
         checksum = code.find("*")
         body = code if checksum < 0 else code[:checksum]
         whole = _LINE.fullmatch(body)
-        words = _WORD.findall(body)
+        words = WORD.findall(body)
         if not words or not words[0][1]:
             return None  # a firmware command (SET_FAN_SPEED, EXCLUDE_OBJECT_START ...) or a bare letter
         if whole is None:
@@ -444,14 +479,17 @@ class _Reader:
     def dispatch(self, number: int, words, code: str, comment: str, ending: str) -> Plan | FromHome:
         """Update the state from a line's words; the plan of its move, if it has one."""
         st = self.state
+        first = words[1][0] if words[0][0] == "N" and len(words) > 1 else words[0][0]
+        if first != "G" and not self.modal_axis_words:  # the controller's command is the first word
+            return self.axis_words(number, code, any(w[0] in "XYZEIJR" for w in words))
         gs = [self.number(number, letter, value) for letter, value in words if letter == "G"]
         mode = next((f"M{v}" for letter, v in words if letter == "M" and v.lstrip("0") in ("82", "83")), None)
         if mode is not None:  # G90 M83: Marlin reads one command a line, LinuxCNC both
             raise self.fail(number, f"{mode} on a line of G words: firmwares differ on whether it is read; "
                                     "put it on a line of its own")
         for g in gs:
-            if g in self.dialect.refused:
-                raise self.fail(number, f"G{g:g}: {self.dialect.refused[g]}")
+            if g in self.g_rules:
+                self.rule(number, f"G{g:g}", self.g_rules[g], code)
         if any(g in _HOMING for g in gs):
             if self.home is not None and all(g == 28.0 for g in gs if g in _HOMING):
                 st.pos, st.homed = self.home, number  # a firmware's homing: every carriage at its endstop
@@ -590,7 +628,13 @@ class _Reader:
                 raise self.fail(number, "arc from an unknown position: give X, Y and Z on a G0/G1 "
                                         "move before it")
             self.far(number, start, end)
-            path = self.arc(number, start, end, given)
+            if self.state.plane is not Plane.XY:
+                raise self.fail(number, f"arc in the plane of G{self.state.plane.value}: only XY arcs (G17) "
+                                        "are supported")
+            try:
+                path = arc_path(start, end, given, motion is Motion.CLOCKWISE, self.segment_mm)
+            except InputError as exc:
+                raise self.fail(number, exc.detail) from None
         elif None not in start and math.dist(start, end) > self.segment_mm:  # type: ignore[arg-type]
             self.far(number, start, end)
             path = StraightPath(start, end, self.segment_mm)
@@ -650,33 +694,3 @@ class _Reader:
             raise self.fail(number, f"word P{value} on an arc: {self.dialect.name} takes P as a whole "
                                     "number of full circles, 0 to 100")
         return str(int(float(value)))
-
-    def arc(self, number: int, start, end, given: dict[str, str]) -> ArcPath:
-        """The chords of a G2/G3 arc from start to end."""
-        st = self.state
-        values = {k: float(v) for k, v in given.items() if k in "IJR"}
-        clockwise = st.motion is Motion.CLOCKWISE
-        if st.plane is not Plane.XY:
-            raise self.fail(number, f"arc in the plane of G{st.plane.value}: only XY arcs (G17) are "
-                                    "supported")
-        if "R" in values:
-            if "I" in values or "J" in values:
-                raise self.fail(number, "arc with both R and I/J")
-            centre = centre_from_radius(start, end, values["R"], clockwise)
-            if centre is None:
-                raise self.fail(number, f"arc of radius R{values['R']:g} cannot join its ends "
-                                        "(they coincide, or are further apart than the diameter)")
-        elif "I" in values or "J" in values:
-            centre = (start[0] + values.get("I", 0.0), start[1] + values.get("J", 0.0))
-        else:
-            raise self.fail(number, "arc without I, J or R")
-        r0 = math.hypot(start[0] - centre[0], start[1] - centre[1])
-        r1 = math.hypot(end[0] - centre[0], end[1] - centre[1])
-        if r0 == 0.0 or abs(r1 - r0) > max(ARC_RADIUS_TOLERANCE_MM, 1e-3 * r0):
-            raise self.fail(number, f"arc's end is not on its circle: radius {r0:.4f} mm at the start, "
-                                    f"{r1:.4f} mm at the end")
-        sweep = arc_sweep(start, end, centre, clockwise)
-        sweep += math.copysign(2.0 * math.pi * int(given.get("P", "0")), sweep)  # Marlin's P circles first
-        tolerance = ARC_TOLERANCE_RATIO * self.segment_mm
-        return ArcPath(start, end, centre, sweep, self.segment_mm, tolerance)
-

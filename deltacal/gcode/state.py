@@ -71,7 +71,8 @@ class ModalState:
         g91_moves_e: The controller's rule: G91 makes E relative, G90 leaves M83's (Klipper).
         distance_sets_e: The controller's rule: G90 and G91 set E's mode too (Marlin 2).
         e_by_m83: The controller's rule: E is relative exactly when M83 holds (RepRapFirmware).
-        saved: Modes and positions saved by name (a macro's SAVE_GCODE_STATE).
+        saved: States saved by name (SAVE_GCODE_STATE): G91, M83, the position, E's position, and
+            whether a Jinja condition held the save.
     """
 
     __slots__ = ("pos", "relative", "m83", "m83_ended", "extrusion", "e_pos", "motion", "plane",

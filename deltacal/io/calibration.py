@@ -32,7 +32,15 @@ from .geometry_file import (
     geometry_to_dict,
 )
 from .names import check_names, check_robot_name
-from .toml import _shown, _Table, exact_degrees, radians_from_text, radians_written_as, read_toml, toml_dumps
+from .toml import (
+    TomlTable,
+    exact_degrees,
+    radians_from_text,
+    radians_written_as,
+    read_toml,
+    shown_value,
+    toml_dumps,
+)
 
 #: The key suffix of each unit of a base parameter in the file (``value_deg``, ``value_rad_per_nm``...).
 _UNIT_KEYS = {"mm": "mm", "rad": "deg", "rad/Nm": "rad_per_nm"}
@@ -149,8 +157,8 @@ def instrument_tables(data: Mapping, source: str) -> dict[str, dict[str, np.ndar
     out = {}
     for name, item in raw.items():
         if not isinstance(item, Mapping):
-            raise InputError(f"must be a table, got {_shown(item)}", source, f"key instrument.{name}")
-        t = _Table(item, source, f"instrument.{name}.")
+            raise InputError(f"must be a table, got {shown_value(item)}", source, f"key instrument.{name}")
+        t = TomlTable(item, source, f"instrument.{name}.")
         record = {key: t.vector(key, (3,)) for key in ("rotation_deg", "translation_mm")}
         for key in ("rotation_sigma_deg", "translation_sigma_mm"):
             record[key] = t.vector(key, (3,)) if t.has(key) else np.zeros(3)
@@ -184,7 +192,7 @@ def load_calibration(path: str | Path) -> Calibration:
         geometry = geometry_from_dict(data, source)
         return Calibration(geometry=geometry, nominal=geometry, model=get_model("complete"), base=[],
                            correlation=np.zeros((0, 0)), source=source)
-    cal = _Table(data, source).table("calibration")
+    cal = TomlTable(data, source).table("calibration")
     assert cal is not None
     for key in ("geometry", "nominal"):
         if not isinstance(data.get(key), Mapping):
@@ -215,7 +223,7 @@ def load_calibration(path: str | Path) -> Calibration:
     return calibration
 
 
-def _method(cal: _Table) -> Method | None:
+def _method(cal: TomlTable) -> Method | None:
     """The identification's method; None when the file has none (or the ``"?"`` earlier versions wrote)."""
     method = cal.string("method", default="?")
     if method == "?":
@@ -241,7 +249,7 @@ def _compliance_sigma(data: Mapping, source: str) -> np.ndarray | None:
     """The σ of ``[compliance]`` (None: no such table); its values are checked against ``[geometry]``."""
     if "compliance" not in data:
         return None
-    t = _Table(data, source).table("compliance")
+    t = TomlTable(data, source).table("compliance")
     assert t is not None
     t.check_unknown(["actuator_rad_per_nm", "sigma_rad_per_nm"])
     value = t.vector("actuator_rad_per_nm", (3,))
@@ -251,12 +259,12 @@ def _compliance_sigma(data: Mapping, source: str) -> np.ndarray | None:
     geometry = data["geometry"].get("compliance", {}).get("actuator_rad_per_nm", [0.0, 0.0, 0.0])
     if not np.allclose(np.asarray(geometry, dtype=float), value, rtol=1e-12, atol=0.0):
         raise t.error("actuator_rad_per_nm", f"{value.tolist()} disagrees with key "
-                      f"geometry.compliance.actuator_rad_per_nm = {_shown(geometry)} (a file edited in one "
-                      "place only? edit both, or identify again)")
+                      f"geometry.compliance.actuator_rad_per_nm = {shown_value(geometry)} (a file edited "
+                      "in one place only? edit both, or identify again)")
     return sigma
 
 
-def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
+def _base_parameters(cal: TomlTable, model, source: str) -> list[BaseParameter]:
     """The ``[[calibration.base_parameter]]`` tables, checked."""
     raw = cal.raw("base_parameter")
     if not isinstance(raw, list) or not raw or not all(isinstance(x, Mapping) for x in raw):
@@ -264,7 +272,7 @@ def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
                         "must be a non-empty array of tables [[calibration.base_parameter]]")
     base = []
     for k, item in enumerate(raw):
-        t = _Table(item, source, f"calibration.base_parameter[{k + 1}].")
+        t = TomlTable(item, source, f"calibration.base_parameter[{k + 1}].")
         name = t.string("name")
         kind = t.string("kind", default=kind_of(name))
         if kind not in ("geometry", "frame", "point", "compliance"):
@@ -283,7 +291,7 @@ def _base_parameters(cal: _Table, model, source: str) -> list[BaseParameter]:
     return base
 
 
-def _correlation(cal: _Table, r: int) -> np.ndarray:
+def _correlation(cal: TomlTable, r: int) -> np.ndarray:
     """The correlation matrix of r base parameters, checked (symmetric, unit diagonal, within [-1, 1])."""
     C = cal.vector("correlation", (r, r))
     if np.max(np.abs(C - C.T)) > CORRELATION_ATOL or np.max(np.abs(np.diag(C) - 1.0)) > CORRELATION_ATOL:
@@ -293,7 +301,7 @@ def _correlation(cal: _Table, r: int) -> np.ndarray:
     return 0.5 * (C + C.T)
 
 
-def _count(cal: _Table, key: str, default: int, exactly: int | None = None, at_least: int = 0) -> int:
+def _count(cal: TomlTable, key: str, default: int, exactly: int | None = None, at_least: int = 0) -> int:
     """A whole number of the report (rank, parameters, iterations), checked against the file."""
     if not cal.has(key):
         return default
@@ -301,29 +309,29 @@ def _count(cal: _Table, key: str, default: int, exactly: int | None = None, at_l
     if value != int(value) or value < at_least or (exactly is not None and value != exactly):
         want = (f"{exactly} (the number of base parameters)" if exactly is not None
                 else f"a whole number >= {at_least}")
-        raise cal.error(key, f"must be {want}, got {_shown(cal.raw(key))}")
+        raise cal.error(key, f"must be {want}, got {shown_value(cal.raw(key))}")
     return int(value)
 
 
-def _positive(cal: _Table, key: str, minimum: float) -> float:
+def _positive(cal: TomlTable, key: str, minimum: float) -> float:
     """A statistic of the report (s0², condition number), checked; nan when absent."""
     if not cal.has(key):
         return math.nan
     value = cal.number(key)
     if not value >= minimum:
-        raise cal.error(key, f"must be at least {minimum:g}, got {_shown(cal.raw(key))}")
+        raise cal.error(key, f"must be at least {minimum:g}, got {shown_value(cal.raw(key))}")
     return value
 
 
-def _names(cal: _Table, key: str, kind: type, what: str) -> list:
+def _names(cal: TomlTable, key: str, kind: type, what: str) -> list:
     """An array of names or numbers of the report, checked; empty when absent."""
     raw = cal.raw(key) if cal.has(key) else []
     if not isinstance(raw, list) or not all(isinstance(x, kind) and not isinstance(x, bool) for x in raw):
-        raise cal.error(key, f"must be {what}, got {_shown(raw)}")
+        raise cal.error(key, f"must be {what}, got {shown_value(raw)}")
     return list(raw)
 
 
-def _summary(cal: _Table, name: str) -> ResidualStats:
+def _summary(cal: TomlTable, name: str) -> ResidualStats:
     """A residual summary (``position_rms_mm``..., ``orientation_deg_max``): the statistics it holds."""
     t = cal.table(name, required=False)
     if t is None:

@@ -20,7 +20,7 @@ from ..exceptions import GeometryError, InputError
 from .atomic import atomic_write_text
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT
 from .robot import PLAUSIBLE_LENGTH_MM, load_nominal
-from .toml import _shown, _Table, radians_from_text, read_toml, short_degrees, toml_dumps
+from .toml import TomlTable, radians_from_text, read_toml, short_degrees, shown_value, toml_dumps
 
 CONTROLLER_FORMAT = "deltacal-controller-1"
 
@@ -48,13 +48,13 @@ def load_controller_file(path: str | Path) -> Controller:
     geometry = data.get("geometry")
     if fmt is None and isinstance(geometry, Mapping) and "base_radius_mm" in geometry:
         return Controller.from_geometry(load_nominal(path))  # a robot file: its nominal controller
-    top = _Table(data, source)
+    top = TomlTable(data, source)
     if fmt in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
         raise top.error("format", f"this is a deltacal {fmt!r} file, not a controller file: give a "
                                   "controller file (from 'deltacal export CAL --controller offsets|limbs') "
                                   "or a robot file")
     if fmt != CONTROLLER_FORMAT:
-        what = "missing required key" if fmt is None else f"unknown format {_shown(fmt)}"
+        what = "missing required key" if fmt is None else f"unknown format {shown_value(fmt)}"
         raise InputError(f"{what}: a controller file has format = {CONTROLLER_FORMAT!r} (or give a robot "
                          "file)", source, "key format")
     top.raw("format")
@@ -71,7 +71,7 @@ def load_controller_file(path: str | Path) -> Controller:
         raise InputError(str(exc), source, "table controller") from None
 
 
-def _values(table: _Table, key: str, unit: str) -> np.ndarray:
+def _values(table: TomlTable, key: str, unit: str) -> np.ndarray:
     """Three values of a ``[controller]`` key, checked, in mm or rad (angles exactly as written)."""
     array = table.vector(key, (3,))
     if unit == "deg":

@@ -14,7 +14,7 @@ from ..geometry import DeltaGeometry, Masses
 from ..towers import written_per_tower
 from .atomic import atomic_write_text
 from .names import check_names, check_robot_name, control_character
-from .toml import _shown, _Table, exact_degrees, read_toml, toml_dumps
+from .toml import TomlTable, exact_degrees, read_toml, shown_value, toml_dumps
 
 GEOMETRY_FORMAT = "deltacal-geometry-1"
 
@@ -71,7 +71,7 @@ def masses_to_dict(masses: Masses) -> dict[str, float]:
     return {"arm_kg": masses.arm, "rod_kg": masses.rod, "plate_kg": masses.plate}
 
 
-def masses_from_table(table: _Table) -> Masses:
+def masses_from_table(table: TomlTable) -> Masses:
     """Read a ``[masses]`` table: ``arm_kg``, ``rod_kg``, ``plate_kg``, each required, finite, >= 0.
 
     Raises:
@@ -87,7 +87,7 @@ def masses_from_table(table: _Table) -> Masses:
     return Masses(**values)
 
 
-def _compliance_from_table(table: _Table) -> np.ndarray:
+def _compliance_from_table(table: TomlTable) -> np.ndarray:
     """A geometry's ``[compliance]``: ``actuator_rad_per_nm = [c1, c2, c3]`` [rad/N m]."""
     table.check_unknown(["actuator_rad_per_nm"])
     return table.vector("actuator_rad_per_nm", (3,))
@@ -95,7 +95,7 @@ def _compliance_from_table(table: _Table) -> np.ndarray:
 
 def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -> DeltaGeometry:
     """Build a DeltaGeometry from tables written by :func:`geometry_to_dict`."""
-    top = _Table(data, source, prefix)
+    top = TomlTable(data, source, prefix)
     top.check_unknown(["format", "name", "joint", "step_distance_mm", "tool_mm", "limb", "points", "masses",
                        "compliance"])
     fmt = top.string("format")
@@ -124,7 +124,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
         "rod_length", "joint_scale")}
     joint_keys = ["endstop_offset_mm", "joint_scale"] if chain.counts_steps else ["encoder_offset_deg"]
     for i, limb_data in enumerate(limbs):
-        t = _Table(limb_data, source, f"{prefix}limb[{i + 1}].")
+        t = TomlTable(limb_data, source, f"{prefix}limb[{i + 1}].")
         t.check_unknown(["azimuth_deg", "axis_point_mm", "axis_direction", *joint_keys, "arm_ball_mm",
                          "plate_ball_mm", "rod_length_mm"])
         fields["limb_azimuth"].append(t.angle("azimuth_deg"))
@@ -191,7 +191,7 @@ def check_format(data: Mapping[str, Any], source: str) -> str:
         raise InputError(f"missing required key ({known})", source, "key format")
     fmt = data["format"]
     if fmt not in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
-        raise InputError(f"unknown format {_shown(fmt)}: {known}", source, "key format")
+        raise InputError(f"unknown format {shown_value(fmt)}: {known}", source, "key format")
     return str(fmt)
 
 

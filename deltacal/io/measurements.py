@@ -16,8 +16,8 @@ from .tables import (
     MEASUREMENT_COLUMNS,
     ORIENTATION_COLUMNS,
     TARGET_COLUMNS,
-    _format_rows,
     data_row,
+    format_rows,
     read_csv_table,
 )
 
@@ -165,7 +165,7 @@ def write_measurements(path: str | Path, measurements: Measurements) -> None:
         header = header + [PAYLOAD_COLUMN]
     if any(s != DEFAULT_STATION for s in measurements.station):
         extra = [[p, s] for p, s in zip(measurements.point, measurements.station, strict=True)]
-        atomic_write_text(path, _format_rows(cols, header + ["point", "station"], extra))
+        atomic_write_text(path, format_rows(cols, header + ["point", "station"], extra))
         return
     extra = [[p] for p in measurements.point]
-    atomic_write_text(path, _format_rows(cols, header + ["point"], extra))
+    atomic_write_text(path, format_rows(cols, header + ["point"], extra))

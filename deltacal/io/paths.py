@@ -1,9 +1,9 @@
 """A job's input and output paths, checked before any work is done (usage errors: status 2).
 
 A job (:mod:`deltacal.wings`) checks its files first, so that a missing input or a bad output costs
-nothing: an input must be an existing file; an output must be one deltacal may write
-(:func:`~deltacal.io.atomic.output_problem`) and none of the inputs; a folder of outputs is checked
-as each of its files, or as a new output in its parent when the job makes it.
+nothing: an input must be an existing regular file (not a folder, a FIFO or a device); an output must be
+one deltacal may write (:func:`~deltacal.io.atomic.output_problem`) and none of the inputs; a folder of
+outputs is checked as each of its files, or as a new output in its parent when the job makes it.
 """
 
 from __future__ import annotations
@@ -13,15 +13,14 @@ from pathlib import Path
 
 from ..exceptions import UsageError
 from .atomic import check_output_path, output_problem
+from .inputs import input_problem
 
 
 def check_input(path: str | Path) -> None:
-    """A usage error (exit 2) unless ``path`` is an existing file."""
-    p = Path(path)
-    if not p.exists():
-        raise UsageError(f"{path}: file not found")
-    if not p.is_file():
-        raise UsageError(f"{path}: not a file")
+    """A usage error (exit 2) unless ``path`` is a regular file (:func:`~.inputs.input_problem`)."""
+    problem = input_problem(path)
+    if problem is not None:
+        raise UsageError(f"{path}: {problem}")
 
 
 def check_inputs(paths: Sequence[str | Path | None]) -> None:

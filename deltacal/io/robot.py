@@ -20,7 +20,7 @@ from ..geometry import Masses, NominalDelta, Workspace
 from ..kinematics.closed_form import VirtualDelta
 from .geometry_file import CALIBRATION_FORMAT, GEOMETRY_FORMAT, masses_from_table
 from .names import check_names, control_character
-from .toml import _Table, read_toml
+from .toml import TomlTable, read_toml
 
 #: The lengths of a robot file's ``[geometry]`` a Delta robot can have [mm]. Below, the file is
 #: most likely written in metres (every Delta has a plate radius under 1 m); above, in
@@ -28,7 +28,7 @@ from .toml import _Table, read_toml
 PLAUSIBLE_LENGTH_MM = (1.0, 20_000.0)
 
 
-def _kind(top: _Table) -> str:
+def _kind(top: TomlTable) -> str:
     """The file's ``kind`` (absent: ``"rotary"``), checked."""
     if not top.has("kind"):
         return REVOLUTE.robot_kind
@@ -38,7 +38,7 @@ def _kind(top: _Table) -> str:
     return kind
 
 
-def _is_printer_file(top: _Table) -> bool:
+def is_printer_file(top: TomlTable) -> bool:
     """Whether the file is a linear Delta printer's (``kind = "linear"``; checked): the wing reads it."""
     return _kind(top) == PRISMATIC.robot_kind
 
@@ -49,7 +49,7 @@ def robot_kind(data: dict, source: str) -> str:
     Raises:
         InputError: naming the file ``source`` and the key, for a kind deltacal does not know.
     """
-    return _kind(_Table(data, source))
+    return _kind(TomlTable(data, source))
 
 
 def load_nominal(path: str | Path, data: dict | None = None) -> NominalDelta:
@@ -63,15 +63,15 @@ def load_nominal(path: str | Path, data: dict | None = None) -> NominalDelta:
         InputError: naming the file and the key of the first problem found.
     """
     source = str(path)
-    top = _Table(read_toml(path) if data is None else data, source)
+    top = TomlTable(read_toml(path) if data is None else data, source)
     if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
         raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
                                   "robot file (such as deltacal/models/bai2015.toml)")
-    if _is_printer_file(top):
+    if is_printer_file(top):
         raise top.error("kind", "a linear Delta printer's file (kind = 'linear'): this command "
                                 "serves rotary Delta robots only")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace", "masses"])
-    name = _robot_name(top)
+    name = read_robot_name(top)
     description = top.string("description")
     geo = top.table("geometry")
     assert geo is not None
@@ -95,13 +95,13 @@ def load_nominal(path: str | Path, data: dict | None = None) -> NominalDelta:
     }
     for key, value in zip(("base_radius_mm", "plate_radius_mm", "arm_length_mm", "rod_length_mm",
                            "rod_spacing_mm"), values.values(), strict=True):
-        _check_plausible(geo, key, value)
+        check_plausible_length(geo, key, value)
     azimuth_deg = _azimuths(geo)
     b, a, L, l_rod = (values[k] for k in ("base_radius", "plate_radius", "arm_length", "rod_length"))
     size = b + L + l_rod
     tool = geo.vector("tool_mm", (3,))
     _check_offset(geo, "tool_mm", tool, size)
-    points = _points(top, source, size)
+    points = read_points(top, source, size)
     workspace = _workspace(top)
     if l_rod <= abs(b - a) * 0.5 or l_rod + L <= abs(b - a):
         raise geo.error("rod_length_mm", f"rods of {l_rod} mm cannot reach the plate")
@@ -126,7 +126,7 @@ def load_nominal(path: str | Path, data: dict | None = None) -> NominalDelta:
     return nominal
 
 
-def _robot_name(top: _Table) -> str:
+def read_robot_name(top: TomlTable) -> str:
     """The robot's ``name``: any text without control characters (it names the MJCF model too)."""
     name = top.string("name")
     problem = control_character(name)
@@ -135,7 +135,7 @@ def _robot_name(top: _Table) -> str:
     return name
 
 
-def _points(top: _Table, source: str, size: float = math.inf) -> dict[str, np.ndarray]:
+def read_points(top: TomlTable, source: str, size: float = math.inf) -> dict[str, np.ndarray]:
     """The ``[points]`` table: named plate points [mm], names checked (not ``tcp``, no control characters).
 
     A point farther from the plate than ``size`` [mm], the robot's own size, is refused.
@@ -152,7 +152,7 @@ def _points(top: _Table, source: str, size: float = math.inf) -> dict[str, np.nd
     return points
 
 
-def _workspace(top: _Table) -> Workspace | None:
+def _workspace(top: TomlTable) -> Workspace | None:
     """The ``[workspace]`` table, or None."""
     ws = top.table("workspace", required=False)
     if ws is None:
@@ -168,7 +168,7 @@ def _workspace(top: _Table) -> Workspace | None:
     return workspace
 
 
-def _azimuths(geo: _Table) -> np.ndarray:
+def _azimuths(geo: TomlTable) -> np.ndarray:
     """``limb_azimuth_deg`` [deg]: three different azimuths, not radians."""
     azimuth_deg = geo.vector("limb_azimuth_deg", (3,))
     if len({round(float(a) % 360.0, 9) for a in azimuth_deg}) < 3:
@@ -182,7 +182,7 @@ def _azimuths(geo: _Table) -> np.ndarray:
     return azimuth_deg
 
 
-def _check_offset(table: _Table, key: str, offset: np.ndarray, size: float) -> None:
+def _check_offset(table: TomlTable, key: str, offset: np.ndarray, size: float) -> None:
     """Refuse a tool or point offset from the plate beyond the robot's size ``size`` [mm] (units, typing)."""
     distance = float(np.linalg.norm(offset))
     if distance > size:
@@ -194,7 +194,7 @@ def _check_offset(table: _Table, key: str, offset: np.ndarray, size: float) -> N
 STEEL_KG_PER_M3 = 7850.0
 
 
-def _masses(top: _Table, values: dict[str, float]) -> Masses:
+def _masses(top: TomlTable, values: dict[str, float]) -> Masses:
     """The optional ``[masses]`` (conventions, "Gravity and payload"); none: a massless robot.
 
     A mass beyond a solid steel body of the robot's dimensions (an arm a fifth as thick as long, a
@@ -218,7 +218,7 @@ def _masses(top: _Table, values: dict[str, float]) -> Masses:
     return masses
 
 
-def _check_plausible(geo: _Table, key: str, value: float) -> None:
+def check_plausible_length(geo: TomlTable, key: str, value: float) -> None:
     """Refuse a length no Delta robot has (a file in metres, a typing error), naming the unit."""
     low, high = PLAUSIBLE_LENGTH_MM
     if low <= value <= high:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..exceptions import AssemblyError, InputError
-from .toml import _not_utf8
+from .toml import not_utf8
 
 # --------------------------------------------------------------------------- CSV
 MEASUREMENT_COLUMNS = ["q1_deg", "q2_deg", "q3_deg", "x_mm", "y_mm", "z_mm"]
@@ -146,7 +146,7 @@ def read_csv_table(
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        raise _not_utf8(raw, exc, source) from None
+        raise not_utf8(raw, exc, source) from None
     if "\x00" in text:
         raise InputError("file holds NUL bytes: a binary or UTF-16 file? deltacal reads UTF-8 CSV",
                          source)
@@ -182,7 +182,7 @@ def read_csv_table(
             col = group[int(np.flatnonzero(~filled[k])[0])]
             raise InputError(f"empty value while {', '.join(group)} are given together", source,
                              f"{data_row(line_arr[k], k + 1)}, column {col}")
-    warnings += _unit_warnings(arrays, source)
+    warnings += unit_warnings(arrays, source)
     numeric = np.column_stack([arrays[c] for c in arrays]) if arrays else np.zeros((len(lines), 0))
     keys = [tuple(np.round(numeric[k], 12)) + tuple(texts[c][k] for c in texts) for k in range(len(lines))]
     first: dict[tuple, int] = {}
@@ -291,7 +291,7 @@ def parse_rows(
     return numbers, texts, lines
 
 
-def _unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:
+def unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:
     """Columns whose values suggest another unit than the column's name says."""
     out = []
     for c, v in arrays.items():
@@ -311,19 +311,24 @@ def _unit_warnings(arrays: Mapping[str, np.ndarray], source: str) -> list[str]:
     return out
 
 
-def _quoted(text: str) -> str:
+def csv_field(text: str) -> str:
     """A text field as CSV writes it: quoted (quotes doubled) when it holds a comma or a quote."""
     if any(c in text for c in ',"'):
         return '"' + text.replace('"', '""') + '"'
     return text
 
 
-def _format_rows(columns: list[np.ndarray], header: list[str], extra: list[list[str]] | None = None) -> str:
+def format_rows(columns: list[np.ndarray], header: list[str], extra: list[list[str]] | None = None) -> str:
+    """CSV text: the header, then one row per entry of the columns.
+
+    Floats are written with ``repr`` (NaN as an empty field), followed by the ``extra`` text fields
+    of that row (quoted as CSV needs).
+    """
     data = np.column_stack(columns) if columns else np.zeros((0, 0))
     out = [",".join(header)]
     for k, row in enumerate(data):
         fields = [("" if math.isnan(v) else repr(float(v))) for v in row]
         if extra is not None:
-            fields += [_quoted(text) for text in extra[k]]
+            fields += [csv_field(text) for text in extra[k]]
         out.append(",".join(fields))
     return "\n".join(out) + "\n"

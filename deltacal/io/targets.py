@@ -25,12 +25,12 @@ from .tables import (
     MAX_MAGNITUDE,
     TARGET_COLUMNS,
     CsvTable,
-    _format_rows,
-    _unit_warnings,
     data_row,
+    format_rows,
     parse_header,
     parse_rows,
     read_csv_table,
+    unit_warnings,
 )
 
 #: Bytes read at a time (about 30,000 targets): memory is a few times this, whatever the file's length.
@@ -56,7 +56,7 @@ def read_target_table(path: str | Path) -> CsvTable:
 def write_joints(path: str | Path, targets: np.ndarray, q: np.ndarray) -> None:
     """Write the joints CSV: targets [mm] then readings to command [deg], atomically."""
     qd = np.degrees(q)
-    atomic_write_text(path, _format_rows([*targets.T, *qd.T], TARGET_COLUMNS + JOINT_COLUMNS))
+    atomic_write_text(path, format_rows([*targets.T, *qd.T], TARGET_COLUMNS + JOINT_COLUMNS))
 
 
 @dataclass(frozen=True)
@@ -173,7 +173,7 @@ class TargetFile:
         if not checked:
             # the whole file's values, as read_csv_table judges them (metres for millimetres?)
             extremes = np.array([self._low, self._high])
-            self.warnings += _unit_warnings({c: extremes for c in TARGET_COLUMNS}, self.source)
+            self.warnings += unit_warnings({c: extremes for c in TARGET_COLUMNS}, self.source)
 
     def _parse(self, block: bytes, first_line: int, first_row: int):
         fast = self._fast(block, first_line) if self._plain else None

@@ -37,7 +37,7 @@ def exact_degrees(angle: float) -> RawToml:
     ``math.degrees``/``math.radians`` do not: they are not exact inverses).
     """
     if not math.isfinite(angle):
-        return RawToml(_toml_value(float(angle)))
+        return RawToml(toml_value(float(angle)))
     with localcontext() as ctx:
         ctx.prec = 50
         deg = Decimal(angle) * 180 / _PI
@@ -92,7 +92,8 @@ def radians_from_text(value: Decimal | float) -> float:
         return float(Decimal(value) * _PI / 180)
 
 
-def _toml_value(value: Any) -> str:
+def toml_value(value: Any) -> str:
+    """A value as TOML writes it: exact floats (``repr``), arrays on one line, :class:`RawToml` as is."""
     if isinstance(value, RawToml):
         return str(value)
     if isinstance(value, bool):
@@ -109,9 +110,9 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, str):
         return tomli_w.dumps({"v": value})[len("v = "):-1]
     if isinstance(value, np.ndarray):
-        return _toml_value(value.tolist())
+        return toml_value(value.tolist())
     if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
 
 
@@ -135,7 +136,7 @@ def toml_dumps(data: Mapping[str, Any]) -> str:
             if not isinstance(v, Mapping) and not _is_table_array(v)
         ]
         for k, v in scalars:
-            lines.append(f"{_toml_key(k)} = {_toml_value(v)}")
+            lines.append(f"{_toml_key(k)} = {toml_value(v)}")
         for k, v in table.items():
             name = f"{prefix}.{_toml_key(k)}" if prefix else _toml_key(k)
             if isinstance(v, Mapping):
@@ -152,12 +153,12 @@ def toml_dumps(data: Mapping[str, Any]) -> str:
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
-def _shown(value: Any, limit: int = 80) -> str:
+def shown_value(value: Any, limit: int = 80) -> str:
     """A value read from TOML as the user wrote it (Decimal numbers without their class name)."""
     if isinstance(value, Decimal):
         text = str(value)
     elif isinstance(value, list):
-        text = "[" + ", ".join(_shown(v, limit) for v in value) + "]"
+        text = "[" + ", ".join(shown_value(v, limit) for v in value) + "]"
     else:
         try:
             text = repr(value)
@@ -191,7 +192,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     try:
         return tomllib.loads(raw.decode("utf-8"), parse_float=Decimal)
     except UnicodeDecodeError as exc:
-        raise _not_utf8(raw, exc, str(path)) from None
+        raise not_utf8(raw, exc, str(path)) from None
     except (tomllib.TOMLDecodeError, ValueError) as exc:  # ValueError: an integer too long to read
         raise InputError(f"not valid TOML ({exc})", str(path)) from None
     except RecursionError:
@@ -199,14 +200,14 @@ def read_toml(path: str | Path) -> dict[str, Any]:
                          f"(deltacal's files nest {MAX_NESTING} levels at most)", str(path)) from None
 
 
-def _not_utf8(raw: bytes, exc: UnicodeDecodeError, source: str) -> InputError:
+def not_utf8(raw: bytes, exc: UnicodeDecodeError, source: str) -> InputError:
     """The error for a file that is not UTF-8, naming the line and the first bad byte."""
     line = raw[: exc.start].count(b"\n") + 1
     hint = " (UTF-16? save it as UTF-8)" if raw[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
     return InputError(f"file is not UTF-8 text: byte 0x{raw[exc.start]:02x}{hint}", source, f"line {line}")
 
 
-class _Table:
+class TomlTable:
     """A TOML table read with checks that name the file and the key."""
 
     def __init__(self, data: Mapping[str, Any], source: str, prefix: str = "") -> None:
@@ -216,51 +217,58 @@ class _Table:
         self.used: set[str] = set()
 
     def key(self, name: str) -> str:
+        """The key's dotted path in the file (``geometry.rod_length_mm``)."""
         return f"{self.prefix}{name}"
 
     def error(self, name: str, detail: str) -> InputError:
+        """The error for key ``name``, naming the file and the key."""
         return InputError(detail, self.source, f"key {self.key(name)}")
 
     def has(self, name: str) -> bool:
+        """Whether the table holds key ``name``."""
         return name in self.data
 
     def raw(self, name: str) -> Any:
+        """The value of a required key as read (marked used)."""
         if name not in self.data:
             raise self.error(name, "missing required key")
         self.used.add(name)
         return self.data[name]
 
-    def table(self, name: str, required: bool = True) -> _Table | None:
+    def table(self, name: str, required: bool = True) -> TomlTable | None:
+        """The sub-table ``name`` (None when absent and not required)."""
         if name not in self.data:
             if required:
                 raise self.error(name, "missing required table")
             return None
         value = self.raw(name)
         if not isinstance(value, Mapping):
-            raise self.error(name, f"must be a table, got {_shown(value)}")
-        return _Table(value, self.source, f"{self.key(name)}.")
+            raise self.error(name, f"must be a table, got {shown_value(value)}")
+        return TomlTable(value, self.source, f"{self.key(name)}.")
 
     def string(self, name: str, default: str | None = None) -> str:
+        """A string value (``default`` when absent, if given)."""
         if default is not None and name not in self.data:
             return default
         value = self.raw(name)
         if not isinstance(value, str):
-            raise self.error(name, f"must be a string, got {_shown(value)}")
+            raise self.error(name, f"must be a string, got {shown_value(value)}")
         return value
 
     def number(self, name: str, positive: bool = False) -> float:
+        """A finite number (above zero if ``positive``), as a float."""
         value = self.raw(name)
         return self._check_number(name, value, positive)
 
     def _check_number(self, name: str, value: Any, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float, Decimal)):
-            raise self.error(name, f"must be a number, got {_shown(value)}")
+            raise self.error(name, f"must be a number, got {shown_value(value)}")
         try:
             number = float(value)
         except OverflowError:  # an integer beyond the float range
             number = math.inf
         if not math.isfinite(number):
-            raise self.error(name, f"must be finite, got {_shown(value)}")
+            raise self.error(name, f"must be finite, got {shown_value(value)}")
         value = number
         if positive and value <= 0.0:
             raise self.error(name, f"must be positive, got {value!r}")
@@ -273,15 +281,17 @@ class _Table:
         return radians_from_text(value)
 
     def vector(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """An array of finite numbers of the given shape."""
         value = self.raw(name)
         return self.array_value(name, value, shape)
 
     def array_value(self, name: str, value: Any, shape: tuple[int, ...]) -> np.ndarray:
+        """``value`` (read from key ``name``) as an array of finite numbers of the given shape."""
         def flat(v: Any, depth: int) -> list[float]:
             if depth == len(shape):
                 return [self._check_number(name, v)]
             if not isinstance(v, list) or len(v) != shape[depth]:
-                raise self.error(name, f"must be an array of shape {list(shape)}, got {_shown(value)}")
+                raise self.error(name, f"must be an array of shape {list(shape)}, got {shown_value(value)}")
             out: list[float] = []
             for item in v:
                 out += flat(item, depth + 1)
@@ -300,7 +310,8 @@ class _Table:
         if not isinstance(value, list):
             return np.full(3, self._check_number(name, value, positive))
         if len(value) != len(TOWERS):
-            raise self.error(name, f"must be a number or [a, b, c] (towers A, B, C), got {_shown(value)}")
+            raise self.error(name, "must be a number or [a, b, c] (towers A, B, C), "
+                                   f"got {shown_value(value)}")
         values = self.array_value(name, value, (3,))
         for tower, v in zip(TOWERS, values, strict=True):
             if positive and v <= 0.0:
@@ -308,6 +319,7 @@ class _Table:
         return values
 
     def check_unknown(self, allowed: Iterable[str]) -> None:
+        """Refuse a key of the table not in ``allowed``, naming it."""
         allowed = set(allowed)
         for k in self.data:
             if k not in allowed:

@@ -101,12 +101,12 @@ def table2_errors() -> np.ndarray:
     return np.array([np.deg2rad(0.01), 1.0, 0.0, 3.0, 0.0, -2.0, 0.0, 1.0, -1.0])
 
 
-def _unit(theta: np.ndarray) -> np.ndarray:
+def unit_vector(theta: np.ndarray) -> np.ndarray:
     """``u(theta) = (sin theta, -cos theta)`` (Eq. 61), shape ``theta.shape + (2,)``."""
     return np.stack([np.sin(theta), -np.cos(theta)], axis=-1)
 
 
-def _perp(w: np.ndarray) -> np.ndarray:
+def perpendicular(w: np.ndarray) -> np.ndarray:
     """``z × w`` for planar vectors ``w`` (shape ``S + (2,)``)."""
     return np.stack([-w[..., 1], w[..., 0]], axis=-1)
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import AssemblyError
-from .geometry import PlanarGeometry, _perp, _unit
+from .geometry import PlanarGeometry, perpendicular, unit_vector
 
 
 @dataclass(frozen=True)
@@ -87,11 +87,11 @@ def configuration(q: np.ndarray | float, geometry: PlanarGeometry) -> PlanarConf
     # nominal mechanism (the other one is the crossed parallelogram).
     alpha = np.arctan2(Ep * I + E * root, Ep * root - E * I) - gamma_p
     x_p = np.stack([np.cos(alpha), np.sin(alpha)], axis=-1)
-    y_p = _perp(x_p)
+    y_p = perpendicular(x_p)
     shape = theta.shape + (2,)
     a1 = np.broadcast_to(np.array([-g.a1x, 0.0]), shape).copy()
     a2 = np.broadcast_to(np.array([g.a2x, g.a2y]), shape).copy()
-    b1 = a1 + g.l1 * _unit(theta)
+    b1 = a1 + g.l1 * unit_vector(theta)
     o_p = b1 + g.b1x * x_p  # Eq. 42
     c = o_p - g.h * y_p
     b2 = o_p + g.b2x * x_p + g.b2y * y_p
@@ -147,12 +147,12 @@ def calibration_jacobians(q: np.ndarray | float, geometry: PlanarGeometry) -> tu
     cfg = configuration(q, geometry)
     n1 = (cfg.b1 - cfg.a1) / geometry.l1
     n2 = (cfg.b2 - cfg.a2) / geometry.l2
-    u1 = _unit(cfg.theta)
-    v1 = _perp(u1)  # du/dtheta = (cos theta, sin theta)
+    u1 = unit_vector(cfg.theta)
+    v1 = perpendicular(u1)  # du/dtheta = (cos theta, sin theta)
     x_p = np.stack([np.cos(cfg.alpha), np.sin(cfg.alpha)], axis=-1)
-    y_p = _perp(x_p)
-    rot1 = _perp(cfg.b1 - cfg.c)  # dB1/dalpha with C fixed
-    rot2 = _perp(cfg.b2 - cfg.c)
+    y_p = perpendicular(x_p)
+    rot1 = perpendicular(cfg.b1 - cfg.c)  # dB1/dalpha with C fixed
+    rot2 = perpendicular(cfg.b2 - cfg.c)
 
     def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.einsum("...k,...k->...", a, b)

@@ -15,9 +15,9 @@ from ..identifiability import base_parameters
 from ..observations import SIGMA_ANGLE, SIGMA_POSITION
 from .poses import bai_poses, rough_poses
 from .regressor import (
-    _RTOL,
+    RANK_RTOL,
     ROUGH,
-    _check_measurement,
+    check_measurement,
     default_points,
     identification_matrix,
     planning_model,
@@ -30,7 +30,7 @@ def _scaled_condition(H: np.ndarray, scaled: bool) -> float:
         norms = np.linalg.norm(H, axis=0)
         H = H / np.where(norms > 0.0, norms, 1.0)
     sv = np.linalg.svd(H, compute_uv=False)
-    if sv.size == 0 or sv[-1] <= _RTOL * sv[0] or H.shape[0] < H.shape[1]:
+    if sv.size == 0 or sv[-1] <= RANK_RTOL * sv[0] or H.shape[0] < H.shape[1]:
         return math.inf
     return float(sv[0] / sv[-1])
 
@@ -130,7 +130,7 @@ def condition_curve(
         sigma_position: σ of a position coordinate [mm] (weights pose rows).
         sigma_angle: σ of an orientation component [rad].
     """
-    _check_measurement(measurement)
+    check_measurement(measurement)
     error_model = planning_model(model) if isinstance(model, str) else model
     if layers is None:
         layers = "middle" if error_model.name == ROUGH else "top-bottom"
@@ -148,7 +148,7 @@ def condition_curve(
         )
         for n in ns
     ]
-    base = base_parameters(H[-1], error_model.names, rtol=_RTOL)
+    base = base_parameters(H[-1], error_model.names, rtol=RANK_RTOL)
     kappa = np.array([_scaled_condition(h[:, base.base], scaled) for h in H])
     epsilon = np.full(ns.size, np.nan)
     with np.errstate(invalid="ignore"):

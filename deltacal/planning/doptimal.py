@@ -20,7 +20,7 @@ from ..kinematics.singularity import PLANNING_MARGIN, SingularityMargin
 from ..resources import require_memory
 from .options import PlanOptions, PlanOverrides, plan_options
 from .poses import PoseSet, poses_from_reference, require_workspace
-from .regressor import _RTOL, default_points, planning_model, pose_blocks
+from .regressor import RANK_RTOL, default_points, planning_model, pose_blocks
 
 #: Candidate poses processed at once: the work arrays of the selection take a few times
 #: ``CHUNK × rows × parameters`` numbers, whatever the pool (about 10 MB each for the complete
@@ -296,7 +296,7 @@ def scaled_base_blocks(
         A = raw.reshape(-1, n)
         squares += np.einsum("ij,ij->j", A, A)
         R = np.asarray(np.linalg.qr(np.concatenate([R, A]), mode="r"))
-    base = base_parameters(R, names, rtol=_RTOL)
+    base = base_parameters(R, names, rtol=RANK_RTOL)
     scale = np.sqrt(squares / len(q))[base.base]
     scale = np.where(scale > 0.0, scale, 1.0)
     blocks = np.empty((len(q), _rows(measurement, points) * max(len(payloads), 1), len(base.base)))

@@ -24,7 +24,7 @@ PLAN_MODELS = (*MODEL_NAMES, ROUGH)
 
 
 #: Relative rank tolerance of the scaled regressors (as :func:`base_parameters`).
-_RTOL = 1e-8
+RANK_RTOL = 1e-8
 
 
 # --------------------------------------------------------------------------- regressors
@@ -49,7 +49,8 @@ def default_points(geometry: DeltaGeometry, model: ErrorModel, measurement: str)
     return list(geometry.points)
 
 
-def _check_measurement(measurement: str) -> None:
+def check_measurement(measurement: str) -> None:
+    """Refuse a measurement kind not in :data:`MEASUREMENTS` (ValueError naming the choices)."""
     if measurement not in MEASUREMENTS:
         raise ValueError(f"measurement must be one of {', '.join(MEASUREMENTS)}, got {measurement!r}")
 
@@ -84,7 +85,7 @@ def identification_matrix(
     Returns:
         H, shape (rows, model.size).
     """
-    _check_measurement(measurement)
+    check_measurement(measurement)
     q = np.atleast_2d(np.asarray(q, dtype=float))
     names = list(points)[:1] if measurement == "pose" else list(points)
     Q = np.concatenate([q] * len(names))

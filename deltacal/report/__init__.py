@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,7 @@ from ..calibration import Calibration
 from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
-from ..printer.firmware.base import Firmware
+from ..printer.firmware.base import Firmware, FirmwareModel
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
@@ -78,7 +79,7 @@ def _scene(calibration: Calibration, workspace: Workspace) -> tuple[str | None, 
 def write_report(
     calibration: Calibration | str | Path,
     output: str | Path,
-    measurements: str | Path | None = None,
+    measurements: str | Path | Sequence[str | Path] | None = None,
     truth: DeltaGeometry | None = None,
     truth_source: str | None = None,
     tool: np.ndarray | None = None,
@@ -87,13 +88,15 @@ def write_report(
     grid: int = 41,
     payload: float = 0.0,
     firmware: Firmware[Any] | None = None,
+    controller: FirmwareModel | None = None,
 ) -> ReportSummary:
     """Write the HTML report of a calibration, atomically.
 
     Args:
         calibration: The calibration, or its file (written by ``deltacal identify``; read first).
         output: The HTML file to write.
-        measurements: The measurement CSV the calibration was identified from (residual plots).
+        measurements: The measurement CSV the calibration was identified from (residual plots); a
+            printer's: its probe heights and distances files.
         truth: The true geometry (simulations): actual TCP errors beside the predicted σ.
         truth_source: Where the truth came from (shown).
         tool: TCP in the plate frame for the accuracy map [mm] (default: the calibration's).
@@ -104,6 +107,8 @@ def write_report(
             deflection the report maps (beside the robot's own weight).
         firmware: A printer's firmware, whose values the page fits and names (default: the first of
             :func:`~deltacal.printer.firmware.firmwares`, Klipper).
+        controller: A printer's firmware values its measurements were commanded with (its
+            ``--controller`` settings), for their residuals.
 
     Returns:
         A summary of what was written.
@@ -122,7 +127,7 @@ def write_report(
     warnings: list[str] = []
     res: MeasurementResiduals | None = None
     if measurements is not None:
-        res = measurement_residuals(cal, measurements)
+        res = measurement_residuals(cal, measurements, controller)
         warnings += list(res.warnings)
     amap = accuracy_map(cal, ws, tool, truth, grid)
     svg = {
@@ -138,7 +143,7 @@ def write_report(
     scene, note = _scene(cal, ws) if view else (None, "3-D view left out.")
     page = Page(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
-        measurements_source=str(measurements) if measurements is not None else None, workspace_text=ws_text,
+        measurements_source=_file_names(measurements), workspace_text=ws_text,
         scene_html=scene, scene_note=note, warnings=warnings,
         controllers=controller_routes(cal, amap, truth, firmware),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
@@ -146,6 +151,13 @@ def write_report(
     path = Path(output)
     atomic_write_text(path, render_page(page))
     return ReportSummary(path, amap.worst, amap.worst_point, tuple(svg), tuple(warnings))
+
+
+def _file_names(paths: str | Path | Sequence[str | Path] | None) -> str | None:
+    """The measurement files as the page names them (one, or several separated by commas)."""
+    if paths is None:
+        return None
+    return str(paths) if isinstance(paths, str | Path) else ", ".join(str(p) for p in paths)
 
 
 __all__ = [

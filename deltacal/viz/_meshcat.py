@@ -9,7 +9,7 @@ from ..exceptions import ViewerError
 
 
 # =============================================================================== meshcat helpers
-def _meshcat() -> Any:
+def import_meshcat() -> Any:
     """Import meshcat (optional extra ``viz``), with a clear error when it is missing."""
     try:
         import meshcat
@@ -21,7 +21,7 @@ def _meshcat() -> Any:
     return meshcat
 
 
-def _viewer_script() -> str:
+def viewer_script() -> str:
     """Meshcat's bundled viewer (three.js and the scene tree), inlined into the HTML."""
-    meshcat = _meshcat()
+    meshcat = import_meshcat()
     return (Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js").read_text(encoding="utf-8")

@@ -13,10 +13,10 @@ from ..geometry import (
     DeltaGeometry,
     rotation_from_vector,
 )
-from ._meshcat import _meshcat
-from .meshes import _MM, _arrow_mesh, _text_objects, _transform
+from ._meshcat import import_meshcat
+from .meshes import MM, arrow_mesh, mesh_transform, text_objects
 from .state import RobotState, error_colours, nice_number
-from .writer import _plate_polygon, _SceneWriter, _sizes
+from .writer import SceneWriter, drawn_sizes, plate_polygon
 
 #: Window size of the rendered screenshots [px].
 DEFAULT_WINDOW = (1200, 900)
@@ -103,8 +103,8 @@ class CameraView:
         return cls(target, d, float(margin * need.max()), fov)
 
 
-def _text_block(
-    writer: _SceneWriter,
+def text_block(
+    writer: SceneWriter,
     name: str,
     lines: Sequence[str],
     anchor: np.ndarray,
@@ -116,7 +116,7 @@ def _text_block(
     Returns:
         Corners of the text's bounding rectangle in {O} [mm], (4 * len(lines), 3).
     """
-    TextTexture, Plane = _text_objects()
+    TextTexture, PlaneGeometry = text_objects()
     g = writer.g
     size = line_height * 256.0 / 30.0  # the 256 px canvas holds a 30 px line
     corners = []
@@ -128,7 +128,8 @@ def _text_block(
             map=TextTexture(text, font_size=30), transparent=True, depthWrite=False, color=0x000000
         )
         writer.object(
-            f"labels/{name}{k}", Plane(size, size), material, _transform(camera.rotation, plane_centre)
+            f"labels/{name}{k}", PlaneGeometry(size, size), material,
+            mesh_transform(camera.rotation, plane_centre),
         )
         half_w = min(0.5 * size, 0.27 * line_height * len(text))
         for sx in (-1.0, 1.0):
@@ -138,7 +139,7 @@ def _text_block(
 
 
 @dataclass(frozen=True)
-class _Layout:
+class LabelLayout:
     """Where the labels go: beside the robot as a provisional camera sees it (mm, in {O})."""
 
     camera: CameraView
@@ -149,7 +150,8 @@ class _Layout:
     depth: np.ndarray  # the robot's middle depth, a vector along camera.direction
 
     @classmethod
-    def around(cls, points: np.ndarray) -> _Layout:
+    def around(cls, points: np.ndarray) -> LabelLayout:
+        """The layout beside ``points`` [mm], (N, 3), as the camera framing them sees them."""
         camera = CameraView.framing(points)
         up = points @ camera.up
         return cls(
@@ -168,9 +170,9 @@ class _Callout:
     below: np.ndarray  # anchor of a further line under the tilt text [mm]
 
 
-def _draw_plate_callout(
-    writer: _SceneWriter,
-    layout: _Layout,
+def draw_plate_callout(
+    writer: SceneWriter,
+    layout: LabelLayout,
     true_geometry: DeltaGeometry,
     nominal_geometry: DeltaGeometry,
     true_state: RobotState,
@@ -186,7 +188,7 @@ def _draw_plate_callout(
     """
     g = writer.g
     camera, line = layout.camera, layout.line
-    polygon = _plate_polygon(nominal_geometry)
+    polygon = plate_polygon(nominal_geometry)
     plate, tcp = words(nominal_geometry)
     plate_pos = true_state.plate.position[0]
     plate_r = float(np.max(np.linalg.norm(polygon, axis=1)))
@@ -211,21 +213,21 @@ def _draw_plate_callout(
         ]
     )
     content = content @ Rz.T
-    ball_r = 15.0 * _sizes(nominal_geometry, True)[0]
+    ball_r = 15.0 * drawn_sizes(nominal_geometry, True)[0]
     col_half = max(half_w, m * (float(np.max(np.abs(content @ camera.right))) + ball_r))
     col_x = (layout.right + 2.0 * line + col_half) * camera.right
     tilt_anchor = col_x + (plate_pos @ camera.up + 1.25 * line) * camera.up + layout.depth
-    out = [_text_block(writer, "tilt", tilt_lines, tilt_anchor, camera, line)]
+    out = [text_block(writer, "tilt", tilt_lines, tilt_anchor, camera, line)]
     writer.plate("inset/true", true_geometry, False, polygon)
     writer.plate("inset/nominal", nominal_geometry, True, polygon)
     writer.inset_pose(true_state, ghost_state, 0)
     content_top = m * float(np.max(content @ camera.up))
     inset_origin = col_x + (layout.top - 2.0 * line - content_top) * camera.up + layout.depth
-    writer.transform("inset", _transform(Rz, inset_origin, (m, m, m)))
+    writer.transform("inset", mesh_transform(Rz, inset_origin, (m, m, m)))
     for sign in (-1.0, 1.0):
         out.append(inset_origin + m * (content + sign * ball_r * camera.right))
     title_at = inset_origin + (content_top + 1.5 * line) * camera.up
-    out.append(_text_block(writer, "inset", [f"{plate}s \u00d7{m:g}, tilt side-on"], title_at, camera, line))
+    out.append(text_block(writer, "inset", [f"{plate}s \u00d7{m:g}, tilt side-on"], title_at, camera, line))
     leader = np.stack(
         [
             plate_pos + 1.3 * plate_r * camera.right,
@@ -240,9 +242,9 @@ def _draw_plate_callout(
     return _Callout(np.concatenate(out), below)
 
 
-def _draw_legend(
-    writer: _SceneWriter,
-    layout: _Layout,
+def draw_legend(
+    writer: SceneWriter,
+    layout: LabelLayout,
     geometry: DeltaGeometry,
     name: str,
     arrow_scale: float,
@@ -259,7 +261,7 @@ def _draw_legend(
         legend += [f"{tcp} error arrows", f"(true - commanded) \u00d7{arrow_scale:g}"]
         half = max(0.27 * line * max(len(t) for t in legend), 4.5 * line + 0.27 * line * 8)
     anchor = (layout.left - 2.0 * line - half) * camera.right + layout.top * camera.up + layout.depth
-    out = [_text_block(writer, "legend", legend, anchor, camera, line)]
+    out = [text_block(writer, "legend", legend, anchor, camera, line)]
     if arrow_scale <= 0.0:
         return np.concatenate(out)
     # a reference arrow of a round error size
@@ -267,11 +269,11 @@ def _draw_legend(
     y0 = anchor - (len(legend) + 0.6) * 1.25 * line * camera.up
     vector = ref * arrow_scale * camera.right
     colour = error_colours(np.array([ref / max_error]))
-    verts, cols, faces = _arrow_mesh((y0 - 0.5 * vector)[None], vector[None], colour, radius)
+    verts, cols, faces = arrow_mesh((y0 - 0.5 * vector)[None], vector[None], colour, radius)
     material = g.MeshPhongMaterial(vertexColors=True)
     writer.object("labels/ref_arrow", g.TriangularMeshGeometry(verts, faces, color=cols), material)
     below = y0 - 1.3 * line * camera.up
-    out.append(_text_block(writer, "ref", [f"{ref:g} mm"], below, camera, line))
+    out.append(text_block(writer, "ref", [f"{ref:g} mm"], below, camera, line))
     # colour bar from 0 to the largest error
     bar_y = below - 2.6 * line * camera.up
     width, n = 9.0 * line, 12
@@ -282,26 +284,26 @@ def _draw_legend(
             f"labels/bar{k:02d}",
             g.Box([width / n, 0.8 * line, 0.2 * line]),
             g.MeshBasicMaterial(color=int(rgb[0]) << 16 | int(rgb[1]) << 8 | int(rgb[2])),
-            _transform(camera.rotation, centre),
+            mesh_transform(camera.rotation, centre),
         )
     ends = [bar_y - 0.5 * width * camera.right, bar_y + 0.5 * width * camera.right]
-    out.append(_text_block(writer, "bar_lo", ["0"], ends[0] - 1.3 * line * camera.up, camera, line))
+    out.append(text_block(writer, "bar_lo", ["0"], ends[0] - 1.3 * line * camera.up, camera, line))
     out.append(
-        _text_block(writer, "bar_hi", [f"{max_error:.1f} mm"], ends[1] - 1.3 * line * camera.up, camera, line)
+        text_block(writer, "bar_hi", [f"{max_error:.1f} mm"], ends[1] - 1.3 * line * camera.up, camera, line)
     )
     out.append(np.stack(ends))
     return np.concatenate(out)
 
 
-def _set_camera(vis: Any, camera: CameraView) -> None:
+def set_camera(vis: Any, camera: CameraView) -> None:
     """Put the camera's target at the viewer's origin (the orbit centre) and the camera in place."""
-    g = _meshcat().geometry
+    g = import_meshcat().geometry
     root = np.eye(4)
-    root[:3, :3] *= _MM
-    root[:3, 3] = -_MM * camera.target
+    root[:3, :3] *= MM
+    root[:3, 3] = -MM * camera.target
     vis["deltacal"].set_transform(root)
-    position = _MM * camera.distance * camera.direction  # metres, z up
-    far = max(100.0, 4.0 * _MM * camera.distance)
+    position = MM * camera.distance * camera.direction  # metres, z up
+    far = max(100.0, 4.0 * MM * camera.distance)
     vis["/Cameras/default/rotated"].set_object(
         g.PerspectiveCamera(fov=camera.fov, aspect=DEFAULT_WINDOW[0] / DEFAULT_WINDOW[1], near=0.01, far=far)
     )

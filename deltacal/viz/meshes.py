@@ -7,17 +7,17 @@ from typing import Any
 
 import numpy as np
 
-from ._meshcat import _meshcat
+from ._meshcat import import_meshcat
 
 #: Shaft radius of the error arrows, per workspace radius.
 ARROW_RADIUS = 0.011
 
 
-_MM = 1e-3  # scene metres per mm
+MM = 1e-3  # scene metres per mm
 
 
 # Colours (0xRRGGBB).
-_TRUE_COLOURS = {
+TRUE_COLOURS = {
     "base": 0x5A5F66,
     "actuator": 0x2C4A7A,
     "arm": 0xD9822B,
@@ -38,7 +38,9 @@ _GHOST_OPACITY = 0.28
 
 
 # ============================================================================== scene primitives
-def _transform(rotation: np.ndarray, position: Any, scale: Sequence[float] = (1.0, 1.0, 1.0)) -> np.ndarray:
+def mesh_transform(
+    rotation: np.ndarray, position: Any, scale: Sequence[float] = (1.0, 1.0, 1.0)
+) -> np.ndarray:
     """Homogeneous transform: rotation times a scale along the local axes, then a translation."""
     T = np.eye(4)
     T[:3, :3] = np.asarray(rotation) @ np.diag(scale)
@@ -46,7 +48,7 @@ def _transform(rotation: np.ndarray, position: Any, scale: Sequence[float] = (1.
     return T
 
 
-def _rotation_y_to(direction: np.ndarray) -> np.ndarray:
+def rotation_y_to(direction: np.ndarray) -> np.ndarray:
     """A rotation taking the y axis (three.js cylinders) to ``direction``; continuous near z."""
     u = direction / np.linalg.norm(direction)
     ref = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -55,20 +57,21 @@ def _rotation_y_to(direction: np.ndarray) -> np.ndarray:
     return np.column_stack([x, u, np.cross(x, u)])
 
 
-def _segment(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def cylinder_between(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Rotation, midpoint and length of a unit cylinder stretched from a to b."""
     d = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
-    return _rotation_y_to(d), 0.5 * (np.asarray(a) + np.asarray(b)), float(np.linalg.norm(d))
+    return rotation_y_to(d), 0.5 * (np.asarray(a) + np.asarray(b)), float(np.linalg.norm(d))
 
 
-def _material(colour: int, ghost: bool, **kwargs: Any) -> Any:
-    g = _meshcat().geometry
+def part_material(colour: int, ghost: bool, **kwargs: Any) -> Any:
+    """The material of a drawn part: shiny in ``colour``, or the ghost's translucent grey."""
+    g = import_meshcat().geometry
     if ghost:
         return g.MeshLambertMaterial(color=_GHOST_COLOUR, opacity=_GHOST_OPACITY, depthWrite=False, **kwargs)
     return g.MeshPhongMaterial(color=colour, shininess=40, **kwargs)
 
 
-def _prism_mesh(polygon: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray]:
+def prism_mesh(polygon: np.ndarray, thickness: float) -> tuple[np.ndarray, np.ndarray]:
     """A flat prism over a convex polygon (xy, counter-clockwise), flat-shaded: vertices, faces."""
     n = len(polygon)
     h = 0.5 * thickness
@@ -90,7 +93,7 @@ def _prism_mesh(polygon: np.ndarray, thickness: float) -> tuple[np.ndarray, np.n
     return vertices, np.asarray(faces)
 
 
-def _arrow_mesh(
+def arrow_mesh(
     starts: np.ndarray, vectors: np.ndarray, colours: np.ndarray, radius: float, segments: int = 10
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One triangle mesh of many arrows (shaft and cone head), with vertex colours."""
@@ -106,7 +109,7 @@ def _arrow_mesh(
         length = float(np.linalg.norm(v))
         if length < 1e-9:
             continue
-        R = _rotation_y_to(v)
+        R = rotation_y_to(v)
         head = min(0.4 * length, 4.0 * radius)
         head_r = min(2.2 * radius, 0.5 * head + radius)
         shaft_r = min(radius, 0.45 * head_r)
@@ -137,9 +140,9 @@ def _arrow_mesh(
     return np.concatenate(verts), np.concatenate(cols), np.concatenate(faces)
 
 
-def _text_objects() -> tuple[type, type]:
+def text_objects() -> tuple[type, type]:
     """Meshcat geometry classes for a text texture and a plane (missing from meshcat 0.3.2)."""
-    g = _meshcat().geometry
+    g = import_meshcat().geometry
 
     class TextTexture(g.Texture):  # type: ignore[misc,name-defined]
         """Text drawn by the viewer on a 256 px canvas (meshcat's ``_text`` texture)."""
@@ -157,7 +160,7 @@ def _text_objects() -> tuple[type, type]:
                 "font_face": self.font_face,
             }
 
-    class Plane(g.Geometry):  # type: ignore[misc,name-defined]
+    class PlaneGeometry(g.Geometry):  # type: ignore[misc,name-defined]
         """A rectangle in the local xy plane, facing +z."""
 
         def __init__(self, width: float, height: float) -> None:
@@ -174,4 +177,4 @@ def _text_objects() -> tuple[type, type]:
                 "heightSegments": 1,
             }
 
-    return TextTexture, Plane
+    return TextTexture, PlaneGeometry

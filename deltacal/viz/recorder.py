@@ -11,7 +11,7 @@ from typing import Any
 
 from ..exceptions import ViewerError
 from ..io import atomic_write_bytes
-from ._meshcat import _meshcat, _viewer_script
+from ._meshcat import import_meshcat, viewer_script
 
 
 class _Node(dict):
@@ -107,7 +107,7 @@ class SceneRecorder:
             f"<title>{_html_escape(self.title)}</title>\n"
             "<style>body { margin: 0; } #meshcat-pane { width: 100vw; height: 100vh; overflow: hidden; }"
             "</style>\n</head>\n<body>\n<div id='meshcat-pane'></div>\n"
-            f"<script>\n{_viewer_script()}\n</script>\n"
+            f"<script>\n{viewer_script()}\n</script>\n"
             "<script>\nvar viewer = new MeshCat.Viewer(document.getElementById('meshcat-pane'));\n"
             f"{replay}</script>\n</body>\n</html>\n"
         )
@@ -122,7 +122,7 @@ def recording_visualizer(title: str = "deltacal") -> Any:
 
     ``vis.static_html()`` then returns the standalone page.
     """
-    meshcat = _meshcat()
+    meshcat = import_meshcat()
     return meshcat.Visualizer(window=SceneRecorder(title))
 
 
@@ -133,7 +133,7 @@ def meshcat_server() -> Iterator[Any]:
     The server subprocess is killed and reaped on leaving the block, also on
     errors and Ctrl-C.
     """
-    meshcat = _meshcat()
+    meshcat = import_meshcat()
     with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints its URL; the caller decides
         vis = meshcat.Visualizer()
     try:

@@ -13,28 +13,28 @@ from ..geometry import (
     DeltaGeometry,
     Workspace,
 )
-from ._meshcat import _meshcat
+from ._meshcat import import_meshcat
 from .layout import (
     CameraView,
-    _draw_legend,
-    _draw_plate_callout,
-    _Layout,
-    _set_camera,
-    _text_block,
+    LabelLayout,
+    draw_legend,
+    draw_plate_callout,
+    set_camera,
+    text_block,
 )
-from .meshes import ARROW_RADIUS, _arrow_mesh
+from .meshes import ARROW_RADIUS, arrow_mesh
 from .state import (
     DEFAULT_EXAGGERATION,
     ErrorField,
     RobotState,
-    _reachable_readings,
     default_workspace,
     demo_path,
     error_colours,
     nice_number,
+    reachable_readings,
     workspace_grid,
 )
-from .writer import _plate_polygon, _reach, _SceneWriter, _tower_ends
+from .writer import SceneWriter, plate_polygon, robot_size, tower_ends
 
 
 @dataclass(frozen=True)
@@ -78,7 +78,7 @@ def _check_scene(nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry, 
 def _scene_readings(nominal_geometry: DeltaGeometry, ws: Workspace, q: np.ndarray | None) -> np.ndarray:
     """The readings to draw [rad], (3,): those given, or the nominal ones at the workspace centre."""
     if q is None:
-        q = _reachable_readings(nominal_geometry, ws.centre[None])[0]
+        q = reachable_readings(nominal_geometry, ws.centre[None])[0]
         if not np.all(np.isfinite(q)):
             raise UnreachableError(
                 f"workspace centre {ws.centre.tolist()} mm is out of reach of the nominal robot",
@@ -134,7 +134,7 @@ def build_scene(
         AssemblyError: The true robot cannot be assembled at the readings.
         GeometryError: The two robots are not of the same kind (rotary Delta, printer).
     """
-    meshcat = _meshcat()
+    meshcat = import_meshcat()
     _check_scene(nominal_geometry, true_geometry, exaggerate)
     ws = workspace if workspace is not None else default_workspace(nominal_geometry)
     q = _scene_readings(nominal_geometry, ws, q)
@@ -143,11 +143,11 @@ def build_scene(
     commanded = ghost_state.tcp[0]
 
     vis["deltacal"].delete()
-    writer = _SceneWriter(vis)
-    polygon = _plate_polygon(nominal_geometry)
+    writer = SceneWriter(vis)
+    polygon = plate_polygon(nominal_geometry)
     writer.robot("true", true_geometry, true_state, ghost=False, plate_shape=polygon)
     writer.robot("nominal", nominal_geometry, ghost_state, ghost=True, plate_shape=polygon)
-    writer.object("frame", writer.g.triad(0.4 * _reach(nominal_geometry)))
+    writer.object("frame", writer.g.triad(0.4 * robot_size(nominal_geometry)))
     points = [
         true_state.arm_balls[0].reshape(-1, 3),
         true_state.plate_balls[0].reshape(-1, 3),
@@ -167,19 +167,19 @@ def build_scene(
         points.append(tips)
 
     robot_points = np.concatenate(points)
-    layout = _Layout.around(robot_points)
-    callout = _draw_plate_callout(
+    layout = LabelLayout.around(robot_points)
+    callout = draw_plate_callout(
         writer, layout, true_geometry, nominal_geometry, true_state, ghost_state, exaggerate
     )
     name = title if title is not None else (true_geometry.name or nominal_geometry.name or "Delta robot")
-    legend = _draw_legend(
+    legend = draw_legend(
         writer, layout, nominal_geometry, name, arrow_scale, max_error, ARROW_RADIUS * ws.radius
     )
     label_points = [callout.points, legend]
 
     frames_done, max_path_tilt = 0, 0.0
     if animate:
-        qs = _reachable_readings(nominal_geometry, demo_path(ws, frames))
+        qs = reachable_readings(nominal_geometry, demo_path(ws, frames))
         qs = qs[np.all(np.isfinite(qs), axis=1)]
         if len(qs) >= 2:
             true_path = RobotState.compute(true_geometry, qs, exaggerate)
@@ -194,11 +194,11 @@ def build_scene(
             frames_done = len(qs)
             max_path_tilt = float(true_path.plate.tilt().max())
             text = [f"path: tilt up to {math.degrees(max_path_tilt):.3f}\u00b0"]
-            label_points.append(_text_block(writer, "path", text, callout.below, layout.camera, layout.line))
+            label_points.append(text_block(writer, "path", text, callout.below, layout.camera, layout.line))
 
     if camera_view is None:
         camera_view = CameraView.framing(np.concatenate([robot_points, *label_points]))
-    _set_camera(vis, camera_view)
+    set_camera(vis, camera_view)
     return SceneSummary(
         tilt=float(true_state.plate.tilt()[0]),
         tcp_error=true_state.tcp[0] - commanded,
@@ -214,7 +214,7 @@ def build_scene(
 
 
 def _fixed_parts(
-    writer: _SceneWriter, nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry
+    writer: SceneWriter, nominal_geometry: DeltaGeometry, true_geometry: DeltaGeometry
 ) -> np.ndarray:
     """Points of what stands still, for the framing [mm].
 
@@ -222,15 +222,15 @@ def _fixed_parts(
     printers) and both printers' towers and frame tops.
     """
     if nominal_geometry.chain.on_bed:
-        ends = [np.concatenate(_tower_ends(g)) for g in (nominal_geometry, true_geometry)]
-        top = np.max(np.concatenate(ends)[:, 2]) + 16.0 * _reach(nominal_geometry) / 375.0
+        ends = [np.concatenate(tower_ends(g)) for g in (nominal_geometry, true_geometry)]
+        top = np.max(np.concatenate(ends)[:, 2]) + 16.0 * robot_size(nominal_geometry) / 375.0
         return np.concatenate([writer.bed(nominal_geometry), *ends, [[0.0, 0.0, top]]])
     b = float(np.mean(np.linalg.norm(nominal_geometry.axis_point[:, :2], axis=1)))
     ang = np.linspace(0.0, 2.0 * np.pi, 37)
     return np.column_stack([(b + 60.0) * np.cos(ang), (b + 60.0) * np.sin(ang), np.full_like(ang, 60.0)])
 
 
-def _draw_workspace(writer: _SceneWriter, ws: Workspace) -> np.ndarray:
+def _draw_workspace(writer: SceneWriter, ws: Workspace) -> np.ndarray:
     """The workspace outline (top and bottom circles, four generatrices); returns its segment ends."""
     g = writer.g
     ang = np.linspace(0.0, 2.0 * np.pi, 73)
@@ -249,7 +249,7 @@ def _draw_workspace(writer: _SceneWriter, ws: Workspace) -> np.ndarray:
 
 
 def _draw_arrows(
-    writer: _SceneWriter, errors: ErrorField, workspace_radius: float
+    writer: SceneWriter, errors: ErrorField, workspace_radius: float
 ) -> tuple[float, float, np.ndarray]:
     """The error arrows, the longest about 0.4 workspace radius (a round scale).
 
@@ -264,7 +264,7 @@ def _draw_arrows(
     scale = nice_number(0.4 * workspace_radius / max_error)
     radius = ARROW_RADIUS * workspace_radius
     vectors = scale * errors.error
-    verts, cols, faces = _arrow_mesh(errors.commanded, vectors, error_colours(magnitude / max_error), radius)
+    verts, cols, faces = arrow_mesh(errors.commanded, vectors, error_colours(magnitude / max_error), radius)
     writer.object(
         "arrows",
         g.TriangularMeshGeometry(verts, faces, color=cols),

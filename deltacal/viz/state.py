@@ -131,7 +131,7 @@ class ErrorField:
             targets: Commanded TCP positions [mm], (N, 3).
         """
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        q = _reachable_readings(nominal_geometry, targets)
+        q = reachable_readings(nominal_geometry, targets)
         keep = np.all(np.isfinite(q), axis=1)
         targets, q = targets[keep], q[keep]
         if targets.shape[0] == 0:
@@ -140,7 +140,7 @@ class ErrorField:
         return cls(targets, reached)
 
 
-def _reachable_readings(geometry: DeltaGeometry, targets: np.ndarray) -> np.ndarray:
+def reachable_readings(geometry: DeltaGeometry, targets: np.ndarray) -> np.ndarray:
     """Readings putting the TCP at each target, NaN rows where it is out of reach."""
     first = VirtualDelta.from_geometry(geometry).inverse(targets - geometry.tool, check=False)
     out = np.full(targets.shape, np.nan)

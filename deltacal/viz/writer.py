@@ -9,30 +9,31 @@ import numpy as np
 from ..geometry import (
     DeltaGeometry,
 )
-from ._meshcat import _meshcat
+from ._meshcat import import_meshcat
 from .meshes import (
-    _TRUE_COLOURS,
-    _material,
-    _prism_mesh,
-    _rotation_y_to,
-    _segment,
-    _transform,
+    TRUE_COLOURS,
+    cylinder_between,
+    mesh_transform,
+    part_material,
+    prism_mesh,
+    rotation_y_to,
 )
 from .state import RobotState
 
 
-class _SceneWriter:
+class SceneWriter:
     """Sends the robot's objects to a visualizer under the ``deltacal`` node and notes their paths."""
 
     def __init__(self, vis: Any) -> None:
         self.vis = vis
         self.root = vis["deltacal"]
         self.paths: list[str] = []
-        self.g = _meshcat().geometry
+        self.g = import_meshcat().geometry
 
     def object(
         self, path: str, geometry: Any, material: Any = None, transform: np.ndarray | None = None
     ) -> None:
+        """Draw ``geometry`` at ``path`` below the ``deltacal`` node (placed by ``transform``, 4x4)."""
         node = self.root[path]
         node.set_object(geometry, material)
         if transform is not None:
@@ -40,6 +41,7 @@ class _SceneWriter:
         self.paths.append(path)
 
     def transform(self, path: str, transform: np.ndarray) -> None:
+        """Place the node at ``path`` by ``transform`` (4x4, metres)."""
         self.root[path].set_transform(transform)
 
     def robot(
@@ -56,14 +58,14 @@ class _SceneWriter:
     def _arms(self, name: str, geometry: DeltaGeometry, ghost: bool) -> None:
         """A rotary Delta's base, actuators, arms with their balls, and rods (posed by :meth:`pose`)."""
         g = self.g
-        C = _TRUE_COLOURS
+        C = TRUE_COLOURS
         b = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
-        s, fat = _sizes(geometry, ghost)
+        s, fat = drawn_sizes(geometry, ghost)
         ball_r, rod_r, arm_r = 11.0 * s * fat, 4.5 * s * fat, 13.0 * s * fat
-        mat = {k: _material(v, ghost) for k, v in C.items()}
+        mat = {k: part_material(v, ghost) for k, v in C.items()}
         # base disc above the actuators
         housing_r = 32.0 * s * fat
-        base_T = _transform(_rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, 44.0 * s])
+        base_T = mesh_transform(rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, 44.0 * s])
         self.object(f"{name}/base", g.Cylinder(16.0 * s, b + 55.0 * s), mat["base"], base_T)
         R0 = geometry.actuator_rotation()
         for i in range(3):
@@ -72,26 +74,26 @@ class _SceneWriter:
                 f"{limb}/actuator",
                 g.Cylinder(120.0 * s, housing_r),
                 mat["actuator"],
-                _transform(R0[i], geometry.axis_point[i]),
+                mesh_transform(R0[i], geometry.axis_point[i]),
             )
             elbow = geometry.arm_ball[i].mean(axis=0)
-            R, mid, length = _segment(np.zeros(3), elbow)
+            R, mid, length = cylinder_between(np.zeros(3), elbow)
             self.object(
-                f"{limb}/arm/link", g.Cylinder(1.0, arm_r), mat["arm"], _transform(R, mid, (1, length, 1))
+                f"{limb}/arm/link", g.Cylinder(1.0, arm_r), mat["arm"], mesh_transform(R, mid, (1, length, 1))
             )
-            R, mid, length = _segment(geometry.arm_ball[i, 0], geometry.arm_ball[i, 1])
+            R, mid, length = cylinder_between(geometry.arm_ball[i, 0], geometry.arm_ball[i, 1])
             self.object(
                 f"{limb}/arm/elbow",
                 g.Cylinder(1.0, 0.55 * arm_r),
                 mat["elbow"],
-                _transform(R, mid, (1, length, 1)),
+                mesh_transform(R, mid, (1, length, 1)),
             )
             for j in range(2):
                 self.object(
                     f"{limb}/arm/ball{j + 1}",
                     g.Sphere(ball_r),
                     mat["ball"],
-                    _transform(np.eye(3), geometry.arm_ball[i, j]),
+                    mesh_transform(np.eye(3), geometry.arm_ball[i, j]),
                 )
                 self.object(f"{limb}/rod{j + 1}", g.Cylinder(1.0, rod_r), mat["rod"])
 
@@ -101,26 +103,26 @@ class _SceneWriter:
         The towers run along the axis lines, from the bed up past the endstops.
         """
         g = self.g
-        s, fat = _sizes(geometry, ghost)
-        mat = {k: _material(v, ghost) for k, v in _TRUE_COLOURS.items()}
-        feet, tops = _tower_ends(geometry)
+        s, fat = drawn_sizes(geometry, ghost)
+        mat = {k: part_material(v, ghost) for k, v in TRUE_COLOURS.items()}
+        feet, tops = tower_ends(geometry)
         top_z = float(np.max(tops[:, 2]))
         corners = tops[:, :2] + 30.0 * s * geometry.radial[:, :2]  # the frame's corners round the towers
-        vertices, faces = _prism_mesh(corners[np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))], 16.0 * s)
+        vertices, faces = prism_mesh(corners[np.argsort(np.arctan2(corners[:, 1], corners[:, 0]))], 16.0 * s)
         self.object(
             f"{name}/top",
             g.TriangularMeshGeometry(vertices, faces),
             mat["base"],
-            _transform(np.eye(3), [0.0, 0.0, top_z + 8.0 * s]),
+            mesh_transform(np.eye(3), [0.0, 0.0, top_z + 8.0 * s]),
         )
         for i in range(3):
             limb = f"{name}/limb{i + 1}"
-            R, mid, length = _segment(feet[i], tops[i])
+            R, mid, length = cylinder_between(feet[i], tops[i])
             self.object(
                 f"{limb}/tower",
                 g.Cylinder(1.0, 9.0 * s * fat),
                 mat["actuator"],
-                _transform(R, mid, (1, length, 1)),
+                mesh_transform(R, mid, (1, length, 1)),
             )
             balls = geometry.arm_ball[i]
             depth = float(np.max(np.abs(balls[:, 2] - balls[:, 2].mean())))
@@ -128,26 +130,26 @@ class _SceneWriter:
                 f"{limb}/carriage/body",
                 g.Box([26.0 * s * fat, 60.0 * s * fat, 2.0 * depth]),
                 mat["arm"],
-                _transform(np.eye(3), balls.mean(axis=0)),
+                mesh_transform(np.eye(3), balls.mean(axis=0)),
             )
             for j in range(2):
                 self.object(
                     f"{limb}/carriage/ball{j + 1}",
                     g.Sphere(11.0 * s * fat),
                     mat["ball"],
-                    _transform(np.eye(3), balls[j]),
+                    mesh_transform(np.eye(3), balls[j]),
                 )
                 self.object(f"{limb}/rod{j + 1}", g.Cylinder(1.0, 4.5 * s * fat), mat["rod"])
 
     def bed(self, geometry: DeltaGeometry) -> np.ndarray:
         """A printer's bed: a thin disc whose top is the plane z = 0; returns points of its rim [mm]."""
-        s, _ = _sizes(geometry, False)
+        s, _ = drawn_sizes(geometry, False)
         radius = float(np.max(np.linalg.norm(geometry.axis_point[:, :2], axis=1))) + 30.0 * s
         thickness = 6.0 * s
         material = self.g.MeshPhongMaterial(
-            color=_TRUE_COLOURS["bed"], opacity=0.55, transparent=True, depthWrite=False, shininess=10
+            color=TRUE_COLOURS["bed"], opacity=0.55, transparent=True, depthWrite=False, shininess=10
         )
-        cylinder_T = _transform(_rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, -0.5 * thickness])
+        cylinder_T = mesh_transform(rotation_y_to(np.array([0.0, 0.0, 1.0])), [0.0, 0.0, -0.5 * thickness])
         self.object("bed", self.g.Cylinder(thickness, radius), material, cylinder_T)
         ang = np.linspace(0.0, 2.0 * np.pi, 13)
         return np.column_stack([radius * np.cos(ang), radius * np.sin(ang), np.full_like(ang, -thickness)])
@@ -155,9 +157,9 @@ class _SceneWriter:
     def plate(self, prefix: str, geometry: DeltaGeometry, ghost: bool, plate_shape: np.ndarray) -> None:
         """Draw the plate and what it carries, in the plate frame, under ``prefix``."""
         g = self.g
-        s, fat = _sizes(geometry, ghost)
-        mat = {k: _material(v, ghost) for k, v in _TRUE_COLOURS.items()}
-        vertices, faces = _prism_mesh(plate_shape, 12.0 * s)
+        s, fat = drawn_sizes(geometry, ghost)
+        mat = {k: part_material(v, ghost) for k, v in TRUE_COLOURS.items()}
+        vertices, faces = prism_mesh(plate_shape, 12.0 * s)
         self.object(f"{prefix}/body", g.TriangularMeshGeometry(vertices, faces), mat["plate"])
         for i in range(3):
             for j in range(2):
@@ -165,23 +167,24 @@ class _SceneWriter:
                     f"{prefix}/ball{i + 1}{j + 1}",
                     g.Sphere(11.0 * s * fat),
                     mat["ball"],
-                    _transform(np.eye(3), geometry.plate_ball[i, j]),
+                    mesh_transform(np.eye(3), geometry.plate_ball[i, j]),
                 )
         axis_len = 2.5 * float(np.max(np.linalg.norm(plate_shape, axis=1)))
-        R, mid, length = _segment(np.zeros(3), np.array([0.0, 0.0, -axis_len]))
+        R, mid, length = cylinder_between(np.zeros(3), np.array([0.0, 0.0, -axis_len]))
         self.object(
-            f"{prefix}/axis", g.Cylinder(1.0, 4.0 * s * fat), mat["axis"], _transform(R, mid, (1, length, 1))
+            f"{prefix}/axis", g.Cylinder(1.0, 4.0 * s * fat), mat["axis"],
+            mesh_transform(R, mid, (1, length, 1)),
         )
         if np.linalg.norm(geometry.tool) > 1e-6:
-            R, mid, length = _segment(np.zeros(3), geometry.tool)
+            R, mid, length = cylinder_between(np.zeros(3), geometry.tool)
             self.object(
                 f"{prefix}/tool",
                 g.Cylinder(1.0, 6.0 * s * fat),
                 mat["tool"],
-                _transform(R, mid, (1, length, 1)),
+                mesh_transform(R, mid, (1, length, 1)),
             )
         self.object(
-            f"{prefix}/tcp", g.Sphere(9.0 * s * fat), mat["tool"], _transform(np.eye(3), geometry.tool)
+            f"{prefix}/tcp", g.Sphere(9.0 * s * fat), mat["tool"], mesh_transform(np.eye(3), geometry.tool)
         )
 
     def pose(self, name: str, state: RobotState, k: int, frame: Any = None) -> None:
@@ -190,35 +193,37 @@ class _SceneWriter:
         part = state.chain.words.part
         for i in range(3):
             limb = f"{name}/limb{i + 1}"
-            arm_T = _transform(state.arm_rotation[k, i], state.arm_origin[k, i])
+            arm_T = mesh_transform(state.arm_rotation[k, i], state.arm_origin[k, i])
             target[f"{limb}/{part}"].set_transform(arm_T)
             for j in range(2):
-                R, mid, length = _segment(state.arm_balls[k, i, j], state.plate_balls[k, i, j])
+                R, mid, length = cylinder_between(state.arm_balls[k, i, j], state.plate_balls[k, i, j])
                 if frame is None:
-                    target[f"{limb}/rod{j + 1}"].set_transform(_transform(R, mid, (1, length, 1)))
+                    target[f"{limb}/rod{j + 1}"].set_transform(mesh_transform(R, mid, (1, length, 1)))
                 else:
-                    target[f"{limb}/rod{j + 1}"].set_transform(_transform(R, mid))
+                    target[f"{limb}/rod{j + 1}"].set_transform(mesh_transform(R, mid))
                     target[f"{limb}/rod{j + 1}"].set_property("scale", "vector3", [1.0, length, 1.0])
-        target[f"{name}/plate"].set_transform(_transform(state.shown_rotation[k], state.plate.position[k]))
+        plate = mesh_transform(state.shown_rotation[k], state.plate.position[k])
+        target[f"{name}/plate"].set_transform(plate)
 
     def inset_pose(self, true_state: RobotState, ghost_state: RobotState, k: int, frame: Any = None) -> None:
         """Set the inset's true plate relative to the ghost plate (at the inset's origin)."""
         target = self.root if frame is None else frame["deltacal"]
         offset = true_state.plate.position[k] - ghost_state.plate.position[k]
-        target["inset/true"].set_transform(_transform(true_state.shown_rotation[k], offset))
+        target["inset/true"].set_transform(mesh_transform(true_state.shown_rotation[k], offset))
 
 
-def _sizes(geometry: DeltaGeometry, ghost: bool) -> tuple[float, float]:
+def drawn_sizes(geometry: DeltaGeometry, ghost: bool) -> tuple[float, float]:
     """Size unit of the drawn parts (1: a 375 mm arm, or a printer's 600 mm rods), the ghost's fattening."""
-    return _reach(geometry) / 375.0, (1.35 if ghost else 1.0)  # the ghost's round parts sheathe the true ones
+    # the ghost's round parts sheathe the true ones
+    return robot_size(geometry) / 375.0, (1.35 if ghost else 1.0)
 
 
-def _reach(geometry: DeltaGeometry) -> float:
+def robot_size(geometry: DeltaGeometry) -> float:
     """A robot's size [mm]: its arm length, or (a printer) 375/600 of its rod length."""
     return geometry.chain.drawn_scale * geometry.chain.limb_length(geometry.arm_ball, geometry.rod_length)
 
 
-def _tower_ends(geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:
+def tower_ends(geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:
     """A printer's towers: where each axis line meets the bed (z = 0) and its top above the endstop [mm].
 
     Returns:
@@ -230,7 +235,7 @@ def _tower_ends(geometry: DeltaGeometry) -> tuple[np.ndarray, np.ndarray]:
     return feet, geometry.axis_point + above * w
 
 
-def _plate_polygon(geometry: DeltaGeometry) -> np.ndarray:
+def plate_polygon(geometry: DeltaGeometry) -> np.ndarray:
     """The plate's outline in its frame: the six plate ball centres in xy, by angle [mm], (6, 2)."""
     xy = geometry.plate_ball.reshape(6, 3)[:, :2]
     order = np.argsort(np.arctan2(xy[:, 1], xy[:, 0]))

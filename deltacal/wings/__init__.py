@@ -25,6 +25,7 @@ from ..geometry import DeltaGeometry
 from ..io import load_calibration, read_toml
 from ..io.paths import check_input
 from ..io.robot import robot_kind
+from ..printer.firmware import config_files
 from .base import Done, Robot, Wing, check_files
 from .compensate_job import Progress, compensate_targets
 from .printer import PRINTER, PrinterWing
@@ -87,9 +88,14 @@ def identify(request: IdentifyRequest) -> Done:
 
 
 def export(request: ExportRequest) -> Done:
-    """``deltacal export``: an MJCF model (either kind), or the calibration's wing's controller values."""
+    """``deltacal export``: an MJCF model (either kind), or the calibration's wing's controller values.
+
+    A firmware's values may not overwrite a file its configuration (``config``) reads; ``live``
+    writes a folder, checked by the wing.
+    """
+    read = config_files(request.config, request.controller) if request.config is not None else ()
     check_files((request.calibration, request.robot, request.config),
-                request.mjcf if request.mjcf is not None else request.output)
+                None if request.live else request.mjcf if request.mjcf is not None else request.output, read)
     if request.mjcf is not None:
         geometry, stations = _exported_geometry(request.calibration)
         return wing_for(geometry.chain).export_mjcf(request, geometry, stations)
@@ -114,7 +120,8 @@ def _exported_geometry(path: str | Path) -> tuple[DeltaGeometry, list[str]]:
 
 def report(request: ReportRequest) -> Done:
     """``deltacal report``: the calibration's HTML page, through its wing (a printer's: its firmware)."""
-    check_files((request.calibration, request.measurements, request.truth, request.robot), request.output)
+    check_files((request.calibration, *(request.measurements or ()), request.truth, request.robot,
+                 request.controller), request.output)
     calibration = load_calibration(request.calibration)
     return wing_for(calibration.geometry.chain).report(request, calibration)
 

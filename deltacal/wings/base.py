@@ -31,7 +31,7 @@ from ..geometry import DeltaGeometry, NominalDelta
 from ..identification.quality import implausible_deviations
 from ..io import load_geometry
 from ..io.paths import check_input, check_inputs, check_output
-from ..printer.firmware.base import Firmware
+from ..printer.firmware.base import Firmware, FirmwareModel
 from ..printer.robot import NominalLinearDelta
 from ..report import write_report
 from ..robots import load_robot
@@ -108,9 +108,16 @@ class Wing(ABC):
     def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:
         """``deltacal export --controller KIND``: the controller's values that fit best, written."""
 
-    def report_firmware(self, request: ReportRequest) -> Firmware[Any] | None:
-        """The firmware whose values a report fits (a printer's), or None (a rotary Delta's controller)."""
-        return None
+    def report_firmware(self, request: ReportRequest,
+                        calibration: Calibration) -> tuple[Firmware[Any] | None, FirmwareModel | None]:
+        """The firmware whose values a report fits (a printer's), or None (a rotary Delta's controller).
+
+        And the firmware's values the measurements were commanded with (``--controller``), or None.
+
+        Raises:
+            UsageError: an option of the other kind.
+        """
+        return None, None
 
     def export_mjcf(self, request: ExportRequest, geometry: DeltaGeometry, stations: Sequence[str]) -> Done:
         """``deltacal export --mjcf``: the robot as an MJCF model, of either kind (:func:`write_mjcf`).
@@ -128,7 +135,7 @@ class Wing(ABC):
 
     def report(self, request: ReportRequest, calibration: Calibration) -> Done:
         """``deltacal report``: one self-contained HTML page of the calibration (:func:`write_report`)."""
-        firmware = self.report_firmware(request)
+        firmware, controller = self.report_firmware(request, calibration)
         nominal = calibration.nominal
         truth = load_geometry(request.truth) if request.truth is not None else None
         robot = load_robot(request.robot) if request.robot is not None else None
@@ -143,7 +150,7 @@ class Wing(ABC):
                                truth_source=None if request.truth is None else str(request.truth),
                                tool=request.tool, payload=request.payload,
                                workspace=robot.workspace if robot is not None else None,
-                               view=not request.no_view, firmware=firmware)
+                               view=not request.no_view, firmware=firmware, controller=controller)
         warn(summary.warnings)
         w = summary.worst_point
         return Done((f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "
@@ -171,11 +178,16 @@ def home_readings(text: str | None, chain: Chain) -> np.ndarray | None:
     return chain.reading_from_file(values)
 
 
-def check_files(inputs: Sequence[str | Path | None], output: str | Path | None) -> None:
-    """Each input an existing file, the output one deltacal may write and none of the inputs (status 2)."""
+def check_files(inputs: Sequence[str | Path | None], output: str | Path | None,
+                read: Sequence[str | Path] = ()) -> None:
+    """Each input an existing file, the output one deltacal may write and none of the inputs (status 2).
+
+    ``read``: the files a firmware's configuration reads besides itself (Klipper's includes,
+    :func:`~deltacal.printer.firmware.config_files`), which the output may not overwrite either.
+    """
     check_inputs(inputs)
     if output is not None:
-        check_output(output, inputs)
+        check_output(output, [*inputs, *read])
 
 
 __all__ = ["Done", "Robot", "Wing", "check_files", "check_input", "home_readings", "warn"]

@@ -32,6 +32,7 @@ from ..exceptions import InputError, UnreachableError, UsageError
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, marker_line
 from ..io import CommandsWriter, JointsWriter, TargetChunk, TargetFile, lines_text, load_calibration
 from ..io.controller_file import load_controller_file
+from ..printer.firmware import config_files
 from ..printer.firmware.config_file import FirmwareConfig, controller_config
 from .base import Done, check_files, warn
 from .requests import CompensateRequest
@@ -43,7 +44,8 @@ Progress = Callable[[float, str], None]
 
 def compensate_targets(request: CompensateRequest, progress: Progress | None = None) -> Done:
     """``deltacal compensate``: the joints (or corrected targets, or corrected program) file written."""
-    check_files((request.calibration, request.targets, request.controller), request.output)
+    read = config_files(request.controller, request.firmware) if request.controller is not None else ()
+    check_files((request.calibration, request.targets, request.controller), request.output, read)
     report: Progress = progress or (lambda fraction, detail: None)
     if request.program:
         return _program(request, report)

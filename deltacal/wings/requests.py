@@ -27,7 +27,7 @@ from ..gcode import MAX_COORDINATE_MM, MIN_SEGMENT_MM, is_gcode_path
 from ..identification import FitOptions
 from ..identification.options import Frame, Pairs
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
-from ..printer.firmware import firmware_named
+from ..printer.firmware import firmware_named, firmwares
 from ..printer.firmware.config_file import firmware_names
 from ..printer.simulation import TOLERANCE_CLASSES
 
@@ -305,7 +305,10 @@ class ExportRequest:
     keyframe as text, deg or a printer's mm). ``controller``: a rotary Delta's controller values
     that fit best (``offsets``, ``limbs``), or a firmware's (its name: ``klipper``, ``marlin``,
     ``rrf``; ``config``: the configuration the printer runs; ``keep_rotation_distance``: its step
-    distances held); ``robot``: the robot file whose ``[workspace]`` the fit covers.
+    distances held); ``robot``: the robot file whose ``[workspace]`` the fit covers. ``live``: the
+    correction the firmware runs itself (Klipper's module and its section,
+    :attr:`~deltacal.printer.firmware.base.Firmware.live_files`), computed through the values of
+    ``config``, written in the folder ``output``.
     """
 
     calibration: Path_
@@ -317,11 +320,15 @@ class ExportRequest:
     robot: Path_ | None = None
     name: str | None = None
     home: str | None = None
+    live: bool = False
 
     def __post_init__(self) -> None:
         if (self.mjcf is None) == (self.controller is None):
             raise UsageError("give --mjcf ROBOT.xml or --controller KIND (one of them)")
         firmware = firmware_named(self.controller) if self.controller is not None else None
+        if self.live:
+            self._check_live(firmware)
+            return
         if firmware is not None:
             if self.output is None:
                 raise UsageError(f"--controller {firmware.name} needs -o {firmware.export_file}, the "
@@ -343,6 +350,20 @@ class ExportRequest:
         if self.mjcf is not None and (self.output is not None or self.robot is not None):
             raise UsageError(f"{'-o' if self.output is not None else '--robot'} applies to --controller; "
                              "--mjcf names its own output")
+
+    def _check_live(self, firmware: Any) -> None:
+        """``--live``: a firmware that runs a correction of its own, its configuration and a folder."""
+        live = [f for f in firmwares() if f.live_files]
+        if firmware is None or not firmware.live_files:
+            raise UsageError(f"--live applies to --controller {'|'.join(f.name for f in live)} (the module "
+                             f"{' or '.join(f.title for f in live)} runs)")
+        if self.config is None or self.output is None:
+            raise UsageError(f"--live needs --config {firmware.config_file} (the values {firmware.title} "
+                             "runs: the correction is computed through them) and -o OUTDIR (the folder of "
+                             f"{', '.join(firmware.live_files)})")
+        if self.keep_rotation_distance or self.robot is not None or self.home is not None:
+            raise UsageError(f"--live takes {firmware.title}'s values and volume from --config alone: leave "
+                             "out --keep-rotation-distance, --robot and --home")
 
 
 @dataclass(frozen=True, eq=False)
@@ -416,20 +437,27 @@ class ReportRequest:
 
     ``tool``: the TCP in the plate frame for the accuracy map [mm]; ``payload``: the payload whose
     deflection is mapped [kg]; ``firmware``: a printer's firmware, whose values the page fits and
-    names (default: Klipper's).
+    names (default: ``controller``'s, else Klipper's); ``measurements``: the file the calibration was
+    identified from (residual plots), a printer's probe heights and distances files, with
+    ``controller``: the firmware's settings they were commanded with (of ``firmware`` when named).
     """
 
     calibration: Path_
     output: Path_
-    measurements: Path_ | None = None
+    measurements: tuple[Path_, ...] | None = None
     truth: Path_ | None = None
     tool: np.ndarray | None = None
     robot: Path_ | None = None
     payload: float = 0.0
     no_view: bool = False
     firmware: str | None = None
+    controller: Path_ | None = None
 
     def __post_init__(self) -> None:
+        given = self.measurements
+        if given is not None:
+            files = (given,) if isinstance(given, (str, Path)) else tuple(given)
+            object.__setattr__(self, "measurements", files)
         _check_firmware(self.firmware)
 
 
@@ -437,11 +465,12 @@ class ReportRequest:
 class ImportRequest:
     """``deltacal import INPUT -o OUTPUT``: a printer as its configuration finds it, or a log's probe results.
 
-    A configuration (``printer.cfg``, ``config.g``): ``output`` is the folder of the robot file (and
-    the measurements the configuration saved); ``effector_radius``, ``rod_spacing`` and ``nozzle_drop``
-    [mm] are what no configuration holds (:meth:`check_config`). A log: ``output`` is the probe
-    heights file; ``config`` the printer's configuration, for its probe's offsets (:meth:`check_log`).
-    What the input is, its content tells.
+    A configuration (``printer.cfg``, ``config.g``, an ``M503`` capture): ``output`` is the folder of
+    the robot file (and the measurements the configuration saved); ``effector_radius``, ``rod_spacing``
+    and ``nozzle_drop`` [mm] are what no configuration holds (:meth:`check_config`). A log: ``output``
+    is the probe heights file; ``config`` the printer's configuration, for its probe's offsets
+    (:meth:`check_log`). What the input is, its content tells, or ``firmware`` names its firmware
+    (:func:`~deltacal.printer.firmware.input_firmware`).
     """
 
     input: Path_
@@ -450,6 +479,10 @@ class ImportRequest:
     effector_radius: float | None = None
     rod_spacing: float | None = None
     nozzle_drop: float | None = None
+    firmware: str | None = None
+
+    def __post_init__(self) -> None:
+        _check_firmware(self.firmware)
 
     def check_config(self, title: str) -> None:
         """A configuration, read as the firmware ``title``'s: no log's option."""

@@ -12,23 +12,28 @@
   when the three towers agree, ``[a, b, c]`` otherwise (the azimuths always three);
 * ``nozzle_mm`` = ``[0, 0, −drop]``; the effector radius, the rod spacing and the nozzle drop are
   in no firmware's configuration: given (measured), or defaults that the file names;
-* ``[workspace]``: ``radius_mm`` = the printable radius, ``height_mm`` = the height up to which the
-  full radius is reachable, ``min(carriage top − rod)``.
+* ``[workspace]``: ``radius_mm`` = the printable radius, never beyond what the rods reach with a
+  margin (:func:`reach_radius`), ``height_mm`` = the height up to which the full radius is
+  reachable, ``min(carriage top − rod)``.
 
-Each line names the firmware's words it came from. Units: mm and deg in the file.
+Each line names the firmware's words it came from. A folder that holds an output this import does
+not write (another printer's ``probe.csv``, say) is refused before anything is written
+(:func:`check_stale_outputs`): left beside the new ``printer.toml`` it would be taken for its
+measurements. Units: mm and deg in the file.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ...exceptions import InputError
+from ...exceptions import InputError, UsageError
 from ...io.atomic import atomic_write_text
-from ...io.toml import _toml_value
+from ...io.toml import toml_value
 from ...towers import written_per_tower
 
 #: What a configuration does not say, when not given [mm] (those of deltacal's models/kossel.toml).
@@ -39,6 +44,9 @@ DEFAULT_NOZZLE_DROP = 30.0
 OUTPUT_FILES = ("printer.toml", "probe.csv", "distances.csv")
 #: The options that give what a configuration does not say.
 MEASURED_OPTIONS = "--effector-radius, --rod-spacing, --nozzle-drop"
+#: How much faster than the nozzle a carriage may move at the rim of an imported printable radius
+#: (Klipper's ``4 × SLOW_RATIO``): the rods' reach with a margin (:func:`reach_radius`).
+REACH_SLOPE = 12.0
 
 
 @dataclass(frozen=True)
@@ -102,6 +110,38 @@ class ImportedValues:
     where: str = ""
 
 
+def reach_radius(rods: np.ndarray, rho: float) -> float:
+    """The radius the rods reach at the bed with a margin: ``S min(rods) / sqrt(S² + 1) − ρ`` [mm].
+
+    At ``min(rods) − ρ`` the rod of the tower opposite lies flat (its carriage at the nozzle's
+    height): the rim is not reachable. Held to :data:`REACH_SLOPE` instead, where that rod is
+    ``atan(1/S)`` (4.8°) above flat and its carriage moves ``S`` times faster than the nozzle, the
+    bound Klipper puts on its own radius (``ratio_to_xy(4 × SLOW_RATIO)``).
+
+    Args:
+        rods: Each tower's rod [mm], (3,).
+        rho: ρ, carriage point to effector point, horizontal [mm].
+    """
+    return REACH_SLOPE * float(np.min(rods)) / math.hypot(REACH_SLOPE, 1.0) - rho
+
+
+def within_reach(radius: float, words: str, bound: float, reach: str) -> tuple[float, str]:
+    """A printable radius held to what the rods reach (:func:`reach_radius`), and where it came from.
+
+    Args:
+        radius: The firmware's printable radius [mm] (its print radius, soft limits...).
+        words: Where it came from (``"print_radius"``).
+        bound: The radius the rods reach [mm].
+        reach: The words for the bound (``"Klipper's reach ..."``).
+
+    Returns:
+        The radius [mm] and its words: ``words`` when within the reach, else the reach and both said.
+    """
+    if radius > bound:
+        return bound, f"{words} {radius:g} mm, held to {reach} {bound:.6g} mm"
+    return radius, words
+
+
 def printer_file_text(values: ImportedValues, measured: Measured) -> str:
     """The robot file (``kind = "linear"``) of the firmware's model (the module's documentation).
 
@@ -124,16 +164,16 @@ def printer_file_text(values: ImportedValues, measured: Measured) -> str:
     lines = [f"# Imported by deltacal from {source.name}: {values.firmware}'s model of that configuration.",
              *defaults,
              *(f"# {note}" for note in values.notes),
-             f"name = {_toml_value(source.stem)}",
-             f"description = {_toml_value(f'imported from {source.name} ({values.radius[1]} {rho:g} mm)')}",
+             f"name = {toml_value(source.stem)}",
+             f"description = {toml_value(f'imported from {source.name} ({values.radius[1]} {rho:g} mm)')}",
              'kind = "linear"', "", "[geometry]",
              f"tower_radius_mm = {rho + measured.effector_radius!r}   # {values.radius[1]} + effector radius",
              f"effector_radius_mm = {measured.effector_radius!r}",
              f"rod_length_mm = {_per_tower(rods)}   # {values.rods[1]}",
              f"rod_spacing_mm = {measured.rod_spacing!r}",
-             f"tower_azimuth_deg = {_toml_value([float(v) for v in values.azimuth_deg[0]])}   "
+             f"tower_azimuth_deg = {toml_value([float(v) for v in values.azimuth_deg[0]])}   "
              f"# {values.azimuth_deg[1]}",
-             f"nozzle_mm = {_toml_value([0.0, 0.0, -drop])}",
+             f"nozzle_mm = {toml_value([0.0, 0.0, -drop])}",
              f"endstop_height_mm = {_per_tower(top + drop)}   # {values.carriage_top[1]} + nozzle drop",
              f"step_distance_mm = {_per_tower(values.step_distance[0])}" + (f"   # {steps}" if steps else ""),
              "", "[workspace]",
@@ -169,8 +209,32 @@ def write_imported(folder: str | Path, values: ImportedValues, effector_radius: 
         InputError: no printable volume above the bed.
     """
     measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
+    check_stale_outputs(folder, OUTPUT_FILES[:1], "its configuration holds no measurements")
     written = write_printer_file(Path(folder) / OUTPUT_FILES[0], values, measured)
     return written, f"; defaults taken: {', '.join(measured.defaults)}" if measured.defaults else ""
+
+
+def check_stale_outputs(folder: str | Path, writes: Sequence[str], why: str) -> None:
+    """Refuse a folder holding outputs of ``deltacal import`` that this import does not write.
+
+    A ``probe.csv`` or ``distances.csv`` of an earlier import (another printer's, or measurements the
+    configuration no longer holds), left beside the new ``printer.toml``, would be identified as its
+    measurements; deleting it could lose a user's file. Nothing is written.
+
+    Args:
+        folder: The output folder.
+        writes: The names of :data:`OUTPUT_FILES` this import writes.
+        why: Why it writes no others (``"its configuration holds no measurements"``).
+
+    Raises:
+        UsageError: naming the folder and each file left over.
+    """
+    stale = [name for name in OUTPUT_FILES if name not in writes and (Path(folder) / name).exists()]
+    if stale:
+        them = " and ".join(stale)
+        raise UsageError(f"{folder}: holds {them}, which this import does not write ({why}): left beside "
+                         f"the new {OUTPUT_FILES[0]} they would be taken for its measurements; move or "
+                         f"delete {'them' if len(stale) > 1 else 'it'}, or import into another folder")
 
 
 @dataclass(frozen=True)
@@ -188,4 +252,4 @@ class PrinterImport:
 
 def _per_tower(values: np.ndarray) -> str:
     """A per-tower value as TOML: a number when the three towers agree, ``[a, b, c]`` otherwise."""
-    return _toml_value(written_per_tower(np.asarray(values, dtype=float)))
+    return toml_value(written_per_tower(np.asarray(values, dtype=float)))

@@ -24,7 +24,7 @@ import numpy as np
 
 from ...exceptions import InputError
 from ...io.atomic import atomic_write_text
-from ...io.tables import TARGET_COLUMNS, _format_rows, _quoted, data_row, read_csv_table
+from ...io.tables import TARGET_COLUMNS, csv_field, data_row, format_rows, read_csv_table
 
 #: A distance measured further than this fraction from the distance commanded between its features is
 #: no printer's: a kit's step distances are within 0.3 %, its uncalibrated nozzle within 2-4 mm.
@@ -231,7 +231,7 @@ def write_probe_heights(path: str | Path, commanded: np.ndarray, heights: np.nda
     if trigger_height is not None:
         columns.append(np.asarray(trigger_height, dtype=float).reshape(-1))
         header.append(TRIGGER_COLUMN)
-    return atomic_write_text(path, _format_rows(columns, header))
+    return atomic_write_text(path, format_rows(columns, header))
 
 
 def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.ndarray | None = None,
@@ -248,11 +248,29 @@ def write_printed_distances(path: str | Path, pairs: np.ndarray, distance: np.nd
     pairs = np.atleast_2d(np.asarray(pairs, dtype=float)).reshape(-1, 6)
     d = np.full(len(pairs), np.nan) if distance is None else np.asarray(distance, dtype=float).reshape(-1)
     if balls is None:
-        return atomic_write_text(path, _format_rows([*pairs.T, d], DISTANCE_COLUMNS))
+        return atomic_write_text(path, format_rows([*pairs.T, d], DISTANCE_COLUMNS))
     if len(balls) != len(pairs):
         raise ValueError(f"{len(balls)} pairs of labels for {len(pairs)} pairs")
     lines = [",".join([*PAIR_COLUMNS, *BALL_COLUMNS, "distance_mm"])]
     for row, (one, two), value in zip(pairs, balls, d, strict=True):
-        fields = [repr(float(v)) for v in row] + [_quoted(one), _quoted(two)]
+        fields = [repr(float(v)) for v in row] + [csv_field(one), csv_field(two)]
         lines.append(",".join([*fields, "" if np.isnan(value) else repr(float(value))]))
     return atomic_write_text(path, "\n".join(lines) + "\n")
+
+
+def printer_file_kind(path: str | Path) -> str | None:
+    """What a printer's measurement file holds, by its header: ``"probe"``, ``"distances"``, or None.
+
+    A file with the pairs' columns (``x1_mm..z2_mm``) holds distances; one with ``x_mm``, ``y_mm``
+    probe heights; anything else (a rotary Delta's measurements: ``q1_deg...``) neither. A file that
+    cannot be read is None (its reader names the problem).
+    """
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            line = next((text for text in handle if text.strip()), "")
+    except (OSError, UnicodeDecodeError):
+        return None
+    columns = {name.strip().strip('"') for name in line.split(",")}
+    if set(PAIR_COLUMNS) <= columns:
+        return "distances"
+    return "probe" if set(PROBE_COLUMNS[:2]) <= columns else None

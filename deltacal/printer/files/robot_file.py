@@ -16,8 +16,8 @@ import numpy as np
 
 from ...exceptions import GeometryError, InputError
 from ...geometry import Workspace
-from ...io.robot import _check_plausible, _is_printer_file, _points, _robot_name
-from ...io.toml import _Table, read_toml
+from ...io.robot import check_plausible_length, is_printer_file, read_points, read_robot_name
+from ...io.toml import TomlTable, read_toml
 from ...kinematics.closed_form import VirtualDelta
 from ...towers import TOWERS
 from ..robot import NominalLinearDelta
@@ -46,8 +46,8 @@ def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDel
         InputError: naming the file and the key (and value, and tower) of the first problem found.
     """
     source = str(path)
-    top = _Table(read_toml(path) if data is None else data, source)
-    if not _is_printer_file(top):
+    top = TomlTable(read_toml(path) if data is None else data, source)
+    if not is_printer_file(top):
         raise top.error("kind", "not a linear Delta printer's file: kind = 'linear' is required")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace"])
     geo = top.table("geometry")
@@ -57,7 +57,7 @@ def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDel
                geo.number(key, positive=True) for key in LINEAR_LENGTH_KEYS}
     for key in lengths:
         for tower, value in _each_tower(geo, key):
-            _check_on_tower(tower, _check_plausible, geo, key, value)
+            _check_on_tower(tower, check_plausible_length, geo, key, value)
     step = geo.per_tower("step_distance_mm", positive=True)
     for tower, value in _each_tower(geo, "step_distance_mm"):
         if value >= MAX_STEP_DISTANCE_MM:
@@ -73,7 +73,7 @@ def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDel
                                              f"towers {reach} mm away (tower_radius_mm - effector_radius_mm)")
     try:
         printer = NominalLinearDelta(
-            name=_robot_name(top),
+            name=read_robot_name(top),
             description=top.string("description", ""),
             tower_radius=float(lengths["tower_radius_mm"]),
             effector_radius=float(lengths["effector_radius_mm"]),
@@ -83,7 +83,7 @@ def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDel
             endstop_height=np.asarray(lengths["endstop_height_mm"]),
             step_distance=step,
             tool=geo.vector("nozzle_mm", (3,)),
-            points=_points(top, source),
+            points=read_points(top, source),
             workspace=_printable(top),
         )
     except GeometryError as exc:
@@ -93,7 +93,7 @@ def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDel
     return printer
 
 
-def _each_tower(geo: _Table, key: str) -> list[tuple[str, float]]:
+def _each_tower(geo: TomlTable, key: str) -> list[tuple[str, float]]:
     """A key's values with the words that name each one's tower: none when the file holds one number.
 
     The key was read and checked already (a number, or three).
@@ -104,7 +104,7 @@ def _each_tower(geo: _Table, key: str) -> list[tuple[str, float]]:
     return [(f" (tower {tower})", float(v)) for tower, v in zip(TOWERS, value, strict=True)]
 
 
-def _check_on_tower(tower: str, check: Callable[[_Table, str, float], None], geo: _Table, key: str,
+def _check_on_tower(tower: str, check: Callable[[TomlTable, str, float], None], geo: TomlTable, key: str,
                     value: float) -> None:
     """Run a one-value check, its message naming the tower (``tower``: the words, or "")."""
     try:
@@ -113,7 +113,7 @@ def _check_on_tower(tower: str, check: Callable[[_Table, str, float], None], geo
         raise InputError(f"{exc.detail}{tower}", exc.source, exc.location) from None
 
 
-def _printable(top: _Table) -> Workspace | None:
+def _printable(top: TomlTable) -> Workspace | None:
     """A printer's ``[workspace]``: the printable cylinder from the bed (z = 0) up, or None."""
     ws = top.table("workspace", required=False)
     if ws is None:

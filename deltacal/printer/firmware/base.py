@@ -16,12 +16,14 @@ firmware gives through one :class:`Firmware`:
   :class:`~deltacal.controller.targets.CommandModel`: what corrected targets and G-code go
   through), also from its configuration file (:meth:`Firmware.load_controller`);
 * a configuration written with new values (:meth:`Firmware.config_text`, :meth:`Firmware.save_config`);
-* the values that fit an identified geometry best (:meth:`Firmware.fit`);
+* the values that fit an identified geometry best (:meth:`Firmware.fit`: a :class:`FirmwareFit`, the
+  same value for every firmware);
 * two sets of values refused when they are of different printers (:meth:`Firmware.check_same_printer`:
   a calibration and the configuration of another printer);
 * a program in its own dialect that probes the bed at given points and says each result on its
-  console (:meth:`Firmware.probe_program`), whose log is read back into probe heights
-  (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
+  console (:meth:`Firmware.probe_program`), travelling between them above the probe's trigger
+  height as its configuration sets it (:meth:`Firmware.probe_travel`), whose log is read back
+  into probe heights (:meth:`Firmware.is_probe_log`, :meth:`Firmware.read_probe_log`);
 * its configuration read into deltacal's robot file and measurement files, as ``deltacal import``
   writes them (:meth:`Firmware.import_config`);
 * its reading of G-code (:meth:`Firmware.dialect`): E under G91, arcs' P words, where a homing
@@ -38,6 +40,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -50,14 +53,13 @@ from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .probe_log import ProbeLog
+from .probing import PROBE_CLEARANCE, ProbeTravel
 
 if TYPE_CHECKING:
+    from ...calibration import Calibration
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
 
-#: Height of the nozzle above the bed while a probe program moves between points [mm] (Klipper's
-#: ``horizontal_move_z`` default).
-PROBE_CLEARANCE = 5.0
 
 
 #: Spacing of the bed's points :meth:`Firmware.admit_bed` corrects [mm].
@@ -154,26 +156,6 @@ class ErrorFigures(Protocol):
         """The figures by name [mm]."""
 
 
-class FirmwareFit(Protocol):
-    """A firmware's values fitted to an identified printer, and what they leave."""
-
-    @property
-    def values(self) -> FirmwareModel:
-        """The fitted values."""
-
-    @property
-    def before(self) -> ErrorFigures:
-        """The errors with the start's values."""
-
-    @property
-    def after(self) -> ErrorFigures:
-        """The errors with the fitted values."""
-
-    @property
-    def held(self) -> list[str]:
-        """The values held at the start's, in the firmware's names."""
-
-
 class Measuring(Protocol):
     """A printer measured through a firmware's values (a real one, or a simulation)."""
 
@@ -185,6 +167,34 @@ class Measuring(Protocol):
 
 
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
+
+
+@dataclass(frozen=True)
+class FirmwareFit(Generic[ModelT]):
+    """A firmware's values fitted to an identified printer, and what they leave (any firmware's).
+
+    Attributes:
+        values: The fitted values, as the firmware writes them.
+        fitted: Names (the firmware's) of the values fitted.
+        held: Names held at the start's values (asked, a gauge the firmware holds, or not
+            identifiable over the grid).
+        unidentifiable: The held values the grid cannot tell apart from the others.
+        singular_values: Singular values of the column-scaled Jacobian, largest first.
+        before: Errors with the start's values [mm].
+        after: Errors with the fitted values, through the firmware's model [mm].
+        iterations: Gauss-Newton iterations (of the last fit, where the firmware fits twice).
+        points: Number of grid points.
+    """
+
+    values: ModelT
+    fitted: list[str]
+    held: list[str]
+    unidentifiable: list[str]
+    singular_values: np.ndarray
+    before: ErrorFigures
+    after: ErrorFigures
+    iterations: int
+    points: int
 
 
 def classical_values(model: FirmwareModel) -> tuple[float, np.ndarray, np.ndarray]:
@@ -216,7 +226,8 @@ class Firmware(ABC, Generic[ModelT]):
         calibrated_file: The name deltacal gives a file of fitted values (``printer_calibrated.cfg``).
         minimum_z_key: Where its configuration sets the lowest Z it accepts (``minimum_z_position``).
         apply_note: How to put the values :meth:`config_text` writes into the printer (one line,
-            the first comment of the file and said by ``deltacal export``).
+            the first comment of the file and said by ``deltacal export``), whatever the
+            configuration the printer runs (:meth:`apply_note_for` says it for one).
         export_file: The file ``deltacal export --controller NAME -o`` writes, as its help names it.
         values_words: What its exported values are, in its own words (``"M665, M666 and M92 lines"``).
         export_needs_config: Why the exported values need the configuration the printer runs
@@ -224,6 +235,8 @@ class Firmware(ABC, Generic[ModelT]):
             distances alone give the firmware's values).
         exports_minimum_z: Whether the exported values carry the lowest Z the firmware accepts (Klipper's
             ``minimum_z_position``), lowered by export to admit the corrected bed (:meth:`admit_bed`).
+        live_files: The files of a correction the firmware runs itself (``export --live``, Klipper's
+            module and its section: :meth:`export_live`), or none (the firmware has none).
     """
 
     name: ClassVar[str]
@@ -239,10 +252,18 @@ class Firmware(ABC, Generic[ModelT]):
     values_words: ClassVar[str]
     export_needs_config: ClassVar[str] = ""
     exports_minimum_z: ClassVar[bool] = False
+    live_files: ClassVar[tuple[str, ...]] = ()
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
-        """Whether a file (a command's ``--controller``) is this firmware's configuration."""
+        """Whether a file (a command's ``--controller``) is this firmware's configuration by its content."""
+
+    def is_config_name(self, path: str | Path) -> bool:
+        """Whether a file's name alone says it is this firmware's configuration (none by default).
+
+        Asked only when no firmware recognises the file by its content (:meth:`is_config`).
+        """
+        return False
 
     @abstractmethod
     def read_config(self, path: str | Path) -> ModelT:
@@ -283,7 +304,8 @@ class Firmware(ABC, Generic[ModelT]):
     @abstractmethod
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> FirmwareFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -293,12 +315,16 @@ class Firmware(ABC, Generic[ModelT]):
             workspace: The printable cylinder.
             hold_step_distance: Keep the start's step distances.
             first_layer_weight: Weight of the first layer's height errors (0: the volume alone).
+            minimax: The least largest error over the volume, not the least squares, the first layer
+                no less flat than the least squares leave it (:func:`~.fitting.least_largest`):
+                what ``export`` writes.
             grid: The nozzle targets the errors are judged at [mm], (N, 3) (default: a grid of the
                 printable volume, :func:`~deltacal.printer.firmware.fitting.printable_grid`).
         """
 
     @abstractmethod
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """A program that homes, then probes the bed at each point in order, each result on the console.
 
         The nozzle is moved above each point at ``clearance`` and the firmware's probing command
@@ -308,8 +334,50 @@ class Firmware(ABC, Generic[ModelT]):
         Args:
             points: The commanded nozzle positions to probe [mm], (N, 2) or (N, 3) (z ignored).
             title: A first comment line (what the points are).
-            clearance: The nozzle's height above the bed while it moves between points [mm].
+            clearance: The nozzle's height above the bed while it moves between points [mm], or
+                the configuration's :meth:`probe_travel` (its reason then in the header).
         """
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """The height :meth:`probe_program` travels at between points, from the firmware's configuration.
+
+        Above the probe's trigger height (the nozzle's height above the bed when the probe
+        triggers), by the firmware's own travel height or a margin
+        (:func:`~.probing.probe_travel`).
+
+        Raises:
+            InputError: the trigger height is not known (by default: the firmware's is never read).
+        """
+        raise InputError(f"deltacal does not read {self.title}'s probe: the height to travel at between "
+                         "probe points, above the probe's trigger height, is not known", str(path))
+
+    def apply_note_for(self, source: str | Path | None) -> str:
+        """How to put the values written for the configuration ``source`` into the printer, in one line.
+
+        Where the configuration keeps them (RepRapFirmware's ``config.g`` or ``config-override.g``);
+        by default :attr:`apply_note`.
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return self.apply_note
+
+    def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
+                    source: str = "") -> tuple[str, ...]:
+        """Write the correction the firmware runs itself (:attr:`live_files`) in ``folder``; what to say.
+
+        Computed for the values of the configuration ``config`` the printer runs (``export --live``).
+
+        Args:
+            calibration: The printer's calibration.
+            config: The configuration the printer runs.
+            folder: The output folder (made if missing; its parent must exist).
+            source: The calibration's file, for the files and the messages.
+
+        Raises:
+            InputError: the configuration's first problem (by default: the firmware has none).
+        """
+        raise InputError(f"{self.title} runs no correction of deltacal's own (export --live)", str(config))
 
     def own_calibrations(self, model: ModelT, measuring: Measuring, radius: float) -> dict[str, ModelT]:
         """The firmware's own calibration of a printer, emulated: the values each variant leaves, by name.
@@ -446,8 +514,31 @@ class Firmware(ABC, Generic[ModelT]):
         model = self.read_config(path) if model is None else model
         return GENERIC.with_home(model.positions(np.zeros((1, 3)))[0])
 
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """Every file the configuration ``path`` reads (itself first): none may be overwritten by an output.
+
+        Klipper's includes, RepRapFirmware's files ``config.g`` runs (``M501``'s ``config-override.g``,
+        ``M98``'s) and its ``homedelta.g``; by default the file alone.
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return (Path(path),)
+
     def is_probe_log(self, text: str) -> bool:
-        """Whether a file's text is a log of this firmware with its probe results (none by default)."""
+        """Whether a file's text is a log of this firmware: its probe results, or marks only a log has.
+
+        None by default.
+        """
+        return False
+
+    def is_console(self, text: str) -> bool:
+        """Whether a file's text has the marks of this firmware's console that other files may share too.
+
+        (Klipper's ``// `` lines: a RepRapFirmware ``config.g`` or a Marlin ``Configuration.h`` may
+        hold one.) Asked only when no firmware recognises the file as a configuration by its content.
+        None by default.
+        """
         return False
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,

@@ -17,6 +17,7 @@ common lengths, the towers' angles and step distances; RepRapFirmware's the bed'
 
 from __future__ import annotations
 
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -24,17 +25,49 @@ import numpy as np
 from ...geometry import DeltaGeometry, Workspace
 from .base import ErrorFigures, Firmware, FirmwareModel
 
-#: Error groups of :func:`error_budget`: label -> a test on an error name of a prismatic chain.
+
+class ErrorSource(StrEnum):
+    """A printer's error source :func:`error_budget` tells apart; its value is the label users read."""
+
+    TOWER_POSITION = "tower position"
+    TOWER_LEAN = "tower lean"
+    ENDSTOPS = "endstops"
+    STEP_DISTANCES = "step distances"
+    BALL_POSITIONS = "ball positions"
+    ROD_LENGTHS = "rod lengths"
+    RODS_THAT_DIFFER = "rods of a pair that differ"
+    BED_TILT = "bed tilt"
+
+
+class BudgetMode(StrEnum):
+    """How :func:`error_budget` rebuilds the printer for an error source."""
+
+    ALONE = "alone"  #: with that source's errors alone
+    REMOVED = "removed"  #: with every error but that source's
+
+    def errors(self, errors: dict[str, float], group: dict[str, float]) -> dict[str, float]:
+        """The errors the printer is rebuilt with, by name: the group's, or all but the group's."""
+        if self is BudgetMode.ALONE:
+            return group
+        return {n: v - group.get(n, 0.0) for n, v in errors.items()}
+
+    def moves_bed(self, source: ErrorSource) -> bool:
+        """Whether the printer is rebuilt on the bed's rigid motion (which :data:`BED_TILT` is)."""
+        return (source is ErrorSource.BED_TILT) == (self is BudgetMode.ALONE)
+
+
+#: Error sources told by their errors' names: source -> a test on an error name of a prismatic chain
+#: (the rods' lengths are then split into each pair's common length and its difference).
 ERROR_GROUPS = {
-    "tower position": lambda n: ".axis_point." in n,
-    "tower lean": lambda n: ".axis_tilt_" in n,
-    "endstops": lambda n: n.endswith("encoder_offset"),
-    "step distances": lambda n: n.endswith("joint_scale"),
-    "ball positions": lambda n: "_ball" in n,
-    "rod lengths": lambda n: n.endswith(".length"),
+    ErrorSource.TOWER_POSITION: lambda n: ".axis_point." in n,
+    ErrorSource.TOWER_LEAN: lambda n: ".axis_tilt_" in n,
+    ErrorSource.ENDSTOPS: lambda n: n.endswith("encoder_offset"),
+    ErrorSource.STEP_DISTANCES: lambda n: n.endswith("joint_scale"),
+    ErrorSource.BALL_POSITIONS: lambda n: "_ball" in n,
+    ErrorSource.ROD_LENGTHS: lambda n: n.endswith(".length"),
 }
 #: The label of the bed's rigid motion in :func:`error_budget` (no error name: the bed's motion).
-BED_TILT = "bed tilt"
+BED_TILT = ErrorSource.BED_TILT
 
 
 def _rod_split(errors: dict[str, float]) -> tuple[dict[str, float], dict[str, float]]:
@@ -48,22 +81,18 @@ def _rod_split(errors: dict[str, float]) -> tuple[dict[str, float], dict[str, fl
     return common, differ
 
 
-def error_groups(errors: dict[str, float]) -> dict[str, dict[str, float]]:
-    """A printer's errors by name split into the groups of :func:`error_budget`, by label.
+def error_groups(errors: dict[str, float]) -> dict[ErrorSource, dict[str, float]]:
+    """A printer's errors by name split into the groups of :func:`error_budget`, by source.
 
     The rods are split into each pair's common length ("rod lengths") and the pair's difference
     ("rods of a pair that differ", which tilts the effector); the last group, :data:`BED_TILT`,
     has no error names (it is the bed's rigid motion).
     """
-    rods = {n: v for n, v in errors.items() if n.endswith(".length")}
-    common, differ = _rod_split(rods)
-    groups: dict[str, dict[str, float]] = {
-        label: {n: v for n, v in errors.items() if test(n)} for label, test in ERROR_GROUPS.items()
-        if label != "rod lengths"}
-    groups["rod lengths"] = common
-    groups["rods of a pair that differ"] = differ
-    groups[BED_TILT] = {}
-    return groups
+    groups = {source: {n: v for n, v in errors.items() if test(n)} for source, test in ERROR_GROUPS.items()}
+    groups[ErrorSource.ROD_LENGTHS], groups[ErrorSource.RODS_THAT_DIFFER] = _rod_split(
+        groups[ErrorSource.ROD_LENGTHS])
+    groups[ErrorSource.BED_TILT] = {}
+    return {source: groups[source] for source in ErrorSource}
 
 
 def error_budget(
@@ -76,7 +105,7 @@ def error_budget(
     step_distance: np.ndarray | float,
     workspace: Workspace,
     hold_step_distance: bool = False,
-    mode: str = "alone",
+    mode: str | BudgetMode = "alone",
 ) -> dict[str, ErrorFigures]:
     """What a firmware's best values leave of each error source [mm].
 
@@ -96,27 +125,25 @@ def error_budget(
         step_distance: The nominal step distance [mm].
         workspace: The printable cylinder.
         hold_step_distance: Keep the start's step distances.
-        mode: ``"alone"`` or ``"removed"``.
+        mode: ``"alone"`` or ``"removed"`` (:class:`BudgetMode`).
 
     Returns:
-        Group label -> the fitted values' errors with only that group (without it).
+        Error source (an :class:`ErrorSource`, a str: its label) -> the fitted values' errors with
+        only that group (without it).
 
     Raises:
         ValueError: an unknown mode.
         ConvergenceError: a fit did not converge.
         UnreachableError: a target of the volume out of the firmware's reach.
     """
-    if mode not in ("alone", "removed"):
-        raise ValueError(f"mode must be 'alone' or 'removed', got {mode!r}")
-    out = {}
-    for label, group in error_groups(errors).items():
-        if mode == "alone":
-            printer = nominal.with_errors(group)
-            bed = label == BED_TILT
-        else:
-            printer = nominal.with_errors({n: v - group.get(n, 0.0) for n, v in errors.items()})
-            bed = label != BED_TILT
-        if bed:
+    try:
+        rebuilt = BudgetMode(mode)
+    except ValueError:
+        raise ValueError(f"mode must be 'alone' or 'removed', got {mode!r}") from None
+    out: dict[str, ErrorFigures] = {}
+    for source, group in error_groups(errors).items():
+        printer = nominal.with_errors(rebuilt.errors(errors, group))
+        if rebuilt.moves_bed(source):
             printer = printer.moved_rigidly(bed_rotation, bed_translation)
-        out[label] = firmware.fit(printer, start, step_distance, workspace, hold_step_distance).after
+        out[source] = firmware.fit(printer, start, step_distance, workspace, hold_step_distance).after
     return out

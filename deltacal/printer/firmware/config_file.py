@@ -20,7 +20,7 @@ from ...controller.targets import CommandModel
 from ...exceptions import GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
-from . import config_firmware, firmware_named, firmwares
+from . import check_config_firmware, config_firmware, firmware_named, firmwares
 from .base import Firmware, FirmwareModel
 
 
@@ -35,12 +35,15 @@ def told_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
     Raises:
         UsageError: a file of deltacal's own (a robot file...), an unknown name, or no name and a
             file no firmware recognises.
+        InputError: a name given for a file that is another firmware's configuration by its content
+            (:func:`~deltacal.printer.firmware.check_config_firmware`).
     """
     refuse_deltacal_file(path)
     if name is not None:
         named = firmware_named(name)
         if named is None:
             raise UsageError(f"--firmware {name}: one of {'|'.join(firmware_names())}")
+        check_config_firmware(path, named)
         return named
     firmware = config_firmware(path)
     if firmware is None:

@@ -1,8 +1,9 @@
 """A firmware's values that fit an identified printer best: one route for every firmware (``export``).
 
 Through the firmware interface alone (:class:`~deltacal.printer.firmware.base.Firmware`): its values
-that leave the least nozzle error over the printable volume of the identified printer (its true bed
-as z = 0), judged in the printed part's frame, with the first layer's height errors weighted
+that leave the least largest nozzle error over the printable volume of the identified printer (its
+true bed as z = 0; ``minimax``: :func:`~deltacal.printer.firmware.fitting.least_largest`), judged in
+the printed part's frame, with the first layer's height errors weighted
 (:data:`~deltacal.printer.firmware.fitting.EXPORT_FIRST_LAYER_WEIGHT`) so that its flatness is not
 traded for the volume's. The fit starts from the configuration the printer runs (``--config``,
 whose other values it keeps: RRF's print radius, its microstepping; a firmware whose values need it
@@ -27,6 +28,7 @@ import numpy as np
 from ...calibration import Calibration
 from ...exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ...geometry import DeltaGeometry, Workspace
+from . import check_config_firmware
 from .base import ErrorFigures, Firmware, FirmwareModel
 from .budget import BED_TILT, error_budget
 from .config_file import check_printer_values, refuse_deltacal_file
@@ -102,7 +104,7 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
     with fit_refusals(begun, whose, source, volume_source):
         fit = firmware.fit(begun.geometry, begun.start, begun.step, workspace,
                            hold_step_distance=hold_step_distance,
-                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True)
         budget = source_budget(firmware, begun, hold_step_distance)
     lines = summary(firmware, fit.before, fit.after, budget, begun, fit.held, config is not None)
     values = fit.values
@@ -129,6 +131,7 @@ def export_start(firmware: Firmware[Any], calibration: Calibration, source: str 
     """
     if config is not None:
         refuse_deltacal_file(config, "--config")
+        check_config_firmware(config, firmware)
     values = firmware.read_config(config) if config is not None else None
     step = step_distance(calibration.geometry.step_distance, values, source,
                          "geometry.step_distance_mm" if calibration.base else "step_distance_mm")

@@ -13,6 +13,9 @@ The first layer's height errors can be weighted in (:func:`first_layer`), and th
 judged in the printed part's frame: less the shift along the bed and the turn about its normal that
 fit them best (:func:`~deltacal.printer.robot.less_bed_motion`), fitted with the values. The scaled
 pivoted QR of the Jacobian says what the grid cannot tell apart; those values are held.
+A user sees the worst point, not the sum of squares: with ``minimax`` the least-squares values are
+then moved to leave the least largest error over the grid, the first layer no less flat than they
+leave it (:func:`least_largest`: a linear program on the linearised errors, stepped in a trust region).
 Each firmware's ``fit`` module names its values and writes the result in its own words.
 Units: mm and rad.
 """
@@ -25,7 +28,7 @@ from typing import Generic
 
 import numpy as np
 
-from ...exceptions import ConvergenceError
+from ...exceptions import ConvergenceError, UnreachableError
 from ...geometry import DeltaGeometry, Workspace
 from ...identifiability import base_parameters
 from ...kinematics import exact
@@ -42,6 +45,14 @@ FIRST_LAYER = 0.2
 #: firmware's values must not leave worse than the firmware's own calibration (the figures:
 #: docs/printers.md and docs/results.md).
 EXPORT_FIRST_LAYER_WEIGHT = 30.0
+#: :func:`least_largest` stops when a step would lower the largest error by less than this [mm].
+LARGEST_TOLERANCE = 1e-5
+#: What a step of :func:`least_largest` may leave above the start's flatness: the second order of a
+#: step the linear model keeps within it [mm].
+FLATNESS_SLACK = 1e-6
+#: :func:`largest_step`'s cutting planes: the cuts to begin with, the rounds at most, the cuts each
+#: round adds at most, and how far above the bound a cut is wanted [mm] (HiGHS holds rows to 1e-7).
+FIRST_CUTS, MAX_CUTS, CUTS_PER_ROUND, CUT_TOLERANCE = 30, 60, 10, 1e-6
 
 
 @dataclass(frozen=True)
@@ -182,8 +193,11 @@ def residuals(geometry: DeltaGeometry, model: ModelT, vector: ValueVector[ModelT
 def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[ModelT],
                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                  wanted: list[int], max_iter: int = 30, first_layer_weight: float = 0.0,
-                 part_frame: bool = True, title: str = "the firmware") -> GaussNewton[ModelT]:
+                 part_frame: bool = True, title: str = "the firmware",
+                 minimax: bool = False) -> GaussNewton[ModelT]:
     """The firmware's values that leave the least squared nozzle error over the grid (see the module).
+
+    With ``minimax``, those values moved to leave the least largest error (:func:`least_largest`).
 
     Args:
         geometry: The printer (a prismatic chain; the true bed is z = 0).
@@ -197,6 +211,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         part_frame: Judge the volume's errors in the printed part's frame.
         title: The firmware's name, for the message of a fit that does not converge.
+        minimax: Then the least largest error over the grid, the first layer no less flat.
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -240,4 +255,189 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
         if iteration == max_iter:
             raise ConvergenceError(f"the {title} fit did not converge in {max_iter} iterations (last step "
                                    f"moved the nozzle by {change:.3g} mm)", change)
+    if minimax:
+        model = least_largest(geometry, model, vector, step_distance, workspace, grid, columns, part_frame)
     return GaussNewton(model, columns, [names[k] for k in base.unidentifiable], singular, iteration)
+
+
+def part_errors(geometry: DeltaGeometry, model: ModelT, vector: ValueVector[ModelT],
+                step_distance: np.ndarray | float, grid: np.ndarray, layer: np.ndarray,
+                columns: Sequence[int],
+                part_frame: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The volume's nozzle errors and the first layer's height errors, with their Jacobians [mm].
+
+    Args:
+        geometry: The printer (the true bed is z = 0).
+        model: The firmware's values.
+        vector: The firmware's values as unknowns.
+        step_distance: The printer's nominal step distance [mm].
+        grid: The volume's targets [mm], (N, 3).
+        layer: The first layer's targets [mm], (K, 3).
+        columns: Indices (in the value vector) of the values varied.
+        part_frame: The volume's errors less the in-plane motion that fits them best
+            (:func:`~deltacal.printer.robot.less_bed_motion`: a linear projection, so its Jacobian's too).
+
+    Returns:
+        The volume's errors (N, 3) and their Jacobian (N, 3, k); the first layer's z errors (K,) and
+        their Jacobian (K, k).
+    """
+    r, J = residuals(geometry, model, vector, step_distance, np.vstack([grid, layer]), columns)
+    n = grid.size
+    volume, slope = r[:n], J[:n]
+    if part_frame:
+        A = in_plane_motion(grid).reshape(-1, 3)
+        fit = np.linalg.solve(A.T @ A, A.T)  # (3, 3N): the motion that fits errors best
+        volume = volume - A @ (fit @ volume)
+        slope = slope - A @ (fit @ slope)
+    return volume.reshape(-1, 3), slope.reshape(len(grid), 3, -1), r[n + 2::3], J[n + 2::3]
+
+
+@dataclass(frozen=True)
+class Cuts:
+    """The rows of :func:`largest_step`'s linear program: cuts of the volume's errors, first layer's bounds.
+
+    Attributes:
+        rows: The grid points cut, (m,) (a point may be cut along several directions).
+        units: The direction of each cut, unit vectors, (m, 3).
+        level: The first layer's points bounded, (p,).
+        signs: The side of each bound: +1 bounds z from above, -1 from below, (p,).
+    """
+
+    rows: np.ndarray
+    units: np.ndarray
+    level: np.ndarray
+    signs: np.ndarray
+
+    @classmethod
+    def largest(cls, a: np.ndarray, c: np.ndarray, count: int = FIRST_CUTS) -> Cuts:
+        """Cuts along the ``count`` largest errors a (N, 3), bounds on the ``count`` largest |c| (K,)."""
+        rows = np.argsort(-np.linalg.norm(a, axis=1), kind="stable")[:count]
+        level = np.argsort(-np.abs(c), kind="stable")[:count]
+        return cls(rows, a[rows] / np.linalg.norm(a[rows], axis=1, keepdims=True), level, np.sign(c[level]))
+
+    def more(self, rows: np.ndarray, units: np.ndarray, level: np.ndarray, signs: np.ndarray) -> Cuts:
+        """These cuts and the given ones."""
+        return Cuts(np.concatenate([self.rows, rows]), np.vstack([self.units, units]),
+                    np.concatenate([self.level, level]), np.concatenate([self.signs, signs]))
+
+
+def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, flatness: float,
+                 reach: float, cuts: Cuts) -> tuple[np.ndarray, float, Cuts]:
+    """The step d (``|d_l| <= reach``) leaving the least largest ``|a_i + B_i d|``, ``|c + D d| <= flatness``.
+
+    The Euclidean norm is the largest of its cuts ``u . v`` over unit vectors u (equal along v):
+    a linear program in (d, t), least t over the cuts ``u_i . (a_i + B_i d) <= t`` and the first
+    layer's bounds ``s_j (c_j + D_j d) <= flatness``, begun with ``cuts``; then a cut along each of
+    the errors the solution leaves most above t, and a bound on the first layer's points it leaves
+    most above the flatness, are added until none is above by more than :data:`CUT_TOLERANCE`
+    (Kelley's cutting planes: the solution is then the least largest error of the linear model).
+
+    Args:
+        a: The volume's errors [mm], (N, 3).
+        B: Their Jacobian [mm per unit of d], (N, 3, k).
+        c: The first layer's height errors [mm], (K,).
+        D: Their Jacobian [mm per unit of d], (K, k).
+        flatness: The first layer's largest |height error| allowed [mm].
+        reach: The trust region: the largest |d_l|.
+        cuts: The rows to begin with (:meth:`Cuts.largest`, or a previous step's).
+
+    Returns:
+        The step (k,), the largest error it leaves by the linear model [mm] and the cuts it used;
+        a zero step if the linear program fails.
+    """
+    from scipy.optimize import linprog  # here: scipy.optimize takes a while to import
+
+    k = B.shape[2]
+    cost = np.zeros(k + 1)
+    cost[-1] = 1.0
+    bounds = [(-reach, reach)] * k + [(0.0, None)]
+    for _ in range(MAX_CUTS):
+        A_ub = np.vstack([
+            np.column_stack([np.einsum("nj,njk->nk", cuts.units, B[cuts.rows]), -np.ones(len(cuts.rows))]),
+            np.column_stack([cuts.signs[:, None] * D[cuts.level], np.zeros(len(cuts.level))])])
+        b_ub = np.concatenate([-np.einsum("nj,nj->n", cuts.units, a[cuts.rows]),
+                               flatness - cuts.signs * c[cuts.level]])
+        solved = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
+        if solved.status != 0:
+            return np.zeros(k), float(np.max(np.linalg.norm(a, axis=1))), cuts
+        d, t = solved.x[:k], float(solved.x[k])
+        v, z = a + B @ d, c + D @ d
+        size = np.linalg.norm(v, axis=1)
+        above = np.argsort(t - size, kind="stable")[:CUTS_PER_ROUND]
+        above = above[size[above] > t + CUT_TOLERANCE]
+        over = np.argsort(-np.abs(z), kind="stable")[:CUTS_PER_ROUND]
+        over = over[np.abs(z[over]) > flatness + CUT_TOLERANCE]
+        if len(above) == 0 and len(over) == 0:
+            break
+        cuts = cuts.more(above, v[above] / size[above, None], over, np.sign(z[over]))
+    return d, float(np.max(np.linalg.norm(a + B @ d, axis=1))), cuts
+
+
+def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[ModelT],
+                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
+                  columns: Sequence[int], part_frame: bool = True, max_iter: int = 40,
+                  flatness: float | None = None) -> ModelT:
+    """The firmware's values that leave the least largest nozzle error over the grid, from ``start``.
+
+    The first layer's flatness (largest |z error| over :func:`first_layer`) stays no worse than the
+    start's, or ``flatness`` (within :data:`FLATNESS_SLACK`): a constraint, not a weight. Each step is
+    :func:`largest_step` on the errors linearised at the current values (:func:`part_errors`), the
+    values scaled by how far each moves the nozzle (RMS over the grid), within a trust region, begun
+    with the last step's cuts. A step is kept if the largest error over the grid, recomputed, falls
+    and the first layer stays within the flatness; one that lowers the error but leaves the first
+    layer above it (the second order of the step) is tried again with the linear model's flatness
+    lowered by the excess; else the region shrinks. Deterministic (HiGHS' simplex).
+
+    Args:
+        geometry: The printer (the true bed is z = 0).
+        start: The values to start from (the least-squares fit's).
+        vector: The firmware's values as unknowns.
+        step_distance: The printer's nominal step distance [mm].
+        workspace: The printable cylinder (for the first layer's disc).
+        grid: The volume's targets [mm], (N, 3).
+        columns: Indices (in the value vector) of the values varied; the others are held.
+        part_frame: Judge the volume's errors in the printed part's frame.
+        max_iter: Steps at most.
+        flatness: The first layer's largest |z error| allowed [mm] (default: the start's); a start
+            above it is brought within it where a step can.
+
+    Raises:
+        UnreachableError: a target out of the firmware's reach at ``start``.
+    """
+    layer = first_layer(workspace)
+    columns = list(columns)
+
+    def errors(model: ModelT) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return part_errors(geometry, model, vector, step_distance, grid, layer, columns, part_frame)
+
+    a, B, c, D = errors(start)
+    largest = float(np.max(np.linalg.norm(a, axis=1)))
+    flatness = float(np.max(np.abs(c))) if flatness is None else flatness
+    within = float(np.max(np.abs(c))) <= flatness + FLATNESS_SLACK
+    bound, cuts = flatness, Cuts.largest(a, c)
+    scale = np.sqrt(np.mean(np.sum(B**2, axis=1), axis=0))  # [mm per unit]: RMS nozzle motion
+    scale = np.where(scale > 0.0, scale, 1.0)
+    model, reach = start, 1.0  # [mm]
+    for _ in range(max_iter):
+        step, predicted, cuts = largest_step(a, B / scale, c, D / scale, bound, reach, cuts)
+        if within and largest - predicted < LARGEST_TOLERANCE or not np.any(step):
+            break
+        values = vector.values_of(model)
+        values[columns] += step / scale
+        trial = vector.with_values(model, values)
+        try:
+            found = errors(trial)
+        except UnreachableError:
+            reach = float(np.max(np.abs(step))) / 4.0
+            continue
+        now, flat = float(np.max(np.linalg.norm(found[0], axis=1))), float(np.max(np.abs(found[2])))
+        better = now < largest or not within
+        if better and flat <= flatness + FLATNESS_SLACK:
+            gain = (largest - now) / (largest - predicted) if within else 1.0
+            model, (a, B, c, D), largest, bound, within = trial, found, now, flatness, True  # cuts stay cuts
+            reach = 2.0 * reach if gain > 0.75 else reach
+        elif better and bound > 0.5 * flatness:
+            bound -= flat - flatness
+        else:
+            reach = float(np.max(np.abs(step))) / 4.0
+    return model

@@ -18,10 +18,12 @@ from ...chains import PRISMATIC, Chain
 from ...controller import FIT_KINDS
 from ...exceptions import UsageError
 from ...geometry import DeltaGeometry, Workspace
+from ...io.paths import check_output_folder
 from ...kinematics.workspace import default_workspace
 from ...printer.files.robot_file import load_printer
-from ...printer.firmware import firmware_named, firmwares
-from ...printer.firmware.base import Firmware
+from ...printer.firmware import config_files, firmware_named, firmwares
+from ...printer.firmware.base import Firmware, FirmwareModel
+from ...printer.firmware.config_file import read_firmware_config, refuse_deltacal_file
 from ...printer.firmware.export import export_firmware_values
 from ...printer.robot import NominalLinearDelta
 from ...robots import load_robot
@@ -73,17 +75,43 @@ class PrinterWing(Wing):
             raise UsageError(f"--controller {request.controller}: {request.calibration} is a printer's "
                              "calibration; its firmware's values: --controller klipper")
         assert request.output is not None
+        if request.live:
+            return _export_live(firmware, request, calibration)
         workspace, where = printable_volume(request.robot, calibration.nominal)
         export = export_firmware_values(firmware, calibration, request.calibration, workspace, where,
                                         request.config, request.keep_rotation_distance, request.robot)
         export.save(request.output, request.config)
         wrote = f"wrote the {firmware.title} values that best fit {request.calibration} to {request.output}"
-        return Done((wrote, *export.lines, f"to apply: {firmware.apply_note}"))
+        return Done((wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
 
-    def report_firmware(self, request: ReportRequest) -> Firmware[Any]:
-        """The firmware named (``--firmware``), else the first (Klipper)."""
-        named = firmware_named(request.firmware) if request.firmware is not None else None
-        return named if named is not None else firmwares()[0]
+    def report_firmware(self, request: ReportRequest,
+                        calibration: Calibration) -> tuple[Firmware[Any], FirmwareModel | None]:
+        """``--controller``'s firmware (its values read once, checked of this printer), or named, or Klipper.
+
+        A printer's measurements are of commanded positions: their residuals need the settings they
+        were made with (``--controller``).
+        """
+        if request.measurements and request.controller is None:
+            raise UsageError(f"{request.calibration}: a printer's measurements are of commanded positions: "
+                             "give --controller printer.cfg|config.g|M503.txt (the settings they were made "
+                             "with)")
+        if request.controller is None:
+            named = firmware_named(request.firmware) if request.firmware is not None else None
+            return (named if named is not None else firmwares()[0]), None
+        config = read_firmware_config(request.controller, request.firmware)
+        config.check_printer(calibration.geometry, request.calibration)
+        return config.firmware, config.values
+
+
+def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
+    """``export --live``: the correction the firmware runs itself, through the values of ``--config``."""
+    assert request.config is not None and request.output is not None
+    refuse_deltacal_file(request.config, "--config")
+    inputs = (request.calibration, *config_files(request.config, firmware.name))
+    check_output_folder(request.output, firmware.live_files, inputs, "export --live")
+    config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
+    config.check_printer(calibration.geometry, request.calibration)
+    return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration)))
 
 
 def printable_volume(robot: str | Path | None, nominal: DeltaGeometry) -> tuple[Workspace, str]:

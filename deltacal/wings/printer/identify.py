@@ -105,7 +105,8 @@ def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, p
     step_distance = printer.step_distance
     _check_order(probe_file, distance_files)
     heights = read_probe_heights(probe_file)
-    _check_heights(heights.commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop)
+    _check_heights(heights.commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop,
+                   heights.heights)
     probe = _readings(firmware, heights.commanded, step_distance, probe_file, heights.lines)
     sources = [(probe_file, int(n)) for n in heights.lines]
     pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
@@ -144,21 +145,25 @@ def _header(path: str) -> set[str]:
     return {name.strip().strip('"') for name in line.split(",")}
 
 
-def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, probe_z: float) -> None:
+def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, probe_z: float,
+                   trigger: np.ndarray) -> None:
     """Refuse probe heights no printer gives: in another unit, or far from any bed.
 
-    The commanded height at which the probe triggers is where the firmware puts the bed (less the
-    probe's offset ``probe_z`` [mm]): beyond :data:`~deltacal.printer.files.same_printer.ENDSTOP_MM` from it,
-    no build's endstops are (micrometres, or another printer's file). A printer's probe heights
-    scatter by the probe's σ at least (and by tenths of a mm to mm across the bed, for its tilt and
-    its towers' errors): heights in metres span a thousandth of that.
+    The commanded height at which the probe triggers is where the firmware puts the bed, plus the
+    probe point's height above it then (``trigger_height_mm``: a probe's ``z_offset``, 22 to 24 mm
+    on FLSUN's deltas), less the probe's offset ``probe_z`` [mm]: beyond
+    :data:`~deltacal.printer.files.same_printer.ENDSTOP_MM` from it, no build's endstops are
+    (micrometres, or another printer's file). A printer's probe heights scatter by the probe's σ at
+    least (and by tenths of a mm to mm across the bed, for its tilt and its towers' errors): heights
+    in metres span a thousandth of that.
     """
-    far = np.flatnonzero(np.abs(z + probe_z) > ENDSTOP_MM)
+    far = np.flatnonzero(np.abs(z + probe_z - trigger) > ENDSTOP_MM)
     if far.size:
         k = int(far[0])
+        above = f" (its trigger height {trigger[k]:g} mm, trigger_height_mm, taken off)" if trigger[k] else ""
         raise InputError(f"the probe triggered at z_mm = {z[k]:g}, more than {ENDSTOP_MM:g} mm from the bed "
-                         "the firmware knows: no printer's endstops are so far off (micrometres? deltacal "
-                         f"reads millimetres); {far.size} of {z.size} rows", source,
+                         f"the firmware knows{above}: no printer's endstops are so far off (micrometres? "
+                         f"deltacal reads millimetres); {far.size} of {z.size} rows", source,
                          f"{data_row(lines[k], k + 1)}, column z_mm")
     if z.size < MIN_HEIGHTS_SPREAD or np.ptp(z) == 0.0 or np.ptp(z) >= sigma:
         return

@@ -4,10 +4,8 @@
 and, from Klipper's SAVE_CONFIG block's ``[delta_calibrate]``, ``DIR/probe.csv`` and
 ``DIR/distances.csv``; ``deltacal import LOG [--config CONFIG] -o probe.csv`` writes the log's probe
 results (the configuration gives the probe's offsets: Klipper's lines from 2026 need them). The
-kind of input is told by its content, each firmware asked in turn
-(:meth:`~deltacal.printer.firmware.base.Firmware.is_probe_log`, then
-:meth:`~deltacal.printer.firmware.base.Firmware.is_config`); a file none recognises is read as the
-first firmware's (a Klipper ``printer.cfg``).
+kind of input is told by its content (:func:`~deltacal.printer.firmware.input_firmware`), or
+``--firmware`` names it; a file none recognises is refused in one line asking for ``--firmware``.
 """
 
 from __future__ import annotations
@@ -19,7 +17,7 @@ from ...exceptions import InputError
 from ...io.paths import check_input, check_output, check_output_folder
 from ...printer.files.importer import OUTPUT_FILES
 from ...printer.files.measurements import write_probe_heights
-from ...printer.firmware import config_firmware, firmwares, log_firmware
+from ...printer.firmware import input_firmware
 from ...printer.firmware.base import Firmware
 from ..base import Done
 from ..requests import ImportRequest
@@ -32,11 +30,9 @@ def import_found(request: ImportRequest) -> Done:
         text = Path(request.input).read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise InputError(f"cannot read the file ({exc.strerror})", str(request.input)) from None
-    logged = log_firmware(text)
-    if logged is not None:
-        return _import_log(request, text, logged)
-    # a file no firmware recognises is read as the first firmware's (Klipper's printer.cfg)
-    firmware = config_firmware(request.input) or firmwares()[0]
+    firmware, is_log = input_firmware(request.input, text, request.firmware)
+    if is_log:
+        return _import_log(request, text, firmware)
     request.check_config(firmware.title)
     folder = Path(request.output)
     check_output_folder(folder, OUTPUT_FILES, [request.input], f"import of {firmware.title}'s configuration")

@@ -1,11 +1,13 @@
 """A printer's plan: the printed calibration object, its probe grid and the sheet to measure it with.
 
-Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe
-grid, ``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its
-results on the console), ``DIR/distances.csv`` (the pairs of features to measure, the labels of
-their balls, ``distance_mm`` to fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view
-with the labels and the pairs in the order of distances.csv), and says what was planned: what
-the probe heights alone identify of the complete model and what the object's distances add.
+Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe grid,
+``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its results on
+the console, travelling above the probe's trigger height:
+:meth:`~deltacal.printer.firmware.base.Firmware.probe_travel`), ``DIR/distances.csv`` (the pairs of
+features to measure, the labels of their balls, ``distance_mm`` to fill in) and ``DIR/sheet.html`` (the
+measuring sheet: a top view with the labels and the pairs in the order of distances.csv), and says what
+was planned: what the probe heights alone identify of the complete model and what the object's distances
+add.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from ...io import write_stl
 from ...io.atomic import atomic_write_text
 from ...io.paths import check_input, check_output_folder
 from ...printer.files.measurements import write_printed_distances, write_probe_heights
+from ...printer.firmware import config_files
 from ...printer.firmware.config_file import read_firmware_config
 from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ...printer.printed.plan import ObjectPlan, plan_object
@@ -35,12 +38,13 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     assert request.controller is not None
     check_input(request.controller)
     folder = Path(request.output)
-    outputs = check_output_folder(folder, OBJECT_FILES, (request.nominal, request.controller),
-                                  "plan --object")
+    read = config_files(request.controller, request.firmware)
+    outputs = check_output_folder(folder, OBJECT_FILES, (request.nominal, *read), "plan --object")
     config = read_firmware_config(request.controller, request.firmware)
     firmware = config.firmware
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
+    travel = firmware.probe_travel(request.controller)
     caliper = request.caliper or CALIPER_RANGE
     plan = plan_object(printer, config.values, count=request.distances,
                        probe_count=request.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -53,7 +57,8 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     write_printed_distances(outputs[2], plan.pair_positions,
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
     atomic_write_text(outputs[3], firmware.probe_program(
-        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})"))
+        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
+        clearance=travel))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))

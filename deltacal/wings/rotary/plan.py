@@ -26,7 +26,7 @@ from ...planning import (
     require_workspace,
     rough_poses,
 )
-from ...planning.regressor import _RTOL
+from ...planning.regressor import RANK_RTOL
 from ..base import Done, check_files
 from ..requests import PlanRequest
 from .simulate import point_list
@@ -91,7 +91,7 @@ def _plan_doptimal(request: PlanRequest, nominal, model, measurement, points,
     rng = np.random.default_rng(seed)
     pool = candidate_pool(nominal, pool_size, rng)
     H = identification_matrix(nominal.geometry(), model, pool.q[:200], measurement, points)
-    rank = base_parameters(H, model.names, rtol=_RTOL).rank  # what such measurements can identify
+    rank = base_parameters(H, model.names, rtol=RANK_RTOL).rank  # what such measurements can identify
     count = max(math.ceil(2 * rank / rows), 3) if request.count is None else request.count
     if pool_size >= LARGE_POOL and notify is not None:
         cost = pool_cost(len(pool), rows, model.size, rank, count)
@@ -103,7 +103,7 @@ def _plan_doptimal(request: PlanRequest, nominal, model, measurement, points,
     design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points,
                        payloads=payloads)
     chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
-    got = base_parameters(chosen, model.names, rtol=_RTOL).rank
+    got = base_parameters(chosen, model.names, rtol=RANK_RTOL).rank
     if got < rank or not math.isfinite(design.log_det):
         need = math.ceil(rank / rows)
         raise PlanningError(

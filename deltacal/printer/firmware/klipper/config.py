@@ -41,6 +41,8 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
+from ....io.inputs import NOT_FOUND, input_problem
+from ..bounds import ANGLE, FULL_STEPS, LENGTH, MICROSTEPS, POSITION, PROBE_OFFSET, STEP_DISTANCE, Bound
 from .model import DEFAULT_ANGLES_DEG, DEFAULT_FULL_STEPS, KlipperDelta
 
 #: How to put the keys :func:`klipper_config_text` writes into the printer (its header's second line).
@@ -54,9 +56,24 @@ AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW
 STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
 #: The sections deltacal reads (a duplicate key in another section is Klipper's business alone).
 READ_SECTIONS = ("printer", *STEPPERS, "delta_calibrate")
+#: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
+PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
+#: What each value deltacal reads can be (:mod:`..bounds`), by section (``stepper`` for the three
+#: towers', ``probe`` for any of :data:`PROBE_SECTIONS`) and key.
+BOUNDS: dict[tuple[str, str], Bound] = {
+    ("printer", "delta_radius"): LENGTH, ("printer", "print_radius"): LENGTH,
+    ("printer", "minimum_z_position"): POSITION, ("stepper", "arm_length"): LENGTH,
+    ("stepper", "position_endstop"): POSITION, ("stepper", "angle"): ANGLE,
+    ("stepper", "rotation_distance"): LENGTH, ("stepper", "step_distance"): STEP_DISTANCE,
+    ("stepper", "microsteps"): MICROSTEPS, ("stepper", "full_steps_per_rotation"): FULL_STEPS,
+    ("delta_calibrate", "radius"): LENGTH, ("probe", "x_offset"): PROBE_OFFSET,
+    ("probe", "y_offset"): PROBE_OFFSET, ("probe", "z_offset"): PROBE_OFFSET,
+}
 
 #: A Klipper configuration's ``[printer]`` section header, on a line of its own.
 _PRINTER_SECTION = re.compile(r"^[ \t]*\[printer\][ \t]*(?:[#;].*)?$", re.MULTILINE)
+#: What opens the configuration ``klippy.log`` holds (a log, not a configuration).
+_LOG_DUMP = re.compile(r"^(?:===== Config file =====|Start printer at)", re.MULTILINE)
 _COMMENT = re.compile(r"[#;].*$")
 _FIELD = re.compile(r"[^A-Za-z0-9_].*$")
 
@@ -70,12 +87,14 @@ class KlipperConfig:
         sections: Section name -> option (lower case) -> value text.
         origin: (section, option) -> the file its value came from.
         missing: The include files that do not exist: (the including file, its line, the path).
+        files: Every file read, in order (the main file first, then its includes).
     """
 
     source: str
     sections: dict[str, dict[str, str]] = field(default_factory=dict)
     origin: dict[tuple[str, str], str] = field(default_factory=dict)
     missing: list[tuple[str, int, str]] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
 
     def missing_hint(self) -> str:
         """Where a value not found may be: `` (it may be in the missing include X, Y)``, or ""."""
@@ -102,7 +121,7 @@ class KlipperConfig:
 
     def number(self, section: str, option: str, default: float | None = None, above: float | None = None,
                integer: bool = False) -> float:
-        """An option's number as Klipper's ``getfloat``/``getint`` parse it, or the default."""
+        """An option's number as Klipper's ``getfloat``/``getint`` parse it (bounded), or the default."""
         if default is not None and not self.has(section, option):
             return default
         text = self.text(section, option)
@@ -113,21 +132,34 @@ class KlipperConfig:
             raise self.error(section, option, f"value {text!r} is not {what}") from None
         if not math.isfinite(value):
             raise self.error(section, option, f"value {text!r} is not a finite number")
+        family = "stepper" if section in STEPPERS else "probe" if section in PROBE_SECTIONS else section
+        bound = BOUNDS.get((family, option))
+        problem = bound.problem(value) if bound is not None else None
+        if problem is not None:
+            raise self.error(section, option, f"value {text!r} {problem}")
         if above is not None and value <= above:
             raise self.error(section, option, f"value {text!r} must be above {above:g}")
         return value
 
 
 def is_klipper_config(path: str | Path) -> bool:
-    """Whether a file is a Klipper configuration: named ``*.cfg``, or with a ``[printer]`` section."""
-    if Path(path).suffix.lower() == ".cfg":
-        return True
+    """Whether a file is a Klipper configuration by its content: a ``[printer]`` section, and not a log.
+
+    (``klippy.log`` holds its configuration after ``===== Config file =====``.)
+    """
+    if input_problem(path) is not None:
+        return False  # the reader of the file taken instead names the problem
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
             head = f.read(1 << 16)
     except OSError:
-        return False  # the reader of the file taken instead names the problem
-    return _PRINTER_SECTION.search(head) is not None
+        return False
+    return _PRINTER_SECTION.search(head) is not None and _LOG_DUMP.search(head) is None
+
+
+def is_klipper_config_name(path: str | Path) -> bool:
+    """Whether a file is named as a Klipper configuration is: ``*.cfg``."""
+    return Path(path).suffix.lower() == ".cfg"
 
 
 def read_klipper_config(path: str | Path) -> KlipperConfig:
@@ -139,12 +171,12 @@ def read_klipper_config(path: str | Path) -> KlipperConfig:
     """
     source = str(path)
     data = _read_text(source, source)
-    regular, autosave = _split_autosave(data, source)
+    regular, autosave, first = _split_autosave(data, source)
     config = KlipperConfig(source)
     _parse(regular, source, config, set())
     if autosave:
         saved = KlipperConfig(source)
-        _parse(_strip_duplicates(autosave, config, source), source, saved, set())
+        _parse(_strip_duplicates(autosave, config, source), source, saved, set(), first)
         for section, options in saved.sections.items():
             config.sections.setdefault(section, {}).update(options)
             for option in options:
@@ -154,9 +186,18 @@ def read_klipper_config(path: str | Path) -> KlipperConfig:
         where = ", ".join(f"{os.path.relpath(path, base)} (line {line}"
                           f"{'' if parent == source else ' of ' + os.path.relpath(parent, base)})"
                           for parent, line, path in config.missing)
-        warn(f"{source}: include file{'s' if len(config.missing) > 1 else ''} not found, skipped (a "
-             f"configuration copied off the printer?): {where}", InputWarning, stacklevel=2)
+        say(f"{source}: include file{'s' if len(config.missing) > 1 else ''} not found, skipped (a "
+            f"configuration copied off the printer?): {where}")
     return config
+
+
+def say(message: str) -> None:
+    """Warn (:class:`~deltacal.exceptions.InputWarning`) from this line, whoever reads the file.
+
+    Python's warning registry says a warning once per place it is issued from: issued here, one
+    warning is said once however many times one command reads the same configuration.
+    """
+    warn(message, InputWarning, stacklevel=1)
 
 
 def _read_text(filename: str, source: str) -> str:
@@ -166,24 +207,38 @@ def _read_text(filename: str, source: str) -> str:
         raise InputError(f"cannot read the Klipper configuration file {filename}: {exc}", source) from None
 
 
-def _split_autosave(data: str, source: str) -> tuple[str, str]:
-    """The regular part and the SAVE_CONFIG block's lines without their ``#*# `` prefix."""
+def _split_autosave(data: str, source: str) -> tuple[str, str, int]:
+    """The regular part, the SAVE_CONFIG block's lines without their ``#*# `` prefix, and a line number.
+
+    The number is the file line of the returned block's first line (an empty line before the block's
+    own), so that errors in the block name the file's lines.
+    """
     pos = data.find(AUTOSAVE_HEADER)
     if pos < 0:
-        return data, ""
-    regular, block = data[:pos], data[pos + len(AUTOSAVE_HEADER):].strip()
+        return data, "", 1
+    rest = data[pos + len(AUTOSAVE_HEADER):]
+    regular, block = data[:pos], rest.strip()
+    # the block's first line: after the header's three (the mark's is the line after ``pos``) and any
+    # blank lines strip() took
+    first = data.count("\n", 0, pos) + 5 + rest[: len(rest) - len(rest.lstrip())].count("\n")
     if "\n#*# " in regular:
-        warn(f"{source}: '#*#' lines before the SAVE_CONFIG block: Klipper ignores the block, so does "
-             "deltacal", InputWarning, stacklevel=3)
-        return data, ""
+        say(f"{source}: '#*#' lines before the SAVE_CONFIG block: Klipper ignores the block, so does "
+            "deltacal")
+        return data, "", 1
+    again = block.find(AUTOSAVE_HEADER)
+    if again >= 0:
+        line = first + block.count("\n", 0, again) + 1
+        say(f"{source}: line {line}: a second SAVE_CONFIG block: Klipper ignores both ('autosave state "
+            "corrupted'), so does deltacal")
+        return data, "", 1
     lines = block.split("\n")
     bad = [n for n, line in enumerate(lines)
            if not line.startswith("#*#") or (len(line) >= 4 and line[3] != " ")]
     if block and bad:
-        warn(f"{source}: the SAVE_CONFIG block was edited (line {lines[bad[0]]!r} after its header): Klipper "
-             "ignores the block, so does deltacal", InputWarning, stacklevel=3)
-        return data, ""
-    return regular, "\n".join(["", *(line[4:] for line in lines), ""])
+        say(f"{source}: line {first + bad[0]}: the SAVE_CONFIG block was edited ({lines[bad[0]]!r} after "
+            "its header): Klipper ignores the block, so does deltacal")
+        return data, "", 1
+    return regular, "\n".join(["", *(line[4:] for line in lines), ""]), first - 1
 
 
 def _strip_duplicates(block: str, config: KlipperConfig, source: str) -> str:
@@ -209,21 +264,24 @@ def _strip_duplicates(block: str, config: KlipperConfig, source: str) -> str:
             lines[n] = "#" + line
             if section not in READ_SECTIONS:
                 continue
-            warn(f"{source}: section [{section}], key {option}: set both in the configuration and in its "
-                 f"SAVE_CONFIG block; Klipper keeps the configuration's value "
-                 f"{config.sections[section][option]!r}, so does deltacal", InputWarning, stacklevel=4)
+            say(f"{source}: section [{section}], key {option}: set both in the configuration and in its "
+                f"SAVE_CONFIG block; Klipper keeps the configuration's value "
+                f"{config.sections[section][option]!r}, so does deltacal")
     return "\n".join(lines)
 
 
-def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str]) -> None:
-    """Klipper's parse of one file: the lines between includes as one unit, includes where they stand."""
-    path = os.path.abspath(filename)
-    if path in visited:
-        raise InputError("recursive include of this file", filename)
+def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str], first: int = 1) -> None:
+    """Klipper's parse of one file: the lines between includes as one unit, includes where they stand.
+
+    ``visited``: the real paths of the files being read (each including the next); ``first``: the file
+    line of ``data``'s first line (the SAVE_CONFIG block's, say).
+    """
+    path = os.path.realpath(filename)
     visited.add(path)
+    config.files.append(filename)
     buffer: list[str] = []
-    start = 1
-    for number, line in enumerate(data.split("\n"), start=1):
+    start = first
+    for number, line in enumerate(data.split("\n"), start=first):
         pos = line.find("#")
         if pos >= 0:
             line = line[:pos]
@@ -236,19 +294,48 @@ def _parse(data: str, filename: str, config: KlipperConfig, visited: set[str]) -
         else:
             buffer.append(line)
     _parse_unit(buffer, start, filename, config)
-    visited.remove(path)
+    visited.discard(path)
 
 
 def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str], number: int) -> None:
+    """Read the files ``[include spec]`` (line ``number`` of ``filename``) names, as Klipper does.
+
+    A file already being read (by its real path: a link to a folder above it, say) is a recursive
+    include; a path that is not a regular file (a folder, a pipe, a device) is refused as an input
+    given directly is (:func:`~deltacal.io.inputs.input_problem`).
+    """
     pattern = os.path.join(os.path.dirname(filename), spec)
     found = sorted(glob.glob(pattern))
     if not found and not glob.has_magic(pattern):
         found = [pattern]
     for name in found:
-        if not os.path.exists(name):  # absent, or a link to nothing
+        problem = input_problem(name)
+        if problem == NOT_FOUND:  # absent, or a link to nothing
             config.missing.append((filename, number, name))
             continue
+        if problem is not None:
+            raise InputError(f"[include {spec}]: {name}: {problem}", filename, f"line {number}")
+        if os.path.realpath(name) in visited:
+            link = "" if os.path.realpath(name) == os.path.abspath(name) else f" (through a link: {name})"
+            raise InputError(f"recursive include of this file{link}, by [include {spec}] at line {number} of "
+                             f"{filename}", os.path.realpath(name))
         _parse(_read_text(name, filename), name, config, visited)
+
+
+def config_from_text(text: str, source: str, first_line: int = 1) -> KlipperConfig:
+    """The options of a configuration's text, no includes read (the configuration a ``klippy.log`` dumps).
+
+    Args:
+        text: The text (``[section]`` headers and ``key = value`` options).
+        source: Its file, for messages.
+        first_line: The line of the text's first line in that file.
+
+    Raises:
+        InputError: a syntax error, naming the file and line.
+    """
+    config = KlipperConfig(source)
+    _parse_unit(text.split("\n"), first_line, source, config)
+    return config
 
 
 def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperConfig) -> None:
@@ -293,6 +380,7 @@ def klipper_from_config(config: KlipperConfig) -> KlipperDelta:
     if kinematics != "delta":
         raise config.error("printer", "kinematics", f"value {kinematics!r}: deltacal reads Klipper's linear "
                                                     "Delta printers (kinematics: delta)")
+    _say_unfollowed(config)
     radius = config.number("printer", "delta_radius", above=0.0)
     endstop_a = config.number("stepper_a", "position_endstop")
     arm_a = config.number("stepper_a", "arm_length", above=radius)
@@ -317,6 +405,29 @@ def klipper_from_config(config: KlipperConfig) -> KlipperDelta:
                             minimum_z_position=minimum_z)
     except GeometryError as exc:
         raise InputError(str(exc), config.source) from None
+
+
+def _say_unfollowed(config: KlipperConfig) -> None:
+    """Warn of what the configuration does to a program that deltacal does not follow.
+
+    ``[homing_override]`` replaces ``G28`` with its gcode (deltacal takes ``G28`` to leave every
+    carriage at its endstop, as Klipper's delta homing does); a saved mesh ``[bed_mesh NAME]``, once
+    loaded, adds its heights to every move, on top of deltacal's correction.
+    """
+    def origin(name: str) -> str:
+        return next((f for (section, _), f in config.origin.items() if section == name), config.source)
+
+    if "homing_override" in config.sections:
+        say(f"{origin('homing_override')}: section [homing_override]: G28 runs its gcode, which deltacal "
+            "does not follow: a program's G28 is taken to leave every carriage at its endstop, as Klipper's "
+            "own delta homing does (make its gcode end there, or home without it)")
+    meshes = [section for section in config.sections if section.startswith("bed_mesh ")]
+    if meshes:
+        name = meshes[0][len("bed_mesh "):].strip()
+        say(f"{origin(meshes[0])}: section [{meshes[0]}]: a saved bed mesh; once loaded (BED_MESH_PROFILE "
+            f"LOAD={name} in a start macro, or at start-up by Klipper before 2023) it adds its heights to "
+            "deltacal's correction: turn it off (BED_MESH_CLEAR) before a corrected program, or remove it "
+            f"(BED_MESH_PROFILE REMOVE={name}, then SAVE_CONFIG)")
 
 
 def _step_distance(config: KlipperConfig, stepper: str) -> float:

@@ -7,17 +7,18 @@ instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
-from dataclasses import replace
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect
+from ....exceptions import InputWarning
+from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import (
     BASIC_TITLE,
@@ -31,20 +32,24 @@ from .config import (
     APPLY_NOTE,
     KlipperConfig,
     is_klipper_config,
+    is_klipper_config_name,
     klipper_config_text,
     load_klipper,
     read_klipper_config,
 )
-from .fit import KlipperFit, fit_klipper
+from .fit import fit_klipper
 from .importer import import_klipper, write_import
-from .log import is_probe_log, probe_offsets, read_probe_log
+from .live.export import LIVE_FILES, export_live
+from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
-from .probing import klipper_probe_program
+from .probing import klipper_probe_program, klipper_probe_travel
 
 if TYPE_CHECKING:
+    from ....calibration import Calibration
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
+    from ..probing import ProbeTravel
 
 
 class Klipper(Firmware[KlipperDelta]):
@@ -66,10 +71,15 @@ class Klipper(Firmware[KlipperDelta]):
         "printer.cfg (the configuration the printer runs), or --keep-rotation-distance to keep the printer's "
         "own rotation_distance")
     exports_minimum_z: ClassVar[bool] = True
+    live_files: ClassVar[tuple[str, ...]] = LIVE_FILES
 
     def is_config(self, path: str | Path) -> bool:
-        """A ``*.cfg`` file, or one with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
+        """A file with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
         return is_klipper_config(path)
+
+    def is_config_name(self, path: str | Path) -> bool:
+        """A ``*.cfg`` file (:func:`~.config.is_klipper_config_name`)."""
+        return is_klipper_config_name(path)
 
     def read_config(self, path: str | Path) -> KlipperDelta:
         """``printer.cfg`` read as Klipper reads it (:func:`~.config.load_klipper`)."""
@@ -97,10 +107,16 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> KlipperFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           grid=grid, first_layer_weight=first_layer_weight)
+                           grid=grid, first_layer_weight=first_layer_weight, minimax=minimax)
+
+    def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
+                    source: str = "") -> tuple[str, ...]:
+        """The module ``deltacal_geometry.py`` and its section (:func:`~.live.export.export_live`)."""
+        return export_live(calibration, config, folder, source).lines
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:
@@ -116,9 +132,23 @@ class Klipper(Firmware[KlipperDelta]):
         return {BASIC_TITLE: klipper_basic(model, probe),
                 ENHANCED_TITLE: klipper_enhanced(model, probe, pairs, distances)}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
         return klipper_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
+        return klipper_probe_travel(read_klipper_config(path))
+
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """``printer.cfg`` and every file it includes (:attr:`~.config.KlipperConfig.files`).
+
+        Missing includes are not warned of here: the reading of the configuration warns once.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return tuple(Path(name) for name in read_klipper_config(path).files)
 
     def dialect(self, path: str | Path, model: KlipperDelta | None = None) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
@@ -128,24 +158,28 @@ class Klipper(Firmware[KlipperDelta]):
         leaves every carriage at its endstop; the macros are ``printer.cfg``'s
         (:func:`~.macros.read_macros`), and a program's own probing or bed mesh command
         (``BED_MESH_CALIBRATE``, ``PROBE`` ...) leaves the position unknown as in a macro
-        (:func:`~.macros.with_moving_commands`).
+        (:func:`~.macros.with_moving_commands`). A line's command is its first word, after any
+        whitespace (``str.strip``) and a line number (:data:`KLIPPER_LINES`).
         """
         home = (load_klipper(path) if model is None else model).positions(np.zeros((1, 3)))[0]
-        return Dialect("klipper", g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
-                       macros=with_moving_commands(read_macros(read_klipper_config(path))))
+        return Dialect(self.title, g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
+                       macros=with_moving_commands(read_macros(read_klipper_config(path))),
+                       lines=KLIPPER_LINES)
 
     def is_probe_log(self, text: str) -> bool:
-        """Klipper's probe results, or a log's or a console's marks (:func:`~.log.is_probe_log`)."""
+        """Klipper's probe results, or a log's marks (:func:`~.log.is_probe_log`)."""
         return is_probe_log(text)
+
+    def is_console(self, text: str) -> bool:
+        """A console's ``// `` lines (:func:`~.log.is_console`)."""
+        return is_console(text)
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,
                        text: str | None = None) -> ProbeLog:
-        """:func:`~.log.read_probe_log`, the offsets from ``printer.cfg`` (:func:`~.log.probe_offsets`)."""
+        """:func:`~.log.read_probe_log`: the offsets of the log's own configuration, else printer.cfg's."""
         if config is None:
             return read_probe_log(path, text)
-        offsets = probe_offsets(read_klipper_config(config))
-        log = read_probe_log(path, text, offsets)
-        return replace(log, trigger_source=f"z_offset of {config}")
+        return read_probe_log(path, text, probe_offsets(read_klipper_config(config)), str(config))
 
     def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
@@ -164,6 +198,14 @@ class Klipper(Firmware[KlipperDelta]):
             said.append(f"wrote {file}: {rows} rows saved by Klipper's DELTA_CALIBRATE / DELTA_ANALYZE")
         return PrinterImport(tuple(written), tuple(said))
 
+
+#: How Klipper finds a line's command (``klippy/gcode.py``, ``_process_commands``): the line stripped
+#: of whitespace (``str.strip``), upper case, split at its letters; the command is the text before the
+#: first letter, the letters and the number after them (after an ``N`` line number). A line of axis
+#: words (``X40 Y0 Z10``) is the command ``X40``, and one with text before its first letter
+#: (``\ufeffG1``, ``\0G1``, ``1G1``) the command ``\ufeffG1``: "Unknown command", not run.
+KLIPPER_LINES = LineReading(axis_words=Unread.IGNORED, axis_words_why="Klipper answers 'Unknown command' "
+                            "and does not move", junk=Unread.IGNORED)
 
 #: Klipper, the firmware.
 KLIPPER = Klipper()

@@ -20,11 +20,12 @@ Units: mm and rad (the dataclass's angles), degrees only in reports.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
+from ..base import FirmwareFit
 from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
@@ -46,38 +47,6 @@ KLIPPER_NAMES = (
 _ANGLE_C = 3
 
 
-@dataclass(frozen=True)
-class KlipperFit:
-    """Klipper's values fitted to a printer, and what they leave.
-
-    Attributes:
-        klipper: The fitted configuration.
-        fitted: Names (:data:`KLIPPER_NAMES`) of the values fitted.
-        held: Names held at the start's values (asked, or not identifiable over the grid).
-        unidentifiable: The held values the grid cannot tell apart from the others.
-        singular_values: Singular values of the column-scaled Jacobian, largest first.
-        before: Errors with the start's values.
-        after: Errors with the fitted values.
-        iterations: Gauss-Newton iterations.
-        points: Number of grid points.
-    """
-
-    klipper: KlipperDelta
-    fitted: list[str]
-    held: list[str]
-    unidentifiable: list[str]
-    singular_values: np.ndarray
-    before: ErrorStats
-    after: ErrorStats
-    iterations: int
-    points: int
-
-    @property
-    def values(self) -> KlipperDelta:
-        """The fitted configuration (:attr:`klipper`), by the firmware interface's name."""
-        return self.klipper
-
-
 def values_of(klipper: KlipperDelta) -> np.ndarray:
     """Klipper's values in the order of :data:`KLIPPER_NAMES` (angles in rad) [mm, rad], (13,)."""
     return np.concatenate([[klipper.delta_radius], klipper.angle, klipper.arm_length,
@@ -97,6 +66,10 @@ KLIPPER_VALUES: ValueVector[KlipperDelta] = ValueVector(
     KLIPPER_NAMES, (1e-4,) + (1e-7,) * 3 + (1e-4,) * 6 + (1e-7,) * 3, 10, values_of, with_values)
 
 
+#: What :func:`fit_klipper` returns: the firmwares' one fit value, its ``values`` a :class:`KlipperDelta`.
+KlipperFit = FirmwareFit
+
+
 def fit_klipper(
     geometry: DeltaGeometry,
     start: KlipperDelta,
@@ -107,7 +80,8 @@ def fit_klipper(
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
     part_frame: bool = True,
-) -> KlipperFit:
+    minimax: bool = False,
+) -> FirmwareFit[KlipperDelta]:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
 
     With ``first_layer_weight`` w > 0 the sum also has the z errors over the first layer's disc
@@ -128,6 +102,8 @@ def fit_klipper(
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         part_frame: Judge the volume's errors in the printed part's frame (see above).
+        minimax: Then the least largest error over the grid, the first layer no less flat
+            (:func:`~..fitting.least_largest`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -136,10 +112,10 @@ def fit_klipper(
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
     wanted = [c for c in range(10 if hold_step_distance else 13) if not (part_frame and c == _ANGLE_C)]
     found = gauss_newton(geometry, start, KLIPPER_VALUES, step_distance, workspace, grid, wanted, max_iter,
-                         first_layer_weight, part_frame, "Klipper")
+                         first_layer_weight, part_frame, "Klipper", minimax)
     fitted = [KLIPPER_NAMES[c] for c in found.columns]
-    return KlipperFit(
-        klipper=found.model,
+    return FirmwareFit(
+        values=found.model,
         fitted=fitted,
         held=[n for n in KLIPPER_NAMES if n not in set(fitted)],
         unidentifiable=found.unidentifiable,

@@ -32,7 +32,15 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import InputError
-from ...files.importer import OUTPUT_FILES, ImportedValues, Measured, printer_file_text, write_printer_file
+from ...files.importer import (
+    OUTPUT_FILES,
+    ImportedValues,
+    Measured,
+    check_stale_outputs,
+    printer_file_text,
+    within_reach,
+    write_printer_file,
+)
 from ...files.measurements import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
@@ -122,10 +130,8 @@ def _printable_radius(config: KlipperConfig, klipper: KlipperDelta) -> tuple[flo
         radius, note = config.number("delta_calibrate", "radius", above=0.0), "[delta_calibrate] radius"
     else:
         radius, note = klipper.delta_radius, "Klipper's default print_radius (delta_radius)"
-    bound = float(np.min(klipper.arm_length)) - klipper.delta_radius
-    if radius > bound:
-        return bound, f"{note} {radius:g} mm, held to Klipper's bound min(arm_length) - delta_radius"
-    return radius, note
+    return within_reach(radius, note, klipper.reach_radius,
+                        "Klipper's own reach (a carriage at most 12 times faster than the nozzle)")
 
 
 def write_import(imported: ImportedPrinter, out_dir: str | Path) -> list[Path]:
@@ -133,10 +139,17 @@ def write_import(imported: ImportedPrinter, out_dir: str | Path) -> list[Path]:
 
     Returns:
         The files written.
+
+    Raises:
+        UsageError: the folder holds ``probe.csv`` or ``distances.csv`` not written here
+            (:func:`~deltacal.printer.files.importer.check_stale_outputs`).
     """
     out = Path(out_dir)
-    written = [write_printer_file(out / OUTPUT_FILES[0], imported.values, imported.measured)]
     saved = imported.saved
+    writes = [OUTPUT_FILES[0]] + [name for name, rows in zip(OUTPUT_FILES[1:], (saved.height, saved.distance),
+                                                             strict=True) if rows.size]
+    check_stale_outputs(out, writes, "its SAVE_CONFIG block holds no [delta_calibrate] measurements of them")
+    written = [write_printer_file(out / OUTPUT_FILES[0], imported.values, imported.measured)]
     if saved.height.size:
         written.append(write_probe_heights(out / OUTPUT_FILES[1], imported.probe[:, :2], imported.probe[:, 2],
                                            trigger_height=saved.height))

@@ -23,13 +23,13 @@ the printer knows. An E an expression gives makes the extruder's position unknow
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 
-from ....gcode.dialect import MacroEffect, MacroStep
+from ....gcode.dialect import MacroEffect, MacroStep, command_params
 from .config import KlipperConfig
 
-__all__ = ["MAX_DEPTH", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
+__all__ = ["MAX_DEPTH", "MESH_ON", "MOVING_COMMANDS", "read_macros", "with_moving_commands"]
 
 #: Macros nested deeper than this are not followed (their caller's end is unknown).
 MAX_DEPTH = 10
@@ -40,12 +40,17 @@ MOVING_COMMANDS = frozenset((
     "QUAD_GANTRY_LEVEL", "SCREWS_TILT_CALCULATE", "BED_TILT_CALIBRATE", "MANUAL_PROBE",
     "Z_ENDSTOP_CALIBRATE", "SET_KINEMATIC_POSITION", "FORCE_MOVE", "RESUME",
 ))
+#: What a command that turns Klipper's bed mesh on does (said of the program's line that runs it).
+MESH_ON = ("turns Klipper's bed mesh on: Klipper adds it to every move, on top of deltacal's correction, "
+           "which already holds the bed the calibration measured (the first layer corrected twice): leave "
+           "it out, or send BED_MESH_CLEAR after it")
 #: Why a program's line running one of them leaves the position unknown.
 _COMMAND_UNKNOWN = "it leaves the nozzle where only the printer knows"
 #: A placeholder for the value of a Jinja expression.
 _EXPRESSION = "\x00"
 _PARTS = re.compile(r"([A-Z_]+|[A-Z*])")  # klippy/gcode.py's split of a command line
 _TRADITIONAL = re.compile(r"[A-Z][0-9]")
+_STATES = (MacroStep.SAVE, MacroStep.RESTORE)
 _OPEN = ("if", "for", "macro", "call", "filter", "with", "raw")
 _CLOSE = ("endif", "endfor", "endmacro", "endcall", "endfilter", "endwith", "endraw")
 
@@ -56,7 +61,9 @@ def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
     A program's ``BED_MESH_CALIBRATE`` or ``PROBE`` leaves the nozzle where only the printer
     knows, as in a macro; a macro of the same name (``rename_existing``) is the macro. The G-codes
     of :data:`MOVING_COMMANDS` (arcs, G29, G30, G38.x) are read as G-code, and ``RESUME`` in a
-    program goes back where its ``PAUSE`` left the program.
+    program goes back where its ``PAUSE`` left the program. A program's own ``SAVE_GCODE_STATE``
+    and ``RESTORE_GCODE_STATE`` save and restore states as in a macro, with the line's ``NAME`` and
+    ``MOVE`` (:meth:`~deltacal.gcode.dialect.MacroEffect.on_line`).
 
     Args:
         macros: The configuration's macros (:func:`read_macros`).
@@ -66,6 +73,12 @@ def with_moving_commands(macros: MappingProxyType) -> MappingProxyType:
     """
     commands = {name: MacroEffect(name, unknown=_COMMAND_UNKNOWN, builtin=True)
                 for name in MOVING_COMMANDS if not _TRADITIONAL.match(name) and name != "RESUME"}
+    for name, step in (("SAVE_GCODE_STATE", MacroStep.SAVE), ("RESTORE_GCODE_STATE", MacroStep.RESTORE)):
+        commands[name] = MacroEffect(name, ((step, {}, ""),), builtin=True, from_line=True)
+    commands["BED_MESH_CALIBRATE"] = replace(commands["BED_MESH_CALIBRATE"], warning=f"it probes the bed and "
+                                             f"{MESH_ON}")
+    commands["BED_MESH_PROFILE"] = MacroEffect("BED_MESH_PROFILE", builtin=True, warning=f"it {MESH_ON}",
+                                               warn_with="LOAD")
     return MappingProxyType({**commands, **macros})
 
 
@@ -83,10 +96,20 @@ class _Reading:
 
     steps: list = field(default_factory=list)
     unknown: str = ""
+    refused: str = ""
+    warning: str = ""
 
     def unknowable(self, why: str) -> None:
         if not self.unknown:
             self.unknown = why
+
+    def refuse(self, why: str) -> None:
+        if not self.refused:
+            self.refused = why
+
+    def warn(self, what: str) -> None:
+        if not self.warning:
+            self.warning = what
 
 
 def read_macros(config: KlipperConfig) -> MappingProxyType:
@@ -123,7 +146,8 @@ class _MacroReader:
         reading = _Reading()
         for line in _lines(self.templates[name]):
             self.command(line, reading, (*calling, name))
-        effect = MacroEffect(name, tuple(reading.steps), reading.unknown)
+        effect = MacroEffect(name, tuple(reading.steps), reading.unknown, refused=reading.refused,
+                             warning=reading.warning)
         self.done[name] = effect
         return effect
 
@@ -143,28 +167,60 @@ class _MacroReader:
         elif cmd in self.templates:
             self.nested(cmd, line, reading, calling)
             return
+        loads = cmd == "BED_MESH_PROFILE" and "LOAD" in (command_params(text) or {})
+        if cmd == "BED_MESH_CALIBRATE" or loads:
+            reading.warn(f"it runs {line.text.strip()}, which {MESH_ON}")
         if _TRADITIONAL.match(cmd) and cmd[0] in "GM":
             _traditional(cmd, params, line, reading)
-        elif cmd == "SAVE_GCODE_STATE":
-            reading.steps.append((MacroStep.SAVE, {}, params.get("NAME", "default")))
-        elif cmd == "RESTORE_GCODE_STATE":
-            if line.conditional:
-                reading.unknowable("RESTORE_GCODE_STATE under a Jinja condition")
-            move = {"MOVE": 1.0} if params.get("MOVE", "0") not in ("0", "") else {}
-            reading.steps.append((MacroStep.RESTORE, move, params.get("NAME", "default")))
+        elif cmd in ("SAVE_GCODE_STATE", "RESTORE_GCODE_STATE"):
+            _state(cmd, line, reading)
         elif cmd in MOVING_COMMANDS or cmd == "SET_GCODE_OFFSET" and params.get("MOVE", "0") not in ("0", ""):
             reading.unknowable(f"{cmd} leaves the nozzle where only the printer knows")
 
     def nested(self, cmd: str, line: _Line, reading: _Reading, calling: tuple[str, ...]) -> None:
         """A call of another macro."""
         effect = self.effect(cmd, calling)
+        if effect.warning:
+            reading.warn(f"it runs {cmd}: {effect.warning}")
         if not effect.moves:
             return
         if line.conditional:
             reading.unknowable(f"{cmd}, which moves the nozzle, under a Jinja condition")
         if effect.unknown:
             reading.unknowable(f"{cmd}: {effect.unknown}")
-        reading.steps.extend(effect.steps)
+        if effect.refused:
+            reading.refuse(f"{cmd}: {effect.refused}")
+        conditional = {"CONDITIONAL": 1.0} if line.conditional else {}
+        reading.steps.extend((step, {**values, **conditional} if step in _STATES else values, name)
+                             for step, values, name in effect.steps)
+
+
+def _state(cmd: str, line: _Line, reading: _Reading) -> None:
+    """SAVE_GCODE_STATE or RESTORE_GCODE_STATE in a template: ``NAME`` as written (case kept), ``MOVE``."""
+    params = command_params(line.text.replace(_EXPRESSION, "{...}"))
+    if params is None:
+        reading.refuse(f"{line.text.strip()!r}: Klipper answers 'Malformed command' (parameters are "
+                       "KEY=value)")
+        return
+    name = params.get("NAME", "default")
+    if "{...}" in name:
+        reading.refuse(f"{cmd} NAME={name}: a Jinja expression gives the state's name: which state "
+                       "RESTORE_GCODE_STATE brings back cannot be known")
+        return
+    values = {"CONDITIONAL": 1.0} if line.conditional else {}
+    if cmd == "SAVE_GCODE_STATE":
+        reading.steps.append((MacroStep.SAVE, values, name))
+        return
+    move = params.get("MOVE", "0")
+    if "{...}" in move:
+        reading.unknowable(f"RESTORE_GCODE_STATE MOVE={move}: a Jinja expression says whether it moves back")
+    elif move.lstrip("+-").isdigit() and int(move):
+        values["MOVE"] = 1.0
+        if line.conditional:
+            reading.unknowable("RESTORE_GCODE_STATE MOVE=1 under a Jinja condition")
+    elif not move.lstrip("+-").isdigit():
+        reading.refuse(f"RESTORE_GCODE_STATE MOVE={move}: not an integer, Klipper stops there")
+    reading.steps.append((MacroStep.RESTORE, values, name))
 
 
 def _traditional(cmd: str, params: dict[str, str], line: _Line, reading: _Reading) -> None:

@@ -213,17 +213,19 @@ class KlipperDelta:
         """Z above which Klipper tapers the radius: ``min(E_i − ℓ_i)`` [mm]."""
         return float(np.min(self.carriage_top - self.arm_length))
 
-    @cached_property
-    def reach_radius(self) -> float:
-        """The radius the arms allow Klipper, print_radius aside [mm]: ``min(min ℓ − ρ, ratio_to_xy(12))``.
+    def ratio_radius(self, ratio: float) -> float:
+        """Klipper's ``ratio_to_xy(ratio)``: the radius where a tower moves ``ratio`` times faster [mm].
 
-        ``ratio_to_xy(r) = r sqrt(min ℓ² / (r² + 1) − h²) + h − ρ``, h half the smallest step distance:
-        where a tower moves ``r`` times faster than the effector (delta.py).
+        ``r sqrt(min ℓ² / (r² + 1) − h²) + h − ρ``, h half the smallest step distance (delta.py):
+        ratio 3 (``SLOW_RATIO``) is where Klipper halves a move's speed, 12 its build radius's bound.
         """
         arm, half = float(np.min(self.arm_length)), 0.5 * float(np.min(self.step_distance))
-        ratio = 4.0 * SLOW_RATIO
-        ratio_xy = ratio * math.sqrt(arm**2 / (ratio**2 + 1.0) - half**2) + half - self.delta_radius
-        return min(arm - self.delta_radius, ratio_xy)
+        return ratio * math.sqrt(arm**2 / (ratio**2 + 1.0) - half**2) + half - self.delta_radius
+
+    @cached_property
+    def reach_radius(self) -> float:
+        """The radius the arms allow Klipper, print_radius aside [mm]: ``min(min ℓ − ρ, ratio_to_xy(12))``."""
+        return min(float(np.min(self.arm_length)) - self.delta_radius, self.ratio_radius(4.0 * SLOW_RATIO))
 
     @cached_property
     def max_radius(self) -> float:

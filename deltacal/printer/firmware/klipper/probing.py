@@ -8,14 +8,23 @@ probe triggers and answers on the console (and in ``klippy.log``), per sample, o
 writes each point's x, y the same way, so that the log names the points of probe.csv (the newer
 lines through the ``[probe]`` offsets, :mod:`.log`). It needs a probe section. Units: mm; feed
 rates in mm/min.
+
+The program travels between points above the probe's ``z_offset`` (:func:`klipper_probe_travel`):
+at Klipper's own ``horizontal_move_z`` of ``[delta_calibrate]``, else of ``[bed_mesh]`` (default 5),
+when it is far enough above ``z_offset`` (Klipper's probing refuses one below:
+``klippy/extras/probe.py``, "horizontal_move_z can't be less than probe's z_offset"), else
+``z_offset`` + 5 mm.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
-from ..probing import probe_program
+from ..probing import ProbeTravel, probe_program, probe_travel
+from .config import KlipperConfig
+from .log import PROBE_SECTIONS
 
 #: How Klipper answers, after the count of points (the program's second line).
 ANSWERS = "Klipper answers each PROBE on its console"
@@ -29,7 +38,35 @@ def probe_lines(x: float, y: float) -> tuple[str, ...]:
     return ("PROBE",)
 
 
-def klipper_probe_program(points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+#: The sections whose ``horizontal_move_z`` is Klipper's own travel height between probe points, in order.
+TRAVEL_SECTIONS = ("delta_calibrate", "bed_mesh")
+#: Klipper's ``horizontal_move_z`` when a section does not set it [mm].
+DEFAULT_HORIZONTAL_MOVE_Z = 5.0
+
+
+def klipper_probe_travel(config: KlipperConfig) -> ProbeTravel:
+    """The height to travel at between probe points: above the probe's ``z_offset`` (module docstring).
+
+    Raises:
+        InputError: no probe section (the trigger height is not known), or a value that is not a number.
+    """
+    section = next((name for name in PROBE_SECTIONS if name in config.sections), None)
+    if section is None:
+        raise InputError(f"no probe section ([{'], ['.join(PROBE_SECTIONS)}]): the probe program travels "
+                         "between points above the probe's trigger height (its z_offset), not known without "
+                         "it; add the probe's section", config.source)
+    trigger = config.number(section, "z_offset")
+    own = []
+    for name in (name for name in TRAVEL_SECTIONS if name in config.sections):
+        default = "" if config.has(name, "horizontal_move_z") else " (Klipper's default)"
+        own.append((config.number(name, "horizontal_move_z", DEFAULT_HORIZONTAL_MOVE_Z),
+                    f"[{name}] horizontal_move_z{default}", "Klipper refuses to probe with it"))
+    origin = config.origin.get((section, "z_offset"), config.source)
+    return probe_travel(trigger, f"[{section}] z_offset of {origin}", own)
+
+
+def klipper_probe_program(points: np.ndarray, title: str = "",
+                          clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
     """The program that homes (``G28``) and runs ``PROBE`` above each point in order.
 
     :func:`~..probing.probe_program` with Klipper's words (its arguments, values and errors).

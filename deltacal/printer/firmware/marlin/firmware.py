@@ -10,28 +10,29 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect
+from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
-from .fit import MarlinFit, fit_marlin
+from .dialect import marlin_dialect
+from .fit import fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
-from .probing import marlin_probe_program
-from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text
+from .probing import marlin_probe_program, marlin_probe_travel
+from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text, read_marlin_settings
 from .values import marlin_from_geometry, marlin_from_printer
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
+    from ..probing import ProbeTravel
 
 
 class Marlin(Firmware[MarlinDelta]):
@@ -50,7 +51,7 @@ class Marlin(Firmware[MarlinDelta]):
     values_words: ClassVar[str] = "M665, M666 and M92 lines, saved by M500"
 
     def is_config(self, path: str | Path) -> bool:
-        """An ``M503`` capture (:func:`~.settings.is_marlin_settings`)."""
+        """An ``M503`` capture, or a ``Configuration.h`` (:func:`~.settings.is_marlin_settings`)."""
         return is_marlin_settings(path)
 
     def read_config(self, path: str | Path) -> MarlinDelta:
@@ -76,10 +77,11 @@ class Marlin(Firmware[MarlinDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> MarlinFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[MarlinDelta]:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,
-                          grid)
+                          minimax, grid)
 
     def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
                          radius: float) -> dict[str, MarlinDelta]:
@@ -87,9 +89,14 @@ class Marlin(Firmware[MarlinDelta]):
         result = marlin_g33(model, measuring.heights, radius, DEFAULT_POINTS)
         return {f"{self.title} G33 (P{DEFAULT_POINTS})": result.values}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
         return marlin_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.marlin_probe_travel`: above ``-M851 Z`` of the ``M503`` capture."""
+        return marlin_probe_travel(read_marlin_settings(path))
 
     def is_probe_log(self, text: str) -> bool:
         """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""
@@ -109,24 +116,20 @@ class Marlin(Firmware[MarlinDelta]):
         return import_marlin(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
     def dialect(self, path: str | Path, model: MarlinDelta | None = None) -> Dialect:
-        """Marlin 2's reading of G-code with the settings of an ``M503`` capture.
+        """Marlin 2's reading of G-code with an ``M503`` capture (:func:`~.dialect.marlin_dialect`).
 
         G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
         (``gcode.h``, ``set_relative_mode``: the last of the four decides); a ``P`` on an arc is
         that many full circles before it, Z and E spread over the whole sweep (``G2_G3.cpp`` with
         ``ARC_P_CIRCLES``); G28 leaves the nozzle at ``(0, 0, H - M851 Z)`` (a delta homes its three
-        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33 is
-        refused (it changes ``M665``/``M666``, the values the program is corrected for); no macros.
+        towers on any G28: :attr:`MarlinController.home <.model.MarlinController.home>`); G33, and
+        the commands that set the values the program is corrected for (``M665``, ``M666``, ``M92 X
+        Y Z``, ``M851 Z``, ``M501``, ``M502``), are refused (:func:`~.dialect.marlin_rules`); ``M211 S0``
+        switches the soft endstops off for the lines after it (``M211.cpp``), ``S1`` on; no macros; a
+        line's command is its first letter after spaces (:data:`~.dialect.MARLIN_LINES`).
         """
-        model = load_marlin(path) if model is None else model
-        home = (0.0, 0.0, model.home_height)
-        return Dialect("Marlin", arc_p=ArcP.CIRCLES, home=home, distance_sets_e=True,
-                       refused=MappingProxyType({33.0: G33_REFUSED}))
+        return marlin_dialect(load_marlin(path) if model is None else model)
 
-
-#: Why a program's G33 is refused.
-G33_REFUSED = ("Marlin's delta auto-calibration changes M665 and M666, the settings the program is "
-               "corrected for: run G33 and M500 once, capture M503 again, and remove G33 from the program")
 
 #: Marlin, the firmware.
 MARLIN = Marlin()

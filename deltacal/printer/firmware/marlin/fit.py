@@ -16,45 +16,20 @@ Units: mm; trims in degrees.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
-from ..fitting import ErrorStats, error_stats, printable_grid
-from ..klipper.fit import KLIPPER_NAMES, KlipperFit, fit_klipper
+from ..base import FirmwareFit
+from ..fitting import error_stats, printable_grid
+from ..klipper.fit import KLIPPER_NAMES, fit_klipper
 from .model import MarlinDelta
 from .values import from_klipper, to_klipper
 
 #: Marlin's values in the fit's order (the step distances are ``M92``'s).
 MARLIN_NAMES = ("M665 R", "M665 X", "M665 Y", "M665 Z", "M665 L+A", "M665 L+B", "M665 L+C",
                 "M666 X", "M666 Y", "M666 Z", "M92 X", "M92 Y", "M92 Z")
-
-
-@dataclass(frozen=True)
-class MarlinFit:
-    """Marlin's values fitted to a printer, and what they leave.
-
-    Attributes:
-        marlin: The fitted values, as Marlin's rules write them.
-        fitted: Names (:data:`MARLIN_NAMES`) of the values fitted.
-        held: Names held at the start's values (asked, the angle gauge, or not identifiable).
-        before: Errors with the start's values [mm].
-        after: Errors with the fitted values, through Marlin's model [mm].
-        klipper: The fit of the same model in Klipper's names (its singular values, iterations).
-    """
-
-    marlin: MarlinDelta
-    fitted: list[str]
-    held: list[str]
-    before: ErrorStats
-    after: ErrorStats
-    klipper: KlipperFit
-
-    @property
-    def values(self) -> MarlinDelta:
-        """The fitted values (:attr:`marlin`), by the firmware interface's name."""
-        return self.marlin
 
 
 def _names(klipper_names: list[str]) -> list[str]:
@@ -64,8 +39,12 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0, grid: np.ndarray | None = None) -> MarlinFit:
+               first_layer_weight: float = 0.0, minimax: bool = False,
+               grid: np.ndarray | None = None) -> FirmwareFit[MarlinDelta]:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
+
+    The fit's names are :data:`MARLIN_NAMES`; its singular values and iterations are those of the
+    second of Klipper's fits (see the module).
 
     Args:
         geometry: The printer (a prismatic chain; the true bed is z = 0).
@@ -74,6 +53,8 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         workspace: The printable cylinder (heights 0.2 mm to its top).
         hold_step_distance: Keep the start's ``M92``.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        minimax: Then the least largest error over the volume, the first layer no less flat
+            (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
         grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
 
     Raises:
@@ -82,21 +63,24 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
     """
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
 
-    def fit(klipper_start):
+    def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight)
+                           first_layer_weight=first_layer_weight, minimax=least_largest)
 
     first = fit(to_klipper(start))
-    mean = float(np.mean(from_klipper(first.klipper, start).angle_trim))
-    restart = first.klipper.angle.copy()
+    mean = float(np.mean(from_klipper(first.values, start).angle_trim))
+    restart = first.values.angle.copy()
     restart[2] -= np.radians(mean)
-    result = fit(replace(first.klipper, angle=restart))
-    marlin = from_klipper(result.klipper, start, turn=True)
-    return MarlinFit(
-        marlin=marlin,
+    result = fit(replace(first.values, angle=restart), minimax)
+    marlin = from_klipper(result.values, start, turn=True)
+    return FirmwareFit(
+        values=marlin,
         fitted=_names(result.fitted),
         held=_names(result.held),
+        unidentifiable=_names(result.unidentifiable),
+        singular_values=result.singular_values,
         before=error_stats(geometry, to_klipper(start), step_distance, workspace, grid, part_frame=True),
         after=error_stats(geometry, to_klipper(marlin), step_distance, workspace, grid, part_frame=True),
-        klipper=result,
+        iterations=result.iterations,
+        points=result.points,
     )

@@ -9,7 +9,9 @@
   endstop (:attr:`~.model.MarlinDelta.carriage_top`); ``step_distance_mm`` = 1 / ``M92``;
 * ``tower_radius_mm`` = ``M665 R`` + the effector radius; ``nozzle_mm`` = ``[0, 0, −drop]``;
 * ``[workspace] radius_mm`` = the soft endstops' radius (``M211``'s ``Min``/``Max``, else Marlin's
-  default); ``height_mm`` = the height up to which the full radius is reachable.
+  default 140), never beyond what the rods reach at the bed with a margin, as the other firmwares'
+  imports (:func:`~...files.importer.reach_radius`); ``height_mm`` = the height up to which the full
+  radius is reachable.
 
 An ``M503`` capture holds no measurements: no probe.csv, no distances.csv (the probe's results are
 read from the console, :mod:`.log`). Units: mm and deg in the file.
@@ -21,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...files.importer import ImportedValues, PrinterImport, write_imported
+from ...files.importer import ImportedValues, PrinterImport, reach_radius, within_reach, write_imported
 from .model import BASE_ANGLES_DEG, MarlinDelta
-from .settings import load_marlin
+from .settings import marlin_from_settings, read_marlin_settings
 
 
 def marlin_imported_values(path: str | Path) -> tuple[MarlinDelta, ImportedValues]:
@@ -32,13 +34,17 @@ def marlin_imported_values(path: str | Path) -> tuple[MarlinDelta, ImportedValue
     Raises:
         InputError: the capture's first problem.
     """
-    marlin = load_marlin(path)
+    settings = read_marlin_settings(path)
+    marlin = marlin_from_settings(settings)
+    words = "the soft endstops' radius (M211 Min/Max)" if settings.limits is not None else \
+        "Marlin's default soft endstops' radius (no M211 Min/Max in the capture)"
+    printable = within_reach(marlin.soft_endstops.radius, words, reach_radius(marlin.rods, marlin.radius),
+                             "the rods' reach (a carriage at most 12 times faster than the nozzle)")
     values = ImportedValues(
         "Marlin", str(path), (marlin.radius, "M665 R"), (marlin.rods, "M665 L + A/B/C"),
         (np.array(BASE_ANGLES_DEG) + marlin.angle_trim, "210, 330, 90 + M665 X/Y/Z"),
         (np.array(marlin.carriage_top), "M665 H - M851 Z + sqrt(rod^2 - R^2) (+ G28's M666 move)"),
-        (marlin.step_distance, "1 / M92"),
-        (marlin.soft_endstops.radius, "the soft endstops' radius (M211 Min/Max)"),
+        (marlin.step_distance, "1 / M92"), printable,
         "Marlin's full-radius height (radius tapered above)", where="M665 H")
     return marlin, values
 

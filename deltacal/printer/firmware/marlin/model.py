@@ -290,12 +290,17 @@ class MarlinDelta:
             lowest = float(np.min(commands[:, 2]))
             return (f"corrected Z {z:.4f} mm is below the soft endstop Min Z {limits.minimum[2]:g}{of} "
                     f"(lowest {lowest:.4f} mm): Marlin would clamp it; send M211 S0 (soft endstops off) "
-                    "before the program, or a firmware built with a lower Z_MIN_POS")
+                    "before the program (its first line M211 S0 does), or a firmware built with a lower "
+                    "Z_MIN_POS")
         if codes[0] == ABOVE_MAX_Z:
             return (f"corrected Z {z:.4f} mm is above Marlin's top {self.home_height:g}{of}: lower the "
                     "program's moves")
         return (f"corrected point at radius {np.hypot(x, y):.4f} mm is beyond the soft endstops' radius "
                 f"{limits.radius:g}{of}: Marlin would clamp it; bring the program nearer the centre")
+
+    def with_soft_endstops(self, enabled: bool) -> MarlinDelta:
+        """The same values with the soft endstops on (``M211 S1``) or off (``M211 S0``)."""
+        return replace(self, soft_endstops=replace(self.soft_endstops, enabled=bool(enabled)))
 
     def with_minimum_z(self, minimum_z: float) -> MarlinDelta:
         """The same values with the soft endstops' Min Z = ``minimum_z`` [mm]."""

@@ -5,14 +5,20 @@ Marlin's ``G30`` (``Marlin/src/gcode/probe/G30.cpp``) without X or Y probes wher
 place), and reports ``Bed X: <x> Y: <y> Z: <z>`` with the probe's position. The program moves the
 nozzle above each point of probe.csv, then runs ``G30`` there: the commanded nozzle position of
 each row is the point itself, whatever the probe's offsets. Units: mm; feed rates in mm/min.
+
+The program travels between points above the probe's trigger height, ``-M851 Z`` (the nozzle's
+height above the bed when the probe triggers), by 5 mm (:func:`marlin_probe_travel`): Marlin's own
+clearances between probes (``Z_CLEARANCE_BETWEEN_PROBES``) are compiled in, not in ``M503``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
-from ..probing import probe_program
+from ..probing import ProbeTravel, probe_program, probe_travel
+from .settings import MarlinSettings
 
 #: How Marlin answers, after the count of points (the program's second line).
 ANSWERS = "Marlin answers each G30 on its console"
@@ -25,7 +31,22 @@ def probe_lines(x: float, y: float) -> tuple[str, ...]:
     return ("G30",)
 
 
-def marlin_probe_program(points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+def marlin_probe_travel(settings: MarlinSettings) -> ProbeTravel:
+    """The height to travel at between probe points: ``-M851 Z`` + 5 mm.
+
+    Raises:
+        InputError: no ``M851 Z`` in the capture (the trigger height is not known).
+    """
+    if "Z" not in settings.values.get("M851", {}):
+        raise InputError("no M851 Z (the probe's offset, in M503's report of a printer with a probe): the "
+                         "probe program travels between points above the probe's trigger height, not known "
+                         "without it; capture M503's whole report", settings.source, "M851 Z")
+    line = settings.lines[("M851", "Z")]
+    return probe_travel(-settings.get("M851", "Z"), f"-M851 Z, line {line} of {settings.source}")
+
+
+def marlin_probe_program(points: np.ndarray, title: str = "",
+                         clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
     """The program that homes (``G28``) and runs ``G30`` with the nozzle above each point in order.
 
     :func:`~..probing.probe_program` with Marlin's words (its arguments, values and errors).

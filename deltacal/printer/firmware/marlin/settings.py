@@ -13,6 +13,13 @@ Y0.00 Z0.00 A0.00 B0.00 C0.00``); deltacal reads
 * ``M211 S`` and the line after it, ``Min:  X Y Z  Max:  X Y Z`` (``gcode/host/M211.cpp``; without
   it Marlin's delta defaults, :meth:`~.model.SoftEndstops.default`).
 
+``M503`` opens with the units it reports in (``G21 ; (mm)``, or ``G20 ; (in)`` after a ``G20``,
+with ``INCH_MODE_SUPPORT``): in inches every value of ``M665`` but ``S``, of ``M666``, ``M92`` and
+``M851`` is printed divided by 25.4 (``LINEAR_UNIT``, ``module/settings.cpp`` and each
+``Mxxx_report``), to 2 decimals, which is 0.254 mm: such a report is refused naming its line (send
+``G21``, then ``M503``). ``M211``'s limits are printed in mm whatever the units (``print_pos``).
+Every value is held to what a printer can be (:data:`BOUNDS`).
+
 A later line wins, as Marlin applies them in turn. Every other line is left alone. Errors are one
 line naming the file, the line and the key. Units: mm, trims in degrees.
 """
@@ -27,6 +34,17 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import GeometryError, InputError
+from ....io.inputs import input_problem
+from ..bounds import (
+    ADJUSTMENT,
+    LENGTH,
+    POSITION,
+    PROBE_OFFSET,
+    SEGMENTS_PER_SECOND,
+    STEPS_PER_MM,
+    TRIM_ANGLE,
+    Bound,
+)
 from .model import DEFAULT_SEGMENTS_PER_SECOND, MarlinDelta, SoftEndstops
 
 #: A host's and Marlin's prefixes of a console line.
@@ -39,8 +57,26 @@ _MARK = re.compile(r"^\s*(?:Recv:\s*)?echo:"
                    r"|;\s*(?:Delta (?:config|settings)|Endstop adjustment|Steps per unit)"
                    r"|^\s*M503\b|\bM851\b|\bM211\b", re.IGNORECASE | re.MULTILINE)
 _DELTA = re.compile(r"^\s*(?:Recv:\s*)?(?:echo:\s*)*M665\s", re.IGNORECASE | re.MULTILINE)
+#: What a Marlin ``Configuration.h`` holds: its version, or a delta's compiled geometry.
+_CONFIGURATION_H = re.compile(r"^[ \t]*#define[ \t]+(?:CONFIGURATION_H_VERSION|DELTA_DIAGONAL_ROD|"
+                              r"DELTA_RADIUS|DELTA_PRINTABLE_RADIUS)\b", re.MULTILINE)
+#: Why a ``Configuration.h`` is refused, and what to give instead.
+CONFIGURATION_H_REFUSED = ("a Marlin Configuration.h holds the compiled defaults, which the printer's saved "
+                           "settings override (EEPROM: M500, G33, the LCD's menus): send M503 to the printer "
+                           "and save its whole answer (the console's text) in a file, then give that file")
 #: The commands read, and the keys each holds.
-KEYS = {"M665": "LRHSXYZABC", "M666": "XYZ", "M92": "XYZE", "M851": "XYZ", "M211": "S"}
+KEYS = {"M665": "LRHSXYZABCIJK", "M666": "XYZ", "M92": "XYZE", "M851": "XYZ", "M211": "S", "M206": "XYZ"}
+#: What each value deltacal reads can be (:mod:`..bounds`), by command and key (``M665 B``: a rod trim
+#: beside ``A`` and ``C``, Marlin 2.0's calibration radius otherwise, so bounded as a position).
+BOUNDS: dict[tuple[str, str], Bound] = {
+    ("M665", "L"): LENGTH, ("M665", "R"): LENGTH, ("M665", "H"): POSITION, ("M665", "S"): SEGMENTS_PER_SECOND,
+    **{("M665", k): TRIM_ANGLE for k in "XYZ"}, ("M665", "A"): ADJUSTMENT, ("M665", "B"): POSITION,
+    ("M665", "C"): ADJUSTMENT, **{("M665", k): TRIM_ANGLE for k in "IJK"},
+    **{("M666", k): ADJUSTMENT for k in "XYZ"},
+    **{("M206", k): POSITION for k in "XYZ"},
+    **{("M92", k): STEPS_PER_MM for k in "XYZE"}, **{("M851", k): PROBE_OFFSET for k in "XYZ"},
+    **{("M211", k): POSITION for k in ("Min X", "Min Y", "Min Z", "Max X", "Max Y", "Max Z")},
+}
 
 
 @dataclass
@@ -77,13 +113,20 @@ class MarlinSettings:
 
 
 def is_marlin_settings(path: str | Path) -> bool:
-    """Whether a file is an ``M503`` capture: an ``M665`` line and Marlin's ``echo:`` or its headings."""
+    """Whether a file is Marlin's: an ``M503`` capture, or a ``Configuration.h``.
+
+    A capture has an ``M665`` line and Marlin's ``echo:`` or its headings; a ``Configuration.h`` is
+    refused when read (:data:`CONFIGURATION_H_REFUSED`).
+    """
+    if input_problem(path) is not None:
+        return False  # the reader of the file taken instead names the problem
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
-            head = f.read(1 << 16)
+            head = f.read(1 << 18)
     except OSError:
-        return False  # the reader of the file taken instead names the problem
-    return _DELTA.search(head) is not None and _MARK.search(head) is not None
+        return False
+    return (_DELTA.search(head) is not None and _MARK.search(head) is not None) or \
+        _CONFIGURATION_H.search(head) is not None
 
 
 def read_marlin_settings(path: str | Path) -> MarlinSettings:
@@ -97,7 +140,12 @@ def read_marlin_settings(path: str | Path) -> MarlinSettings:
         text = Path(path).read_text(encoding="utf-8")
     except UnicodeDecodeError as exc:
         raise InputError(f"not a text file (byte {exc.start} is not UTF-8)", source) from None
+    header = _CONFIGURATION_H.search(text)
+    if header is not None:
+        defined = text.count("\n", 0, header.start()) + 1
+        raise InputError(CONFIGURATION_H_REFUSED, source, f"line {defined}")
     settings = MarlinSettings(source)
+    inches = 0  # the line of a G20 in force (Marlin then reports lengths in inches), else 0
     for number, raw in enumerate(text.splitlines(), start=1):
         line = _PREFIX.sub("", raw, count=1).strip()
         body = line.lstrip(";").strip()
@@ -108,24 +156,36 @@ def read_marlin_settings(path: str | Path) -> MarlinSettings:
             continue
         line = line.split(";", 1)[0].strip()
         command = line.split(None, 1)[0].upper() if line else ""
+        if command in ("G20", "G21"):
+            inches = number if command == "G20" else 0
         if command not in KEYS:
             continue
+        if inches and command != "M211":
+            raise InputError(f"reported in inches (G20, line {inches}): Marlin prints each length divided by "
+                             "25.4 to 2 decimals (0.254 mm, and M92 as steps per mm / 25.4), too coarse to "
+                             "calibrate: send G21, then M503, and capture that", source,
+                             f"line {number}, {command}")
         for key, value in _WORD.findall(line[len(command):]):
             key = key.upper()
             if key not in KEYS[command]:
                 continue
-            settings.values.setdefault(command, {})[key] = _number(value, source, number, f"{command} {key}")
+            settings.values.setdefault(command, {})[key] = _number(value, source, number, command, key)
             settings.lines[(command, key)] = number
     return settings
 
 
-def _number(text: str, source: str, line: int, where: str) -> float:
+def _number(text: str, source: str, line: int, command: str, key: str) -> float:
+    """A value of the report, within :data:`BOUNDS`."""
+    where = f"line {line}, {command} {key}"
     try:
         value = float(text)
     except ValueError:
-        raise InputError(f"value {text!r} is not a number", source, f"line {line}, {where}") from None
-    if not math.isfinite(value):
-        raise InputError(f"value {text!r} is not a finite number", source, f"line {line}, {where}")
+        raise InputError(f"value {text!r} is not a number", source, where) from None
+    bound = BOUNDS.get((command, key))
+    problem = "is not a finite number" if not math.isfinite(value) else \
+        bound.problem(value) if bound is not None else None
+    if problem is not None:
+        raise InputError(f"value {text!r} {problem}", source, where)
     return value
 
 
@@ -134,8 +194,30 @@ def _xyz(text: str, source: str, line: int, where: str) -> tuple[float, float, f
     words = {k.upper(): v for k, v in _WORD.findall(text)}
     if not all(k in words for k in "XYZ"):
         raise InputError(f"expected X, Y and Z, got {text.strip()!r}", source, f"line {line}, M211 {where}")
-    x, y, z = (_number(words[k], source, line, f"M211 {where} {k}") for k in "XYZ")
+    x, y, z = (_number(words[k], source, line, "M211", f"{where} {k}") for k in "XYZ")
     return x, y, z
+
+
+def _refuse_old_report(settings: MarlinSettings) -> None:
+    """Refuse the report of a Marlin before 1.1.x (``M665 L R S [A B C] [I J K]``, no ``H``) by what it lacks.
+
+    Its homed height is compiled in (``MANUAL_Z_HOME_POS``, moved by the ``M206 Z`` home offset), not
+    in the report; its ``M665 I J K`` are tower angle trims deltacal does not read.
+    """
+    m665 = settings.values.get("M665", {})
+    first = min((line for (command, _), line in settings.lines.items() if command == "M665"), default=0)
+    if m665 and "H" not in m665:
+        offset = settings.values.get("M206", {}).get("Z")
+        plus = f"plus this report's M206 Z{offset:g}" if offset is not None else "plus its M206 Z home offset"
+        raise InputError(f"no M665 H: the report of a Marlin without it (1.1.0 or older: 'M665 L R S ...'), "
+                         "whose homed height is compiled in (MANUAL_Z_HOME_POS of its Configuration.h, "
+                         f"{plus}), so not in the report: add a line 'M665 H<that height>' to the capture, "
+                         "or update Marlin and capture M503 again", settings.source, f"line {first}")
+    trims = [key for key in "IJK" if m665.get(key, 0.0) != 0.0]
+    if trims:
+        raise settings.error("M665", trims[0], f"value {m665[trims[0]]:g}: M665 I J K are the tower angle "
+                             "trims of Marlin 1.1.0's report, which deltacal does not read: update Marlin "
+                             "(M665 X Y Z) and capture M503 again")
 
 
 def load_marlin(path: str | Path) -> MarlinDelta:
@@ -144,7 +226,16 @@ def load_marlin(path: str | Path) -> MarlinDelta:
     Raises:
         InputError: naming the file, line and key of the first problem found.
     """
-    settings = read_marlin_settings(path)
+    return marlin_from_settings(read_marlin_settings(path))
+
+
+def marlin_from_settings(settings: MarlinSettings) -> MarlinDelta:
+    """Marlin's delta model with the values of an ``M503`` capture already read (:func:`load_marlin`).
+
+    Raises:
+        InputError: naming the file, line and key of the first problem found.
+    """
+    _refuse_old_report(settings)
     get = settings.get
     trims = settings.values.get("M665", {})
     rod_b = get("M665", "B", 0.0) if ("A" in trims or "C" in trims) else 0.0
@@ -175,7 +266,7 @@ def load_marlin(path: str | Path) -> MarlinDelta:
             soft_endstops=limits,
             segments_per_second=get("M665", "S", DEFAULT_SEGMENTS_PER_SECOND),
             extruder_steps_per_mm=settings.values.get("M92", {}).get("E"),
-            name=Path(path).name,
+            name=Path(settings.source).name,
         )
     except GeometryError as exc:
         raise InputError(str(exc), settings.source, "M665") from None

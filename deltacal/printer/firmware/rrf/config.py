@@ -10,15 +10,25 @@ a quoted string, ``(...)`` is a comment, parameter letters are read in any case,
   to the current one (``Platform::SetDriveStepsPerUnit``); ``M350 X Y Z`` changes the
   microstepping (default x16) and scales the steps per mm already set (``GCodes::ChangeMicrostepping``);
 * ``M208``: the Z minimum (``S1 Z``, or ``Zmin:max``); ``M564 S``: the limits on or off;
-* ``M669 K`` (the kinematics): only 3 (linear delta) is read; ``M501`` runs ``config-override.g``
-  from the same folder where it stands (as RRF does), with a warning if it is not there;
+* ``M669 K`` (the kinematics): only 3 (linear delta) is read;
+* ``M501`` runs ``config-override.g`` and ``M98 P"file"`` the file named, where they stand (RRF's
+  ``/sys``, config.g's folder, for a relative name, ``/sys/x.g`` and ``0:/sys/x.g`` in it, another
+  absolute name under the folder above: :func:`macro_path`); one not there is skipped with a
+  warning naming the line, a file calling itself refused;
 * ``G31 X Y Z`` of the first Z probe (``K0``, or no ``K``): the probe's offsets from the nozzle
   and its trigger height (``ZProbe::HandleG31``; RRF's defaults X0 Y0 Z0.7), for the probe's
-  results (:func:`rrf_probe_offsets`).
+  results (:func:`rrf_probe_offsets`); ``M558 H`` of the same probe: its dive height above the
+  trigger height (``H5``, or ``H5:2`` in RRF 3.5.1; default 5), for the probe program's travel;
+* ``M579`` (axis scaling, ``GCodes::ToolOffsetTransform``) and ``M556 S X Y Z`` (axis skew,
+  ``Move::AxisTransform``) move the nozzle off RRF's delta model: deltacal does not model them, so
+  a value other than the identity (scale 1, skew 0) is refused naming its line.
 
-Everything else (meta commands, other codes) is left alone. A value RRF computes at run time
-(``{...}``) cannot be read: it is refused naming its line. Errors are one line naming the file,
-the line and the key.
+Meta commands (:mod:`.meta`): a delta setting inside an ``if``/``elif``/``else``/``while`` block is
+refused naming its line; a variable set to a plain number (``global rodLength = 280``) is read
+where a parameter is exactly that variable (``M665 L{global.rodLength}``). Any other value RRF
+computes at run time (``{...}``) cannot be read: it is refused naming its line. Every value is held
+to what a printer can be (:data:`BOUNDS`). Everything else is left alone. Errors are one line
+naming the file, the line and the key.
 """
 
 from __future__ import annotations
@@ -33,7 +43,19 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
+from ....io.inputs import input_problem
+from ..bounds import (
+    ADJUSTMENT,
+    LENGTH,
+    MICROSTEPS,
+    POSITION,
+    PROBE_OFFSET,
+    STEPS_PER_MM,
+    TILT_PERCENT,
+    TRIM_ANGLE,
+)
 from ..probe_log import ProbeOffsets
+from .meta import Blocks, Variables, substitute
 from .model import (
     DEFAULT_DIAGONAL,
     DEFAULT_HOMED_HEIGHT,
@@ -44,21 +66,38 @@ from .model import (
 )
 
 #: The M-codes deltacal runs.
-READ_CODES = (92, 208, 350, 501, 564, 665, 666, 669)
+READ_CODES = (92, 208, 350, 501, 558, 564, 665, 666, 669)
+#: The M-code that runs another file: ``M98 P"file"``.
+CALLS = (98,)
+#: What moves the nozzle off RRF's delta model and deltacal does not model: ``M556`` (axis skew),
+#: ``M579`` (axis scaling); read to refuse a value that is not the identity.
+UNREAD_GEOMETRY = (556, 579)
 #: ``M669 K``: RRF's kinematics number of a linear delta.
 LINEAR_DELTA = 3
 #: RRF's Z probe trigger height when no ``G31 Z`` sets it (``DefaultZProbeTriggerHeight``) [mm].
 DEFAULT_TRIGGER_HEIGHT = 0.7
 #: The file ``M501`` runs.
 OVERRIDE = "config-override.g"
-#: How to put the lines :func:`rrf_config_text` writes into the printer (its header's second line):
-#: ``M500`` saves ``M665`` and ``M666`` to config-override.g, not ``M92``, and rewrites that file.
-APPLY_NOTE = ("Replace the M665 and M666 lines of config-override.g with these (or send them, then M500), "
-              "and the M92 X Y Z line of config.g (M500 does not save M92).")
+#: How to put the lines :func:`rrf_config_text` writes into the printer (its header's second line) when
+#: the configuration is not known (:func:`~.apply.rrf_apply_note` says it for one): ``M500`` saves
+#: ``M665`` and ``M666`` to config-override.g, not ``M92``, and rewrites that file.
+APPLY_NOTE = ("Replace the M665, M666 and M92 lines where the printer's configuration sets them last: "
+              "M665 and M666 in config-override.g when config.g runs M501 after its own (M500 saves them "
+              "there), else in config.g; M92 in config.g (M500 does not save M92).")
+#: What each value deltacal reads can be (:mod:`..bounds`), by its command and key.
+BOUNDS = {"M665 L": LENGTH, "M665 R": LENGTH, "M665 B": LENGTH, "M665 H": POSITION, "M665 X": TRIM_ANGLE,
+          "M665 Y": TRIM_ANGLE, "M665 Z": TRIM_ANGLE, "M666 X": ADJUSTMENT, "M666 Y": ADJUSTMENT,
+          "M666 Z": ADJUSTMENT, "M666 A": TILT_PERCENT, "M666 B": TILT_PERCENT, "M92 X": STEPS_PER_MM,
+          "M92 Y": STEPS_PER_MM, "M92 Z": STEPS_PER_MM, "M92 S": MICROSTEPS, "M350 X": MICROSTEPS,
+          "M350 Y": MICROSTEPS, "M350 Z": MICROSTEPS, "M208 Z": POSITION, "G31 X": PROBE_OFFSET,
+          "G31 Y": PROBE_OFFSET, "G31 Z": PROBE_OFFSET, "M558 H": PROBE_OFFSET}
 #: A line's command: an optional line number, then G/M/T and its number.
 _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IGNORECASE)
-#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}`` whole).
-_PARAM = re.compile(r"([A-Za-z])\s*(\"[^\"]*\"|\{[^}]*\}?|[^A-Za-z\"{]*)")
+#: A parameter: a letter, then its value (to the next letter outside quotes; an expression ``{...}``
+#: whole; an ``E`` after a digit is an exponent, as RRF's ``StringParser::Seen`` takes it).
+_PARAM = re.compile(r"([A-Za-z])\s*((?:\"[^\"]*\"|\{[^}]*\}?|(?<=[0-9.])[eE][-+]?(?=\d)|[^A-Za-z\"{])*)")
+#: ``M98``'s file: ``P"name"``, or (RRF 1.x/2.x) ``Pname`` up to white space.
+_FILE_NAME = re.compile(r"[Pp]\s*(?:\"([^\"]*)\"|([^\s\"]+))")
 #: An M665 or M666 line recognises a file as RRF's (beside M669, the kinematics).
 _DELTA_LINE = re.compile(r"^\s*(?:N\d+\s*)?M66[59]\b", re.IGNORECASE | re.MULTILINE)
 
@@ -72,19 +111,21 @@ class RRFLine:
         line: Its line number (1-based).
         code: ``"M665"``...
         params: Letter (upper case) -> value text.
+        rest: The line's text after the command, its comment stripped.
     """
 
     source: str
     line: int
     code: str
     params: dict[str, str]
+    rest: str = ""
 
     def error(self, key: str, detail: str) -> InputError:
         """A one-line error naming the file, the line and the key."""
         return InputError(detail, self.source, f"line {self.line}, {self.code} {key}")
 
     def numbers(self, key: str, count: int = 1) -> list[float]:
-        """A parameter's numbers (``a:b:c`` gives several): 1 or ``count`` of them, finite."""
+        """A parameter's numbers (``a:b:c`` gives several): 1 or ``count`` of them, within :data:`BOUNDS`."""
         text = self.params[key].strip()
         if "{" in text:
             raise self.error(
@@ -97,6 +138,11 @@ class RRFLine:
             raise self.error(key, f"value {text!r} is not a number") from None
         if not all(math.isfinite(v) for v in values):
             raise self.error(key, f"value {text!r} is not a finite number")
+        bound = BOUNDS.get(f"{self.code} {key}")
+        problems = [bound.problem(v) for v in values] if bound is not None else []
+        problem = next((p for p in problems if p is not None), None)
+        if problem is not None:
+            raise self.error(key, f"value {text!r} {problem}")
         if len(values) not in (1, count):
             raise self.error(key, f"value {text!r}: give 1 or {count} numbers")
         return values
@@ -137,13 +183,14 @@ def parse_line(text: str, source: str, number: int) -> RRFLine | None:
     if match is None:
         return None
     code = match.group(1).upper() + str(int(match.group(2)))
-    params = {m.group(1).upper(): m.group(2).strip() for m in _PARAM.finditer(text[match.end() :])}
-    return RRFLine(source, number, code, params)
+    rest = text[match.end() :]
+    params = {m.group(1).upper(): m.group(2).strip() for m in _PARAM.finditer(rest)}
+    return RRFLine(source, number, code, params, rest)
 
 
 def is_rrf_config(path: str | Path) -> bool:
     """Whether a file is a RepRapFirmware configuration: a ``*.g`` file that sets M665 or M669."""
-    if Path(path).suffix.lower() != ".g":
+    if Path(path).suffix.lower() != ".g" or input_problem(path) is not None:
         return False
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
@@ -162,12 +209,14 @@ class RRFSettings:
         values: Key (``"M665 L"``) -> its value(s).
         where: Key -> the line that set it last (for messages).
         microstepping: Each tower's microstepping (M350), (3,).
+        overrides: The ``M501`` lines run, in order (``config-override.g`` read when it is there).
     """
 
     source: str
     values: dict[str, list[float]] = field(default_factory=dict)
     where: dict[str, RRFLine] = field(default_factory=dict)
     microstepping: list[float] = field(default_factory=lambda: [float(DEFAULT_MICROSTEPPING)] * 3)
+    overrides: list[RRFLine] = field(default_factory=list)
 
     def set(self, line: RRFLine, key: str, values: list[float]) -> None:
         """Keep a value and the line that set it."""
@@ -187,45 +236,93 @@ class RRFSettings:
 
 
 def read_rrf_settings(path: str | Path) -> RRFSettings:
-    """The delta settings a configuration leaves, its lines run in order (``M501`` included).
+    """The delta settings a configuration leaves, its lines run in order (``M501`` and ``M98`` included).
 
     Raises:
         InputError: naming the file, line and key of the first problem found.
     """
     settings = RRFSettings(str(path))
-    _run(Path(path), settings, set())
+    _run(Path(path), settings, [], Variables(), Path(path).parent)
     return settings
 
 
-def _run(path: Path, settings: RRFSettings, visited: set[Path]) -> None:
+def _run(path: Path, settings: RRFSettings, running: list[Path], variables: Variables, sys_dir: Path) -> None:
+    """Run one file's lines (``running``: the files calling it; ``sys_dir``: RRF's ``/sys``)."""
     try:
         text = path.read_text(encoding="utf-8").replace("\r\n", "\n")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the RepRapFirmware configuration file: {exc}", str(path)) from None
-    visited.add(path.resolve())
+    running.append(path.resolve())
+    blocks = Blocks()
     for number, raw in enumerate(text.split("\n"), start=1):
+        bare = strip_comment(raw)
+        block = blocks.enter(bare, number)
+        if variables.read(bare, str(path), number, block):
+            continue
         line = parse_line(raw, str(path), number)
-        if line is not None and line.code == "G31":
+        if line is None or not _is_read(line):
+            continue
+        if block is not None:
+            raise InputError(f"{line.code} inside the '{block.keyword}' block of line {block.line}: which "
+                             "branch RRF runs is known only when it runs the file: write the values that "
+                             "apply without the condition", str(path), f"line {number}")
+        line.params = substitute(line.params, variables, str(path), number, line.code)
+        if line.code in ("M98", "M501"):
+            _call(line, settings, running, variables, sys_dir)
+        elif line.code == "G31":
             _apply_g31(line, settings)
-            continue
-        if line is None or line.code[0] != "M" or int(line.code[1:]) not in READ_CODES:
-            continue
-        if line.code == "M501":
-            override = path.with_name(OVERRIDE)
-            if override.resolve() in visited:
-                continue
-            if not override.exists():
-                warn(
-                    f"{path}: line {number}: M501 runs {OVERRIDE}, not found beside it: its values "
-                    "(if any) are "
-                    "not read",
-                    InputWarning,
-                    stacklevel=3,
-                )
-                continue
-            _run(override, settings, visited)
-            continue
-        _apply(line, settings)
+        else:
+            _apply(line, settings)
+    running.pop()
+
+
+def _is_read(line: RRFLine) -> bool:
+    """Whether deltacal runs the command (:data:`READ_CODES`, ``M98``, ``G31``, :data:`UNREAD_GEOMETRY`)."""
+    return line.code == "G31" or (line.code[0] == "M" and int(line.code[1:]) in (*READ_CODES, *CALLS,
+                                                                                   *UNREAD_GEOMETRY))
+
+
+def _call(line: RRFLine, settings: RRFSettings, running: list[Path], variables: Variables,
+          sys_dir: Path) -> None:
+    """Run the file ``M501`` (config-override.g) or ``M98 P"file"`` calls, where RRF finds it."""
+    if line.code == "M501":
+        name, called = OVERRIDE, sys_dir / OVERRIDE
+        if called.resolve() in running:
+            return  # config-override.g running M501 again: RRF reads its values once
+        settings.overrides.append(line)
+    else:
+        given = _FILE_NAME.search(line.rest)
+        if given is None or "{" in given.group(0):
+            raise line.error("P", f"value {line.params.get('P', '')!r}: the file RRF runs is not known "
+                             "without running it (an expression, or none): write its name")
+        name = given.group(1) if given.group(1) is not None else given.group(2)
+        called = macro_path(name, sys_dir)
+        if called.resolve() in running:
+            raise line.error("P", f"{name} calls itself (through {Path(running[-1]).name}): RRF would run it "
+                             "until its macro stack is full")
+    if not called.exists():
+        warn(f"{line.source}: line {line.line}: {line.code} runs {name}, not found at {called}: its values "
+             "(if any) are not read", InputWarning, stacklevel=4)
+        return
+    if not called.is_file():
+        raise InputError(f"{line.code} runs {called}, not a regular file (a folder, a pipe, a device)",
+                         line.source, f"line {line.line}")
+    _run(called, settings, running, variables.in_file() if line.code == "M98" else variables, sys_dir)
+
+
+def macro_path(name: str, sys_dir: Path) -> Path:
+    """Where RRF finds the file ``M98 P"name"`` runs: relative to ``/sys`` (``sys_dir``), or absolute.
+
+    ``0:/sys/x.g`` and ``/sys/x.g`` are in ``sys_dir``; another absolute path (``/macros/x.g``) is
+    under the SD card's root, the folder above ``sys_dir``.
+    """
+    name = re.sub(r"^\d+:", "", name.replace("\\", "/"))
+    if not name.startswith("/"):
+        return sys_dir / name
+    parts = [part for part in name.split("/") if part]
+    if parts and parts[0].lower() == "sys":
+        return sys_dir.joinpath(*parts[1:])
+    return sys_dir.parent.joinpath(*parts)
 
 
 def _apply(line: RRFLine, settings: RRFSettings) -> None:
@@ -264,6 +361,24 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
+    elif line.code == "M558" and "H" in p and ("K" not in p or line.number("K") == 0):
+        settings.set(line, "H", line.numbers("H", 2))
+    elif line.code == "M579" or (line.code == "M556" and "S" in p):
+        _refuse_unread(line)
+
+
+def _refuse_unread(line: RRFLine) -> None:
+    """Refuse an ``M579`` axis scaling other than 1, an ``M556`` axis skew other than 0."""
+    scaling = line.code == "M579"
+    for key in ("X", "Y", "Z"):
+        if key in line.params and line.number(key) != (1.0 if scaling else 0.0):
+            what = ("axis scaling (M579: RRF multiplies each coordinate by it before its delta kinematics, "
+                    "GCodes::ToolOffsetTransform)" if scaling else
+                    "axis skew compensation (M556: RRF shears X and Y with Z before its delta kinematics, "
+                    "Move::AxisTransform)")
+            raise line.error(key, f"value {line.params[key]!r}: {what} is not in deltacal's model of RRF: "
+                                  "remove it (M579 X1 Y1 Z1, M556 S1 X0 Y0 Z0) and let the calibration find "
+                                  "the geometry")
 
 
 def _apply_g31(line: RRFLine, settings: RRFSettings) -> None:
@@ -360,6 +475,7 @@ def rrf_config_text(
     title: str = "",
     notes: list[str] | tuple[str, ...] = (),
     complete: bool = False,
+    apply_note: str = APPLY_NOTE,
 ) -> str:
     """RRF's values as ``M665``, ``M666`` and ``M92`` lines for ``config-override.g`` (or ``config.g``).
 
@@ -376,6 +492,8 @@ def rrf_config_text(
         title: A first comment line (what the values are).
         notes: More comment lines, each after ``; ``.
         complete: A whole configuration, values exact.
+        apply_note: How to put the lines into the printer (the second line; not with ``complete``):
+            :func:`~.apply.rrf_apply_note` of ``source``.
     """
     micro = (
         read_rrf_settings(source).microstepping if source is not None else [float(DEFAULT_MICROSTEPPING)] * 3
@@ -390,7 +508,7 @@ def rrf_config_text(
     mm, deg = (lambda v: _number(v, MM_DECIMALS, complete)), (lambda v: _number(v, DEG_DECIMALS, complete))
     lines = [f"; {title}" if title else "; RepRapFirmware delta values written by deltacal"]
     if not complete:
-        lines.append(f"; {APPLY_NOTE}")
+        lines.append(f"; {apply_note}")
     lines += [f"; {note}".rstrip() for note in notes]
     if complete:
         lines.append(f"M669 K{3}")

@@ -13,10 +13,11 @@ from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ....gcode.dialect import ArcP, Dialect
+from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
     APPLY_NOTE,
@@ -26,17 +27,19 @@ from .config import (
     rrf_config_text,
     rrf_probe_offsets,
 )
-from .fit import RRFFit, fit_rrf
+from .dialect import rrf_dialect
+from .fit import fit_rrf
 from .homing import homed_position
 from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
-from .probing import rrf_probe_program
+from .probing import rrf_probe_program, rrf_probe_travel
 
 if TYPE_CHECKING:
     from ...files.importer import PrinterImport
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
+    from ..probing import ProbeTravel
 
 
 class RRF(Firmware[RRFDelta]):
@@ -81,8 +84,13 @@ class RRF(Firmware[RRFDelta]):
         notes: list[str] | tuple[str, ...] = (),
         complete: bool = False,
     ) -> str:
-        """:func:`~.config.rrf_config_text`."""
-        return rrf_config_text(model, source, title, notes, complete)
+        """:func:`~.config.rrf_config_text`, its second line :meth:`apply_note_for` ``source``."""
+        note = self.apply_note_for(None if complete else source)
+        return rrf_config_text(model, source, title, notes, complete, note)
+
+    def apply_note_for(self, source: str | Path | None) -> str:
+        """:func:`~.apply.rrf_apply_note`: the lines of ``config.g`` or ``config-override.g`` to replace."""
+        return rrf_apply_note(source)
 
     def fit(
         self,
@@ -92,8 +100,9 @@ class RRF(Firmware[RRFDelta]):
         workspace: Workspace,
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
+        minimax: bool = False,
         grid: np.ndarray | None = None,
-    ) -> RRFFit:
+    ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
             geometry,
@@ -103,6 +112,7 @@ class RRF(Firmware[RRFDelta]):
             hold_step_distance=hold_step_distance,
             grid=grid,
             first_layer_weight=first_layer_weight,
+            minimax=minimax,
         )
 
     def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:
@@ -113,9 +123,18 @@ class RRF(Firmware[RRFDelta]):
         return {f"{self.title} G32 (S{s})": rrf_g32(model, measuring.heights, radius - BED_MARGIN, s)
                 for s in (DEFAULT_FACTORS, TILT_FACTORS)}
 
-    def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
+    def probe_program(self, points: np.ndarray, title: str = "",
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
         return rrf_probe_program(points, title, clearance)
+
+    def probe_travel(self, path: str | Path) -> ProbeTravel:
+        """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed)."""
+        return rrf_probe_travel(read_rrf_settings(path))
+
+    def config_files(self, path: str | Path) -> tuple[Path, ...]:
+        """:func:`~.apply.rrf_config_files`: ``config.g``, the files it runs and ``homedelta.g``."""
+        return rrf_config_files(path)
 
     def dialect(self, path: str | Path, model: RRFDelta | None = None) -> Dialect:
         """RepRapFirmware's reading of G-code with ``config.g``.
@@ -127,13 +146,17 @@ class RRF(Firmware[RRFDelta]):
         moves stop each carriage at its endstop (``OnHomingSwitchTriggered``): the nozzle is where
         RRF's model puts those carriages, moved on by the literal moves ``homedelta.g`` makes after
         them when it lies beside ``config.g`` (:func:`~.homing.homed_position`). No macros are read.
+        A line's command is its first letter after the indentation (:data:`~.dialect.RRF_LINES`);
+        the commands that set the values the program is corrected for are refused
+        (:func:`~.dialect.rrf_rules`).
 
         Raises:
             InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
                 is not known.
         """
-        home, _ = homed_position(path, load_rrf(path) if model is None else model)
-        return Dialect("rrf", arc_p=ArcP.IGNORED, home=tuple(home.tolist()), e_by_m83=True)
+        model = load_rrf(path) if model is None else model
+        home, _ = homed_position(path, model)
+        return rrf_dialect(model, home)
 
     def is_probe_log(self, text: str) -> bool:
         """RRF's answers to ``G30 S-1`` (:func:`~.log.is_rrf_probe_log`)."""

@@ -17,12 +17,13 @@ fraction.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
 from .. import fitting
+from ..base import FirmwareFit
 from ..fitting import ErrorStats, ValueVector, gauss_newton, printable_grid
 from .model import RRFDelta
 
@@ -50,34 +51,6 @@ _ANGLE_Z = 3
 _STEPS = 13
 #: Central-difference steps per value [mm, rad, fraction; relative for step distances].
 _STEP = (1e-4, 1e-7, 1e-7, 1e-7, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-7, 1e-7, 1e-7, 1e-7, 1e-7)
-
-
-@dataclass(frozen=True)
-class RRFFit:
-    """RRF's values fitted to a printer, and what they leave.
-
-    Attributes:
-        rrf: The fitted values (endstop adjustments averaging zero).
-        fitted: Names (:data:`RRF_NAMES`) of the values fitted.
-        held: Names held at the start's values (asked, or not identifiable over the grid).
-        before: Errors with the start's values.
-        after: Errors with the fitted values.
-        iterations: Gauss-Newton iterations.
-        points: Number of grid points.
-    """
-
-    rrf: RRFDelta
-    fitted: list[str]
-    held: list[str]
-    before: ErrorStats
-    after: ErrorStats
-    iterations: int
-    points: int
-
-    @property
-    def values(self) -> RRFDelta:
-        """The fitted values (:attr:`rrf`), by the firmware interface's name."""
-        return self.rrf
 
 
 def values_of(rrf: RRFDelta) -> np.ndarray:
@@ -149,7 +122,8 @@ def fit_rrf(
     grid: np.ndarray | None = None,
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
-) -> RRFFit:
+    minimax: bool = False,
+) -> FirmwareFit[RRFDelta]:
     """RRF's values that leave the least squared nozzle error over the printable volume (the part's frame).
 
     Args:
@@ -161,6 +135,8 @@ def fit_rrf(
         grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        minimax: Then the least largest error over the grid, the first layer no less flat
+            (:func:`~..fitting.least_largest`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -169,13 +145,15 @@ def fit_rrf(
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
     wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES)) if c != _ANGLE_Z]
     found = gauss_newton(geometry, start, RRF_VALUES, step_distance, workspace, grid, wanted, max_iter,
-                         first_layer_weight, True, "RepRapFirmware")
+                         first_layer_weight, True, "RepRapFirmware", minimax)
     rrf = normalised(found.model)
     fitted = [RRF_NAMES[c] for c in found.columns]
-    return RRFFit(
-        rrf=rrf,
+    return FirmwareFit(
+        values=rrf,
         fitted=fitted,
         held=[n for n in RRF_NAMES if n not in fitted],
+        unidentifiable=found.unidentifiable,
+        singular_values=found.singular_values,
         before=error_stats(geometry, start, step_distance, workspace, grid),
         after=error_stats(geometry, rrf, step_distance, workspace, grid),
         iterations=found.iterations,

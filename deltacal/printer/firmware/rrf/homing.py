@@ -3,13 +3,19 @@
 On a delta ``G28`` runs ``homedelta.g`` (in ``sys/``, beside ``config.g``). Its ``G1 H1`` moves
 stop each carriage at its endstop (``OnHomingSwitchTriggered``); what follows the last of them
 moves the nozzle on from there, typically ``G1 Z-5 F...`` under ``G91``, then ``G90`` and ``G1 X0
-Y0``. :func:`homed_position` starts at every carriage on its endstop and applies the moves after the
-last ``H1`` line: ``G90``/``G91`` (absolute to start with, RRF's default) and ``G0``/``G1`` with
-literal X, Y, Z (its modal position). A move whose end cannot be known without running the file is
-refused naming its line: a move of single motors (``H2``), a probing or homing command
-(``G28``, ``G29``, ``G30``, ``G32``), a macro call (``M98``), a condition or a loop (``if``,
-``while``), an expression. Without ``homedelta.g`` beside the configuration (a configuration
-copied alone), ``G28`` leaves every carriage at its endstop. Units: mm.
+Y0``. RRF 2.x and earlier took ``S`` for ``H`` (``G1 S1 X750 Y750 Z750``, then ``G1 S2 X-5 Y-5 Z-5``:
+``GCodes::DoStraightMove`` of 2.05 reads the move type from ``H`` or ``S``), and so does deltacal on a
+move without ``H``.
+
+:func:`homed_position` starts at every carriage on its endstop and applies the moves after the
+last ``H1`` line: ``G90``/``G91`` (absolute to start with, RRF's default), ``G0``/``G1`` with
+literal X, Y, Z (its modal position), and ``G1 H2`` moves of single motors under ``G91``, each
+carriage moved up by its X, Y, Z (RRF moves the motors by that many mm, the nozzle goes where its
+model puts the carriages; RRF refuses them to absolute positions on a delta, so does deltacal). A
+move whose end cannot be known without running the file is refused naming its line: a probing or
+homing command (``G28``, ``G29``, ``G30``, ``G32``), a macro call (``M98``), a condition or a loop
+(``if``, ``while``), an expression. Without ``homedelta.g`` beside the configuration (a
+configuration copied alone), ``G28`` leaves every carriage at its endstop. Units: mm.
 """
 
 from __future__ import annotations
@@ -53,7 +59,7 @@ def homed_position(config: str | Path, rrf: RRFDelta) -> tuple[np.ndarray, str]:
     except OSError as exc:
         raise InputError(f"cannot read the homing file ({exc.strerror})", str(path)) from None
     parsed = [parse_line(raw, str(path), number) for number, raw in enumerate(text, start=1)]
-    homing = [k for k, line in enumerate(parsed) if _is_move(line) and _h(line) in (1.0, 3.0)]
+    homing = [k for k, line in enumerate(parsed) if _is_move(line) and _move_type(line) in (1.0, 3.0)]
     if not homing:
         return home, "the endstops"
     relative = False
@@ -68,9 +74,11 @@ def homed_position(config: str | Path, rrf: RRFDelta) -> tuple[np.ndarray, str]:
         if line.code in _UNKNOWN:
             raise _unknown(path, number, line.code)
         relative = _mode(line, relative)
-        if _is_move(line):
-            if _h(line) != 0.0:
-                raise _unknown(path, number, f"{line.code} H{_h(line):g} (single motors)")
+        if _is_move(line) and _move_type(line) == 2.0:
+            home = _motor_move(line, rrf, home, relative, path)
+        elif _is_move(line):
+            if _move_type(line) != 0.0:
+                raise _unknown(path, number, f"{line.code} H{_move_type(line):g}")
             for axis, key in enumerate("XYZ"):
                 if key in line.params:
                     home[axis] = line.number(key) + (home[axis] if relative else 0.0)
@@ -81,9 +89,25 @@ def _is_move(line: RRFLine | None) -> bool:
     return line is not None and line.code in ("G0", "G1")
 
 
-def _h(line: RRFLine | None) -> float:
-    """A move's ``H`` (0 without one)."""
-    return line.number("H") if line is not None and "H" in line.params else 0.0
+def _move_type(line: RRFLine | None) -> float:
+    """A move's type: its ``H``, else its ``S`` (RRF 2.x and earlier), else 0 (an ordinary move)."""
+    if line is None:
+        return 0.0
+    key = "H" if "H" in line.params else "S" if "S" in line.params else ""
+    return line.number(key) if key else 0.0
+
+
+def _motor_move(line: RRFLine, rrf: RRFDelta, nozzle: np.ndarray, relative: bool, path: Path) -> np.ndarray:
+    """Where ``G1 H2`` (single motors) leaves the nozzle: each carriage moved up by its X, Y, Z [mm]."""
+    if not relative:
+        raise InputError(f"{line.code} {'H' if 'H' in line.params else 'S'}2 moves single motors to absolute "
+                         "positions, which RRF refuses on a delta: move them under G91", str(path),
+                         f"line {line.line}")
+    steps = rrf.steps(nozzle[None])[0]
+    for axis, key in enumerate("XYZ"):
+        if key in line.params:
+            steps[axis] -= line.number(key) / rrf.step_distance[axis]
+    return rrf.positions(steps[None])[0]
 
 
 def _mode(line: RRFLine | None, relative: bool) -> bool:

@@ -307,6 +307,10 @@ class RRFDelta:
         """The same values with the ``M208`` Z minimum = ``minimum_z`` [mm]."""
         return replace(self, z_min=float(minimum_z))
 
+    def with_limits(self, limit_axes: bool) -> RRFDelta:
+        """The same values with RRF's limits on (``M564 S1``) or off (``M564 S0``)."""
+        return replace(self, limit_axes=bool(limit_axes))
+
     def outside(self, commands: np.ndarray) -> np.ndarray:
         """Which of RRF's limits each command breaks (``LimitPosition``): 0 none, else a code.
 

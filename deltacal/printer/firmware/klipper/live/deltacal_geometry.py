@@ -1,0 +1,468 @@
+"""deltacal's correction of a linear Delta printer, applied by Klipper to every move (a Klipper extra).
+
+Written by deltacal (``deltacal export CAL.toml --controller klipper --config printer.cfg --live
+-o OUTDIR``), with ``deltacal_geometry.cfg``, the ``[deltacal_geometry]`` section of the data. To
+install: copy this file into ``klippy/extras/``, add ``[include deltacal_geometry.cfg]`` to
+``printer.cfg``, restart Klipper. ``DELTACAL_GEOMETRY`` reports its state, ``DELTACAL_GEOMETRY
+ENABLE=0`` turns it off (``ENABLE=1`` on again). Standard-library Python only: it runs in Klipper's
+own Python on the printer's host. It is deltacal's (BSD-3-Clause), written for Klipper's interfaces;
+it holds no code of Klipper's.
+
+What it does, move by move: a move's program point x is sent to Klipper's kinematics as
+``x + c(x)``, the correction interpolated (Catmull-Rom, tricubic) from its values at the nodes of
+a regular grid (deltacal computed them exactly: the command that puts the identified printer's
+nozzle on x through Klipper's own model). A long move is cut into segments short enough that the
+nozzle stays on the straight line. Where the calibration does not hold the correction is 0 (the
+grid's values fall to 0 there). Klipper's position reports (``get_position``) are the program's
+coordinates: the command is inverted by fixed-point iteration, and a position outside the grid
+(Klipper asks for made-up ones while homing) is returned as it is; it never raises.
+
+Where it sits: a move transform (``gcode_move.set_move_transform``) registered while the
+configuration is read, over ``bed_mesh`` (or ``bed_tilt``), which it loads first when the
+configuration has it; ``skew_correction`` and ``z_thermal_adjust`` (registered at connect) and
+``exclude_object`` (at run time) go over it. At connect it reads Klipper's delta values from the
+kinematics and refuses to start if they are not those the correction was computed for. A program
+already corrected by deltacal (its first line is the marker ``; corrected by deltacal ...``) is
+refused when the marker line reaches Klipper's G-code dispatcher (a comment line: Klipper's
+dispatcher hands it to its default handler, which this module wraps).
+"""
+
+import base64
+import logging
+import math
+import sys
+import zlib
+from array import array
+from itertools import product, repeat, starmap
+from operator import add, mul
+
+#: The format of the ``[deltacal_geometry]`` section this module reads.
+FORMAT = "deltacal-klipper-live-1"
+#: How the first line of a program corrected offline by deltacal starts (deltacal.gcode.marker).
+MARKER = "; corrected by deltacal "
+#: The towers, in Klipper's order.
+TOWERS = "abc"
+#: Relative difference of a value of Klipper's from the section's that is still the same value.
+SAME_VALUE = 1e-9
+#: The inverse's fixed-point iterations at most, and the change at which it stops [mm].
+INVERSE_ITERATIONS = 50
+INVERSE_TOLERANCE = 1e-10
+
+
+def catmull_rom(t):
+    """The 4 weights of Catmull-Rom's cubic convolution at a fraction t in [0, 1)."""
+    t2 = t * t
+    t3 = t2 * t
+    return (0.5 * (-t3 + 2.0 * t2 - t), 0.5 * (3.0 * t3 - 5.0 * t2) + 1.0,
+            0.5 * (-3.0 * t3 + 4.0 * t2 + t), 0.5 * (t3 - t2))
+
+
+class CorrectionGrid:
+    """The correction at the nodes of a regular grid, and its interpolation [mm].
+
+    Args:
+        origin: The first node (x, y, z).
+        step: The nodes' spacing.
+        shape: Nodes along x, y and z.
+        values: The correction's 3 components at each node, x slowest, the component fastest, in
+            units of ``scale`` [mm].
+        curvature: The bound of the correction's second derivative [1/mm] at radius k x step
+            (non-decreasing in k) and height j (the z nodes): ``curvature[k][j]``, for the splitting
+            of moves.
+        scale: The unit of ``values`` [mm].
+    """
+
+    def __init__(self, origin, step, shape, values, curvature, scale=1.0):
+        self.x0, self.y0, self.z0 = origin
+        self.step = step
+        self.inverse_step = 1.0 / step
+        self.nx, self.ny, self.nz = shape
+        self.values = values
+        self.stride_z = 3
+        self.stride_y = 3 * self.nz
+        self.stride_x = 3 * self.nz * self.ny
+        self.curvature = curvature
+        self.scale = scale
+        self._plane = None
+        self._px = self._py = self._pz = ()
+        self._cells = {}
+        self._free = {}
+
+    def at(self, x, y, z):
+        """The correction at (x, y, z), or None beyond the grid (none there).
+
+        The 64 nodes around the point's cell are contracted along z first, for its height: the 16
+        values per component left are kept, so that the next points of a layer in the same cell
+        (most of a print's moves) cost 16 weights and 3 sums of 16 products.
+        """
+        u = (x - self.x0) * self.inverse_step
+        v = (y - self.y0) * self.inverse_step
+        w = (z - self.z0) * self.inverse_step
+        if not (1.0 <= u < self.nx - 2 and 1.0 <= v < self.ny - 2 and 1.0 <= w < self.nz - 2):
+            return None
+        i, j = int(u), int(v)
+        if (i, j, w) != self._plane:
+            self._contract(i, j, w)
+        weights = list(starmap(mul, product(catmull_rom(u - i), catmull_rom(v - j))))
+        scale = self.scale
+        return (scale * sum(map(mul, weights, self._px)), scale * sum(map(mul, weights, self._py)),
+                scale * sum(map(mul, weights, self._pz)))
+
+    def _contract(self, i, j, w):
+        """The 16 columns of 4 nodes around cell (i, j) at height w (in nodes), contracted along z."""
+        k = int(w)
+        cell = self._cells.get((i, j, k))
+        if cell is None:
+            cell = self._gather(i, j, k)
+        z0, z1, z2, z3 = (repeat(f) for f in catmull_rom(w - k))
+        self._px, self._py, self._pz = (
+            list(map(add, map(add, map(mul, c0, z0), map(mul, c1, z1)),
+                     map(add, map(mul, c2, z2), map(mul, c3, z3))))
+            for c0, c1, c2, c3 in cell)
+        self._plane = (i, j, w)
+
+    def _gather(self, i, j, k):
+        """The 64 nodes around cell (i, j, k): per component, per z node, the 16 columns' values (kept)."""
+        values, sx, sy = self.values, self.stride_x, self.stride_y
+        columns = [(i - 1 + a) * sx + (j - 1 + b) * sy + (k - 1) * 3 for a in range(4) for b in range(4)]
+        cell = tuple(tuple([values[n + 3 * c + component] for n in columns] for c in range(4))
+                     for component in range(3))
+        if len(self._cells) >= 4096:  # a print's cells, many times over
+            self._cells.clear()
+        self._cells[(i, j, k)] = cell
+        return cell
+
+    def command(self, x, y, z):
+        """The command for the program point (x, y, z): the point plus its correction."""
+        c = self.at(x, y, z)
+        if c is None:
+            return x, y, z
+        return x + c[0], y + c[1], z + c[2]
+
+    def program_point(self, x, y, z):
+        """The program point whose command is (x, y, z): fixed-point iteration; never raises.
+
+        Where the iteration leaves the grid or does not settle (no such point), (x, y, z) as it is.
+        """
+        try:
+            px, py, pz = x, y, z
+            for _ in range(INVERSE_ITERATIONS):
+                c = self.at(px, py, pz)
+                if c is None:
+                    return x, y, z
+                nx, ny, nz = x - c[0], y - c[1], z - c[2]
+                change = abs(nx - px) + abs(ny - py) + abs(nz - pz)
+                px, py, pz = nx, ny, nz
+                if change <= INVERSE_TOLERANCE:
+                    return px, py, pz
+            logging.warning("deltacal_geometry: no program point found for the position %.6f %.6f %.6f;"
+                            " kept as it is", x, y, z)
+        except Exception:  # a report of Klipper's position must not fail: Klipper would shut down
+            logging.exception("deltacal_geometry: position %r %r %r kept as it is", x, y, z)
+        return x, y, z
+
+    def segments(self, start, end, tolerance):
+        """Segments to cut a move into so that the nozzle stays within ``tolerance`` of the line.
+
+        The chord of a segment of length s departs from the correction by s^2 K / 8 at most, K the
+        bound of the correction's second derivative at the move's larger radius (a straight line's
+        radius is largest at one of its ends), over the layers of its heights.
+        """
+        dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        free = self._free.get(tolerance)
+        if free is None:  # the longest segment the largest bound allows: shorter moves are never cut
+            largest = max(max(row) for row in self.curvature)
+            free = self._free[tolerance] = math.sqrt(8.0 * tolerance / largest) if largest > 0.0 else math.inf
+        if length <= free:
+            return 1
+        radius = max(math.hypot(start[0], start[1]), math.hypot(end[0], end[1]))
+        row = self.curvature[min(int(radius * self.inverse_step) + 1, len(self.curvature) - 1)]
+        last = len(row) - 1
+        low = min(max(int((min(start[2], end[2]) - self.z0) * self.inverse_step), 0), last)
+        high = min(max(int((max(start[2], end[2]) - self.z0) * self.inverse_step) + 1, 0), last)
+        bound = max(row[low:high + 1])
+        longest = math.sqrt(8.0 * tolerance / bound) if bound > 0.0 else length
+        return max(1, int(math.ceil(length / longest)))
+
+
+class DeltacalGeometry:
+    """The ``[deltacal_geometry]`` section: Klipper's move transform that applies the correction."""
+
+    def __init__(self, config):
+        self.printer = printer = config.get_printer()
+        self.name = config.get_name()
+        self.grid, self.values, self.volume = read_section(config)
+        self.calibration = config.get("calibration")
+        self.tolerance = config.getfloat("split_tolerance", 0.01, above=0.0)
+        self.error_text = config.get("sampling_error", "")
+        self.enabled = True
+        self.last_position = [0.0, 0.0, 0.0, 0.0]
+        self.limits = None
+        self.kinematics = None
+        # bed_mesh and bed_tilt take the first place in the chain without force: loaded first, they
+        # are under this transform (the correction first, then the bed's height map)
+        for below in ("bed_mesh", "bed_tilt"):
+            if config.has_section(below):
+                printer.load_object(config, below)
+        self.gcode_move = printer.load_object(config, "gcode_move")
+        self.next_transform = self.gcode_move.set_move_transform(self, force=True)
+        self.gcode = gcode = printer.lookup_object("gcode")
+        self._default_handler = getattr(gcode, "cmd_default", None)
+        if self._default_handler is None:
+            raise config.error("deltacal_geometry: this Klipper's G-code dispatcher has no default handler: "
+                               "a program corrected offline (its marker line) could not be refused")
+        gcode.cmd_default = self._cmd_default
+        gcode.register_command("DELTACAL_GEOMETRY", self.cmd_DELTACAL_GEOMETRY,
+                               desc=self.cmd_DELTACAL_GEOMETRY_help)
+        printer.register_event_handler("klippy:connect", self._handle_connect)
+
+    def _handle_connect(self):
+        """Klipper's delta values and limits, read from its kinematics, checked against the section's."""
+        toolhead = self.printer.lookup_object("toolhead")
+        if self.next_transform is None:  # nothing under it: the toolhead (made after the sections)
+            self.next_transform = toolhead
+        kinematics = toolhead.get_kinematics()
+        if not hasattr(kinematics, "get_calibration") or not hasattr(kinematics, "get_status"):
+            raise self.printer.config_error("deltacal_geometry: the printer's kinematics is not Klipper's "
+                                            "delta: the correction is a linear Delta printer's")
+        calibration = kinematics.get_calibration()
+        status = kinematics.get_status(self.printer.get_reactor().monotonic())
+        check_values(self.values, klipper_values(calibration), self.printer.config_error)
+        self.limits = Limits(calibration, status)
+        check_volume(self.volume, self.limits, self.printer.config_error)
+        self.kinematics = kinematics
+
+    # The move transform (gcode_move's interface) ---------------------------------------------
+    def get_position(self):
+        """The program's coordinates of the position under this transform."""
+        position = list(self.next_transform.get_position())
+        if self.enabled:
+            position[:3] = self.grid.program_point(position[0], position[1], position[2])
+        self.last_position[:] = position
+        return list(position)
+
+    def move(self, newpos, speed):
+        """Send a move, corrected and cut into segments so that the nozzle follows its straight line."""
+        if not self.enabled:
+            self.next_transform.move(newpos, speed)
+            self.last_position[:] = newpos
+            return
+        start = self.last_position
+        count = self.grid.segments(start, newpos, self.tolerance)
+        if count == 1:
+            commands = [list(newpos)]
+        else:
+            commands = [[s + n / count * (e - s) for s, e in zip(start, newpos)]  # noqa: B905 (Python 3.7+)
+                        for n in range(1, count)] + [list(newpos)]
+        for command in commands:
+            command[:3] = self.grid.command(command[0], command[1], command[2])
+        self._check_limits(newpos, commands)
+        for command in commands:
+            self.next_transform.move(command, speed)
+        self.last_position[:] = newpos
+
+    def _check_limits(self, newpos, commands):
+        """Refuse a move whose corrected points Klipper's limits refuse, as a whole, before any is sent.
+
+        Not before homing (Klipper refuses every move then) nor when the program's point itself
+        is out of range (Klipper's own error says so).
+        """
+        limits = self.limits
+        if limits is None:
+            return
+        for command in commands:
+            broken = limits.outside(command[0], command[1], command[2])
+            if broken and self.kinematics.get_status(None).get("homed_axes") == "xyz" \
+                    and not limits.outside(newpos[0], newpos[1], newpos[2]):
+                raise self.gcode.error(
+                    f"deltacal_geometry: the program's point X{newpos[0]:.4f} Y{newpos[1]:.4f} "
+                    f"Z{newpos[2]:.4f}, corrected, is X{command[0]:.4f} Y{command[1]:.4f} Z{command[2]:.4f}: "
+                    f"{broken}; or turn the correction off: DELTACAL_GEOMETRY ENABLE=0")
+
+    # Commands and status -----------------------------------------------------------------------
+    def _cmd_default(self, gcmd):
+        """Klipper's default G-code handler, which a comment line reaches: refuse deltacal's marker."""
+        if self.enabled and gcmd.get_commandline().lstrip("\ufeff \t").startswith(MARKER):
+            raise gcmd.error("deltacal_geometry: this program is already corrected by deltacal (its line "
+                             f"'{gcmd.get_commandline().strip()[:80]}'): corrected again, every move would "
+                             "be off by the correction; print the program as sliced, or turn the live "
+                             "correction off first (DELTACAL_GEOMETRY ENABLE=0)")
+        return self._default_handler(gcmd)
+
+    cmd_DELTACAL_GEOMETRY_help = "Report deltacal's live correction, or turn it off or on (ENABLE=0|1)"
+
+    def cmd_DELTACAL_GEOMETRY(self, gcmd):
+        """``DELTACAL_GEOMETRY [ENABLE=0|1]``."""
+        enable = gcmd.get_int("ENABLE", None, minval=0, maxval=1)
+        if enable is not None and bool(enable) != self.enabled:
+            self.enabled = bool(enable)
+            self.gcode_move.reset_last_position()  # the program's coordinates, through the new state
+        gcmd.respond_info(self.state_text())
+
+    def state_text(self):
+        """The state, in words."""
+        if not self.enabled:
+            return ("deltacal_geometry: off: moves go to Klipper's kinematics as the program gives them "
+                    "(DELTACAL_GEOMETRY ENABLE=1 to correct them)")
+        return (f"deltacal_geometry: on: every move corrected for the calibration {self.calibration} "
+                f"(grid {self.grid.step:g} mm; {self.error_text}; long moves cut within "
+                f"{self.tolerance:g} mm of their line); move transforms: {self.chain_text()}")
+
+    def chain_text(self):
+        """Klipper's move transforms in the order a move goes through them, this one's place among them."""
+        names = []
+        transform = getattr(self.gcode_move, "move_transform", None)
+        while transform is not None and transform is not self and len(names) < 16:
+            names.append(type(transform).__name__)
+            transform = getattr(transform, "next_transform", None)
+        names += ["deltacal_geometry", type(self.next_transform).__name__]
+        return " > ".join(names)
+
+    def get_status(self, eventtime=None):
+        """The state for Klipper's status (``printer.deltacal_geometry``)."""
+        return {"enabled": self.enabled, "calibration": self.calibration, "grid_step": self.grid.step}
+
+
+class Limits:
+    """Klipper's delta limits on a move's end (its kinematics' ``check_move``), from its live values."""
+
+    def __init__(self, calibration, status):
+        self.max_xy = float(status["axis_maximum"][0])
+        self.min_z = float(status["axis_minimum"][2])
+        self.max_z = float(status["axis_maximum"][2])
+        self.limit_z = float(status["cone_start_z"])
+        self.radius = float(calibration.radius)
+        self.arm = float(min(calibration.arms))
+
+    def outside(self, x, y, z):
+        """The limit (x, y, z) breaks, in words with the key that admits it, or "" (none)."""
+        if z < self.min_z:
+            return (f"below minimum_z_position {self.min_z:g}: set [printer] minimum_z_position: "
+                    f"{math.floor(z * 100.0) / 100.0:.2f}")
+        if z > self.max_z:
+            return f"above {self.max_z:g}, the lowest position_endstop: lower the move"
+        xy = math.hypot(x, y)
+        if xy > self.max_xy:
+            return (f"radius {xy:.4f} beyond Klipper's {self.max_xy:.4f}: set [printer] print_radius: "
+                    f"{math.ceil(xy * 100.0) / 100.0:.2f} (if the arms reach it), or keep the move nearer "
+                    "the centre")
+        if z > self.limit_z:
+            above = z - self.limit_z
+            allowed = self.radius - math.sqrt(max(self.arm * self.arm - (self.arm - above) ** 2, 0.0))
+            if xy > allowed:
+                return (f"radius {xy:.4f} beyond Klipper's taper near the top ({allowed:.4f} at this Z): "
+                        "lower the move or bring it nearer the centre")
+        return ""
+
+
+#: The section's Klipper values: its key -> (Klipper's section, Klipper's key).
+VALUE_KEYS = {"delta_radius": ("printer", "delta_radius")}
+for _tower in TOWERS:
+    VALUE_KEYS.update({f"angle_{_tower}": (f"stepper_{_tower}", "angle"),
+                       f"arm_length_{_tower}": (f"stepper_{_tower}", "arm_length"),
+                       f"position_endstop_{_tower}": (f"stepper_{_tower}", "position_endstop"),
+                       f"step_distance_{_tower}": (f"stepper_{_tower}", "rotation_distance")})
+
+
+#: The section's keys of the volume the correction covers.
+VOLUME_KEYS = ("build_radius", "minimum_z", "maximum_z", "coverage_margin")
+
+
+def read_section(config):
+    """The section's grid, the Klipper values it was computed for, and the volume it covers.
+
+    Raises:
+        config.error: naming the key of the first value missing or wrong.
+    """
+    kind = config.get("format")
+    if kind != FORMAT:
+        raise config.error(f"deltacal_geometry: format {kind!r}: this module reads {FORMAT!r}; copy the "
+                           "deltacal_geometry.py written with this section into klippy/extras/")
+    values = {key: config.getfloat(key) for key in VALUE_KEYS}
+    volume = {key: config.getfloat(key) for key in VOLUME_KEYS}
+    origin = config.getfloatlist("grid_origin", count=3)
+    step = config.getfloat("grid_step", above=0.0)
+    shape = config.getintlist("grid_shape", count=3)
+    curvature = read_curvature(config.get("split_curvature"), shape[2], config.error)
+    if min(shape) < 4:
+        raise config.error("deltacal_geometry: grid_shape needs 4 nodes or more along each axis")
+    unit = config.getfloat("correction_unit", above=0.0)
+    correction = decode_values(config.get("correction"), config.error)
+    expected = 3 * shape[0] * shape[1] * shape[2]
+    if len(correction) != expected:
+        raise config.error(f"deltacal_geometry: key correction: {len(correction)} values, expected "
+                           f"{expected} (3 per node of grid_shape {tuple(shape)})")
+    return CorrectionGrid(origin, step, shape, correction, curvature, unit), values, volume
+
+
+def read_curvature(text, layers, error):
+    """The bound of the correction's curvature: a line per ring, a value per z node, non-negative."""
+    try:
+        rows = [[float(v) for v in line.split(",")] for line in text.split("\n") if line.strip()]
+    except ValueError as exc:
+        raise error(f"deltacal_geometry: key split_curvature: {exc}") from None
+    if not rows or any(len(row) != layers or min(row) < 0.0 for row in rows):
+        raise error(f"deltacal_geometry: key split_curvature: a line per ring of {layers} non-negative "
+                    "values (one per z node of grid_shape)")
+    return rows
+
+
+def decode_values(text, error):
+    """The correction's values from the section's text: base64 of zlib-compressed little-endian int32."""
+    try:
+        data = zlib.decompress(base64.b64decode("".join(text.split()), validate=True))
+    except (ValueError, zlib.error) as exc:
+        raise error(f"deltacal_geometry: key correction: not deltacal's encoded values ({exc})") from None
+    values = array("i")
+    if values.itemsize != 4 or len(data) % 4:
+        raise error("deltacal_geometry: key correction: not a whole number of 32-bit values")
+    values.frombytes(data)
+    if sys.byteorder != "little":
+        values.byteswap()
+    return values
+
+
+def klipper_values(calibration):
+    """The section's values from Klipper's delta calibration (``kinematics.get_calibration()``)."""
+    values = {"delta_radius": calibration.radius}
+    for k, tower in enumerate(TOWERS):
+        values[f"angle_{tower}"] = calibration.angles[k]
+        values[f"arm_length_{tower}"] = calibration.arms[k]
+        values[f"position_endstop_{tower}"] = calibration.endstops[k]
+        values[f"step_distance_{tower}"] = calibration.stepdists[k]
+    return values
+
+
+def check_values(ours, klipper, error):
+    """Refuse Klipper's values if any is not the one the correction was computed for (``error``)."""
+    for key, (section, option) in VALUE_KEYS.items():
+        now, then = float(klipper[key]), ours[key]
+        if abs(now - then) > SAME_VALUE * max(1.0, abs(then)):
+            what = " (its step distance)" if key.startswith("step_distance") else ""
+            raise error(f"deltacal_geometry: [{section}] {option}{what} is {now:.9g} in Klipper, but the "
+                        f"correction was computed for {then:.9g}: export it again for the values Klipper "
+                        "runs (deltacal export CAL.toml --controller klipper --config printer.cfg --live -o "
+                        "DIR), or remove [include deltacal_geometry.cfg]")
+
+
+def check_volume(volume, limits, error):
+    """Refuse Klipper's limits if they reach beyond the volume the correction covers (``error``)."""
+    margin = volume["coverage_margin"]
+    beyond = []
+    if limits.max_xy > volume["build_radius"] + margin:
+        beyond.append(f"its build radius {limits.max_xy:.4f} (print_radius) is beyond the "
+                      f"{volume['build_radius']:.4f} covered")
+    if limits.min_z < volume["minimum_z"] - margin:
+        beyond.append(f"minimum_z_position {limits.min_z:g} is below the {volume['minimum_z']:g} covered")
+    if limits.max_z > volume["maximum_z"] + margin:
+        beyond.append(f"its top {limits.max_z:g} is above the {volume['maximum_z']:g} covered")
+    if beyond:
+        raise error(f"deltacal_geometry: Klipper's [printer] limits reach beyond the correction's volume "
+                    f"({'; '.join(beyond)}, {margin:g} mm allowed): export it again for the values Klipper "
+                    "runs, or remove [include deltacal_geometry.cfg]")
+
+
+def load_config(config):
+    """Klipper's entry point for the ``[deltacal_geometry]`` section."""
+    return DeltacalGeometry(config)

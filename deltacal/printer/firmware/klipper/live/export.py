@@ -1,0 +1,209 @@
+"""``export --controller klipper --config printer.cfg --live -o OUTDIR``: the live module and its data.
+
+Writes ``deltacal_geometry.py`` (:mod:`.deltacal_geometry`, the Klipper extra, as the package holds
+it) and ``deltacal_geometry.cfg``, its ``[deltacal_geometry]`` section: the Klipper values the
+correction was computed for (the module refuses to start under others), the volume it covers,
+the correction at the nodes of its grid (:mod:`.field`), the bound that cuts long moves, and the
+sampling error measured against the exact correction. Both are written once everything is
+computed, each atomically. Units: mm.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import re
+import zlib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .....calibration import Calibration
+from .....exceptions import InputError
+from .....io.atomic import atomic_write_text
+from ..config import load_klipper
+from ..model import KlipperController, KlipperDelta
+from .deltacal_geometry import FORMAT, TOWERS
+from .field import (
+    COVERAGE_NODES,
+    DEFAULT_STEP_MM,
+    TRUST_NODES,
+    CorrectionField,
+    LiveVolume,
+    SamplingError,
+    WeightFunction,
+    correction_field,
+    curvature_bound,
+    sampling_error,
+)
+
+#: The module's file: copied into ``klippy/extras/``.
+MODULE_FILE = "deltacal_geometry.py"
+#: The section's file: ``[include]``d in ``printer.cfg``.
+SECTION_FILE = "deltacal_geometry.cfg"
+#: The files ``export --live`` writes, in its output folder.
+LIVE_FILES = (MODULE_FILE, SECTION_FILE)
+#: How far a long move's nozzle may leave its straight line [mm]: below a step (0.0125 mm on most
+#: printers); the bound is conservative (the path strays less: tests/test_klipper_live.py).
+SPLIT_TOLERANCE_MM = 0.01
+#: The unit of the correction's values written [mm] (1 nm): 32-bit integers of it.
+VALUE_UNIT_MM = 1e-6
+#: Characters of a line of the correction's encoded values.
+LINE_CHARS = 76
+#: How to install it, as the export says and the section's header repeats.
+INSTALL_NOTE = ("copy deltacal_geometry.py into klippy/extras/, add [include deltacal_geometry.cfg] to "
+                "printer.cfg and restart Klipper; DELTACAL_GEOMETRY reports it, DELTACAL_GEOMETRY ENABLE=0 "
+                "turns it off")
+
+
+@dataclass(frozen=True)
+class LiveExport:
+    """What ``export --live`` computed and wrote.
+
+    Attributes:
+        field: The correction on its grid.
+        error: Its sampling error.
+        files: The files written (module, section).
+        lines: What the command prints.
+    """
+
+    field: CorrectionField
+    error: SamplingError
+    files: tuple[Path, Path]
+    lines: tuple[str, ...]
+
+
+def module_text() -> str:
+    """The live module's source, as the package holds it."""
+    return resources.files(__package__).joinpath(MODULE_FILE).read_text(encoding="utf-8")
+
+
+def export_live(calibration: Calibration, config: str | Path, folder: str | Path, source: str = "",
+                step: float = DEFAULT_STEP_MM, weight: WeightFunction | None = None) -> LiveExport:
+    """Compute the live correction of ``calibration`` for Klipper's values in ``config``; write both files.
+
+    Args:
+        calibration: The printer's calibration (its readings count in its ``step_distance``).
+        config: The ``printer.cfg`` the printer runs.
+        folder: The output folder (made if missing; its parent must exist).
+        source: The calibration's file, for the section and the messages.
+        step: The grid's spacing [mm].
+        weight: Where the calibration holds (:func:`.field.correction_field`).
+
+    Raises:
+        InputError: the configuration's first problem, or a calibration without its step distance.
+    """
+    klipper = load_klipper(config)
+    steps = calibration.geometry.step_distance
+    if steps is None:
+        raise InputError("no step_distance_mm: the step distance the printer's readings count in is not "
+                         "known (identify the printer again)", source, "key geometry.step_distance_mm")
+    controller = KlipperController(klipper, steps)
+    volume = LiveVolume.of(klipper)
+    field = correction_field(calibration, controller, volume, step, weight)
+    error = sampling_error(field, calibration, controller)
+    lines = _summary(field, error, klipper)
+    text = section_text(field, error, klipper, source, lines)
+    folder = Path(folder)
+    folder.mkdir(exist_ok=True)
+    files = (atomic_write_text(folder / MODULE_FILE, module_text()),
+             atomic_write_text(folder / SECTION_FILE, text))
+    said = (f"wrote the live correction of {source or 'the calibration'} for {config} to {files[0]} and "
+            f"{files[1]}", *lines, f"to install: {INSTALL_NOTE}")
+    return LiveExport(field, error, files, said)
+
+
+def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta) -> tuple[str, ...]:
+    """The lines the export prints (and the section keeps as comments)."""
+    v = field.volume
+    nx, ny, nz = field.shape
+    lines = [f"correction field: grid {field.step:g} mm, {nx} x {ny} x {nz} nodes over Klipper's volume "
+             f"(radius {v.radius:.2f} mm, z {v.min_z:g} to {v.max_z:.2f} mm), Catmull-Rom interpolation; "
+             f"{field.refused} nodes of it, or within {TRUST_NODES * field.step:g} mm of it, refused by the "
+             "library (out of the printer's reach, near a singularity): the correction blends to Klipper's "
+             "own command there",
+             f"sampling error against the exact correction at {error.points} points of the volume: max "
+             f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm (where Klipper moves at "
+             f"full speed), {error.max:.4f} mm out to the rim (Klipper's model nears a flat rod there); RMS "
+             f"{error.rms:.5f} mm"]
+    limits = _limits_note(field)
+    if limits:
+        lines.append(limits)
+    return tuple(lines)
+
+
+def _limits_note(field: CorrectionField) -> str:
+    """What Klipper's limits refuse of the corrected volume (its bed disk and a sample), or ""."""
+    v = field.volume
+    ring = np.arange(0.0, v.radius + 1e-9, 5.0)
+    angle = np.linspace(0.0, 2.0 * np.pi, 72, endpoint=False)
+    bed = np.stack([np.outer(ring, np.cos(angle)).ravel(), np.outer(ring, np.sin(angle)).ravel(),
+                    np.full(ring.size * angle.size, v.min_z)], axis=-1)
+    points = np.concatenate([bed, v.sample(4000, np.random.default_rng(7))])
+    commands = points + field(points)
+    refused = ~v.admits(commands)
+    if not np.any(refused):
+        return ""
+    low = refused & (commands[:, 2] < v.min_z)
+    parts = []
+    if np.any(low):
+        lowest = float(np.min(commands[low, 2]))
+        parts.append(f"{int(low.sum())} below minimum_z_position {v.min_z:g} (down to Z {lowest:.4f}: "
+                     f"[printer] minimum_z_position: {math.floor(lowest * 100.0) / 100.0:.2f} admits them)")
+    if np.any(refused & ~low):
+        parts.append(f"{int(np.sum(refused & ~low))} beyond Klipper's radius at the rim or its taper near "
+                     "the top (keep the program off them)")
+    return (f"note: of {len(points)} points of the volume (its bed and a sample), corrected, "
+            f"{'; '.join(parts)}: the module refuses such a move, naming the limit")
+
+
+def _number(value: float) -> str:
+    """A value as the section writes it (exact: the shortest text that reads back the same float)."""
+    return repr(float(value))
+
+
+def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperDelta, source: str,
+                 notes: tuple[str, ...] = ()) -> str:
+    """The ``[deltacal_geometry]`` section (see the module's documentation for its keys)."""
+    name = re.sub(r"[#;\x00-\x1f]", "?", Path(source).name) if source else "?"
+    v = field.volume
+    keys = {"format": FORMAT, "calibration": name,
+            "sampling_error": f"max {error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm, "
+                              f"{error.max:.4f} mm to the rim",
+            "delta_radius": _number(klipper.delta_radius)}
+    for k, tower in enumerate(TOWERS):
+        keys |= {f"angle_{tower}": _number(math.degrees(klipper.angle[k])),
+                 f"arm_length_{tower}": _number(klipper.arm_length[k]),
+                 f"position_endstop_{tower}": _number(klipper.position_endstop[k]),
+                 f"step_distance_{tower}": _number(klipper.step_distance[k])}
+    keys |= {"build_radius": _number(v.radius), "minimum_z": _number(v.min_z), "maximum_z": _number(v.max_z),
+             "coverage_margin": _number(COVERAGE_NODES * field.step),
+             "split_tolerance": f"{SPLIT_TOLERANCE_MM:g}",
+             "grid_origin": ", ".join(_number(x) for x in field.origin), "grid_step": _number(field.step),
+             "grid_shape": ", ".join(str(n) for n in field.shape),
+             "correction_unit": f"{VALUE_UNIT_MM:g}"}
+    bound = curvature_bound(field)
+    lines = ["# deltacal's live correction: the [deltacal_geometry] section deltacal_geometry.py reads.",
+             f"# To install: {INSTALL_NOTE}.",
+             "# Computed for the Klipper values below: the module refuses to start under others (export "
+             "again).",
+             *(f"# {line}" for line in notes), "", "[deltacal_geometry]",
+             *(f"{key}: {value}" for key, value in keys.items()),
+             "# split_curvature: per ring of grid_step (from the axis), the bound at each z node [1/mm]",
+             "split_curvature:", *("  " + ", ".join(f"{k:.3g}" for k in row) for row in bound),
+             "# correction: base64 of the zlib-compressed little-endian int32 values (in correction_unit), "
+             "3 per node, x slowest, then y, z, the component fastest",
+             "correction:", *("  " + line for line in encode_values(field.values))]
+    return "\n".join(lines) + "\n"
+
+
+def encode_values(values: np.ndarray) -> list[str]:
+    """The correction's values as the section's lines: base64 of zlib-compressed little-endian int32.
+
+    In :data:`VALUE_UNIT_MM`, node after node (x slowest, then y, z), the 3 components together.
+    """
+    data = np.rint(np.asarray(values) / VALUE_UNIT_MM).astype("<i4").tobytes()
+    text = base64.b64encode(zlib.compress(data, 9)).decode("ascii")
+    return [text[k:k + LINE_CHARS] for k in range(0, len(text), LINE_CHARS)]

@@ -1,0 +1,364 @@
+"""The correction of Klipper's commands sampled on a grid: what a move needs, for the live module.
+
+The exact correction of a program point x is its corrected target through Klipper's model,
+``command(x)`` (:func:`~deltacal.controller.corrected_targets`: exact compensation on the
+identified printer, then Klipper's forward model of those carriage travels). Klipper's host
+cannot run it (no numpy, a Raspberry Pi's time per move), so the live module
+(:mod:`.deltacal_geometry`) is given the correction ``c(x) = command(x) − x`` at the nodes of a
+regular grid and interpolates it: Catmull-Rom tricubic (along each axis the cubic convolution
+through the 4 nearest nodes: exact for quadratics, continuous with its first derivatives). At
+:data:`DEFAULT_STEP_MM` its error is a few µm where trilinear interpolation is off by 0.01 mm:
+the correction bends fast near the rim of Klipper's volume, where Klipper's model nears a flat rod.
+
+The grid covers Klipper's printable volume (:class:`LiveVolume`) and :data:`TRUST_NODES` nodes
+beyond it, where the node's value is the exact correction wherever the library gives it. Where it
+refuses a point (out of the identified printer's reach, near a singularity, not commandable
+through Klipper's model) and farther out, the correction blends to 0, Klipper's own command: the
+same function is continued across those nodes (the library's kinematics without its checks, else
+linear extrapolation), so that points near the border are interpolated from a smooth field, then
+weighted down by a smoothstep over :data:`BLEND_NODES` nodes. A weight function of points
+(``weight``; default 1: the calibration holds wherever the library corrects) multiplies the whole.
+:func:`curvature_bound` gives what the module needs to cut long moves. Units: mm.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt, maximum_filter
+
+from .....calibration import Calibration
+from .....controller import CommandModel, corrected_targets
+from .....exceptions import AssemblyError, GeometryError, UnreachableError
+from .....kinematics import exact
+from ..model import SLOW_RATIO, KlipperDelta
+
+#: The grid's default spacing [mm] (its sampling error is measured and said at every export).
+DEFAULT_STEP_MM = 10.0
+#: Nodes beyond the volume (and beyond the last node the library corrects) whose values are the
+#: correction itself: the interpolation at a point reads nodes up to 2 spacings away, and Klipper's
+#: limits may be moved one spacing beyond the volume (:data:`COVERAGE_NODES`).
+TRUST_NODES = 3
+#: How far beyond the volume Klipper's limits may reach with the correction still exact, in nodes.
+COVERAGE_NODES = 1
+#: Nodes over which the correction is weighted down to 0 beyond those.
+BLEND_NODES = 2
+#: Calls of the library at most (each may name more refused points at a later check).
+_TRIES = 8
+
+#: A weight function of points: (N, 3) [mm] -> (N,) in [0, 1].
+WeightFunction = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class LiveVolume:
+    """The volume a program's moves reach: Klipper's limits on a move's end (its ``check_move``).
+
+    Attributes:
+        radius: The build radius [mm] (``min(print_radius, the arms' reach)``).
+        min_z: The lowest Z (``minimum_z_position``) [mm].
+        max_z: The highest Z (the lowest ``position_endstop``) [mm].
+        limit_z: The Z above which the radius tapers [mm].
+        delta_radius: ``delta_radius`` [mm] (the taper's).
+        arm: The shortest ``arm_length`` [mm] (the taper's).
+        slow_radius: Where Klipper halves a move's speed (a tower 3 times faster than XY) [mm].
+    """
+
+    radius: float
+    min_z: float
+    max_z: float
+    limit_z: float
+    delta_radius: float
+    arm: float
+    slow_radius: float
+
+    @classmethod
+    def of(cls, klipper: KlipperDelta) -> LiveVolume:
+        """The volume of Klipper's values."""
+        return cls(klipper.max_radius, klipper.minimum_z_position, klipper.max_z, klipper.limit_z,
+                   klipper.delta_radius, float(np.min(klipper.arm_length)), klipper.ratio_radius(SLOW_RATIO))
+
+    def distance(self, points: np.ndarray) -> np.ndarray:
+        """Distance of points from the volume's cylinder (0 inside), (N, 3) -> (N,) [mm]."""
+        radial = np.maximum(np.hypot(points[:, 0], points[:, 1]) - self.radius, 0.0)
+        vertical = np.maximum(np.maximum(self.min_z - points[:, 2], points[:, 2] - self.max_z), 0.0)
+        return np.hypot(radial, vertical)
+
+    def admits(self, points: np.ndarray) -> np.ndarray:
+        """Which points Klipper admits as a move's end, (N, 3) -> (N,) bool (its taper included)."""
+        radius = np.hypot(points[:, 0], points[:, 1])
+        z = points[:, 2]
+        above = np.maximum(z - self.limit_z, 0.0)
+        taper = self.delta_radius - np.sqrt(np.maximum(self.arm**2 - (self.arm - above) ** 2, 0.0))
+        allowed = np.where(z > self.limit_z, np.minimum(self.radius, taper), self.radius)
+        return (z >= self.min_z) & (z <= self.max_z) & (radius <= allowed)
+
+    def sample(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        """``count`` points spread uniformly over what Klipper admits, (count, 3) [mm]."""
+        found: list[np.ndarray] = []
+        while sum(len(p) for p in found) < count:
+            r = self.radius * np.sqrt(rng.random(2 * count))
+            a = 2.0 * np.pi * rng.random(2 * count)
+            z = self.min_z + (self.max_z - self.min_z) * rng.random(2 * count)
+            points = np.column_stack([r * np.cos(a), r * np.sin(a), z])
+            found.append(points[self.admits(points)])
+        return np.concatenate(found)[:count]
+
+
+@dataclass(frozen=True, eq=False)
+class CorrectionField:
+    """The correction sampled at the nodes of a regular grid, and its interpolation.
+
+    Attributes:
+        origin: The first node [mm], (3,).
+        step: The spacing of the nodes [mm].
+        values: The correction at each node [mm], (nx, ny, nz, 3).
+        volume: The volume it was built for.
+        refused: Nodes within the trusted margin whose correction the library refused.
+        computed: Nodes whose correction the library was asked for.
+    """
+
+    origin: np.ndarray
+    step: float
+    values: np.ndarray
+    volume: LiveVolume
+    refused: int = 0
+    computed: int = 0
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """Nodes along x, y and z."""
+        nx, ny, nz = self.values.shape[:3]
+        return nx, ny, nz
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        """The interpolated correction at points, (N, 3) -> (N, 3) [mm]; 0 beyond the grid.
+
+        Catmull-Rom along each axis through the nodes ``i − 1 .. i + 2`` around a point: the live
+        module's arithmetic (:meth:`.deltacal_geometry.CorrectionGrid.at`), vectorised.
+        """
+        points = np.atleast_2d(np.asarray(points, dtype=float))
+        u = (points - self.origin) / self.step
+        cell = np.floor(u).astype(int)
+        inside = np.all((u >= 1.0) & (u < np.array(self.shape) - 2.0), axis=1)
+        out = np.zeros(points.shape)
+        cell, t = cell[inside], u[inside] - cell[inside]
+        w = [_catmull_rom_weights(t[:, k]) for k in range(3)]
+        total = np.zeros((len(cell), 3))
+        for a in range(4):
+            for b in range(4):
+                for c in range(4):
+                    node = self.values[cell[:, 0] - 1 + a, cell[:, 1] - 1 + b, cell[:, 2] - 1 + c]
+                    total += (w[0][:, a] * w[1][:, b] * w[2][:, c])[:, None] * node
+        out[inside] = total
+        return out
+
+
+def _catmull_rom_weights(t: np.ndarray) -> np.ndarray:
+    """The 4 weights of Catmull-Rom's cubic convolution at fractions t in [0, 1), (N,) -> (N, 4)."""
+    t2, t3 = t * t, t * t * t
+    return np.stack([0.5 * (-t3 + 2.0 * t2 - t), 0.5 * (3.0 * t3 - 5.0 * t2) + 1.0,
+                     0.5 * (-3.0 * t3 + 4.0 * t2 + t), 0.5 * (t3 - t2)], axis=-1)
+
+
+def exact_correction(calibration: Calibration, controller: CommandModel, points: np.ndarray) -> np.ndarray:
+    """The library's correction ``command(x) − x`` at points, NaN rows where it refuses them, (N, 3).
+
+    :func:`~deltacal.controller.corrected_targets` (the offline route's), asked again without the
+    points it refuses until it refuses none.
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    out = np.full(points.shape, np.nan)
+    todo = np.arange(len(points))
+    for _ in range(_TRIES):
+        if not todo.size:
+            break
+        try:
+            out[todo] = corrected_targets(calibration, controller, points[todo]).commands - points[todo]
+            return out
+        except (UnreachableError, AssemblyError) as exc:
+            if not exc.indices:
+                raise
+            todo = np.delete(todo, np.asarray(exc.indices, dtype=int))
+    out[todo] = np.nan
+    return out
+
+
+def _continuation(calibration: Calibration, controller: CommandModel, points: np.ndarray) -> np.ndarray:
+    """The same function where the library refuses points, unchecked, (N, 3); NaN where it has no value.
+
+    The identified printer's exact inverse without its checks (a carriage a little above its
+    endstop, a pose near a singularity) and the controller's forward model of those travels: used
+    only to continue the field across the border of what the library corrects.
+    """
+    geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
+    with np.errstate(invalid="ignore"):
+        q = exact.inverse(geometry, points, check=False)
+        return controller.forward(q, check=False) - points
+
+
+def correction_field(calibration: Calibration, controller: CommandModel, volume: LiveVolume,
+                     step: float = DEFAULT_STEP_MM, weight: WeightFunction | None = None) -> CorrectionField:
+    """The correction of Klipper's commands sampled on a grid over ``volume`` (see the module).
+
+    Args:
+        calibration: The calibration.
+        controller: Klipper's model as a controller
+            (:class:`~deltacal.printer.firmware.klipper.model.KlipperController`).
+        volume: The volume the program's moves reach.
+        step: The grid's spacing [mm].
+        weight: Where the calibration holds: a weight in [0, 1] per point (default 1 wherever the
+            library corrects); the correction is multiplied by it.
+
+    Raises:
+        GeometryError: a spacing that is not a positive length, or a weight out of [0, 1].
+    """
+    if not (np.isfinite(step) and step > 0.0):
+        raise GeometryError(f"the grid's spacing must be a positive length, got {step!r}")
+    margin = (TRUST_NODES + BLEND_NODES + 2) * step  # trusted, blended, then the zeros the stencil reads
+    reach = int(np.ceil((volume.radius + margin) / step))
+    xy = np.arange(-reach, reach + 1) * step
+    z = volume.min_z - margin + step * np.arange(int(np.ceil((volume.max_z - volume.min_z) / step + 2 * margin
+                                                             / step)) + 1)
+    flat = np.stack(np.meshgrid(xy, xy, z, indexing="ij"), axis=-1).reshape(-1, 3)
+    shape = (len(xy), len(xy), len(z))
+    beyond = volume.distance(flat) / step  # in nodes
+    asked = beyond <= TRUST_NODES + BLEND_NODES
+    values = np.full(flat.shape, np.nan)
+    values[asked] = exact_correction(calibration, controller, flat[asked])
+    known = np.all(np.isfinite(values), axis=1)
+    values[asked & ~known] = _continuation(calibration, controller, flat[asked & ~known])
+    continued = _continued(values.reshape(*shape, 3), np.all(np.isfinite(values), axis=1).reshape(shape))
+    apart = distance_transform_edt(~known.reshape(shape)) if np.any(known) else np.full(shape, np.inf)
+    held = _ramp(beyond.reshape(shape)) * _ramp(apart)
+    if weight is not None:
+        user = np.asarray(weight(flat), dtype=float).reshape(shape)
+        if not np.all((user >= 0.0) & (user <= 1.0)):
+            raise GeometryError("the weight of the points where the calibration holds must be in [0, 1]")
+        held = held * user
+    refused = int(np.sum(asked & ~known & (beyond <= TRUST_NODES)))
+    return CorrectionField(np.array([xy[0], xy[0], z[0]]), float(step), continued * held[..., None], volume,
+                           refused, int(np.sum(asked)))
+
+
+def _ramp(nodes_away: np.ndarray) -> np.ndarray:
+    """1 up to :data:`TRUST_NODES` nodes away, a smoothstep down to 0 over :data:`BLEND_NODES` more."""
+    s = np.clip(1.0 - (nodes_away - TRUST_NODES) / BLEND_NODES, 0.0, 1.0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+def _continued(values: np.ndarray, known: np.ndarray) -> np.ndarray:
+    """The known nodes' values continued over the others, (nx, ny, nz, 3).
+
+    Layer by layer (as far as the blend reaches): a node next to known ones takes the mean of the
+    linear extrapolations ``2 v1 − v2`` along the axes where two known nodes line up beside it,
+    else of its known neighbours' values; the nodes beyond take their nearest continued node's.
+    """
+    values = np.where(known[..., None], values, 0.0)
+    known = known.copy()
+    for _ in range(TRUST_NODES + BLEND_NODES):
+        line_sum, line_count = np.zeros(values.shape), np.zeros(known.shape)
+        near_sum, near_count = np.zeros(values.shape), np.zeros(known.shape)
+        for axis in range(3):
+            for side in (1, -1):
+                k1, v1 = _shifted(known, axis, side), _shifted(values, axis, side)
+                k2, v2 = _shifted(known, axis, 2 * side), _shifted(values, axis, 2 * side)
+                line = k1 & k2
+                line_sum += np.where(line[..., None], 2.0 * v1 - v2, 0.0)
+                line_count += line
+                near_sum += np.where(k1[..., None], v1, 0.0)
+                near_count += k1
+        new = ~known & (near_count > 0)
+        if not np.any(new):
+            break
+        mean = np.where((line_count > 0)[..., None], line_sum / np.maximum(line_count, 1)[..., None],
+                        near_sum / np.maximum(near_count, 1)[..., None])
+        values = np.where(new[..., None], mean, values)
+        known = known | new
+    if np.any(known) and not np.all(known):
+        index = distance_transform_edt(~known, return_distances=False, return_indices=True)
+        values = values[tuple(index)]
+    return values
+
+
+def _shifted(a: np.ndarray, axis: int, offset: int) -> np.ndarray:
+    """``a`` moved so that each node sees its neighbour ``offset`` nodes along ``axis`` (False/0 beyond)."""
+    out = np.zeros_like(a)
+    n = a.shape[axis]
+    if abs(offset) >= n:
+        return out
+    src, dst = [slice(None)] * a.ndim, [slice(None)] * a.ndim
+    src[axis], dst[axis] = (slice(offset, n), slice(0, n - offset)) if offset > 0 else \
+        (slice(0, n + offset), slice(-offset, n))
+    out[tuple(dst)] = a[tuple(src)]
+    return out
+
+
+def curvature_bound(field: CorrectionField) -> np.ndarray:
+    """A bound of the correction's second derivative along any direction, per ring and layer [1/mm].
+
+    At ring k (radius k × step) and layer j (the grid's z nodes), the largest ``sqrt(Σ ‖H‖²)`` over
+    the nodes Klipper admits within one ring and one layer of it, H each component's Hessian by
+    finite differences (its norm bounds the second derivative along any unit direction);
+    non-decreasing outwards, so that a move's larger radius (one of its ends) and the layers of its
+    heights give its bound. The chord of a segment of length s is then off the field by at most
+    s² K / 8: the module's cut of long moves. Shape (rings, nz).
+    """
+    v, h = field.values, field.step
+    hessian = np.zeros(v.shape[:3])
+    for a in range(3):
+        for b in range(a, 3):
+            if a == b:
+                d = _shifted(v, a, 1) - 2.0 * v + _shifted(v, a, -1)
+            else:
+                d = 0.25 * (_shifted(_shifted(v, a, 1), b, 1) - _shifted(_shifted(v, a, 1), b, -1)
+                            - _shifted(_shifted(v, a, -1), b, 1) + _shifted(_shifted(v, a, -1), b, -1))
+            hessian += (1.0 if a == b else 2.0) * np.sum(d**2, axis=-1)
+    norm = np.sqrt(hessian) / h**2
+    nx, ny, nz = field.shape
+    axes = [field.origin[k] + h * np.arange(n) for k, n in enumerate((nx, ny, nz))]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    inside = field.volume.admits(grid)
+    rings = int(np.ceil(field.volume.radius / h)) + 2
+    ring = np.minimum(np.rint(np.hypot(grid[:, 0], grid[:, 1]) / h).astype(int), rings - 1)
+    layer = np.tile(np.arange(nz), nx * ny)
+    bound = np.zeros((rings, nz))
+    np.maximum.at(bound, (ring[inside], layer[inside]), norm.reshape(-1)[inside])
+    return np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0)
+
+
+@dataclass(frozen=True)
+class SamplingError:
+    """How far the interpolated field is from the exact correction, at points off the grid [mm].
+
+    Attributes:
+        max: The largest distance, over the volume.
+        rms: Its root mean square.
+        max_full_speed: The largest within Klipper's slow radius (where it moves at full speed).
+        points: Points compared (those the library corrects).
+        refused: Points of the sample the library refuses (the field blends to 0 there).
+    """
+
+    max: float
+    rms: float
+    max_full_speed: float
+    points: int
+    refused: int
+
+
+def sampling_error(field: CorrectionField, calibration: Calibration, controller: CommandModel,
+                   count: int = 4000, seed: int = 41) -> SamplingError:
+    """The field against the library's exact correction at ``count`` points spread over its volume."""
+    points = field.volume.sample(count, np.random.default_rng(seed))
+    exact_values = exact_correction(calibration, controller, points)
+    corrected = np.all(np.isfinite(exact_values), axis=1)
+    points = points[corrected]
+    error = np.linalg.norm(field(points) - exact_values[corrected], axis=1)
+    if not error.size:
+        return SamplingError(float("nan"), float("nan"), float("nan"), 0, count)
+    full = np.hypot(points[:, 0], points[:, 1]) <= field.volume.slow_radius
+    return SamplingError(float(np.max(error)), float(np.sqrt(np.mean(error**2))),
+                         float(np.max(error[full])) if np.any(full) else float("nan"), int(error.size),
+                         int(count - error.size))
