@@ -3,7 +3,7 @@
 With a controller (``request.controller``) the output holds, after the targets, the targets to send a
 controller running that model (:func:`~deltacal.controller.corrected_targets`), computed and refused
 chunk by chunk as the joint readings are. A printer's firmware configuration is told and read once
-(:func:`~deltacal.printer.firmware.config_file.controller_config`): its values give the controller,
+(:func:`~deltacal.printer.firmware.config_file.controller_firmware`): its values give the controller,
 the same-printer check and the reading of G-code.
 
 The targets file is streamed: read and checked whole first (a bad row fails at reading
@@ -32,8 +32,10 @@ from ..exceptions import InputError, UnreachableError, UsageError
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, marker_line
 from ..io import CommandsWriter, JointsWriter, TargetChunk, TargetFile, lines_text, load_calibration
 from ..io.controller_file import load_controller_file
+from ..io.paths import check_output
 from ..printer.firmware import config_files
-from ..printer.firmware.config_file import FirmwareConfig, controller_config
+from ..printer.firmware.base import Firmware
+from ..printer.firmware.config_file import FirmwareConfig, controller_firmware
 from .base import Done, check_files, warn
 from .requests import CompensateRequest
 from .workers import Job, Refused, shared_values, solved_in_order
@@ -44,14 +46,20 @@ Progress = Callable[[float, str], None]
 
 def compensate_targets(request: CompensateRequest, progress: Progress | None = None) -> Done:
     """``deltacal compensate``: the joints (or corrected targets, or corrected program) file written."""
-    read = config_files(request.controller, request.firmware) if request.controller is not None else ()
-    check_files((request.calibration, request.targets, request.controller), request.output, read)
+    inputs = (request.calibration, request.targets, request.controller)
+    check_files(inputs, None)  # before any is opened
+    # the firmware whose configuration --controller is (told once), or None; no output over a file it reads
+    kind = None if request.controller is None else controller_firmware(request.controller, request.firmware)
+    read = () if kind is None else config_files(str(request.controller), kind)
+    check_output(request.output, [*inputs, *read])
     report: Progress = progress or (lambda fraction, detail: None)
     if request.program:
-        return _program(request, report)
+        return _program(request, report, kind)
     calibration = load_calibration(request.calibration)  # read and checked once
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller = _controller(request, calibration.geometry)[0] if request.controller is not None else None
+    controller = None
+    if request.controller is not None:
+        controller = _controller(request, calibration.geometry, kind)[0]
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(request.targets)
     linear = None if request.method == "exact" else _linear(calibration, str(request.calibration))
@@ -109,13 +117,13 @@ def _warn_rigid_route(request: CompensateRequest, compliance: np.ndarray) -> Non
               "exact's is)"])
 
 
-def _program(request: CompensateRequest, report: Progress) -> Done:
+def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] | None) -> Done:
     """A G-code program for ``--controller``: every move corrected, streamed."""
     assert request.controller is not None
     segment = DEFAULT_SEGMENT_MM if request.segment_mm is None else request.segment_mm
     calibration = load_calibration(request.calibration)
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller, config = _controller(request, calibration.geometry)
+    controller, config = _controller(request, calibration.geometry, kind)
     if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes
         raise UsageError(f"--controller {request.controller}: a controller interpolating in "
                          f"{controller.interpolation} space cannot be sent a corrected G-code program")
@@ -136,15 +144,16 @@ def _program(request: CompensateRequest, report: Progress) -> Done:
                  f"(moves split every {segment:g} mm at most)",))
 
 
-def _controller(request: CompensateRequest, geometry: Any) -> tuple[CommandModel, FirmwareConfig | None]:
-    """``--controller``'s model (and its firmware's configuration, read once, or None), checked.
+def _controller(request: CompensateRequest, geometry: Any,
+                kind: Firmware[Any] | None) -> tuple[CommandModel, FirmwareConfig | None]:
+    """``--controller``'s model (and its firmware ``kind``'s configuration, read once, or None), checked.
 
     Refused if not of the robot's kind (rotary, printer) or of another printer. A printer's readings
     count steps in its nominal step distance, the calibration's (a Klipper configuration's own
     ``rotation_distance`` may have been refitted per tower since).
     """
     assert request.controller is not None
-    config = controller_config(request.controller, request.firmware)
+    config = None if kind is None else FirmwareConfig.read(kind, request.controller)
     if config is None:
         controller: CommandModel = load_controller_file(request.controller)
     else:

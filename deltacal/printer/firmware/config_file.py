@@ -87,6 +87,15 @@ class FirmwareConfig:
     values: FirmwareModel
     path: str
 
+    @classmethod
+    def read(cls, firmware: Firmware[Any], path: str | Path) -> FirmwareConfig:
+        """``path`` read as ``firmware``'s configuration (told already).
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return cls(firmware, firmware.read_config(path), str(path))
+
     def controller(self, step_distance: Any = None) -> CommandModel:
         """The firmware with these values as the controller of readings counted in ``step_distance`` [mm].
 
@@ -111,18 +120,25 @@ def read_firmware_config(path: str | Path, name: str | None = None) -> FirmwareC
         UsageError: as :func:`told_firmware`.
         InputError: the configuration's first problem.
     """
-    firmware = told_firmware(path, name)
-    return FirmwareConfig(firmware, firmware.read_config(path), str(path))
+    return FirmwareConfig.read(told_firmware(path, name), path)
+
+
+def controller_firmware(path: str | Path, name: str | None = None) -> Firmware[Any] | None:
+    """The firmware whose configuration a ``--controller`` file is, or None (a controller or robot file).
+
+    With a name (``--firmware``) the file is that firmware's (:func:`told_firmware`); without, it is
+    one when a firmware recognises it (:func:`~deltacal.printer.firmware.config_firmware`).
+    """
+    return told_firmware(path, name) if name is not None else config_firmware(path)
 
 
 def controller_config(path: str | Path, name: str | None = None) -> FirmwareConfig | None:
     """A ``--controller`` file as a firmware's configuration read once, or None (a controller or robot file).
 
-    With a name (``--firmware``) the file is that firmware's; without, it is one when a firmware
-    recognises it (:func:`~deltacal.printer.firmware.config_firmware`).
+    The firmware as :func:`controller_firmware` tells it.
     """
-    firmware = told_firmware(path, name) if name is not None else config_firmware(path)
-    return None if firmware is None else FirmwareConfig(firmware, firmware.read_config(path), str(path))
+    firmware = controller_firmware(path, name)
+    return None if firmware is None else FirmwareConfig.read(firmware, path)
 
 
 def check_printer_values(firmware: Firmware[Any], geometry: DeltaGeometry, model: FirmwareModel,

@@ -19,7 +19,7 @@ from ...io.atomic import atomic_write_text
 from ...io.paths import check_input, check_output_folder
 from ...printer.files.measurements import write_printed_distances, write_probe_heights
 from ...printer.firmware import config_files
-from ...printer.firmware.config_file import read_firmware_config
+from ...printer.firmware.config_file import FirmwareConfig, told_firmware
 from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ...printer.printed.plan import ObjectPlan, plan_object
 from ...printer.printed.sheet import sheet_html
@@ -38,10 +38,10 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     assert request.controller is not None
     check_input(request.controller)
     folder = Path(request.output)
-    read = config_files(request.controller, request.firmware)
+    firmware = told_firmware(request.controller, request.firmware)  # told once
+    read = config_files(request.controller, firmware)  # none overwritten
     outputs = check_output_folder(folder, OBJECT_FILES, (request.nominal, *read), "plan --object")
-    config = read_firmware_config(request.controller, request.firmware)
-    firmware = config.firmware
+    config = FirmwareConfig.read(firmware, request.controller)
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
     travel = firmware.probe_travel(request.controller)
