@@ -13,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .chains import PRISMATIC
 from .controller import CommandModel, Controller
 from .geometry import NominalDelta
 from .io.controller_file import load_controller_file
-from .io.robot import is_printer_file, load_nominal
-from .io.toml import TomlTable, read_toml
+from .io.robot import load_nominal, robot_kind
+from .io.toml import read_toml
 from .printer.files.robot_file import load_printer
 from .printer.firmware import config_firmware
 from .printer.robot import NominalLinearDelta
@@ -26,12 +27,15 @@ from .printer.robot import NominalLinearDelta
 def load_robot(path: str | Path) -> NominalDelta | NominalLinearDelta:
     """Read a robot file of either kind: a rotary Delta or (``kind = "linear"``) a Delta printer.
 
+    The file is parsed once: its ``kind`` tells the reader, which takes the parsed TOML.
+
     Raises:
         InputError: naming the file and the key of the first problem found.
     """
-    if is_printer_file(TomlTable(read_toml(path), str(path))):
-        return load_printer(path)
-    return load_nominal(path)
+    data = read_toml(path)
+    if robot_kind(data, str(path)) == PRISMATIC.robot_kind:
+        return load_printer(path, data)
+    return load_nominal(path, data)
 
 
 def load_controller(path: str | Path,

@@ -23,7 +23,8 @@ import numpy as np
 
 from deltacal.geometry import Workspace
 from deltacal.printer.files.robot_file import load_printer
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT
+from deltacal.printer.firmware.klipper.fit import fit_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
 from deltacal.printer.printed.plan import plan_object

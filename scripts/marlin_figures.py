@@ -24,7 +24,8 @@ sys.path.insert(0, str(ROOT))
 from deltacal.io import load_geometry  # noqa: E402
 from deltacal.kinematics import exact  # noqa: E402
 from deltacal.printer.files.robot_file import load_printer  # noqa: E402
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, printable_grid  # noqa: E402
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT  # noqa: E402
+from deltacal.printer.firmware.klipper.fit import printable_grid  # noqa: E402
 from deltacal.printer.firmware.marlin.firmware import MARLIN  # noqa: E402
 from deltacal.printer.firmware.marlin.settings import load_marlin  # noqa: E402
 from deltacal.printer.robot import less_bed_motion  # noqa: E402

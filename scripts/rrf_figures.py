@@ -18,7 +18,8 @@ from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances
 from deltacal.printer.comparison import PROBE_SIGMA, WORKSPACE, plan_measurements
 from deltacal.printer.files.robot_file import load_printer
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, printable_grid
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT
+from deltacal.printer.firmware.klipper.fit import printable_grid
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 from deltacal.printer.firmware.rrf.fit import error_stats
 from deltacal.printer.identification.fit import identify_printer

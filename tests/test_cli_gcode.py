@@ -62,9 +62,9 @@ def test_program_refusals(tmp_path, capsys, extra, message):
 
 
 def test_worker_processes_correct_a_program_as_one_process_does(tmp_path, capsys, monkeypatch):
-    """A large program's batches are split among forked workers (``cli.workers.shared_values``):
+    """A large program's batches are split among forked workers (``wings.workers.shared_values``):
     the same bytes, and a point refused in the second half named by its own line."""
-    from deltacal.cli import workers
+    from deltacal.wings import workers
 
     robot = MODELS / "bai2015.toml"
     truth = load_nominal(robot).geometry().perturbed(Tolerances.bai2015(), np.random.default_rng(9))

@@ -194,12 +194,12 @@ def test_a_name_of_255_bytes_is_written(files, capsys, tmp_path):
 
 
 def test_an_unwritable_output_is_refused_before_the_work(files, capsys, tmp_path, monkeypatch):
-    import deltacal.cli.identify as cli_identify
+    import deltacal.wings.rotary.identify as rotary_identify
 
     def never(*args, **kwargs):
         raise AssertionError("identification ran before the output was checked")
 
-    monkeypatch.setattr(cli_identify, "identify", never)
+    monkeypatch.setattr(rotary_identify, "identify", never)
     code, _, err = run(capsys, "identify", NOMINAL, files["meas"], "--model", "complete",
                        "-o", tmp_path / ("c" * 300 + ".toml"))
     assert code == 2 and "longer than" in err

@@ -15,7 +15,8 @@ from deltacal.compensation import compensate
 from deltacal.io import load_calibration, load_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, error_stats
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT
+from deltacal.printer.firmware.klipper.fit import error_stats
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.firmware.marlin.values import to_klipper

@@ -23,6 +23,7 @@ LAYERS = {
     "__init__": 100,
     "cli": 90,
     "demo": 80,
+    "wings": 75,  # each robot kind's jobs behind one interface: over the report, the export and both wings
     "report": 70,
     "export": 70,
     "viz": 60,
@@ -344,3 +345,85 @@ def test_third_party_imports_are_declared_dependencies():
     third_party = {m for m in used if m not in sys.stdlib_module_names and m != "deltacal"}
     assert third_party <= declared_imports, f"imported but not declared: {third_party - declared_imports}"
     assert declared_imports <= third_party, f"declared but never imported: {declared_imports - third_party}"
+
+
+#: Lines of ``deltacal/cli/`` at most, all modules together (issue 37: a thin command line over the wings).
+MAX_CLI_LINES = 2400
+#: Words no module of ``deltacal/cli/`` is named for: a robot kind, a firmware, a printer's job.
+KIND_WORDS = ("rotary", "printer", "linear", "klipper", "marlin", "rrf", "reprap", "firmware", "object",
+              "probe", "prints")
+#: The firmwares' own packages, which the command line and the report reach only through their interface.
+FIRMWARE_PACKAGES = tuple(f"deltacal.printer.firmware.{name}" for name in ("klipper", "marlin", "rrf"))
+#: The classes of a robot, which the command line never tests for (the wing of its kind is asked instead).
+ROBOT_CLASSES = ("NominalDelta", "NominalLinearDelta", "DeltaGeometry", "Chain", "RevoluteChain",
+                 "PrismaticChain")
+
+
+def cli_modules() -> dict[str, Path]:
+    return {name: path for name, path in modules().items() if name.startswith("deltacal.cli")}
+
+
+def test_no_command_module_is_named_for_a_kind_or_a_firmware():
+    """One module per command: a kind's or a firmware's route lives in its wing, not beside the command."""
+    named = [name for name in cli_modules() if any(word in name.rpartition(".")[2] for word in KIND_WORDS)]
+    assert not named, f"command modules named for a kind, a firmware or a printer's job: {named}"
+
+
+def class_tests(path: Path) -> list[str]:
+    """``isinstance(x, C)`` / ``issubclass`` / ``type(x) is C`` of a robot class in a file, by line."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in (
+                "isinstance", "issubclass") and len(node.args) == 2:
+            classes = node.args[1].elts if isinstance(node.args[1], ast.Tuple) else [node.args[1]]
+        elif isinstance(node, ast.Compare) and isinstance(node.left, ast.Call) and isinstance(
+                node.left.func, ast.Name) and node.left.func.id == "type":
+            classes = node.comparators
+        else:
+            continue
+        names = [c.attr if isinstance(c, ast.Attribute) else getattr(c, "id", "") for c in classes]
+        found += [f"line {node.lineno}: {name}" for name in names if name in ROBOT_CLASSES]
+    return found
+
+
+def test_the_command_line_tests_no_robots_class():
+    """The command line asks the robot's wing; it never tests which class of robot it holds."""
+    wrong = {name: class_tests(path) for name, path in cli_modules().items() if class_tests(path)}
+    assert not wrong, f"class tests of a robot in the command line: {wrong}"
+
+
+def test_the_command_line_and_the_report_reach_firmwares_through_their_interface():
+    """cli/ and report/ import nothing of a firmware's own package (Klipper's, Marlin's, RRF's)."""
+    wrong = [f"{a} imports {b}" for a, targets in graph().items()
+             if a.startswith(("deltacal.cli", "deltacal.report"))
+             for b in sorted(targets) if b.startswith(FIRMWARE_PACKAGES)]
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_command_line_is_thin():
+    lines = sum(path.read_text(encoding="utf-8").count("\n") for path in cli_modules().values())
+    assert lines <= MAX_CLI_LINES, f"deltacal/cli/: {lines} lines; its logic belongs in the wings"
+
+
+def test_the_house_checks_can_fail(tmp_path, monkeypatch):
+    """A command module named for a firmware, a class test and a firmware import are each caught."""
+    pkg = tmp_path / "deltacal"
+    for sub in ("cli", "report", "printer/firmware/klipper"):
+        (pkg / sub).mkdir(parents=True)
+    for init in ("", "cli", "report", "printer", "printer/firmware", "printer/firmware/klipper"):
+        (pkg / init / "__init__.py").write_text("")
+    (pkg / "printer" / "robot.py").write_text("class NominalLinearDelta: ...\n")
+    (pkg / "cli" / "export_klipper.py").write_text(
+        "from ..printer.firmware.klipper import fit\nfrom ..printer.robot import NominalLinearDelta\n"
+        "def run(robot):\n    return isinstance(robot, (int, NominalLinearDelta))\n")
+    (pkg / "report" / "html.py").write_text("def f():\n    from ..printer.firmware import klipper\n")
+    monkeypatch.setattr(__import__(__name__), "PACKAGE", pkg)
+    assert class_tests(pkg / "cli" / "export_klipper.py") == ["line 4: NominalLinearDelta"]
+    for check in (test_no_command_module_is_named_for_a_kind_or_a_firmware,
+                  test_the_command_line_tests_no_robots_class,
+                  test_the_command_line_and_the_report_reach_firmwares_through_their_interface):
+        with pytest.raises(AssertionError):
+            check()
+    monkeypatch.setattr(__import__(__name__), "MAX_CLI_LINES", 3)
+    with pytest.raises(AssertionError):
+        test_the_command_line_is_thin()

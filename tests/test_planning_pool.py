@@ -112,7 +112,7 @@ def test_a_pool_too_large_for_the_memory_is_refused_before_it_is_drawn(tmp_path,
 
 
 def test_plan_says_what_a_large_pool_costs(tmp_path, capsys, monkeypatch):
-    from deltacal.cli import plan
+    from deltacal.wings.rotary import plan
 
     monkeypatch.setattr(plan, "LARGE_POOL", 300)
     out = tmp_path / "poses.csv"

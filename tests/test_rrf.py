@@ -18,8 +18,9 @@ from deltacal.geometry import Tolerances, Workspace
 from deltacal.printer.comparison import PROBE_SIGMA, plan_measurements
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT, fit_klipper, printable_grid
+from deltacal.printer.firmware.klipper.fit import fit_klipper, printable_grid
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.firmware.rrf.config import load_rrf, rrf_config_text
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE

@@ -19,8 +19,8 @@ from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.base import classical_values
+from deltacal.printer.firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.simulation import random_printer
 

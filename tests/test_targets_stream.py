@@ -125,7 +125,7 @@ def test_a_bad_or_unreachable_row_in_a_later_chunk_is_named_and_an_earlier_outpu
 
 def test_an_unreachable_last_row_is_refused_by_the_reading_pass(tmp_path, capsys, monkeypatch):
     """Issue 13: the reading pass's screen names the line before anything is compensated or written."""
-    from deltacal.cli import compensate as command
+    from deltacal.wings import compensate_job as command
 
     monkeypatch.setattr(targets_module, "CHUNK_BYTES", 64)
 
@@ -154,11 +154,11 @@ def test_an_unreachable_last_row_is_refused_by_the_reading_pass(tmp_path, capsys
 
 
 def test_worker_processes_write_what_one_process_writes(tmp_path, capsys, monkeypatch):
-    """A large file is solved by a pool of forked workers (``cli.workers``): the same bytes, in order,
+    """A large file is solved by a pool of forked workers (``wings.workers``): the same bytes, in order,
     and a refusal in a worker named by its line."""
     from deltacal import Controller, Tolerances
-    from deltacal.cli import workers
     from deltacal.io import save_controller
+    from deltacal.wings import workers
 
     monkeypatch.setattr(targets_module, "CHUNK_BYTES", 256)
     nominal = load_nominal(NOMINAL)

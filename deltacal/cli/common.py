@@ -1,4 +1,4 @@
-"""What every subcommand shares: exit codes, argument types, input and output checks, warnings."""
+"""What every subcommand shares: exit codes, argument types, the request of the arguments, what a job says."""
 
 from __future__ import annotations
 
@@ -7,14 +7,16 @@ import math
 import re
 import sys
 from collections.abc import Sequence
-from pathlib import Path
+from dataclasses import fields
+from typing import TypeVar
 
 import numpy as np
 
-from ..exceptions import InputError, UsageError
-from ..io.atomic import check_output_path, output_problem
-from ..io.inputs import input_problem
 from ..io.names import name_problem
+from ..printer.firmware.config_file import firmware_names
+from ..wings.base import Done
+
+Request = TypeVar("Request")
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
@@ -131,69 +133,24 @@ def int_at_most(maximum: int, why: str):
     return parse
 
 
-def check_input(path: str | Path) -> None:
-    """A usage error (exit 2) unless ``path`` is a regular file (``io.inputs.input_problem``)."""
-    problem = input_problem(path)
-    if problem is not None:
-        raise UsageError(f"{path}: {problem}")
+def request(cls: type[Request], args: argparse.Namespace) -> Request:
+    """The job's request (:mod:`deltacal.wings.requests`) of the parsed arguments, field by option."""
+    return cls(**{f.name: getattr(args, f.name) for f in fields(cls) if f.init})  # type: ignore[arg-type]
 
 
-def check_output(path: str | Path, inputs: Sequence[str | Path | None] = ()) -> None:
-    """A usage error (exit 2) if ``path`` cannot be an output file, or is one of the inputs.
-
-    Called before any work is done, so that a bad ``-o`` costs nothing (see
-    :func:`deltacal.io.atomic.output_problem` for what is refused).
-    """
-    check_output_path(path)
-    out = Path(path)
-    for source in inputs:
-        if source is not None and Path(source).exists() and out.resolve() == Path(source).resolve():
-            raise UsageError(f"{path}: the output would overwrite an input file")
+def show(done: Done) -> int:
+    """Print what a job did (its lines on stdout); the exit status, 0."""
+    for line in done.lines:
+        print(line)
+    return 0
 
 
-def check_output_folder(folder: str | Path, names: Sequence[str], inputs: Sequence[str | Path | None],
-                        what: str) -> list[Path]:
-    """The output files ``names`` in ``folder``, checked as :func:`check_output` checks one (status 2).
-
-    A folder that does not exist yet is made by the command, once its work is done: it is checked as
-    a new output in its parent (which must exist and be writable), as every other output is.
-
-    Args:
-        folder: The ``-o`` folder.
-        names: The files written there.
-        inputs: The command's inputs (none may be overwritten).
-        what: What writes there, for the message (``"plan --object"``).
-
-    Raises:
-        UsageError: naming the folder (or a file in it) and what is wrong.
-    """
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise UsageError(f"{folder}: {what} writes {len(names)} files in a folder; this is a file")
-    outputs = [folder / name for name in names]
-    if folder.exists():
-        for path in outputs:
-            check_output(path, inputs)
-        return outputs
-    problem = output_problem(folder)
-    parent = folder.parent if str(folder.parent) else Path(".")
-    if problem is not None and not parent.exists():
-        problem = (f"the folder {str(parent)!r} does not exist ({what} makes its output folder, not the "
-                   "folders above it)")
-    if problem is not None:
-        raise UsageError(f"{folder}: {problem}")
-    return outputs
-
-
-def point_list(text: str, known: Sequence[str], option: str = "--points") -> list[str]:
-    """Comma-separated point names, each checked against the robot's points."""
-    points = [p.strip() for p in text.split(",") if p.strip()]
-    if not points:
-        raise InputError(f"no point named in {text!r}; the robot's points are {', '.join(known)}", option)
-    for name in points:
-        if name not in known:
-            raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(known)}", option)
-    return points
+def add_firmware_argument(p: argparse.ArgumentParser, subject: str = "--controller") -> None:
+    """Register ``--firmware``: the firmware whose file ``subject`` (an option or argument) is."""
+    names = firmware_names()
+    p.add_argument("--firmware", choices=names, default=None,
+                   help=f"a printer: the firmware whose settings {subject} is ({'|'.join(names)}; "
+                        "default: told from the file's content)")
 
 
 def three_numbers(text: str, what: str, context: str = "") -> list[float]:

@@ -11,8 +11,8 @@ from ..demo import controller_table, run_demo, text_table
 from ..exceptions import UsageError
 from ..printer.demo import SEED, printer_table, run_printer_demo
 from ..printer.firmware import firmware_named, firmwares
+from ..printer.firmware.config_file import firmware_names
 from .common import seed
-from .firmware import firmware_names
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,126 +1,36 @@
-"""``deltacal identify``: the geometry from measurements."""
+"""``deltacal identify``: the geometry from measurements (a rotary Delta's; a printer's, by its firmware)."""
 
 from __future__ import annotations
 
 import argparse
-import math
-from dataclasses import replace
 
 import numpy as np
 
-from ..errormodels import MODEL_NAMES
-from ..exceptions import AssemblyError, ConvergenceError, IdentificationError, InputError, UsageError
-from ..geometry import DeltaGeometry
-from ..identification import FitOptions, PoorFitError, identify
-from ..identification.compliance import payload_span
-from ..io import lines_text, read_measurement_file, save_calibration, unassembled_rows
-from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION, Measurements
-from ..printer.robot import NominalLinearDelta
-from ..robots import load_robot
-from .common import check_input, check_output, sigma, warn
-from .identify_printer import PRINTER_MODELS, add_arguments, run_printer
+from .. import wings
+from ..errormodels import MODEL_NAMES, PRINTER_MODEL_NAMES
+from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
+from ..wings.requests import IdentifyRequest
+from .common import add_firmware_argument, positive_float, request, show, sigma, three_numbers
+
+#: A probe's trigger point is on the effector: within this of the nozzle along each axis [mm].
+PROBE_OFFSET_MM = 100.0
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal identify``; returns the exit status."""
-    check_input(args.nominal)
-    robot = load_robot(args.nominal)
-    if isinstance(robot, NominalLinearDelta):
-        return run_printer(args, robot)
-    if len(args.measurements) != 1:
-        raise UsageError(f"a rotary Delta's measurements are one CSV file, got {len(args.measurements)}")
-    if args.controller is not None or args.firmware is not None:
-        flag = "controller" if args.controller is not None else "firmware"
-        raise UsageError(f"--{flag} applies to a printer's measurements (of commanded positions)")
-    if args.tolerance_scale is not None:
-        raise UsageError("--tolerance-scale applies to a printer's measurements")
-    args.measurements = args.measurements[0]
-    args.model = args.model or "complete"
-    if args.model not in MODEL_NAMES:
-        raise UsageError(f"--model {args.model}: a rotary Delta's models are {', '.join(MODEL_NAMES)}")
-    if args.pairs is not None and not args.distances:
-        raise UsageError("--pairs applies to --distances only")
-    if args.rigid and args.compliance:
-        raise UsageError("--rigid and --compliance: choose one (--rigid fits actuators that do not yield)")
-    try:  # every option is checked once, by FitOptions
-        options = FitOptions(
-            method="linear" if args.linear else "iterated",
-            sigma_position=args.sigma_position,
-            sigma_angle=math.radians(args.sigma_angle),
-            distances=args.distances,
-            pairs=args.pairs or "all",
-            frame=args.frame,
-            accept_poor_fit=args.accept_poor_fit,
-            free_points=tuple(args.free_points),
-            compliance=args.compliance,
-        )
-    except ValueError as exc:
-        raise UsageError(f"options that do not go together: {exc}") from exc
-    for path in (args.nominal, args.measurements):
-        check_input(path)
-    check_output(args.output, (args.nominal, args.measurements))
-    nominal = robot
-    start = nominal.geometry()
-    for name in args.free_points:
-        if name not in start.point_names:
-            raise InputError(f"unknown point {name!r}; the robot's points are {', '.join(start.point_names)}",
-                             "--free-points")
-    read = read_measurement_file(args.measurements, start.point_names)
-    measurements, lines = read.measurements, read.lines
-    warn(read.warnings)
-    if args.distances and np.any(measurements.has_orientation):
-        warn(["orientations are ignored when identifying from distances"])
-    options = _with_compliance_default(args, options, start, read.measurements)
-    try:
-        result = identify(start, measurements, args.model, options=options)
-    except AssemblyError as exc:
-        # at the nominal geometry: the readings themselves are impossible
-        if not exc.indices:
-            raise
-        raise unassembled_rows(exc, args.measurements, lines, measurements.q,
-                               f"the robot {nominal.name!r}") from exc
-    except PoorFitError as exc:
-        raise IdentificationError(
-            f"{args.measurements}: {exc}; nothing written (--accept-poor-fit keeps such a fit)"
-        ) from exc
-    except IdentificationError as exc:
-        at = lines[exc.rows].tolist()
-        where = f"line{'s' if len(at) > 1 else ''} {lines_text(at)}: " if at else ""
-        raise IdentificationError(f"{args.measurements}: {where}{exc.detail}") from exc
-    except ConvergenceError as exc:
-        raise ConvergenceError(f"{args.measurements}: {exc}", exc.residual) from exc
-    warn(result.warnings)
-    save_calibration(result, args.output, lines)  # saved first: a failing stdout loses no result
-    print(result.report(lines))
-    if result.outliers:
-        flagged = lines_text(lines[result.outliers].tolist())
-        warn([f"{args.measurements}: line(s) {flagged} look like outliers (see the report): "
-              "check them, or remove them and identify again"])
-    print(f"\nwrote {args.output}")
-    return 0
+    return show(wings.identify(request(IdentifyRequest, args)))
 
 
-def _with_compliance_default(args: argparse.Namespace, options: FitOptions, start: DeltaGeometry,
-                             measurements: Measurements) -> FitOptions:
-    """The options, with the compliances identified where the payloads vary (see conventions.md).
-
-    Payloads that vary with the masses known: the compliances are identified (said on stdout);
-    with no ``[masses]``, the choice is the user's (``--compliance`` or ``--rigid``), refused
-    otherwise: a rigid fit would spread the deflections over the geometry.
-    """
-    span = payload_span(measurements)
-    if span is None or args.rigid or args.compliance or args.distances:
-        return options
-    payloads = f"payload_kg varies from {span[0]:g} to {span[1]:g} kg"
-    if start.masses.is_zero:
-        raise InputError(
-            f"{payloads} but {args.nominal} has no [masses]: a rigid fit would take the actuators' "
-            "deflections for geometry; give --compliance (the compliances from the payloads' torques alone, "
-            "the robot's own weight taken up by the geometry), the robot's [masses], or --rigid",
-            args.measurements, "column payload_kg")
-    print(f"{args.measurements}: {payloads} and {args.nominal} gives the masses: the actuators' compliances "
-          "are identified too (--rigid fits a rigid robot)")
-    return replace(options, compliance=True)
+def probe_offset(text: str) -> np.ndarray:
+    """Argparse type of ``--probe-offset X,Y,Z`` [mm]: three numbers, each within :data:`PROBE_OFFSET_MM`."""
+    values = np.asarray(three_numbers(text, "X,Y,Z in mm"))
+    far = np.flatnonzero(np.abs(values) > PROBE_OFFSET_MM)
+    if far.size:
+        k = int(far[0])
+        raise argparse.ArgumentTypeError(
+            f"the probe's trigger point is on the effector, within {PROBE_OFFSET_MM:g} mm of the nozzle; "
+            f"{'XYZ'[k]} = {values[k]:g} mm in {text!r} (metres? micrometres? deltacal reads millimetres)")
+    return values
 
 
 def add_parser(sub) -> None:
@@ -129,7 +39,7 @@ def add_parser(sub) -> None:
     p.add_argument("nominal", help="nominal robot file (TOML): a rotary Delta or a printer (kind = 'linear')")
     p.add_argument("measurements", nargs="+",
                    help="measurements (CSV); a printer: its probe heights, then distances files")
-    p.add_argument("--model", choices=MODEL_NAMES + PRINTER_MODELS, default=None,
+    p.add_argument("--model", choices=MODEL_NAMES + PRINTER_MODEL_NAMES, default=None,
                    help="error model (default complete; a printer's: printer)")
     p.add_argument("-o", "--output", required=True, help="calibration file to write (TOML)")
     p.add_argument("--sigma-position", type=sigma, default=SIGMA_POSITION, metavar="MM",
@@ -156,5 +66,20 @@ def add_parser(sub) -> None:
                         "heavy payload; the default where the payloads vary and the masses are known)")
     p.add_argument("--rigid", action="store_true",
                    help="fit rigid actuators even where the measurements' payloads vary")
-    add_arguments(p)
+    p.add_argument("--controller", metavar="SETTINGS",
+                   help="a printer: the firmware's settings the measurements were made with (Klipper's "
+                        "printer.cfg, Marlin's M503 capture, RepRapFirmware's config.g)")
+    add_firmware_argument(p)
+    p.add_argument("--probe-offset", type=probe_offset,
+                   default=np.zeros(3), metavar="X,Y,Z",
+                   help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "
+                        "(default 0,0,0: the nozzle is the probe; a probe file's trigger_height_mm is that "
+                        "point's height above the bed at the trigger)")
+    p.add_argument("--sigma-height", type=sigma, default=0.01, metavar="MM",
+                   help="a printer: σ of a probe height [mm] (default 0.01)")
+    p.add_argument("--sigma-distance", type=sigma, default=0.02, metavar="MM",
+                   help="a printer: σ of a caliper distance [mm] (default 0.02)")
+    p.add_argument("--tolerance-scale", type=positive_float, default=None, metavar="S",
+                   help="a printer: the factor of the kit's build tolerances the priors take (default: the "
+                        "one the measurements make most probable)")
     p.set_defaults(func=run)

@@ -1,78 +1,22 @@
 """``deltacal import``: a printer as it is found (its configuration), or its probe results (a log).
 
-``deltacal import printer.cfg -o DIR`` (or RepRapFirmware's ``config.g``) writes ``DIR/printer.toml``
-and, from Klipper's SAVE_CONFIG block's ``[delta_calibrate]``, ``DIR/probe.csv`` and
-``DIR/distances.csv``; ``deltacal import LOG [--config CONFIG] -o probe.csv`` writes the log's probe
-results (the configuration gives the probe's offsets: Klipper's lines from 2026 need them). The
-kind of input is told by its content (:func:`~deltacal.printer.firmware.input_firmware`), or
-``--firmware`` names it; a file none recognises is refused in one line asking for ``--firmware``.
+The job is the printer wing's (:mod:`deltacal.wings.printer.importing`): the input's content tells a
+configuration (``printer.cfg``, ``config.g``, an ``M503`` capture: ``-o DIR``) from a log (``-o probe.csv``),
+or ``--firmware`` names its firmware.
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
-from typing import Any
 
-from ..exceptions import InputError, UsageError
-from ..printer.files.importer import OUTPUT_FILES
-from ..printer.files.measurements import write_probe_heights
-from ..printer.firmware import input_firmware
-from ..printer.firmware.base import Firmware
-from .common import check_input, check_output, check_output_folder, positive_float
-from .firmware import add_firmware_argument
+from .. import wings
+from ..wings.requests import ImportRequest
+from .common import add_firmware_argument, positive_float, request, show
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``deltacal import``; returns 0."""
-    check_input(args.input)
-    try:
-        text = Path(args.input).read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise InputError(f"cannot read the file ({exc.strerror})", args.input) from None
-    firmware, is_log = input_firmware(args.input, text, args.firmware)
-    if is_log:
-        return _run_log(args, text, firmware)
-    if args.config is not None:
-        raise UsageError(f"--config applies to a log; {args.input} is read as {firmware.title}'s "
-                         "configuration")
-    folder = Path(args.output)
-    check_output_folder(folder, OUTPUT_FILES, [args.input], f"import of {firmware.title}'s configuration")
-    made = not folder.exists()
-    if made:
-        folder.mkdir()
-    try:
-        imported = firmware.import_config(args.input, folder, args.effector_radius, args.rod_spacing,
-                                          args.nozzle_drop)
-    except BaseException:
-        if made and not any(folder.iterdir()):
-            folder.rmdir()  # nothing written: no folder left behind either
-        raise
-    for line in imported.said:
-        print(line)
-    return 0
-
-
-def _run_log(args: argparse.Namespace, text: str, firmware: Firmware[Any]) -> int:
-    """A log's probe results into a probe heights file."""
-    flags = ("effector_radius", "rod_spacing", "nozzle_drop")
-    given = [flag for flag in flags if getattr(args, flag) is not None]
-    if given:
-        raise UsageError(f"--{given[0].replace('_', '-')} applies to a configuration; {args.input} is a log")
-    output = Path(args.output)
-    if output.is_dir():
-        raise UsageError(f"{output}: a log's probe results go to a file (-o probe.csv); this is a folder")
-    if args.config is not None:
-        check_input(args.config)
-    check_output(output, [args.input] + ([args.config] if args.config else []))
-    log = firmware.read_probe_log(args.input, args.config, text)
-    write_probe_heights(output, log.commanded[:, :2], log.commanded[:, 2], log.trigger_height)
-    trigger = ""
-    if log.trigger_height is not None:
-        trigger = f", trigger height {log.trigger_height[0]:g} mm ({log.trigger_source})"
-    print(f"wrote {output}: {len(log.commanded)} probe results of {firmware.title} (lines {log.lines[0]}.."
-          f"{log.lines[-1]} of {args.input}){trigger}")
-    return 0
+    return show(wings.import_found(request(ImportRequest, args)))
 
 
 def add_parser(sub) -> None:

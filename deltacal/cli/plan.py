@@ -1,44 +1,33 @@
-"""``deltacal plan``: measurement poses (Bai's circles and κ(n) rule, or D-optimal)."""
+"""``deltacal plan``: measurement poses (Bai's circles and κ(n) rule, or D-optimal), or a printer's object."""
 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 
-import numpy as np
-
-from ..exceptions import PlanningError, UsageError
-from ..identifiability import base_parameters
-from ..io import load_nominal, write_poses
-from ..planning import (
-    MEASUREMENTS,
-    PLAN_MODELS,
-    ROUGH,
-    PoseSet,
-    bai_poses,
-    candidate_pool,
-    condition_curve,
-    d_optimal,
-    default_points,
-    identification_matrix,
-    planning_model,
-    pool_cost,
-    require_pool_memory,
-    require_workspace,
-    rough_poses,
+from .. import wings
+from ..planning import MEASUREMENTS, PLAN_MODELS
+from ..printer.printed.object import CALIPER_RANGE, MAX_DISTANCES
+from ..wings.printer.plan import MAX_PROBE_GRID
+from ..wings.requests import PlanRequest
+from .common import (
+    add_firmware_argument,
+    int_at_most,
+    non_negative_list,
+    positive_float,
+    positive_int,
+    request,
+    seed,
+    show,
 )
-from ..planning.regressor import RANK_RTOL
-from ..printer.robot import NominalLinearDelta
-from ..robots import load_robot
-from .common import check_input, check_output, int_at_most, non_negative_list, point_list, positive_int, seed
-from .plan_object import add_object_arguments, refuse_object_options, run_object
-
-#: Pools from this size on are told what they cost before the selection starts.
-LARGE_POOL = 20_000
 
 #: Largest --n-max: the κ(n) curve conditions one pose set per n (n = 200 takes minutes already).
 N_MAX_LIMIT = 200
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``deltacal plan``: write the POSES file (or the object's folder), print what was chosen."""
+    return show(wings.plan(request(PlanRequest, args), notify=lambda text: print(text, file=sys.stderr)))
 
 
 def parse_epsilon(text: str) -> float:
@@ -49,6 +38,18 @@ def parse_epsilon(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number or percentage: {text!r}") from None
     if not (0.0 < value < 1.0):
         raise argparse.ArgumentTypeError(f"epsilon must be in (0, 1) or (0 %, 100 %), got {text!r}")
+    return value
+
+
+def probe_grid_size(text: str) -> int:
+    """Argparse type: an odd number of probe points across the bed, 3 to :data:`MAX_PROBE_GRID`."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 3 or value > MAX_PROBE_GRID or value % 2 == 0:
+        raise argparse.ArgumentTypeError(f"must be odd, 3 to {MAX_PROBE_GRID} (Klipper's round_probe_count; "
+                                         f"9 keeps 49 points within the radius), got {value}")
     return value
 
 
@@ -67,7 +68,19 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("nominal", metavar="NOMINAL", help="robot file (TOML) with a [workspace]")
-    add_object_arguments(p)
+    p.add_argument("--object", action="store_true",
+                   help="a linear Delta printer: plan the probe grid and the object to print and measure "
+                        "(-o DIR gets object.stl, probe.csv, probe.gcode, distances.csv and sheet.html)")
+    p.add_argument("--controller", metavar="SETTINGS",
+                   help="--object: the firmware's settings (Klipper's printer.cfg, Marlin's M503 "
+                        "capture, RepRapFirmware's config.g) the probing and the print are commanded with")
+    add_firmware_argument(p)
+    p.add_argument("--distances", type=int_at_most(MAX_DISTANCES, "caliper distances of the object"),
+                   metavar="N", help=f"--object: distances to measure (default and most: {MAX_DISTANCES})")
+    p.add_argument("--probe-grid", type=probe_grid_size, metavar="N",
+                   help="--object: probe points across the bed, odd (default 7: Klipper's round 7 x 7 mesh)")
+    p.add_argument("--caliper", type=positive_float, metavar="MM",
+                   help=f"--object: the caliper's longest outside reading (default {CALIPER_RANGE:g} mm)")
     p.add_argument("--model", choices=PLAN_MODELS,
                    help="error model (default: complete; 'rough': encoder offsets only)")
     group = p.add_mutually_exclusive_group()
@@ -98,121 +111,3 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="output file (with --object: the folder of object.stl, probe.csv, distances.csv)")
     p.set_defaults(func=run)
     return p
-
-
-def _default_measurement(model: str) -> str:
-    return "distance" if model in ("bai18", "bai36", "bai32", ROUGH) else "pose"
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run ``deltacal plan``: print what was chosen, write the POSES file, return 0."""
-    check_input(args.nominal)
-    if args.object:
-        return run_object(args)
-    refuse_object_options(args)
-    check_output(args.output, (args.nominal,))
-    if isinstance(load_robot(args.nominal), NominalLinearDelta):
-        raise UsageError(f"{args.nominal}: a printer's plan is the object it prints and measures: use "
-                         "--object --controller printer.cfg -o DIR")
-    nominal = load_nominal(args.nominal)
-    args.model = args.model or "complete"
-    args.strategy = args.strategy or "bai"
-    args.pool = 1000 if args.pool is None else args.pool
-    args.seed = 0 if args.seed is None else args.seed
-    args.n_max = 20 if args.n_max is None else args.n_max
-    model = planning_model(args.model)
-    measurement = args.measure or _default_measurement(args.model)
-    geometry = nominal.geometry()
-    if args.points:
-        points = point_list(args.points, geometry.point_names)
-    else:
-        points = default_points(geometry, model, measurement)
-    if args.strategy == "bai":
-        if args.payload is not None:
-            raise UsageError("--payload applies to --strategy doptimal (planning for the compliances)")
-        if args.count is not None:
-            raise UsageError("--count applies to --strategy doptimal; the bai strategy chooses n by Eq. 21 "
-                             "(or --n)")
-        poses, report = _plan_bai(args, nominal, model, measurement, points)
-    else:
-        poses, report = _plan_doptimal(args, nominal, model, measurement, points)
-    write_poses(args.output, poses)
-    print(report)
-    print(f"wrote {len(poses)} poses to {args.output}")
-    return 0
-
-
-def _plan_bai(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
-    rough = model.name == ROUGH
-    where = "centre + middle circle" if rough else "centre + top and bottom circles"
-    lines = []
-    if args.n is not None:
-        n = args.n
-        lines.append(f"bai pose set, n = {n} given")
-    else:
-        eps0 = 0.01 if args.epsilon is None else args.epsilon
-        curve = condition_curve(nominal, model, measurement, points, n_max=args.n_max)
-        n = curve.least_n(eps0)
-        k = int(np.flatnonzero(curve.n == n)[0])
-        lines.append(
-            f"κ(n) rule (Bai Eq. 21) for model {model.name}, {measurement} measurements of "
-            f"{','.join(points)}, {len(curve.base_names)} base parameters, column-scaled κ:"
-        )
-        lines.append(curve.table())
-        lines.append(
-            f"chosen n = {n}: ε_n = {100.0 * curve.epsilon[k]:.3g} % <= ε0 = {100.0 * eps0:g} %, "
-            f"κ_n = {curve.kappa[k]:.6g}"
-        )
-    poses = rough_poses(nominal, n) if rough else bai_poses(nominal, n)
-    ws = require_workspace(nominal)
-    lines.append(f"{len(poses)} poses ({where}, radius {ws.radius:g} mm)")
-    return poses, "\n".join(lines)
-
-
-def _plan_doptimal(args, nominal, model, measurement, points) -> tuple[PoseSet, str]:
-    if args.n is not None or args.epsilon is not None:
-        raise UsageError("--n and --epsilon apply to --strategy bai, not doptimal")
-    if measurement == "distance":
-        raise UsageError("D-optimal selection is for pose or position measurements (--measure)")
-    rows = 6 if measurement == "pose" else 3 * len(points)
-    require_pool_memory(args.pool, rows, model.size)  # before drawing: a pool too large is refused at once
-    rng = np.random.default_rng(args.seed)
-    pool = candidate_pool(nominal, args.pool, rng)
-    H = identification_matrix(nominal.geometry(), model, pool.q[:200], measurement, points)
-    rank = base_parameters(H, model.names, rtol=RANK_RTOL).rank  # what such measurements can identify
-    count = max(math.ceil(2 * rank / rows), 3) if args.count is None else args.count
-    if args.pool >= LARGE_POOL:
-        cost = pool_cost(len(pool), rows, model.size, rank, count)
-        print(f"plan: {len(pool):,} candidates: the selection takes about {cost.memory / 1e6:.0f} MB of "
-              f"memory and {cost.step:.2g} s per step on one core ({cost.steps_min} steps, then {count} per "
-              f"exchange pass, up to {cost.steps_max} in all: {_duration(cost.steps_min * cost.step)} to "
-              f"{_duration(cost.steps_max * cost.step)})", file=sys.stderr)
-    payloads = tuple(args.payload or ())
-    design = d_optimal(nominal, model, count, pool=pool, measurement=measurement, points=points,
-                       payloads=payloads)
-    chosen = identification_matrix(nominal.geometry(), model, design.poses.q, measurement, points)
-    got = base_parameters(chosen, model.names, rtol=RANK_RTOL).rank
-    if got < rank or not math.isfinite(design.log_det):
-        need = math.ceil(rank / rows)
-        raise PlanningError(
-            f"{count} pose(s) of {measurement} measurements ({rows} equations each) identify {got} of the "
-            f"{rank} base parameters of model {model.name} that such measurements identify: use --count "
-            f"{need + 1} or more (about {max(2 * need, 3)} for a useful estimate)"
-        )
-    text = (
-        f"D-optimal selection for model {model.name}, {measurement} measurements of {','.join(points)}: "
-        f"{count} of {len(pool)} candidates (seed {args.seed}), {len(design.base_names)} base "
-        f"parameters, log det(WᵀW) of the scaled base regressor = {design.log_det:.6g}"
-    )
-    if payloads:
-        kept = [n for n in design.base_names if n in ("c1", "c2", "c3")]
-        text += (f"; each pose to be measured at {', '.join(f'{p:g}' for p in payloads)} kg: compliances "
-                 + (f"{', '.join(sorted(kept))} identifiable" if kept else "not identifiable (no gravity "
-                    "torque: give the robot file [masses] or a payload)"))
-    return design.poses, text
-
-
-def _duration(seconds: float) -> str:
-    """``"40 s"``, ``"2.5 min"``: a duration as a person reads it."""
-    return f"{seconds:.2g} s" if seconds < 90.0 else f"{seconds / 60.0:.2g} min"
-

@@ -12,12 +12,13 @@ from typing import Any
 
 import numpy as np
 
-from ..exceptions import InputError, UsageError
+from ..exceptions import InputError
 from ..geometry import Tolerances
 from ..io import load_geometry
+from ..io.paths import check_input, check_output
 from ..robots import load_robot
 from ..viz import DEFAULT_EXAGGERATION, build_scene, export_html, meshcat_server, words
-from .common import check_input, check_output, positive_float, seed
+from .common import positive_float, seed
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -64,8 +65,6 @@ def run(args: argparse.Namespace) -> int:
             check_input(path)
     if args.html is not None:
         check_output(args.html, inputs)
-    if not (math.isfinite(args.exaggerate) and args.exaggerate > 0.0):
-        raise UsageError(f"--exaggerate must be a positive number, got {args.exaggerate!r}")
     nominal = load_robot(args.nominal)
     nominal_geometry = nominal.geometry()
     source = args.truth if args.truth is not None else args.calibration

@@ -43,14 +43,27 @@ def is_printer_file(top: TomlTable) -> bool:
     return _kind(top) == PRISMATIC.robot_kind
 
 
-def load_nominal(path: str | Path) -> NominalDelta:
+def robot_kind(data: dict, source: str) -> str:
+    """The ``kind`` of a robot file's parsed TOML ``data`` (absent: ``"rotary"``), checked.
+
+    Raises:
+        InputError: naming the file ``source`` and the key, for a kind deltacal does not know.
+    """
+    return _kind(TomlTable(data, source))
+
+
+def load_nominal(path: str | Path, data: dict | None = None) -> NominalDelta:
     """Read and validate a nominal robot file (format of the project's conventions).
+
+    Args:
+        path: The file.
+        data: Its TOML, already parsed (:func:`~deltacal.io.toml.read_toml`): the file is read once.
 
     Raises:
         InputError: naming the file and the key of the first problem found.
     """
     source = str(path)
-    top = TomlTable(read_toml(path), source)
+    top = TomlTable(read_toml(path) if data is None else data, source)
     if top.data.get("format") in (GEOMETRY_FORMAT, CALIBRATION_FORMAT):
         raise top.error("format", f"this is a deltacal {top.data['format']!r} file, not a nominal "
                                   "robot file (such as deltacal/models/bai2015.toml)")

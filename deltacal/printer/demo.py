@@ -50,9 +50,8 @@ from .comparison import (
 from .files.measurements import write_printed_distances, write_probe_heights
 from .files.robot_file import load_printer
 from .firmware.base import Firmware, FirmwareModel
-from .firmware.fitting import nozzle_errors
+from .firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
 from .firmware.klipper.firmware import KLIPPER
-from .firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from .printed.plan import plan_object
 from .robot import less_bed_motion
 from .simulation import nozzle_positions

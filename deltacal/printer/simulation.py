@@ -64,6 +64,13 @@ def typical_kit() -> Tolerances:
 #: Standard deviation of each of the bed's two tilts [deg], per class.
 WELL_BUILT_BED_TILT_DEG = 0.02
 KIT_BED_TILT_DEG = 0.05
+#: The build tolerances of a perturbed printer and the σ of its bed's tilts [deg], by the name
+#: ``simulate --tolerances`` takes (default ``printer-kit``: :meth:`Tolerances.printer_kit`).
+TOLERANCE_CLASSES = {
+    "printer-kit": (Tolerances.printer_kit, KIT_BED_TILT_DEG),
+    "typical-kit": (typical_kit, KIT_BED_TILT_DEG),
+    "well-built": (well_built, WELL_BUILT_BED_TILT_DEG),
+}
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -21,6 +21,7 @@ from ..calibration import Calibration
 from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
+from ..printer.firmware.base import Firmware, FirmwareModel
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
@@ -36,9 +37,6 @@ from .controllers import ControllerRoutes, controller_routes
 from .deflection import deflection_map
 from .html import Page, render_page
 from .residuals import MeasurementResiduals, measurement_residuals
-
-if TYPE_CHECKING:
-    from ..printer.firmware.base import FirmwareModel
 
 
 @dataclass(frozen=True)
@@ -89,6 +87,7 @@ def write_report(
     view: bool = True,
     grid: int = 41,
     payload: float = 0.0,
+    firmware: Firmware[Any] | None = None,
     controller: FirmwareModel | None = None,
 ) -> ReportSummary:
     """Write the HTML report of a calibration, atomically.
@@ -106,6 +105,8 @@ def write_report(
         grid: Points along each side of a slice.
         payload: For a calibration that identified compliances: the payload [kg] whose TCP
             deflection the report maps (beside the robot's own weight).
+        firmware: A printer's firmware, whose values the page fits and names (default: the first of
+            :func:`~deltacal.printer.firmware.firmwares`, Klipper).
         controller: A printer's firmware values its measurements were commanded with (its
             ``--controller`` settings), for their residuals.
 
@@ -143,7 +144,8 @@ def write_report(
     page = Page(
         calibration=cal, accuracy=amap, figures=svg, residuals=res, truth_source=truth_source,
         measurements_source=_file_names(measurements), workspace_text=ws_text,
-        scene_html=scene, scene_note=note, warnings=warnings, controllers=controller_routes(cal, amap, truth),
+        scene_html=scene, scene_note=note, warnings=warnings,
+        controllers=controller_routes(cal, amap, truth, firmware),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
     )
     path = Path(output)

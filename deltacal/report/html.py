@@ -324,19 +324,23 @@ def _truth(page: Page) -> str:
 def _firmware(page: Page) -> str:
     """A printer's controller section: its firmware with the nominal values, fitted, and corrected targets."""
     routes = page.controllers
-    assert routes is not None
+    assert routes is not None and routes.firmware is not None
+    firmware = routes.firmware
     truth = page.accuracy.error is not None
-    out = ("<p>A printer's controller is its firmware (Klipper), which runs its own model: vertical towers, "
-           "one rod per tower, a point effector. Over the same slices as the map, the nozzle error each way "
-           "of handing it this calibration leaves: the targets sent as they are (the firmware with the "
-           "nominal values); the firmware's values that fit the calibration best (<code>deltacal export CAL "
-           "--controller klipper</code>); corrected targets and G-code through the firmware "
-           "(<code>deltacal compensate CAL TARGETS.csv|PART.gcode --controller printer.cfg</code>), which "
-           "leave what the calibration itself leaves: the predicted σ above"
-           + (" and the actual errors against the true geometry" if truth else "") + ".</p>")
+    out = (f"<p>A printer's controller is its firmware ({esc(firmware.title)}), which runs its own model: "
+           "vertical towers, one rod per tower, a point effector. Over the same slices as the map, the "
+           "nozzle error each way of handing it this calibration leaves: the targets sent as they are (the "
+           "firmware with the nominal values); the firmware's values that fit the calibration best "
+           f"(<code>deltacal export CAL --controller {esc(firmware.name)}</code>: "
+           f"{esc(firmware.values_words)}); corrected targets and G-code through the firmware "
+           "(<code>deltacal compensate CAL TARGETS.csv|PART.gcode --controller "
+           f"{esc(firmware.config_file)}</code>), which leave what the calibration itself leaves: the "
+           "predicted σ above" + (" and the actual errors against the true geometry" if truth else "")
+           + ".</p>")
     if not routes.routes:
         return out + f"<p class=\"muted\">{esc(routes.note)}</p>"
-    names = {"nominal": "targets sent as they are (nominal firmware)", "klipper": "firmware values fitted"}
+    names = {"nominal": "targets sent as they are (nominal firmware)",
+             firmware.name: "firmware values fitted"}
     rows = []
     for r in routes.routes:
         row = [td(names.get(r.name, r.name)), cell(r.max_error, 4), cell(r.rms_error, 4)]

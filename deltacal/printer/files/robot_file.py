@@ -32,17 +32,21 @@ LINEAR_LENGTH_KEYS = ("tower_radius_mm", "effector_radius_mm", "rod_length_mm", 
 PER_TOWER_KEYS = ("rod_length_mm", "endstop_height_mm", "step_distance_mm")
 
 
-def load_printer(path: str | Path) -> NominalLinearDelta:
+def load_printer(path: str | Path, data: dict | None = None) -> NominalLinearDelta:
     """Read and validate a linear Delta printer's robot file (``kind = "linear"``).
 
     ``rod_length_mm``, ``endstop_height_mm`` and ``step_distance_mm`` are each a number or
     ``[a, b, c]`` (towers A, B, C); each tower's value is checked as a number is.
 
+    Args:
+        path: The file.
+        data: Its TOML, already parsed (:func:`~deltacal.io.toml.read_toml`): the file is read once.
+
     Raises:
         InputError: naming the file and the key (and value, and tower) of the first problem found.
     """
     source = str(path)
-    top = TomlTable(read_toml(path), source)
+    top = TomlTable(read_toml(path) if data is None else data, source)
     if not is_printer_file(top):
         raise top.error("kind", "not a linear Delta printer's file: kind = 'linear' is required")
     top.check_unknown(["name", "description", "kind", "geometry", "points", "workspace"])

@@ -119,16 +119,19 @@ def check_config_firmware(path: str | Path, firmware: Firmware[Any]) -> None:
                          f"{firmware.title}'s: name {other.name} as its firmware", str(path))
 
 
-def config_files(path: str | Path, name: str | None = None) -> tuple[Path, ...]:
+def config_files(path: str | Path, name: str | Firmware[Any] | None = None) -> tuple[Path, ...]:
     """Every file a firmware's configuration reads (:meth:`~.base.Firmware.config_files`), itself first.
 
     Args:
         path: The configuration (a command's ``--controller`` or ``--config``).
-        name: The firmware's name (``--firmware``), or None: told from the file. A file no firmware
-            recognises, or that its firmware cannot read, is itself alone (its reader names the
-            problem when the command reads it).
+        name: The firmware (already told), or its name (``--firmware``), or None: told from the file.
+            A file no firmware recognises, or that its firmware cannot read, is itself alone (its
+            reader names the problem when the command reads it).
     """
-    firmware = firmware_named(name) if name is not None else config_firmware(path)
+    if isinstance(name, Firmware):
+        firmware: Firmware[Any] | None = name
+    else:
+        firmware = firmware_named(name) if name is not None else config_firmware(path)
     if firmware is None:
         return (Path(path),)
     try:

@@ -57,6 +57,7 @@ from .probe_log import ProbeLog
 from .probing import PROBE_CLEARANCE, ProbeTravel
 
 if TYPE_CHECKING:
+    from ...calibration import Calibration
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
 
@@ -228,6 +229,15 @@ class Firmware(ABC, Generic[ModelT]):
         apply_note: How to put the values :meth:`config_text` writes into the printer (one line,
             the first comment of the file and said by ``deltacal export``), whatever the
             configuration the printer runs (:meth:`apply_note_for` says it for one).
+        export_file: The file ``deltacal export --controller NAME -o`` writes, as its help names it.
+        values_words: What its exported values are, in its own words (``"M665, M666 and M92 lines"``).
+        export_needs_config: Why the exported values need the configuration the printer runs
+            (``--config``) unless the step distances are held, or "" (they do not: the step
+            distances alone give the firmware's values).
+        exports_minimum_z: Whether the exported values carry the lowest Z the firmware accepts (Klipper's
+            ``minimum_z_position``), lowered by export to admit the corrected bed (:meth:`admit_bed`).
+        live_files: The files of a correction the firmware runs itself (``export --live``, Klipper's
+            module and its section: :meth:`export_live`), or none (the firmware has none).
     """
 
     name: ClassVar[str]
@@ -241,6 +251,11 @@ class Firmware(ABC, Generic[ModelT]):
     apply_note: ClassVar[str]
     #: Where it keeps each value an owner adjusts, in its words (:class:`~.owner_keys.OwnerKeys`).
     owner_keys: ClassVar[OwnerKeys]
+    export_file: ClassVar[str]
+    values_words: ClassVar[str]
+    export_needs_config: ClassVar[str] = ""
+    exports_minimum_z: ClassVar[bool] = False
+    live_files: ClassVar[tuple[str, ...]] = ()
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
@@ -292,7 +307,8 @@ class Firmware(ABC, Generic[ModelT]):
     @abstractmethod
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[ModelT]:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -305,6 +321,8 @@ class Firmware(ABC, Generic[ModelT]):
             minimax: The least largest error over the volume, not the least squares, the first layer
                 no less flat than the least squares leave it (:func:`~.fitting.least_largest`):
                 what ``export`` writes.
+            grid: The nozzle targets the errors are judged at [mm], (N, 3) (default: a grid of the
+                printable volume, :func:`~deltacal.printer.firmware.fitting.printable_grid`).
         """
 
     @abstractmethod
@@ -347,6 +365,23 @@ class Firmware(ABC, Generic[ModelT]):
         """
         return self.apply_note
 
+    def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
+                    source: str = "") -> tuple[str, ...]:
+        """Write the correction the firmware runs itself (:attr:`live_files`) in ``folder``; what to say.
+
+        Computed for the values of the configuration ``config`` the printer runs (``export --live``).
+
+        Args:
+            calibration: The printer's calibration.
+            config: The configuration the printer runs.
+            folder: The output folder (made if missing; its parent must exist).
+            source: The calibration's file, for the files and the messages.
+
+        Raises:
+            InputError: the configuration's first problem (by default: the firmware has none).
+        """
+        raise InputError(f"{self.title} runs no correction of deltacal's own (export --live)", str(config))
+
     def own_calibrations(self, model: ModelT, measuring: Measuring, radius: float) -> dict[str, ModelT]:
         """The firmware's own calibration of a printer, emulated: the values each variant leaves, by name.
 
@@ -378,11 +413,17 @@ class Firmware(ABC, Generic[ModelT]):
             step_distance: The step distance its readings count in [mm].
             radius: The printable radius [mm].
         """
+        lowest = self.bed_minimum_z(model, geometry, step_distance, radius)
+        return model if lowest is None else model.with_minimum_z(lowest)  # type: ignore[return-value]
+
+    def bed_minimum_z(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
+                      radius: float) -> float | None:
+        """The lowest Z :meth:`admit_bed` sets [mm], or None if the values admit the corrected bed."""
         controller = self.controller(model, step_distance)
         commands = corrected_targets(geometry, controller, bed_grid(radius)).commands
         lowest = math.floor((float(np.min(commands[:, 2])) - BED_MARGIN_MM) * 100.0) / 100.0
         low = model.outside(np.array([[0.0, 0.0, lowest]])) != 0
-        return model.with_minimum_z(lowest) if bool(low[0]) else model  # type: ignore[return-value]
+        return lowest if bool(low[0]) else None
 
     def save_config(self, path: str | Path, model: ModelT, source: str | Path | None = None, title: str = "",
                     notes: list[str] | tuple[str, ...] = (), complete: bool = False) -> Path:
@@ -405,13 +446,27 @@ class Firmware(ABC, Generic[ModelT]):
             InputError: the file's first problem, or towers stepping differently without
                 ``step_distance``.
         """
-        model = self.read_config(path)
+        return self.configured_controller(self.read_config(path), step_distance, path)
+
+    def configured_controller(self, model: ModelT, step_distance: np.ndarray | float | None,
+                              source: str | Path) -> CommandModel:
+        """The firmware as a controller with the values ``model`` read from the configuration ``source``.
+
+        Args:
+            model: The values (:meth:`read_config` of ``source``).
+            step_distance: As :meth:`load_controller`'s: by default the configuration's own, the
+                same on the three towers.
+            source: The configuration, for the message.
+
+        Raises:
+            InputError: towers stepping differently without ``step_distance``.
+        """
         if step_distance is None:
             steps = model.step_distance
             if np.any(steps != steps[0]):
                 raise InputError(f"the towers' step distances differ ({', '.join(f'{v:.9g}' for v in steps)} "
                                  "mm): the step distance the printer's readings count in is not known; give "
-                                 "the configuration the calibration was measured with", str(path),
+                                 "the configuration the calibration was measured with", str(source),
                                  self.step_distance_keys)
             step_distance = float(steps[0])
         return self.controller(model, step_distance)
@@ -445,17 +500,22 @@ class Firmware(ABC, Generic[ModelT]):
         check_same_values("step distance", steps, other.step_distance, STEP_DISTANCE_RTOL * steps, our_source,
                           their_source)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: ModelT | None = None) -> Dialect:
         """The firmware's reading of G-code with the configuration file ``path``.
 
         A firmware without rules of its own reads G-code as
         :data:`~deltacal.gcode.dialect.GENERIC` does (ambiguities refused), with where its
         homing leaves the nozzle: its model's position with every carriage at its endstop.
 
+        Args:
+            path: The configuration.
+            model: Its values, if already read (:meth:`read_config`): not read again.
+
         Raises:
             InputError: the configuration's first problem.
         """
-        return GENERIC.with_home(self.read_config(path).positions(np.zeros((1, 3)))[0])
+        model = self.read_config(path) if model is None else model
+        return GENERIC.with_home(model.positions(np.zeros((1, 3)))[0])
 
     def config_files(self, path: str | Path) -> tuple[Path, ...]:
         """Every file the configuration ``path`` reads (itself first): none may be overwritten by an output.

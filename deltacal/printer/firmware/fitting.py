@@ -40,6 +40,11 @@ from .base import FirmwareModel, ModelT
 TOLERANCE = 1e-8
 #: The height of the first layer, where flatness is judged [mm].
 FIRST_LAYER = 0.2
+#: The first layer's weight of every firmware's exported values (``export --controller NAME``) and of
+#: the report's: it trades the volume's largest error for the first layer's flatness, which the
+#: firmware's values must not leave worse than the firmware's own calibration (the figures:
+#: docs/printers.md and docs/results.md).
+EXPORT_FIRST_LAYER_WEIGHT = 30.0
 #: :func:`least_largest` stops when a step would lower the largest error by less than this [mm].
 LARGEST_TOLERANCE = 1e-5
 #: What a step of :func:`least_largest` may leave above the start's flatness: the second order of a

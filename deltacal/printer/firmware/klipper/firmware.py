@@ -40,12 +40,14 @@ from .config import (
 )
 from .fit import fit_klipper
 from .importer import import_klipper, write_import
+from .live.export import LIVE_FILES, export_live
 from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program, klipper_probe_travel
 
 if TYPE_CHECKING:
+    from ....calibration import Calibration
     from ...robot import NominalLinearDelta
     from ..probe_log import ProbeLog
     from ..probing import ProbeTravel
@@ -71,6 +73,15 @@ class Klipper(Firmware[KlipperDelta]):
     minimum_z_key: ClassVar[str] = "minimum_z_position"
     apply_note: ClassVar[str] = APPLY_NOTE
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
+    export_file: ClassVar[str] = "CALIBRATED.cfg"
+    values_words: ClassVar[str] = "the [printer] and [stepper_a..c] values of printer.cfg"
+    export_needs_config: ClassVar[str] = (
+        "--controller klipper: rotation_distance is the step distance times each tower's "
+        "full_steps_per_rotation x microsteps, which the calibration does not hold: give --config "
+        "printer.cfg (the configuration the printer runs), or --keep-rotation-distance to keep the printer's "
+        "own rotation_distance")
+    exports_minimum_z: ClassVar[bool] = True
+    live_files: ClassVar[tuple[str, ...]] = LIVE_FILES
 
     def is_config(self, path: str | Path) -> bool:
         """A file with a ``[printer]`` section (:func:`~.config.is_klipper_config`)."""
@@ -106,10 +117,16 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[KlipperDelta]:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           first_layer_weight=first_layer_weight, minimax=minimax)
+                           grid=grid, first_layer_weight=first_layer_weight, minimax=minimax)
+
+    def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
+                    source: str = "") -> tuple[str, ...]:
+        """The module ``deltacal_geometry.py`` and its section (:func:`~.live.export.export_live`)."""
+        return export_live(calibration, config, folder, source).lines
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:
@@ -143,7 +160,7 @@ class Klipper(Firmware[KlipperDelta]):
             warnings.simplefilter("ignore", InputWarning)
             return tuple(Path(name) for name in read_klipper_config(path).files)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: KlipperDelta | None = None) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
 
         G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
@@ -154,7 +171,7 @@ class Klipper(Firmware[KlipperDelta]):
         (:func:`~.macros.with_moving_commands`). A line's command is its first word, after any
         whitespace (``str.strip``) and a line number (:data:`KLIPPER_LINES`).
         """
-        home = load_klipper(path).positions(np.zeros((1, 3)))[0]
+        home = (load_klipper(path) if model is None else model).positions(np.zeros((1, 3)))[0]
         return Dialect(self.title, g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
                        macros=with_moving_commands(read_macros(read_klipper_config(path))),
                        lines=KLIPPER_LINES)

@@ -26,6 +26,7 @@ import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
 from ..base import FirmwareFit
+from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
 from ..fitting import ErrorStats as ErrorStats
@@ -44,11 +45,6 @@ KLIPPER_NAMES = (
 )
 #: The index of ``angle_c`` in :data:`KLIPPER_NAMES`.
 _ANGLE_C = 3
-#: The first layer's weight of ``export --controller klipper`` and the report (:func:`fit_klipper`):
-#: it trades the volume's largest error for the first layer's flatness, which the firmware's values
-#: must not leave worse than the firmware's own calibration (the figures: docs/printers.md and
-#: docs/results.md).
-EXPORT_FIRST_LAYER_WEIGHT = 30.0
 
 
 def values_of(klipper: KlipperDelta) -> np.ndarray:

@@ -57,6 +57,8 @@ class Marlin(Firmware[MarlinDelta]):
     minimum_z_key: ClassVar[str] = "M211 Min Z"
     apply_note: ClassVar[str] = APPLY_NOTE
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
+    export_file: ClassVar[str] = "CALIBRATED.gcode"
+    values_words: ClassVar[str] = "M665, M666 and M92 lines, saved by M500"
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture, or a ``Configuration.h`` (:func:`~.settings.is_marlin_settings`)."""
@@ -85,10 +87,11 @@ class Marlin(Firmware[MarlinDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[MarlinDelta]:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            grid: np.ndarray | None = None) -> FirmwareFit[MarlinDelta]:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,
-                          minimax)
+                          minimax, grid)
 
     def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
                          radius: float) -> dict[str, MarlinDelta]:
@@ -122,7 +125,7 @@ class Marlin(Firmware[MarlinDelta]):
         """:func:`~.importer.import_marlin`: ``printer.toml`` of Marlin's model of an ``M503`` capture."""
         return import_marlin(path, folder, effector_radius, rod_spacing, nozzle_drop)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: MarlinDelta | None = None) -> Dialect:
         """Marlin 2's reading of G-code with an ``M503`` capture (:func:`~.dialect.marlin_dialect`).
 
         G90 and G91 set E's mode too and M82/M83 override it until the next G90/G91
@@ -135,7 +138,7 @@ class Marlin(Firmware[MarlinDelta]):
         switches the soft endstops off for the lines after it (``M211.cpp``), ``S1`` on; no macros; a
         line's command is its first letter after spaces (:data:`~.dialect.MARLIN_LINES`).
         """
-        return marlin_dialect(load_marlin(path))
+        return marlin_dialect(load_marlin(path) if model is None else model)
 
 
 #: Marlin, the firmware.

@@ -39,7 +39,8 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit[MarlinDelta]:
+               first_layer_weight: float = 0.0, minimax: bool = False,
+               grid: np.ndarray | None = None) -> FirmwareFit[MarlinDelta]:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     The fit's names are :data:`MARLIN_NAMES`; its singular values and iterations are those of the
@@ -54,12 +55,13 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         minimax: Then the least largest error over the volume, the first layer no less flat
             (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
+        grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
         UnreachableError: a target out of Marlin's reach.
     """
-    grid = printable_grid(workspace)
+    grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
 
     def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,

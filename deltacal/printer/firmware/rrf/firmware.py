@@ -63,6 +63,8 @@ class RRF(Firmware[RRFDelta]):
     minimum_z_key: ClassVar[str] = "M208 Z minimum"
     apply_note: ClassVar[str] = APPLY_NOTE
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
+    export_file: ClassVar[str] = "CALIBRATED.g"
+    values_words: ClassVar[str] = "M665 and M666 lines for config-override.g, M92 for config.g"
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
@@ -109,6 +111,7 @@ class RRF(Firmware[RRFDelta]):
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
         minimax: bool = False,
+        grid: np.ndarray | None = None,
     ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -117,6 +120,7 @@ class RRF(Firmware[RRFDelta]):
             step_distance,
             workspace,
             hold_step_distance=hold_step_distance,
+            grid=grid,
             first_layer_weight=first_layer_weight,
             minimax=minimax,
         )
@@ -142,7 +146,7 @@ class RRF(Firmware[RRFDelta]):
         """:func:`~.apply.rrf_config_files`: ``config.g``, the files it runs and ``homedelta.g``."""
         return rrf_config_files(path)
 
-    def dialect(self, path: str | Path) -> Dialect:
+    def dialect(self, path: str | Path, model: RRFDelta | None = None) -> Dialect:
         """RepRapFirmware's reading of G-code with ``config.g``.
 
         E is relative exactly when M83 holds: G90/G91 set only ``axesRelative``, M82/M83
@@ -160,7 +164,7 @@ class RRF(Firmware[RRFDelta]):
             InputError: the configuration's first problem, or a move of ``homedelta.g`` whose end
                 is not known.
         """
-        model = load_rrf(path)
+        model = load_rrf(path) if model is None else model
         home, _ = homed_position(path, model)
         return rrf_dialect(model, home)
 

@@ -1,4 +1,4 @@
-"""Chunks of targets solved on every core, written in order: ``deltacal compensate``'s compute pass.
+"""Chunks of targets solved on every core, written in order: the compensate job's compute pass.
 
 Compensation is numpy on small matrices, one chunk (about 40,000 targets) at a time, and runs on one
 core (BLAS threads only contend on matrices this small). A large file is solved by a pool of worker

@@ -1,92 +1,80 @@
-"""``deltacal identify`` for a printer: its probe heights and printed distances, through its firmware.
+"""A printer's identification: its probe heights and printed distances, through its firmware.
 
 The measurements are of commanded positions: each is turned into the readings the firmware
 commanded (steps below the endstops, counted in the printer's nominal step distance) through
-the firmware's own inverse model (the Klipper configuration they were made with), then
+the firmware's own inverse model (the configuration they were made with), then
 :func:`~deltacal.printer.identification.fit.identify_printer` finds the full geometry on the true bed.
+A measurement the nominal printer cannot assemble, or that does not fit the others, is refused by
+its file and line before the fit.
 """
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import AssemblyError, InputError, UsageError
-from ..geometry import DeltaGeometry, Tolerances
-from ..io import save_calibration
-from ..io.tables import data_row
-from ..kinematics import exact
-from ..printer.files.measurements import (
+from ...exceptions import AssemblyError, InputError
+from ...geometry import DeltaGeometry, Tolerances
+from ...io import save_calibration
+from ...io.tables import data_row
+from ...kinematics import exact
+from ...printer.files.measurements import (
     PAIR_COLUMNS,
     PROBE_COLUMNS,
     read_printed_distances,
     read_probe_heights,
 )
-from ..printer.files.same_printer import ENDSTOP_MM, check_step_distance
-from ..printer.firmware.base import FirmwareModel
-from ..printer.identification.fit import (
+from ...printer.files.same_printer import ENDSTOP_MM, check_step_distance
+from ...printer.firmware.base import FirmwareModel
+from ...printer.firmware.config_file import read_firmware_config
+from ...printer.identification.fit import (
     PrinterFitOptions,
     PrinterMeasurements,
     identify_printer,
     printer_outliers,
 )
-from ..printer.identification.outliers import Outliers
-from ..printer.robot import NominalLinearDelta
-from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
-from .firmware import add_firmware_argument, controller_firmware
+from ...printer.identification.outliers import Outliers
+from ...printer.robot import NominalLinearDelta
+from ..base import Done, check_files, warn
+from ..requests import IdentifyRequest
 
-#: The error models of a printer.
-PRINTER_MODELS = ("printer", "klipper")
 #: Probe heights fewer than this are not checked for their spread (a few may agree by chance).
 MIN_HEIGHTS_SPREAD = 5
-#: A probe's trigger point is on the effector: within this of the nozzle along each axis [mm].
-PROBE_OFFSET_MM = 100.0
 
 
-def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
-    """Run ``deltacal identify`` for a printer robot file; returns the exit status."""
-    if args.controller is None:
-        raise UsageError(f"{args.nominal}: a printer's measurements are of commanded positions: give "
-                         "--controller printer.cfg|config.g (the firmware configuration they were made with)")
-    model = args.model or "printer"
-    if model not in PRINTER_MODELS:
-        raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODELS)}")
-    for flag in ("distances", "compliance", "free_points", "pairs"):
-        if getattr(args, flag):
-            raise UsageError(f"--{flag.replace('_', '-')} applies to a rotary Delta's measurements")
-    paths = list(args.measurements)
-    inputs = [args.nominal, args.controller, *paths]
-    for path in inputs:
-        check_input(path)
-    check_output(args.output, inputs)
-    kind = controller_firmware(args.controller, args.firmware)
-    firmware = kind.read_config(args.controller)
-    check_step_distance(printer.step_distance, firmware.step_distance, args.nominal, args.controller,
-                        kind.step_distance_keys)
-    kind.check_same_printer(kind.nominal(printer), firmware, args.nominal, args.controller)
-    files = _read(paths[0], paths[1:], firmware, printer, args.sigma_height, float(args.probe_offset[2]))
-    data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=args.probe_offset,
-                               height_sigma=args.sigma_height, distance_sigma=args.sigma_distance,
+def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) -> Done:
+    """``deltacal identify`` of a printer: the calibration file written, the report said."""
+    model = request.printer_model()
+    assert request.controller is not None
+    paths = [str(p) for p in request.measurements]
+    check_files([request.nominal, request.controller, *paths], request.output)
+    config = read_firmware_config(request.controller, request.firmware)
+    firmware, values = config.firmware, config.values
+    check_step_distance(printer.step_distance, values.step_distance, request.nominal, request.controller,
+                        firmware.step_distance_keys)
+    firmware.check_same_printer(firmware.nominal(printer), values, str(request.nominal),
+                                str(request.controller))
+    assert request.probe_offset is not None
+    files = _read(paths[0], paths[1:], values, printer, request.sigma_height, float(request.probe_offset[2]))
+    data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=request.probe_offset,
+                               height_sigma=request.sigma_height, distance_sigma=request.sigma_distance,
                                trigger_height=files.trigger)
-    options = PrinterFitOptions(method="linear" if args.linear else "iterated",
+    options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
-                                tolerance_scale=args.tolerance_scale or "evidence")
+                                tolerance_scale=request.tolerance_scale or "evidence")
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
-    if not args.accept_poor_fit:
+    if not request.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
             raise _outlier_error(found, data, files)
     result = identify_printer(start, data, model, options=options)
-    save_calibration(result, args.output)
-    print(result.report())
+    save_calibration(result, request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
-    print(f"\nwrote {args.output}")
-    return 0
+    return Done((result.report(), f"\nwrote {request.output}"))
 
 
 @dataclass(frozen=True)
@@ -231,36 +219,3 @@ def _outlier_error(found: Outliers, data: PrinterMeasurements, files: _Files) ->
                       f"{expected:.6g} mm ({abs(value - expected):.3g} mm, {abs(r):.0f} σ of a {what} off: "
                       f"a typo?); correct or delete the row, or keep it with --accept-poor-fit{more}",
                       files.sources[k][0], f"{files.place(k)[1]}, column {column}")
-
-
-def probe_offset(text: str) -> np.ndarray:
-    """Argparse type of ``--probe-offset X,Y,Z`` [mm]: three numbers, each within :data:`PROBE_OFFSET_MM`."""
-    values = np.asarray(three_numbers(text, "X,Y,Z in mm"))
-    far = np.flatnonzero(np.abs(values) > PROBE_OFFSET_MM)
-    if far.size:
-        k = int(far[0])
-        raise argparse.ArgumentTypeError(
-            f"the probe's trigger point is on the effector, within {PROBE_OFFSET_MM:g} mm of the nozzle; "
-            f"{'XYZ'[k]} = {values[k]:g} mm in {text!r} (metres? micrometres? deltacal reads millimetres)")
-    return values
-
-
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    """The options of ``identify`` that serve printers."""
-    p.add_argument("--controller", metavar="SETTINGS",
-                   help="a printer: the firmware's settings the measurements were made with (Klipper's "
-                        "printer.cfg, Marlin's M503 capture, RepRapFirmware's config.g)")
-    add_firmware_argument(p)
-    p.add_argument("--probe-offset", type=probe_offset,
-                   default=np.zeros(3), metavar="X,Y,Z",
-                   help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "
-                        "(default 0,0,0: the nozzle is the probe; a probe file's trigger_height_mm is that "
-                        "point's height above the bed at the trigger)")
-    p.add_argument("--sigma-height", type=sigma, default=0.01, metavar="MM",
-                   help="a printer: σ of a probe height [mm] (default 0.01)")
-    p.add_argument("--sigma-distance", type=sigma, default=0.02, metavar="MM",
-                   help="a printer: σ of a caliper distance [mm] (default 0.02)")
-    p.add_argument("--tolerance-scale", type=positive_float, default=None, metavar="S",
-                   help="a printer: the factor of the kit's build tolerances the priors take (default: the "
-                        "one the measurements make most probable)")
-

@@ -1,0 +1,161 @@
+"""A firmware's configuration given to a job (``--controller SETTINGS [--firmware NAME]``): told, read once.
+
+Without a name the firmware is told from the file's content
+(:func:`~deltacal.printer.firmware.config_firmware`); with one, it is the firmware of that name among
+:func:`~deltacal.printer.firmware.firmwares`. A file of
+deltacal's own (a robot file, a calibration) is refused as a firmware's settings. :func:`read_firmware_config`
+tells the firmware and reads its values once, for every use a job makes of them (the controller, the
+same-printer check, the reading of G-code); a printer's calibration (or robot file) and the firmware's
+values are checked to be of one printer (:func:`check_printer_values`).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from ...controller.targets import CommandModel
+from ...exceptions import GeometryError, InputError, UsageError
+from ...gcode.dialect import Dialect
+from ...geometry import DeltaGeometry
+from . import check_config_firmware, config_firmware, firmware_named, firmwares
+from .base import Firmware, FirmwareModel
+
+
+def firmware_names() -> tuple[str, ...]:
+    """The names ``--firmware`` takes (and ``export --controller``), in the firmwares' order."""
+    return tuple(firmware.name for firmware in firmwares())
+
+
+def told_firmware(path: str | Path, name: str | None) -> Firmware[Any]:
+    """The firmware of ``--controller PATH``: the one named, else the one whose settings the file is.
+
+    Raises:
+        UsageError: a file of deltacal's own (a robot file...), an unknown name, or no name and a
+            file no firmware recognises.
+        InputError: a name given for a file that is another firmware's configuration by its content
+            (:func:`~deltacal.printer.firmware.check_config_firmware`).
+    """
+    refuse_deltacal_file(path)
+    if name is not None:
+        named = firmware_named(name)
+        if named is None:
+            raise UsageError(f"--firmware {name}: one of {'|'.join(firmware_names())}")
+        check_config_firmware(path, named)
+        return named
+    firmware = config_firmware(path)
+    if firmware is None:
+        raise UsageError(f"--controller {path}: not a firmware's settings that deltacal recognises (a "
+                         "Klipper printer.cfg, a Marlin M503 capture...): give --firmware "
+                         f"{'|'.join(firmware_names())}")
+    return firmware
+
+
+def refuse_deltacal_file(path: str | Path, option: str = "--controller") -> None:
+    """A usage error if ``path``, given as a firmware's settings, is deltacal's own file (a robot file)."""
+    own = deltacal_file(path)
+    if own is not None:
+        raise UsageError(f"{option} {path}: {own}, not a firmware's configuration: give the printer's "
+                         "settings (Klipper's printer.cfg, Marlin's M503 capture)")
+
+
+def deltacal_file(path: str | Path) -> str | None:
+    """What file of deltacal's own ``path`` is (``"a deltacal robot file"``), or None (none of its)."""
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    kind = data.get("format")
+    if isinstance(kind, str) and kind.startswith("deltacal-"):
+        return f"a deltacal file (format = {kind!r})"
+    return "a deltacal robot file" if isinstance(data.get("geometry"), dict) else None
+
+
+@dataclass(frozen=True)
+class FirmwareConfig:
+    """A firmware's configuration file, its firmware told and its values read once.
+
+    Attributes:
+        firmware: The firmware whose settings the file is.
+        values: Its values (:meth:`~deltacal.printer.firmware.base.Firmware.read_config`).
+        path: The file.
+    """
+
+    firmware: Firmware[Any]
+    values: FirmwareModel
+    path: str
+
+    @classmethod
+    def read(cls, firmware: Firmware[Any], path: str | Path) -> FirmwareConfig:
+        """``path`` read as ``firmware``'s configuration (told already).
+
+        Raises:
+            InputError: the configuration's first problem.
+        """
+        return cls(firmware, firmware.read_config(path), str(path))
+
+    def controller(self, step_distance: Any = None) -> CommandModel:
+        """The firmware with these values as the controller of readings counted in ``step_distance`` [mm].
+
+        By default the configuration's own step distance, the same on the three towers
+        (:meth:`~deltacal.printer.firmware.base.Firmware.configured_controller`).
+        """
+        return self.firmware.configured_controller(self.values, step_distance, self.path)
+
+    def dialect(self) -> Dialect:
+        """The firmware's reading of G-code with this configuration (its values not read again)."""
+        return self.firmware.dialect(self.path, self.values)
+
+    def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
+        """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""
+        check_printer_values(self.firmware, geometry, self.values, source, self.path)
+
+
+def read_firmware_config(path: str | Path, name: str | None = None) -> FirmwareConfig:
+    """A firmware's configuration (``--controller``), the firmware told (:func:`told_firmware`) and read once.
+
+    Raises:
+        UsageError: as :func:`told_firmware`.
+        InputError: the configuration's first problem.
+    """
+    return FirmwareConfig.read(told_firmware(path, name), path)
+
+
+def controller_firmware(path: str | Path, name: str | None = None) -> Firmware[Any] | None:
+    """The firmware whose configuration a ``--controller`` file is, or None (a controller or robot file).
+
+    With a name (``--firmware``) the file is that firmware's (:func:`told_firmware`); without, it is
+    one when a firmware recognises it (:func:`~deltacal.printer.firmware.config_firmware`).
+    """
+    return told_firmware(path, name) if name is not None else config_firmware(path)
+
+
+def controller_config(path: str | Path, name: str | None = None) -> FirmwareConfig | None:
+    """A ``--controller`` file as a firmware's configuration read once, or None (a controller or robot file).
+
+    The firmware as :func:`controller_firmware` tells it.
+    """
+    firmware = controller_firmware(path, name)
+    return None if firmware is None else FirmwareConfig.read(firmware, path)
+
+
+def check_printer_values(firmware: Firmware[Any], geometry: DeltaGeometry, model: FirmwareModel,
+                         source: str | Path, config: str | Path) -> None:
+    """Refuse a firmware's values ``model`` (read from ``config``) of another printer than ``geometry``.
+
+    The geometry's values are the firmware's at its tolerances' centre
+    (:meth:`~deltacal.printer.firmware.base.Firmware.start`), in the configuration's step distance when
+    the geometry holds none (a calibration written before it was kept).
+
+    Raises:
+        InputError: naming both values (or the geometry the firmware's model cannot hold).
+    """
+    if geometry.step_distance is None:
+        geometry = replace(geometry, step_distance=model.step_distance)
+    try:
+        ours = firmware.start(geometry)
+    except GeometryError as exc:
+        raise InputError(str(exc), str(source)) from None
+    firmware.check_same_printer(ours, model, f"{source}'s geometry", str(config))

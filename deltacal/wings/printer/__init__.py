@@ -1,0 +1,138 @@
+"""The printer's wing: a linear Delta printer's robot file and its jobs, each through the printer's firmware.
+
+Each job in a module of its own: :mod:`.plan` (the printed object, its probe grid and sheet),
+:mod:`.simulate` (the templates filled by a true printer), :mod:`.identify` (probe heights and printed
+distances); its export is the firmware's values (:mod:`deltacal.printer.firmware.export`, one route for
+every firmware) and its report fits and names them. The printer's own parts (its model, identification,
+object, firmwares) are :mod:`deltacal.printer`. :data:`PRINTER` is the one wing object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, ClassVar
+
+from ...calibration import Calibration
+from ...chains import PRISMATIC, Chain
+from ...controller import FIT_KINDS
+from ...exceptions import UsageError
+from ...geometry import DeltaGeometry, Workspace
+from ...io.paths import check_output_folder
+from ...kinematics.workspace import default_workspace
+from ...printer.files.robot_file import load_printer
+from ...printer.firmware import config_files, firmware_named, firmwares
+from ...printer.firmware.base import Firmware, FirmwareModel
+from ...printer.firmware.config_file import read_firmware_config, refuse_deltacal_file
+from ...printer.firmware.export import export_firmware_values
+from ...printer.robot import NominalLinearDelta
+from ...robots import load_robot
+from ..base import Done, Robot, Wing
+from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportRequest, SimulateRequest
+from .identify import identify_from_prints
+from .plan import plan_printed_object
+from .simulate import simulate_prints
+
+
+class PrinterWing(Wing):
+    """A linear Delta printer (three carriages on towers): a robot file with ``kind = "linear"``."""
+
+    name: ClassVar[str] = "printer"
+    chain: ClassVar[Chain] = PRISMATIC
+
+    def load(self, path: str | Path, data: dict | None = None) -> NominalLinearDelta:
+        """:func:`~deltacal.printer.files.robot_file.load_printer`."""
+        return load_printer(path, data)
+
+    def _robot(self, path: str | Path, robot: Robot | None) -> NominalLinearDelta:
+        robot = self.load(path) if robot is None else robot
+        assert isinstance(robot, NominalLinearDelta)
+        return robot
+
+    def plan(self, request: PlanRequest, robot: Robot | None = None,
+             notify: Callable[[str], None] | None = None) -> Done:
+        """The printed object (:func:`.plan.plan_printed_object`); a printer's plan is ``--object``."""
+        if not request.object:
+            raise UsageError(f"{request.nominal}: a printer's plan is the object it prints and measures: use "
+                             "--object --controller printer.cfg -o DIR")
+        return plan_printed_object(request, self._robot(request.nominal, robot))
+
+    def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
+        """Probe heights and printed distances through the firmware (:func:`.simulate.simulate_prints`)."""
+        return simulate_prints(request, self._robot(request.nominal, robot))
+
+    def identify(self, request: IdentifyRequest, robot: Robot | None = None) -> Done:
+        """The geometry from probe heights and distances (:func:`.identify.identify_from_prints`)."""
+        return identify_from_prints(request, self._robot(request.nominal, robot))
+
+    def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:
+        """The firmware's values that fit best (:mod:`deltacal.printer.firmware.export`).
+
+        One route for every firmware; ``offsets`` and ``limbs`` are a rotary Delta's.
+        """
+        firmware = firmware_named(str(request.controller))
+        if firmware is None or request.controller in FIT_KINDS:
+            raise UsageError(f"--controller {request.controller}: {request.calibration} is a printer's "
+                             "calibration; its firmware's values: --controller klipper")
+        assert request.output is not None
+        if request.live:
+            return _export_live(firmware, request, calibration)
+        workspace, where = printable_volume(request.robot, calibration.nominal)
+        export = export_firmware_values(firmware, calibration, request.calibration, workspace, where,
+                                        request.config, request.keep_rotation_distance, request.robot)
+        export.save(request.output, request.config)
+        wrote = f"wrote the {firmware.title} values that best fit {request.calibration} to {request.output}"
+        return Done((wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
+
+    def report_firmware(self, request: ReportRequest,
+                        calibration: Calibration) -> tuple[Firmware[Any], FirmwareModel | None]:
+        """``--controller``'s firmware (its values read once, checked of this printer), or named, or Klipper.
+
+        A printer's measurements are of commanded positions: their residuals need the settings they
+        were made with (``--controller``).
+        """
+        if request.measurements and request.controller is None:
+            raise UsageError(f"{request.calibration}: a printer's measurements are of commanded positions: "
+                             "give --controller printer.cfg|config.g|M503.txt (the settings they were made "
+                             "with)")
+        if request.controller is None:
+            named = firmware_named(request.firmware) if request.firmware is not None else None
+            return (named if named is not None else firmwares()[0]), None
+        config = read_firmware_config(request.controller, request.firmware)
+        config.check_printer(calibration.geometry, request.calibration)
+        return config.firmware, config.values
+
+
+def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
+    """``export --live``: the correction the firmware runs itself, through the values of ``--config``."""
+    assert request.config is not None and request.output is not None
+    refuse_deltacal_file(request.config, "--config")
+    inputs = (request.calibration, *config_files(request.config, firmware.name))
+    check_output_folder(request.output, firmware.live_files, inputs, "export --live")
+    config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
+    config.check_printer(calibration.geometry, request.calibration)
+    return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration)))
+
+
+def printable_volume(robot: str | Path | None, nominal: DeltaGeometry) -> tuple[Workspace, str]:
+    """The printable volume: the robot file's ``[workspace]``, else the default for the nominal printer.
+
+    Returns:
+        The volume and where it comes from, for the messages (``" of kossel.toml"``).
+
+    Raises:
+        UsageError: a rotary Delta's robot file.
+    """
+    if robot is not None:
+        read = load_robot(robot)
+        if read.geometry().chain != nominal.chain:
+            raise UsageError(f"--robot {robot}: a rotary Delta's robot file; give the printer's")
+        if read.workspace is not None:
+            return read.workspace, f" of {robot}"
+    return default_workspace(nominal), " (the default; --robot gives the printer's own)"
+
+
+#: The linear Delta printer's wing.
+PRINTER = PrinterWing()
+
+__all__ = ["PRINTER", "PrinterWing", "printable_volume"]

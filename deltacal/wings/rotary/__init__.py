@@ -1,0 +1,86 @@
+"""The rotary Delta's wing: its robot file and its jobs (the engine's own robot, measured by a tracker).
+
+Each job in a module of its own: :mod:`.plan` (Bai's poses or a D-optimal selection), :mod:`.simulate`
+(a true robot seen by a tracker and a probe), :mod:`.identify` (one measurements CSV), :mod:`.export`
+(a Cartesian controller's offsets or per-limb values). :data:`ROTARY` is the one wing object.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import ClassVar
+
+from ...calibration import Calibration
+from ...chains import REVOLUTE, Chain
+from ...controller import FIT_KINDS
+from ...exceptions import UsageError
+from ...geometry import NominalDelta
+from ...io import load_nominal
+from ...printer.firmware import firmware_named
+from ..base import Done, Robot, Wing
+from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportRequest, SimulateRequest
+from .export import export_controller_values
+from .identify import identify_rotary
+from .plan import plan_poses
+from .simulate import simulate_rotary
+
+
+class RotaryWing(Wing):
+    """A rotary Delta (three revolute arms): a robot file without ``kind``, or ``kind = "rotary"``."""
+
+    name: ClassVar[str] = "rotary"
+    chain: ClassVar[Chain] = REVOLUTE
+
+    def load(self, path: str | Path, data: dict | None = None) -> NominalDelta:
+        """:func:`~deltacal.io.load_nominal`."""
+        return load_nominal(path, data)
+
+    def _robot(self, path: str | Path, robot: Robot | None) -> NominalDelta:
+        robot = self.load(path) if robot is None else robot
+        assert isinstance(robot, NominalDelta)
+        return robot
+
+    def plan(self, request: PlanRequest, robot: Robot | None = None,
+             notify: Callable[[str], None] | None = None) -> Done:
+        """Measurement poses (:func:`.plan.plan_poses`); ``--object`` is a printer's."""
+        if request.object:
+            raise UsageError(f"{request.nominal}: --object plans a linear Delta printer's object; this robot "
+                             "file is a rotary Delta's (kind = 'linear' for a printer)")
+        return plan_poses(request, self._robot(request.nominal, robot), notify)
+
+    def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
+        """A tracker's measurements (:func:`.simulate.simulate_rotary`)."""
+        return simulate_rotary(request, self._robot(request.nominal, robot))
+
+    def identify(self, request: IdentifyRequest, robot: Robot | None = None) -> Done:
+        """The geometry from one measurements CSV (:func:`.identify.identify_rotary`)."""
+        return identify_rotary(request, self._robot(request.nominal, robot))
+
+    def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:
+        """A Cartesian controller's offsets or per-limb values (:func:`.export.export_controller_values`)."""
+        if request.controller not in FIT_KINDS:
+            raise UsageError(f"--controller {request.controller}: {request.calibration} is a rotary Delta's "
+                             f"calibration; {self._values(request.controller)} are a printer's (--controller "
+                             "offsets|limbs serve a rotary Delta)")
+        return export_controller_values(request, calibration)
+
+    @staticmethod
+    def _values(name: str | None) -> str:
+        firmware = firmware_named(str(name))
+        return f"{firmware.title}'s values" if firmware is not None else "a firmware's values"
+
+    def report_firmware(self, request: ReportRequest, calibration: Calibration) -> tuple[None, None]:
+        """None: a rotary Delta's controller is a Cartesian one (``--firmware``, ``--controller`` refused)."""
+        if request.controller is not None:
+            raise UsageError("--controller applies to a printer's calibration (its measurements' firmware)")
+        if request.firmware is not None:
+            raise UsageError(f"--firmware applies to a printer's calibration; {request.calibration} is a "
+                             "rotary Delta's")
+        return None, None
+
+
+#: The rotary Delta's wing.
+ROTARY = RotaryWing()
+
+__all__ = ["ROTARY", "RotaryWing"]
