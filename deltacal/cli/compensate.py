@@ -34,6 +34,7 @@ from ..gcode import (
     marker_line,
 )
 from ..gcode.dialect import Dialect
+from ..holds import DEFAULT_BOUND
 from ..io import (
     CommandsWriter,
     JointsWriter,
@@ -43,6 +44,7 @@ from ..io import (
     load_calibration,
 )
 from ..printer.firmware import config_firmware
+from ..printer.identification.where import holds_in_words
 from ..robots import load_controller
 from .common import check_input, check_output, non_negative_float, positive_float, three_numbers, warn
 from .firmware import add_firmware_argument, check_config_printer, controller_firmware
@@ -90,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         if refused is not None:  # a bad value anywhere came first; the file's rows are now known
             raise _unreachable(*refused, targets_file, _frame_hint(args, frames)) from refused[0]
         writer = JointsWriter if controller is None else CommandsWriter
-        job = Job(geometry, controller, args.method, linear, args.payload, writer)
+        job = Job(geometry, controller, args.method, linear, args.payload, writer, calibration,
+                  args.sigma_bound, args.refuse_unheld)
         limits = None if controller is None else controller.limits
         beyond = None if limits is None else RefusedCommands(limits)
         with writer(args.output) as out:
@@ -112,7 +115,16 @@ def run(args: argparse.Namespace) -> int:
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {args.controller}")
     print(f"wrote {out.rows} {what} to {args.output}")
+    _where_it_holds(calibration if controller is not None else None, args.sigma_bound)
     return 0
+
+
+def _where_it_holds(calibration, bound: float) -> None:
+    """Say where a printer's corrections were applied, why not elsewhere, and what to measure."""
+    if calibration is None or calibration.holds is None:
+        return
+    print(f"corrections applied where their σ is at most {0.5 * bound:g} mm, blended into the controller's "
+          f"own commands up to {bound:g} mm (--sigma-bound): {holds_in_words(calibration.holds, bound)}")
 
 
 def _check_payload(args: argparse.Namespace) -> None:
@@ -162,7 +174,8 @@ def _program(args: argparse.Namespace) -> int:
         raise UsageError(f"--controller {args.controller}: a controller interpolating in "
                          f"{controller.interpolation} space cannot be sent a corrected G-code program")
 
-    job = Job(calibration.geometry, controller, "exact", None, args.payload, None)
+    job = Job(calibration.geometry, controller, "exact", None, args.payload, None, calibration,
+              args.sigma_bound, args.refuse_unheld)
     lines = os.path.getsize(args.targets) // 25  # about 25 bytes a line: sets whether workers share it
     dialect = _dialect(args.controller, args.firmware)
     marker = marker_line(args.controller, args.calibration)
@@ -172,6 +185,7 @@ def _program(args: argparse.Namespace) -> int:
                      dialect=dialect, limits=controller.limits, marker=marker)
     print(f"wrote the program corrected for the controller {args.controller} to {args.output} "
           f"(moves split every {segment:g} mm at most)")
+    _where_it_holds(calibration, args.sigma_bound)
     return 0
 
 
@@ -284,6 +298,13 @@ def add_parser(sub) -> None:
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
                         "actuators' compliances, the readings (or a controller's corrected targets) put "
                         "the loaded TCP on the targets (exact method)")
+    p.add_argument("--sigma-bound", type=positive_float, default=DEFAULT_BOUND, metavar="MM",
+                   help=f"a printer: the σ of a correction accepted [mm] (default {DEFAULT_BOUND:g}): where "
+                        "the calibration's correction has a larger σ (the measurements do not determine it) "
+                        "the controller's own command is sent, blended in from half of it")
+    p.add_argument("--refuse-unheld", action="store_true",
+                   help="a printer: refuse a target where the correction is not wholly applied (its σ above "
+                        "half --sigma-bound) instead of sending the controller's own command there")
     p.add_argument("--segment-mm", type=positive_float, metavar="S",
                    help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
                         "split so the real path follows the intended straight line")

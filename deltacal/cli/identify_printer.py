@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..exceptions import AssemblyError, InputError, UsageError
+from ..exceptions import AssemblyError, IdentificationError, InputError, PoorFitError, UsageError
 from ..geometry import DeltaGeometry, Tolerances
 from ..io import save_calibration
 from ..io.tables import data_row
@@ -33,6 +33,7 @@ from ..printer.identification.fit import (
     printer_outliers,
 )
 from ..printer.identification.outliers import Outliers
+from ..printer.identification.where import holds_in_words
 from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
 from .firmware import add_firmware_argument, controller_firmware
@@ -72,16 +73,23 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
                                trigger_height=files.trigger)
     options = PrinterFitOptions(method="linear" if args.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
-                                tolerance_scale=args.tolerance_scale or "evidence")
+                                tolerance_scale=args.tolerance_scale or "evidence",
+                                workspace=printer.workspace, accept_poor_fit=args.accept_poor_fit)
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
     if not args.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
             raise _outlier_error(found, data, files)
-    result = identify_printer(start, data, model, options=options)
+    try:
+        result = identify_printer(start, data, model, options=options)
+    except PoorFitError as exc:
+        raise IdentificationError(f"{paths[0]}: {exc}; nothing written (--accept-poor-fit keeps such a "
+                                  "fit)") from None
     save_calibration(result, args.output)
     print(result.report())
+    if result.holds is not None:
+        print(f"where it holds: {holds_in_words(result.holds)}")
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
