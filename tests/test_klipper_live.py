@@ -796,6 +796,32 @@ def test_long_moves_stay_on_their_straight_line(kossel, klipper):
 
 
 @pytest.mark.slow
+def test_arcs_are_corrected_as_klippers_gcode_arcs_cuts_them(kossel, klipper):
+    """G2 reaches the module as ``[gcode_arcs]``'s 1 mm moves: the nozzle follows the arc."""
+    centre, radius, z = np.array([10.0, -5.0]), 45.0, 0.3
+    start = f"X{centre[0] + radius} Y{centre[1]}"
+    program = (f"SET_KINEMATIC_POSITION X=0 Y=0 Z=150\nG90\nG1 {start} Z{z} F6000\n"
+               f"G4 P{DWELL_S * 1000:g}\nG2 {start} I{-radius} J0\n"
+               f"G4 P{DWELL_S * 1000:g}\nGET_POSITION\n")
+    deviation = {}
+    for route, config, text in (("module", kossel["live_config"], program),
+                                ("offline", kossel["config"], _offline(kossel, program, "arc"))):
+        run = run_klippy(klipper, config, text, f"arc_{route}")
+        assert run.status == 0, run.log[-3000:]
+        steps = decode_steps(klipper, run.serial)
+        travel, known = exact_travel(steps)
+        heights = kossel["firmware"].carriage_heights(np.array([[0.0, 0.0, 150.0]]))[0] + \
+            travel[known] * kossel["firmware"].step_distance
+        on_arc = moves(steps)[known] == 1
+        path = nozzle(kossel["geometry"], kossel["firmware"], heights[on_arc])
+        assert len(path) > 500
+        off = np.hypot(np.hypot(*(path[:, :2] - centre).T) - radius, path[:, 2] - z)
+        deviation[route] = float(np.max(off))
+    print(f"\nlargest distance from the arc [mm]: {deviation}")
+    assert deviation["module"] <= max(0.02, 1.2 * deviation["offline"] + 0.005)
+
+
+@pytest.mark.slow
 def test_get_position_after_set_kinematic_position_is_the_programs_last_point(kossel, klipper):
     points = np.array([[-80.0, 30.0, 20.0], [90.0, -50.0, 2.0]])
     program = _program(points, after="SET_KINEMATIC_POSITION\nGET_POSITION")
