@@ -431,6 +431,34 @@ def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_hol
         correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
 
 
+def test_export_live_refusals(tmp_path, capsys):
+    from deltacal.io import load_nominal, save_geometry
+
+    config = tmp_path / "printer.cfg"
+    config.write_text(printer_cfg(KlipperDelta.from_printer(PRINTER)))
+    cal = str(KOSSEL)  # any file: each refusal comes before the calibration is read
+    out = str(tmp_path / "o")
+    cases = [
+        (["--controller", "marlin", "--live", "-o", out], "--live applies to --controller klipper"),
+        (["--controller", "klipper", "--live", "-o", out], "--live needs --config printer.cfg"),
+        (["--controller", "klipper", "--config", str(config), "--live"], "--live needs --config printer.cfg"),
+        (["--controller", "klipper", "--config", str(config), "--live", "--home", "0,0,0", "-o", out],
+         "leave out --keep-rotation-distance, --robot and --home"),
+        (["--controller", "klipper", "--config", str(config), "--live", "-o", str(config)],
+         "writes 2 files in a folder; this is a file"),
+    ]
+    for options, message in cases:
+        assert main(["export", cal, *options]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+    rotary = tmp_path / "rotary.toml"
+    save_geometry(load_nominal(KOSSEL.parent / "bai2015.toml").geometry(), rotary)
+    assert main(["export", str(rotary), "--controller", "klipper", "--config", str(config), "--live", "-o",
+                 str(tmp_path / "o")]) == 2
+    assert "is a rotary Delta's calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 # ------------------------------------------------------------------ the real Klipper
 @pytest.fixture(scope="session")
 def klipper(tmp_path_factory) -> Path:
