@@ -341,8 +341,11 @@ def _transform():
 
 def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
     module, toolhead, _ = _transform()
-    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)  # segments of 10 mm
-    start = list(module.last_position)
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
+    module.tolerance = 0.005  # segments of 10 mm at most
+    toolhead.position = [-20.0, 5.0, 40.0, 0.0]
+    start = module.get_position()
+    assert np.linalg.norm(np.subtract(start[:3], toolhead.position[:3])) > 0.1  # inside the field
     module.move([start[0] + 60.0, start[1], start[2], 3.0], 50.0)
     sent = np.array(toolhead.moves)
     assert len(sent) == 6
