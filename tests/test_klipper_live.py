@@ -738,7 +738,7 @@ class Landed:
     path_move: np.ndarray  # each path sample's move (0: the first point's), (M,)
 
 
-def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0)) -> Landed:
+def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0), path: bool = True) -> Landed:
     assert run.status == 0, run.log[-3000:]
     firmware = kossel["firmware"]
     commands = toolhead_positions(run.log)
@@ -750,11 +750,12 @@ def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0)) -> Landed:
     assert stepped.shape == exact_heights.shape
     assert np.max(np.abs(stepped - exact_heights)) <= 0.5 * float(np.max(firmware.step_distance)) + 1e-6
     printers = {"identified": kossel["geometry"], "true": kossel["truth"]}
-    travel, known = exact_travel(steps)
+    travel, known = exact_travel(steps) if path else (np.zeros((0, 3)), np.zeros(0, dtype=bool))
     path_heights = start_heights + travel[known] * firmware.step_distance
     return Landed(commands, {k: nozzle(g, firmware, exact_heights) for k, g in printers.items()},
                   {k: nozzle(g, firmware, stepped) for k, g in printers.items()},
-                  nozzle(kossel["geometry"], firmware, path_heights), moves(steps)[known])
+                  nozzle(kossel["geometry"], firmware, path_heights) if path else np.zeros((0, 3)),
+                  moves(steps)[known] if path else np.zeros(0, dtype=int))
 
 
 def _offline(kossel, program: str, name: str) -> str:
@@ -781,9 +782,11 @@ def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(koss
     """
     points = _volume_points(np.random.default_rng(41), 30)
     program = _program(points)
-    module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"))
+    module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"),
+                     path=False)
     corrected = _offline(kossel, program, "points")
-    offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"))
+    offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"),
+                      path=False)
     figures = {}
     for printer in ("identified", "true"):
         errors = [landed.exact[printer] - points for landed in (module, offline)]
