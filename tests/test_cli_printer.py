@@ -40,9 +40,17 @@ def test_plan_simulate_identify_a_printer(tmp_path, capsys):
     measured = printed_distances(truth, firmware, printer.step_distance, pairs, 0.02, rng)
     write_printed_distances(tmp_path / "d.csv", pairs, measured)
     out = tmp_path / "cal.toml"
+    capsys.readouterr()  # plan's words aside
     assert main(["identify", str(KOSSEL), str(tmp_path / "probe.csv"), str(tmp_path / "d.csv"),
                  "--controller", str(cfg), "-o", str(out)]) == 0
-    assert "the build tolerances scaled by" in capsys.readouterr().out  # the measurements chose it
+    said = capsys.readouterr().out
+    assert "the build tolerances scaled by" in said  # the measurements chose it
+    # issue 39: the owner's part first, in Klipper's words: each tower's endstop in mm and lean in deg,
+    # the value that holds it, before any of the engineer's parameter names
+    first = said.index("tower A: endstop")
+    assert first < said.index("b11x") and first < said.index("The engineer's part")
+    assert "[stepper_a] position_endstop" in said and "tower C: leans outwards" in said and " deg" in said
+    assert "next: deltacal export" in said
     calibration = load_calibration(out)
     assert calibration.model.name == "printer" and calibration.geometry.joint == "prismatic"
     # the identified printer's first layer is flat on the true bed

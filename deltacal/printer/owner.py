@@ -31,9 +31,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..calibration import Calibration
-from ..geometry import Tolerances
+from ..geometry import DeltaGeometry, Tolerances
+from ..identification.solver import solve_wls
 from .firmware.owner_keys import OwnerKeys
 from .identification.errormodels import SCALE_TRAVEL_MM, PrinterModel
+from .identification.fit import PrinterMeasurements, residuals_and_regressor
 
 #: A quantity is determined when its σ is below this fraction of its σ before any measurement.
 DETERMINED_FRACTION = 0.5
@@ -132,14 +134,32 @@ def _travel(e: Estimate) -> str:
     return "travels short: its step distance is long"
 
 
+def measured_covariance(start: DeltaGeometry, data: PrinterMeasurements,
+                        tolerances: Tolerances | None = None) -> np.ndarray:
+    """The covariance of the 54 parameters the measurements leave with the build tolerances as priors.
+
+    The reference for what the measurements determine (:func:`printer_errors`): the linearised fit
+    at ``start`` with the tolerances as given (not scaled by the evidence, which may shrink them
+    until an unmeasured parameter looks known), (54, 54) in mm and rad.
+    """
+    model = PrinterModel()
+    _, W, _ = residuals_and_regressor(start, model, data)
+    prior = model.prior_sigma(tolerances or Tolerances.printer_kit())
+    _, _, Rinv = solve_wls(np.vstack([W * prior, np.eye(prior.size)]), np.zeros(W.shape[0] + prior.size))
+    return (Rinv @ Rinv.T) * np.outer(prior, prior)
+
+
 def printer_errors(calibration: Calibration, tolerances: Tolerances | None = None,
-                   names: Sequence[str] = TOWERS) -> PrinterErrors:
+                   names: Sequence[str] = TOWERS, reference: np.ndarray | None = None) -> PrinterErrors:
     """A printer's errors in its owner's words, from a calibration of the complete model.
 
     Args:
         calibration: A printer's calibration with the model ``printer`` (every parameter kept).
         tolerances: The build tolerances that say what is determined (default: a kit's).
         names: The towers' names in the firmware's words.
+        reference: What says whether the measurements determine a quantity: the parameters'
+            covariance from the measurements with ``tolerances`` as priors
+            (:func:`measured_covariance`); default: the calibration's own.
 
     Returns:
         The errors, each with its σ.
@@ -163,18 +183,22 @@ def printer_errors(calibration: Calibration, tolerances: Tolerances | None = Non
     rows, units = _quantity_rows(calibration, model)
     values = rows @ value
     sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", rows, cov, rows), 0.0))
+    known = sigma
+    if reference is not None:
+        known = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", rows, reference, rows), 0.0))
     before = np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows))
-    est = [Estimate(float(v * u), float(s * u), bool(s < DETERMINED_FRACTION * b))
-           for v, s, b, u in zip(values, sigma, before, units, strict=True)]
+    est = [Estimate(float(v * u), float(s * u), bool(k < DETERMINED_FRACTION * b))
+           for v, s, k, b, u in zip(values, sigma, known, before, units, strict=True)]
     towers = tuple(TowerErrors(names[i], *est[6 * i:6 * i + 6]) for i in range(3))
     tilt_xy = np.array([values[18], values[19]])  # the bed's rotation vector (x, y) [rad]
     tilt = float(np.hypot(*tilt_xy))
     # the bed's height at p is p·(z × β): its high side is along z × β, its low side opposite
     high = np.array([-tilt_xy[1], tilt_xy[0]])
     tilt_sigma = float(np.sqrt(np.mean(sigma[18:20] ** 2)))
+    tilt_known = float(np.sqrt(np.mean(known[18:20] ** 2)))
     tilt_before = float(np.sqrt(np.mean(before[18:20] ** 2)))
     bed = Estimate(float(np.degrees(tilt)), float(np.degrees(tilt_sigma)),
-                   bool(tilt_sigma < DETERMINED_FRACTION * tilt_before))
+                   bool(tilt_known < DETERMINED_FRACTION * tilt_before))
     low = float(np.degrees(np.arctan2(-high[1], -high[0])) % 360.0)
     return PrinterErrors(towers, bed, low)  # type: ignore[arg-type]
 

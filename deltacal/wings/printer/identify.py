@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...calibration import Calibration
 from ...exceptions import AssemblyError, IdentificationError, InputError, PoorFitError
 from ...geometry import DeltaGeometry, Tolerances
 from ...io import save_calibration
@@ -36,6 +37,7 @@ from ...printer.identification.fit import (
 )
 from ...printer.identification.outliers import Outliers
 from ...printer.identification.where import holds_in_words
+from ...printer.owner import measured_covariance, owner_lines, printer_errors
 from ...printer.robot import NominalLinearDelta
 from ..base import Done, check_files, warn
 from ..requests import IdentifyRequest
@@ -81,7 +83,24 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
     where = () if result.holds is None else (f"where it holds: {holds_in_words(result.holds)}",)
-    return Done((result.report(), *where, f"\nwrote {request.output}"))
+    owner = _owner_part(result, start, data, firmware, request)
+    return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
+
+
+def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmware, request: IdentifyRequest
+                ) -> tuple[str, ...]:
+    """The printer's errors in its owner's words, its firmware's, first (the complete model's fit only)."""
+    if result.model != "printer":
+        return ()
+    keys = firmware.owner_keys
+    errors = printer_errors(Calibration.from_result(result), names=keys.towers,
+                            reference=measured_covariance(start, data))
+    step = (f"next: deltacal export {request.output} --controller {firmware.name} --config "
+            f"{request.controller} -o {firmware.export_file} writes {firmware.title}'s values "
+            f"({keys.where}); "
+            f"deltacal compensate {request.output} PART.gcode --controller {request.controller} corrects "
+            "everything, where the calibration holds")
+    return (*owner_lines(errors, keys, firmware.title), step)
 
 
 @dataclass(frozen=True)
