@@ -120,6 +120,11 @@ class PrinterErrors:
         return out
 
 
+def _significant(e: Estimate) -> bool:
+    """Determined, and more than twice its σ away from zero."""
+    return e.determined and abs(e.value) > 2.0 * e.sigma
+
+
 def _high(e: Estimate) -> str:
     if not e.determined:
         return "unknown"
@@ -253,11 +258,14 @@ def owner_lines(errors: PrinterErrors, keys: OwnerKeys, firmware: str) -> list[s
                    f"{keys.key(keys.endstop, i)}")
         out.append(f"  tower {t.name}: travel {t.travel.words('%')} ({_travel(t.travel)}), held by "
                    f"{keys.key(keys.travel, i)}")
-        out.append(f"  tower {t.name}: rods {t.rods.words('mm')}, the pair {t.rods_apart.words('mm')} apart; "
-                   f"their mean held by {keys.key(keys.rods, i)}")
+        if t.rods.determined or t.rods_apart.determined:
+            out.append(f"  tower {t.name}: rods {t.rods.words('mm')}, the pair {t.rods_apart.words('mm')} "
+                       f"apart; their mean held by {keys.key(keys.rods, i)}")
+        else:
+            out.append(f"  tower {t.name}: rods {t.rods.words('mm')}")
         out.append(f"  tower {t.name}: leans outwards {t.lean_out.words('deg', 3)}, sideways "
                    f"{t.lean_side.words('deg', 3)}")
-        if t.lean_out.determined or t.lean_side.determined:
+        if _significant(t.lean_out) or _significant(t.lean_side):
             stays.append(f"tower {t.name}'s lean ({keys.key(keys.angle, i)} holds a sideways lean at the bed "
                          "only)")
     if errors.bed_tilt.determined and errors.bed_tilt.value > 2.0 * errors.bed_tilt.sigma:

@@ -21,7 +21,9 @@ from ..calibration import Calibration
 from ..exceptions import DeltacalError, InputError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
+from ..printer.firmware import firmwares
 from ..printer.firmware.base import Firmware, FirmwareModel
+from ..printer.owner import owner_lines, printer_errors
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
@@ -147,10 +149,21 @@ def write_report(
         scene_html=scene, scene_note=note, warnings=warnings,
         controllers=controller_routes(cal, amap, truth, firmware),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
+        owner=_owner(cal, firmware),
     )
     path = Path(output)
     atomic_write_text(path, render_page(page))
     return ReportSummary(path, amap.worst, amap.worst_point, tuple(svg), tuple(warnings))
+
+
+def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None:
+    """A printer's errors in its owner's words, its firmware's (:mod:`deltacal.printer.owner`), or None."""
+    if not cal.geometry.chain.firmware or cal.model.name != "printer":
+        return None
+    if firmware is None:
+        firmware = firmwares()[0]
+    keys = firmware.owner_keys
+    return owner_lines(printer_errors(cal, names=keys.towers), keys, firmware.title)
 
 
 def _file_names(paths: str | Path | Sequence[str | Path] | None) -> str | None:

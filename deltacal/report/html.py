@@ -118,6 +118,16 @@ class Page:
     warnings: list[str] = field(default_factory=list)
     controllers: ControllerRoutes | None = None
     deflection: DeflectionMap | None = None
+    owner: list[str] | None = None
+
+
+def _owner(page: Page) -> str:
+    """A printer's errors in its owner's words, before the engineer's parameters."""
+    assert page.owner is not None
+    head, *items = page.owner
+    rows = "".join(f"<li>{esc(item.strip())}</li>" for item in items)
+    return (f"<p>{esc(head)}</p><ul>{rows}</ul><p class=\"muted\">± one σ of the calibration; \"not "
+            "measured\": only the build tolerance bounds it. The engineer's part follows.</p>")
 
 
 def _summary(page: Page) -> str:
@@ -426,7 +436,8 @@ def _compliance(page: Page) -> str:
 def render_page(page: Page) -> str:
     """The whole HTML document."""
     c = page.calibration
-    sections = [
+    sections = [] if page.owner is None else [("owner", "The printer, in its owner's words", _owner(page))]
+    sections += [
         ("overview", "Robot, model and fit", _summary(page)),
         ("parameters", "Base parameters", _parameters(page)),
         ("correlation", "Correlations", _correlation(page)),
