@@ -355,7 +355,7 @@ class _Reader:
             elif is_marker(s):
                 raise self.fail(number, f"the program is already corrected ({s.strip()!r}): correct the "
                                         "program it was made from")
-            elif JUNK.match(s):
+            elif s and s[0] != ";" and JUNK.match(s):  # a comment, the commonest, is never junk
                 self.junk(number, s)
             return KEPT
         m = M_LINE.match(s)
