@@ -100,6 +100,18 @@ def test_junk_before_a_command_is_refused_by_a_controller_of_unknown_reading():
     assert said == [] and out.endswith("@pause\nN10 G1 X1.1000 Y-0.2000 Z10.0500\n")
 
 
+@pytest.mark.parametrize("firmware", ["klipper", "marlin", "rrf"])
+def test_a_command_right_after_the_opening_byte_order_mark_is_refused_by_a_firmware(dialects, firmware):
+    # read from the firmware's own card the mark is text before the command; OctoPrint strips it
+    answer = "Bad command" if firmware == "rrf" else "Unknown command"
+    with pytest.raises(InputError, match=rf"^G-code: line 1: a byte-order mark before the first command "
+                                         rf"\('G28'\): .* answers '{answer}' and does not run the line"):
+        run("\ufeffG28\n" + START, dialects[firmware])
+    out, said = run("\ufeff; sliced by ...\n" + START, dialects[firmware])  # slicers begin with a comment
+    assert out.startswith("\ufeff; sliced by ...\nG1 X") and said == []
+    assert run("\ufeffG28\n" + START)[0].startswith("\ufeffG28\n")  # unknown reading: as a host sends it
+
+
 def test_blanks_marlin_does_not_skip_before_a_command_are_refused(dialects):
     with pytest.raises(InputError, match=r"^G-code: line 2: '\\t' before the command: Marlin reads the line "
                                          r"as an unknown command from its own card, a host \(OctoPrint\)"):

@@ -114,6 +114,7 @@ from .syntax import (
     command_then_g_refusal,
     junk_split,
     line_params,
+    mark_refusal,
     semicolon_refusal,
     split_line,
 )
@@ -216,7 +217,8 @@ def filter_lines(lines: Iterable[str], correct: Correct, segment_mm: float = DEF
     if start is not None:
         batch.anchor(start)
     points, items = batch.points, batch.items
-    lines = opened_lines(iter(lines), marker, items)
+    lines = opened_lines(iter(lines), marker, items,
+                         lambda first: reader.refuse(1, mark_refusal(first, dialect.lines, dialect.name)))
     for number, line in enumerate(lines, 1):
         plain_match = match_plain(line)  # the plainest move first, at the least cost
         plan = (plain_match is not None and plain(plain_match)) or read(number, line)
@@ -355,7 +357,7 @@ class _Reader:
             elif is_marker(s):
                 raise self.fail(number, f"the program is already corrected ({s.strip()!r}): correct the "
                                         "program it was made from")
-            elif JUNK.match(s):
+            elif s and s[0] != ";" and JUNK.match(s):  # a comment, the commonest, is never junk
                 self.junk(number, s)
             return KEPT
         m = M_LINE.match(s)

@@ -8,7 +8,7 @@ before the first line is kept in the output, and the line after it is read witho
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from itertools import chain
 from pathlib import Path
 
@@ -55,16 +55,20 @@ def read_lines(path: str | Path, opened: list | None = None) -> Iterator[str]:
         yield from f
 
 
-def opened_lines(lines: Iterator[str], marker: str | None, items: list) -> Iterator[str]:
+def opened_lines(lines: Iterator[str], marker: str | None, items: list,
+                 after_mark: Callable[[str], None] | None = None) -> Iterator[str]:
     """The program's lines, the first without its UTF-8 byte-order mark.
 
     The mark and the marker line go to ``items``, the output's start. The mark is kept byte for
-    byte; the line after it is read as a sender (OctoPrint, Pronterface ...) sends it: without it.
+    byte; the line after it is read as a sender (OctoPrint, Pronterface ...) sends it: without it,
+    and handed to ``after_mark`` (which may refuse it: a firmware reading its own card does not).
     """
     first = next(lines, None)
     opening = ""
     if first is not None and first.startswith(_BOM):
         opening, first = _BOM, first[1:]
+        if after_mark is not None:
+            after_mark(first)
     if marker is not None:
         ending = "" if first is None else line_ending(first)
         opening += marker + (ending or "\n")

@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import re
 
-from .dialect import LineReading
+from .dialect import LineReading, Unread
 from .source import line_ending
 
 __all__ = ["JUNK", "M_LINE", "PARENS", "READ", "TEXT_M", "WORD", "block_delete_refusal", "bytes_refusal",
-           "command_then_g_refusal", "junk_split", "line_params", "semicolon_refusal", "split_line"]
+           "command_then_g_refusal", "junk_split", "line_params", "mark_refusal", "semicolon_refusal",
+           "split_line"]
 
 #: A word: its letter and the text of its number (which may not be one).
 WORD = re.compile(r"([A-Za-z])\s*([-+]?[0-9.]*)")
@@ -121,6 +122,20 @@ def bytes_refusal(line: str, s: str, reading: LineReading, name: str) -> str | N
         return f"{odd[0]!r} before the command: {name} reads the line as an unknown command from its own " \
                "card, a host (OctoPrint) strips it and sends the command: remove it"
     return None
+
+
+def mark_refusal(first: str, reading: LineReading, name: str) -> str | None:
+    """Why a command right after the UTF-8 byte-order mark that opens a program is refused, or None.
+
+    A firmware reading the file from its own card takes the mark for text before the command (it
+    does not run the line: :attr:`LineReading.junk` ignored); a host (OctoPrint) strips it and sends
+    the command. A controller whose reading is not known is taken to be sent the line by a host.
+    """
+    if reading.junk is not Unread.IGNORED or not first.lstrip()[:1].isalpha():
+        return None
+    return (f"a byte-order mark before the first command ({first.strip()!r}): {name} reading the file "
+            f"from its own card answers '{reading.unknown}' and does not run the line, a host (OctoPrint) "
+            "strips the mark and sends it: save the program without the mark, or begin it with a comment")
 
 
 def junk_split(s: str) -> tuple[str, str]:
