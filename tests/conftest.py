@@ -48,6 +48,16 @@ def flexpicker() -> NominalDelta:
     return load_nominal(MODELS / "flexpicker.toml")
 
 
+@pytest.fixture(scope="session")
+def kossel_plan():
+    """The object planned for the shipped Kossel through Klipper's nominal values (``plan_object``'s
+    defaults): planned once for every test file that uses it (about a second each time)."""
+    from deltacal.printer.printed.plan import plan_object
+
+    printer = load_printer(MODELS / "kossel.toml")
+    return plan_object(printer, KlipperDelta.from_printer(printer))
+
+
 def workspace_points(nominal: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:
     """Random points in the workspace cylinder [mm]."""
     ws = nominal.workspace

@@ -46,8 +46,8 @@ def firmware(printer):
 
 
 @pytest.fixture(scope="module")
-def plan(printer, firmware):
-    return plan_object(printer, firmware)
+def plan(kossel_plan):
+    return kossel_plan  # plan_object(printer, firmware), planned once for the session
 
 
 def write_printer_cfg(path: Path, klipper: KlipperDelta) -> Path:

@@ -16,7 +16,6 @@ from deltacal.printer.identification.fit import (
     measurements_kept,
     printer_outliers,
 )
-from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import (
     printed_distances,
     probe_heights,
@@ -30,8 +29,8 @@ FIRMWARE = KLIPPER.nominal(PRINTER)
 
 
 @pytest.fixture(scope="module")
-def plan():
-    return plan_object(PRINTER, FIRMWARE)
+def plan(kossel_plan):
+    return kossel_plan  # plan_object(PRINTER, FIRMWARE), planned once for the session
 
 
 def _measured(plan, seed):
