@@ -1,5 +1,6 @@
 import csv
 import os
+import shutil
 
 # small matrices: BLAS threads only contend (see deltacal/__init__.py); set before numpy loads
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -51,6 +52,38 @@ def bai() -> NominalDelta:
 @pytest.fixture(scope="session")
 def flexpicker() -> NominalDelta:
     return load_nominal(MODELS / "flexpicker.toml")
+
+
+@pytest.fixture(scope="session")
+def kossel_plan():
+    """The object planned for the shipped Kossel through Klipper's nominal values (``plan_object``'s
+    defaults): planned once for every test file that uses it (about a second each time)."""
+    from deltacal.printer.printed.plan import plan_object
+
+    printer = load_printer(MODELS / "kossel.toml")
+    return plan_object(printer, KlipperDelta.from_printer(printer))
+
+
+@pytest.fixture(scope="session")
+def kossel_object_plan(tmp_path_factory) -> Path:
+    """``plan --object`` of the shipped Kossel through its printer.cfg (:func:`kossel_printer_cfg`):
+    a folder with printer.cfg and the plan's files in plan/, planned once for the session (about 3 s
+    each time). A test file copies it (:func:`copy_object_plan`) before writing beside it."""
+    from deltacal.cli import main
+
+    folder = tmp_path_factory.mktemp("kossel_object_plan")
+    cfg = kossel_printer_cfg(folder / "printer.cfg")
+    assert main(["plan", str(MODELS / "kossel.toml"), "--object", "--controller", str(cfg),
+                 "-o", str(folder / "plan")]) == 0
+    return folder
+
+
+def copy_object_plan(planned: Path, folder: Path, plan: str = "plan") -> Path:
+    """The session's planned folder (:func:`kossel_object_plan`) copied into ``folder``, its plan's
+    files in ``folder / plan``: the copy's printer.cfg."""
+    shutil.copy(planned / "printer.cfg", folder / "printer.cfg")
+    shutil.copytree(planned / "plan", folder / plan)
+    return folder / "printer.cfg"
 
 
 def workspace_points(nominal: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:

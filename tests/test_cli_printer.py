@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import kossel_printer_cfg
+from conftest import copy_object_plan, kossel_printer_cfg
 
 from deltacal.cli.main import main
 from deltacal.io import load_calibration
@@ -99,11 +99,10 @@ def test_rotary_options_are_refused_for_a_printer(tmp_path, capsys, flag):
 
 
 @pytest.fixture(scope="module")
-def measured(tmp_path_factory):
+def measured(tmp_path_factory, kossel_object_plan):
     """A simulated printer's probe heights and distances on the planned object, and its printer.cfg."""
     folder = tmp_path_factory.mktemp("measured")
-    cfg = kossel_printer_cfg(folder / "printer.cfg")
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(folder / "plan")]) == 0
+    cfg = copy_object_plan(kossel_object_plan, folder)
     printer, firmware = load_printer(KOSSEL), load_klipper(cfg)
     rng = np.random.default_rng(77)
     truth = random_printer(printer, rng, typical_kit())

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import kossel_printer_cfg
+from conftest import copy_object_plan
 
 from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
@@ -22,11 +22,10 @@ KOSSEL = MODELS / "kossel.toml"
 
 
 @pytest.fixture(scope="module")
-def planned(tmp_path_factory) -> Path:
+def planned(tmp_path_factory, kossel_object_plan) -> Path:
     """A folder with printer.cfg and plan --object's templates in plan/."""
     folder = tmp_path_factory.mktemp("printsim")
-    cfg = kossel_printer_cfg(folder / "printer.cfg")
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(folder / "plan")]) == 0
+    copy_object_plan(kossel_object_plan, folder)
     return folder
 
 

@@ -25,7 +25,6 @@ from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.fit import error_stats, printable_grid, values_of
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
-from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
@@ -75,7 +74,7 @@ def _merged(config: str, exported: str) -> str:
 
 
 @pytest.fixture(scope="module")
-def printer(tmp_path_factory):
+def printer(tmp_path_factory, kossel_plan):
     """A kit printer, its measurements through Klipper's nominal values, and its calibration file."""
     folder = tmp_path_factory.mktemp("export_klipper")
     firmware = KlipperDelta.from_printer(PRINTER)
@@ -85,7 +84,7 @@ def printer(tmp_path_factory):
     robot.write_text(ROBOT)
     rng = np.random.default_rng(2431)
     truth = random_printer(PRINTER, rng, typical_kit())
-    plan = plan_object(PRINTER, firmware)
+    plan = kossel_plan  # plan_object(PRINTER, firmware)
     probe = probe_heights(truth, firmware, STEP, plan.probe[:, :2], 0.01, rng)
     pairs = plan.features[plan.pairs].reshape(-1, 6)
     distance = printed_distances(truth, firmware, STEP, pairs, 0.02, rng)

@@ -58,7 +58,8 @@ def test_error_groups_split_the_rods_and_keep_every_error():
     assert set(made.errors) - others - set(rods) == {"tool.x", "tool.y", "tool.z"}
 
 
-@pytest.mark.parametrize("firmware", FIRMWARES, ids=lambda f: f.name)
+@pytest.mark.parametrize("firmware", [KLIPPER, *(pytest.param(f, marks=pytest.mark.slow)
+                                                for f in (MARLIN, RRF_FIRMWARE))], ids=lambda f: f.name)
 def test_budget_rows_behave_as_klippers(firmware):
     made = random_true_printer(KOSSEL, np.random.default_rng(5), typical_kit())
     budget = _budget(firmware, made.errors, made.bed_rotation)
@@ -73,6 +74,8 @@ def test_budget_rows_behave_as_klippers(firmware):
     whole = firmware.fit(made.geometry, firmware.nominal(KOSSEL), KOSSEL.step_distance, WORKSPACE).after
     assert abs(removed["endstops"].rms_3d - whole.rms_3d) < 1e-3 * whole.rms_3d
     assert removed["tower lean"].rms_3d < whole.rms_3d
+    with pytest.raises(ValueError, match="mode must be 'alone' or 'removed', got 'other'"):
+        _budget(firmware, made.errors, mode="other")
 
 
 @pytest.mark.parametrize("firmware", FIRMWARES, ids=lambda f: f.name)

@@ -1,5 +1,6 @@
 """Klipper's values fitted to a printer (issue 24): recovery on a Klipper-shaped printer, no worse than
-Klipper's own calibration, what they leave per error source, and the printer.cfg writer's round trip."""
+Klipper's own calibration, and the printer.cfg writer's round trip (what they leave per error source:
+test_firmware_budget.py, for every firmware)."""
 
 from __future__ import annotations
 
@@ -11,10 +12,8 @@ from numpy.testing import assert_allclose
 
 from deltacal.geometry import DeltaGeometry, Workspace
 from deltacal.printer.files.robot_file import load_printer
-from deltacal.printer.firmware.budget import error_budget
 from deltacal.printer.firmware.klipper.calibrate import klipper_basic, probe_points
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper, save_klipper_config
-from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import (
     KLIPPER_NAMES,
     error_stats,
@@ -131,21 +130,6 @@ def test_in_the_parts_frame_a_printer_turned_and_shifted_on_its_bed_is_klippers(
     assert error_stats(printer, fit.values, kossel.step_distance, WORKSPACE, part_frame=True).max_3d < 1e-6
 
 
-def test_error_budget_groups(kossel):
-    made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
-    k0 = KlipperDelta.from_printer(kossel)
-    budget = error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation,
-                          k0, kossel.step_distance, WORKSPACE)
-    assert set(budget) == {"tower position", "tower lean", "endstops", "step distances", "ball positions",
-                           "rod lengths", "rods of a pair that differ", "bed tilt"}
-    # endstops and the rods' common lengths are Klipper's own values: nothing is left of them
-    assert budget["endstops"].max_3d < 1e-6
-    assert budget["rod lengths"].max_3d < 1e-6
-    # a lean, or rods of a pair that differ, Klipper's model cannot hold
-    assert budget["tower lean"].max_3d > 1e-3
-    assert budget["rods of a pair that differ"].max_3d > 1e-4
-
-
 def test_writer_round_trip(kossel, tmp_path):
     fitted = odd_klipper(kossel)
     source = tmp_path / "printer.cfg"
@@ -179,21 +163,6 @@ def test_writer_without_source_writes_no_rotation_distance(kossel, tmp_path):
     back = load_klipper(cfg)  # the printer's own stepping stays: 40 mm over 200 x 32 steps
     assert_allclose(back.step_distance, np.full(3, 40.0 / 6400.0), rtol=1e-15, atol=0)
     assert_allclose(back.arm_length, fitted.arm_length, rtol=0, atol=5e-7)
-
-
-def test_error_budget_removed(kossel):
-    made = random_true_printer(kossel, np.random.default_rng(5), typical_kit())
-    k0 = KlipperDelta.from_printer(kossel)
-    budget = error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation,
-                          k0, kossel.step_distance, WORKSPACE, mode="removed")
-    whole = fit_klipper(made.geometry, k0, kossel.step_distance, WORKSPACE).after
-    # without the endstops' errors (Klipper's own values) the fit leaves what it leaves on the whole
-    # printer, to first order in the tilts (the errors were read back with deviation_from)
-    assert abs(budget["endstops"].rms_3d - whole.rms_3d) < 1e-3 * whole.rms_3d
-    assert budget["tower lean"].rms_3d < whole.rms_3d
-    with pytest.raises(ValueError, match="mode"):
-        error_budget(KLIPPER, kossel.geometry(), made.errors, made.bed_rotation, made.bed_translation, k0,
-                     kossel.step_distance, WORKSPACE, mode="other")
 
 
 def test_first_layer_weight_buys_flatness(kossel):

@@ -16,7 +16,6 @@ from deltacal.printer.firmware.klipper.fit import printable_grid
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.identification.evidence import evidence_scale, log_evidence
 from deltacal.printer.identification.fit import identify_printer, scaled_tolerances
-from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
 from deltacal.printer.simulation import (
     WELL_BUILT_BED_TILT_DEG,
@@ -76,8 +75,8 @@ def _gcode_error(truth, geometry) -> float:
 
 
 @pytest.fixture(scope="module")
-def plan():
-    return plan_object(PRINTER, FIRMWARE)
+def plan(kossel_plan):
+    return kossel_plan  # plan_object(PRINTER, FIRMWARE), planned once for the session
 
 
 @pytest.mark.slow

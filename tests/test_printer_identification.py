@@ -118,7 +118,7 @@ def test_identify_printer_takes_one_options_value_and_overrides_of_its_fields(no
         PrinterFitOptions(method="newton")  # type: ignore[arg-type]
 
 
-@pytest.mark.parametrize("seed", [31, 32, 33])
+@pytest.mark.parametrize("seed", [31, *(pytest.param(s, marks=pytest.mark.slow) for s in (32, 33))])
 def test_probe_and_distances_reach_a_few_hundredths_of_a_millimetre(nominal, seed):
     """Issue 24: 49 probe heights (σ 10 µm) and 40 distances (σ 20 µm) on printers no test was tuned on."""
     truth = _printer(nominal, seed)

@@ -21,11 +21,9 @@ from deltacal.printer.files.measurements import (
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.base import PROBE_CLEARANCE, Firmware
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
-from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.printed.labels import LABEL_GAP
 from deltacal.printer.printed.lettering import RELIEF, TILE_THICKNESS, label_mesh, text_raster
 from deltacal.printer.printed.object import BALL_DIAMETER, LOWEST_LEVEL, footprint_radius, probe_grid
-from deltacal.printer.printed.plan import plan_object
 
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 MOVE = re.compile(r"^G1 X(-?\d+\.\d{3}) Y(-?\d+\.\d{3}) Z(\d+\.\d{3}) F\d+$")
@@ -71,9 +69,8 @@ def test_klipper_probe_program_probes_each_point_in_order():
 
 # ------------------------------------------------------------------ the labelled object
 @pytest.fixture(scope="module")
-def plan():
-    printer = load_printer(KOSSEL)
-    return plan_object(printer, KlipperDelta.from_printer(printer))
+def plan(kossel_plan):
+    return kossel_plan  # plan_object of the Kossel and Klipper's nominal values, planned once
 
 
 def edge_uses(mesh) -> np.ndarray:

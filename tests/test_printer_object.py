@@ -46,8 +46,8 @@ def firmware(printer):
 
 
 @pytest.fixture(scope="module")
-def plan(printer, firmware):
-    return plan_object(printer, firmware)
+def plan(kossel_plan):
+    return kossel_plan  # plan_object(printer, firmware), planned once for the session
 
 
 def write_printer_cfg(path: Path, klipper: KlipperDelta) -> Path:
@@ -326,10 +326,10 @@ def test_feature_levels_follow_the_caliper_and_the_printable_height():
 
 
 @pytest.mark.slow
-def test_a_shorter_caliper_gets_a_lower_object_it_can_measure(printer, firmware):
+def test_a_shorter_caliper_gets_a_lower_object_it_can_measure(printer, firmware, plan):
     short = plan_object(printer, firmware, caliper=150.0)
     assert set(np.unique(short.features[:, 2])) <= set(levels(printer.workspace, 150.0))
     assert np.all(short.lengths + BALL_DIAMETER <= 150.0)
-    long = plan_object(printer, firmware)
+    long = plan  # plan_object(printer, firmware): the default caliper's
     assert long.features[:, 2].max() > short.features[:, 2].max()
     assert (long.lengths + BALL_DIAMETER).max() > 150.0  # the default caliper reaches further

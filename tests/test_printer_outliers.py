@@ -16,7 +16,6 @@ from deltacal.printer.identification.fit import (
     measurements_kept,
     printer_outliers,
 )
-from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.simulation import (
     printed_distances,
     probe_heights,
@@ -30,8 +29,8 @@ FIRMWARE = KLIPPER.nominal(PRINTER)
 
 
 @pytest.fixture(scope="module")
-def plan():
-    return plan_object(PRINTER, FIRMWARE)
+def plan(kossel_plan):
+    return kossel_plan  # plan_object(PRINTER, FIRMWARE), planned once for the session
 
 
 def _measured(plan, seed):
@@ -49,7 +48,7 @@ def _outliers(plan, probe, distances):
     return identify_printer(PRINTER.geometry(), data)
 
 
-@pytest.mark.parametrize("seed", [501, 502])
+@pytest.mark.parametrize("seed", [pytest.param(501, marks=pytest.mark.slow), 502])  # a kit, a well-built one
 def test_one_gross_probe_height_or_distance_is_named(plan, seed):
     probe, distances, rng = _measured(plan, seed)
     row, pair = int(rng.integers(len(probe))), int(rng.integers(len(distances)))

@@ -72,7 +72,7 @@ def test_the_saved_runs_steps_are_klippers_own():
     assert_allclose(run.step, 40.0 / (200 * 16), rtol=0, atol=0)
 
 
-@pytest.mark.parametrize("printer", ["a", "b"])
+@pytest.mark.parametrize("printer", [pytest.param("a", marks=pytest.mark.slow), "b"])
 def test_the_identified_printer_predicts_the_other_runs_better_than_klippers_values(printer):
     script = load_script()
     runs = [script.read_run(path) for path in script.PRINTERS[printer]]

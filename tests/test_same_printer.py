@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODELS, kossel_printer_cfg
+from conftest import MODELS, copy_object_plan, kossel_printer_cfg
 
 from deltacal.cli import main
 from deltacal.exceptions import InputError
@@ -118,12 +118,11 @@ def test_simulate_and_plan_refuse_another_printers_configuration(tmp_path, capsy
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory):
+def calibrated(tmp_path_factory, kossel_object_plan):
     """A Kossel identified through its printer.cfg (plan --object, simulate, identify; seed 5)."""
     folder = tmp_path_factory.mktemp("same_printer")
-    cfg = kossel_printer_cfg(folder / "printer.cfg")
+    cfg = copy_object_plan(kossel_object_plan, folder, "obj")
     plan = folder / "obj"
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(plan)]) == 0
     assert main(["simulate", str(KOSSEL), str(plan / "probe.csv"), str(plan / "distances.csv"),
                  "--controller", str(cfg), "--perturb", "5", "-o", str(folder / "probe.csv"),
                  "--distances-output", str(folder / "d.csv")]) == 0
