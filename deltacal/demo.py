@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +33,11 @@ from .controller import FIT_KINDS, Controller, corrected_targets, fit_controller
 from .controller.fit import tcp_errors
 from .exceptions import ViewerError
 from .export import write_mjcf
-from .geometry import NominalDelta, Tolerances
+from .geometry import DeltaGeometry, NominalDelta, Tolerances
 from .identification import identify
 from .identification.frames import InstrumentFrame, in_instrument_frames
 from .identification.options import Frame
+from .identification.result import IdentificationResult
 from .io import atomic_write_text, load_nominal, save_calibration, write_measurements
 from .kinematics import exact
 from .observations import SIGMA_ANGLE, SIGMA_POSITION, Measurements
@@ -75,28 +76,34 @@ def _fit_summary(r) -> dict:
     }
 
 
-def run_demo(
-    out_dir: Path = Path("results"),
-    seed: int = 2015,
-    quick: bool = False,
-    views: bool = True,
-    progress: Callable[[str], None] = _silent,
-) -> dict:
-    """Run the demo and write the results; :func:`text_table` gives its comparison table.
+@dataclass(frozen=True)
+class DemoResults:
+    """What the demo finds, before anything is written.
+
+    Attributes:
+        summary: The results :func:`run_demo` writes to demo.json.
+        complete: The complete model's identification (the calibration handed over).
+        measurements: The simulated tracker and probe measurements.
+        truth: The simulated true robot.
+        nominal: The robot's nominal parameters (models/bai2015.toml).
+    """
+
+    summary: dict
+    complete: IdentificationResult
+    measurements: Measurements
+    truth: DeltaGeometry
+    nominal: NominalDelta
+
+
+def demo_results(seed: int = 2015, quick: bool = False,
+                 progress: Callable[[str], None] = _silent) -> DemoResults:
+    """The demo's computations (:func:`run_demo` without its files): its figures and what they come from.
 
     Args:
-        out_dir: Folder for demo.json, demo_errors.png, demo.html, demo.png (created if needed).
         seed: Seed of the true robot, the poses and the measurement noise.
         quick: Fewer poses (30 instead of 60) for a fast check.
-        views: Write the meshcat scene (and its screenshot) too.
-        progress: Called with one line of text after each long step, and for each
-            output skipped because an optional part is missing (``"skipped: ..."``).
-
-    Returns:
-        The results written to demo.json.
+        progress: Called with one line of text after each long step.
     """
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     nominal = load_nominal(MODELS_DIR / "bai2015.toml")
     rng = np.random.default_rng(seed)
     start = nominal.geometry()
@@ -154,14 +161,42 @@ def run_demo(
         "tracker": tracker,
         "controller_routes": _controller_routes(results["complete"], truth, nominal, progress),
     }
+    return DemoResults(summary, results["complete"], measurements, truth, nominal)
+
+
+def run_demo(
+    out_dir: Path = Path("results"),
+    seed: int = 2015,
+    quick: bool = False,
+    views: bool = True,
+    progress: Callable[[str], None] = _silent,
+) -> dict:
+    """Run the demo and write the results; :func:`text_table` gives its comparison table.
+
+    Args:
+        out_dir: Folder for demo.json, demo_errors.png, demo.html, demo.png (created if needed).
+        seed: Seed of the true robot, the poses and the measurement noise.
+        quick: Fewer poses (30 instead of 60) for a fast check.
+        views: Write the meshcat scene (and its screenshot) too.
+        progress: Called with one line of text after each long step, and for each
+            output skipped because an optional part is missing (``"skipped: ..."``).
+
+    Returns:
+        The results written to demo.json (:attr:`DemoResults.summary`).
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    found = demo_results(seed, quick, progress)
+    summary = found.summary
     atomic_write_text(out_dir / "demo.json", json.dumps(summary, indent=2) + "\n")
     written = [out_dir / "demo.json"]
-    plot = _plot(rows, out_dir / "demo_errors.png", progress)
+    plot = _plot(summary["validation"], out_dir / "demo_errors.png", progress)
     if plot is not None:
         written.append(plot)
-    written += _handover(results["complete"], measurements, truth, nominal, out_dir, views, progress)
+    written += _handover(found.complete, found.measurements, found.truth, found.nominal, out_dir, views,
+                         progress)
     if views:
-        written += _views(start, truth, nominal, out_dir, progress)
+        written += _views(found.nominal.geometry(), found.truth, found.nominal, out_dir, progress)
     progress("wrote " + ", ".join(str(p) for p in written))
     return summary
 

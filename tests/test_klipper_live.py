@@ -341,8 +341,11 @@ def _transform():
 
 def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
     module, toolhead, _ = _transform()
-    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)  # segments of 10 mm
-    start = list(module.last_position)
+    module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
+    module.tolerance = 0.005  # segments of 10 mm at most
+    toolhead.position = [-20.0, 5.0, 40.0, 0.0]
+    start = module.get_position()
+    assert np.linalg.norm(np.subtract(start[:3], toolhead.position[:3])) > 0.1  # inside the field
     module.move([start[0] + 60.0, start[1], start[2], 3.0], 50.0)
     sent = np.array(toolhead.moves)
     assert len(sent) == 6
@@ -429,6 +432,34 @@ def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_hol
                        rtol=0.0, atol=1e-12)
     with pytest.raises(GeometryError, match=r"in \[0, 1\]"):
         correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
+
+
+def test_export_live_refusals(tmp_path, capsys):
+    from deltacal.io import load_nominal, save_geometry
+
+    config = tmp_path / "printer.cfg"
+    config.write_text(printer_cfg(KlipperDelta.from_printer(PRINTER)))
+    cal = str(KOSSEL)  # any file: each refusal comes before the calibration is read
+    out = str(tmp_path / "o")
+    cases = [
+        (["--controller", "marlin", "--live", "-o", out], "--live applies to --controller klipper"),
+        (["--controller", "klipper", "--live", "-o", out], "--live needs --config printer.cfg"),
+        (["--controller", "klipper", "--config", str(config), "--live"], "--live needs --config printer.cfg"),
+        (["--controller", "klipper", "--config", str(config), "--live", "--home", "0,0,0", "-o", out],
+         "leave out --keep-rotation-distance, --robot and --home"),
+        (["--controller", "klipper", "--config", str(config), "--live", "-o", str(config)],
+         "writes 2 files in a folder; this is a file"),
+    ]
+    for options, message in cases:
+        assert main(["export", cal, *options]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+    rotary = tmp_path / "rotary.toml"
+    save_geometry(load_nominal(KOSSEL.parent / "bai2015.toml").geometry(), rotary)
+    assert main(["export", str(rotary), "--controller", "klipper", "--config", str(config), "--live", "-o",
+                 str(tmp_path / "o")]) == 2
+    assert "is a rotary Delta's calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
 
 
 # ------------------------------------------------------------------ the real Klipper
@@ -707,7 +738,7 @@ class Landed:
     path_move: np.ndarray  # each path sample's move (0: the first point's), (M,)
 
 
-def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0)) -> Landed:
+def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0), path: bool = True) -> Landed:
     assert run.status == 0, run.log[-3000:]
     firmware = kossel["firmware"]
     commands = toolhead_positions(run.log)
@@ -719,11 +750,12 @@ def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0)) -> Landed:
     assert stepped.shape == exact_heights.shape
     assert np.max(np.abs(stepped - exact_heights)) <= 0.5 * float(np.max(firmware.step_distance)) + 1e-6
     printers = {"identified": kossel["geometry"], "true": kossel["truth"]}
-    travel, known = exact_travel(steps)
+    travel, known = exact_travel(steps) if path else (np.zeros((0, 3)), np.zeros(0, dtype=bool))
     path_heights = start_heights + travel[known] * firmware.step_distance
     return Landed(commands, {k: nozzle(g, firmware, exact_heights) for k, g in printers.items()},
                   {k: nozzle(g, firmware, stepped) for k, g in printers.items()},
-                  nozzle(kossel["geometry"], firmware, path_heights), moves(steps)[known])
+                  nozzle(kossel["geometry"], firmware, path_heights) if path else np.zeros((0, 3)),
+                  moves(steps)[known] if path else np.zeros(0, dtype=int))
 
 
 def _offline(kossel, program: str, name: str) -> str:
@@ -750,9 +782,11 @@ def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(koss
     """
     points = _volume_points(np.random.default_rng(41), 30)
     program = _program(points)
-    module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"))
+    module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"),
+                     path=False)
     corrected = _offline(kossel, program, "points")
-    offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"))
+    offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"),
+                      path=False)
     figures = {}
     for printer in ("identified", "true"):
         errors = [landed.exact[printer] - points for landed in (module, offline)]
@@ -793,6 +827,32 @@ def test_long_moves_stay_on_their_straight_line(kossel, klipper):
     print(f"\nlargest distance from the straight line [mm]: module {ours:.4f}, offline {theirs:.4f}")
     assert len(module.path) > 1000
     assert ours <= max(0.02, 1.2 * theirs + 0.005)
+
+
+@pytest.mark.slow
+def test_arcs_are_corrected_as_klippers_gcode_arcs_cuts_them(kossel, klipper):
+    """G2 reaches the module as ``[gcode_arcs]``'s 1 mm moves: the nozzle follows the arc."""
+    centre, radius, z = np.array([10.0, -5.0]), 45.0, 0.3
+    start = f"X{centre[0] + radius} Y{centre[1]}"
+    program = (f"SET_KINEMATIC_POSITION X=0 Y=0 Z=150\nG90\nG1 {start} Z{z} F6000\n"
+               f"G4 P{DWELL_S * 1000:g}\nG2 {start} I{-radius} J0\n"
+               f"G4 P{DWELL_S * 1000:g}\nGET_POSITION\n")
+    deviation = {}
+    for route, config, text in (("module", kossel["live_config"], program),
+                                ("offline", kossel["config"], _offline(kossel, program, "arc"))):
+        run = run_klippy(klipper, config, text, f"arc_{route}")
+        assert run.status == 0, run.log[-3000:]
+        steps = decode_steps(klipper, run.serial)
+        travel, known = exact_travel(steps)
+        heights = kossel["firmware"].carriage_heights(np.array([[0.0, 0.0, 150.0]]))[0] + \
+            travel[known] * kossel["firmware"].step_distance
+        on_arc = moves(steps)[known] == 1
+        path = nozzle(kossel["geometry"], kossel["firmware"], heights[on_arc])
+        assert len(path) > 500
+        off = np.hypot(np.hypot(*(path[:, :2] - centre).T) - radius, path[:, 2] - z)
+        deviation[route] = float(np.max(off))
+    print(f"\nlargest distance from the arc [mm]: {deviation}")
+    assert deviation["module"] <= max(0.02, 1.2 * deviation["offline"] + 0.005)
 
 
 @pytest.mark.slow

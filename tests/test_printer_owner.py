@@ -102,3 +102,22 @@ def test_what_heights_alone_do_not_measure_is_said(nominal):
     errors = printer_errors(Calibration.from_result(result))
     assert not any(t.travel.determined for t in errors.towers)
     assert "travel not measured" in "\n".join(errors.lines())
+
+
+def test_the_owner_is_told_in_each_firmwares_words(nominal):
+    """Klipper names [stepper_b] position_endstop, Marlin M666 Y, RRF M666 Y and its M666 A B for the bed."""
+    from deltacal.printer.firmware import firmware_named
+    from deltacal.printer.owner import owner_lines
+
+    truth = MODEL.apply(nominal, _deviations(endstop2=0.23))
+    result = identify_printer(nominal, _measure(truth, np.random.default_rng(3903)))
+    calibration = Calibration.from_result(result)
+    texts = {}
+    for name in ("klipper", "marlin", "rrf"):
+        firmware = firmware_named(name)
+        errors = printer_errors(calibration, names=firmware.owner_keys.towers)
+        texts[name] = "\n".join(owner_lines(errors, firmware.owner_keys, firmware.title))
+    assert "tower B: endstop +0.2" in texts["klipper"] and "[stepper_b] position_endstop" in texts["klipper"]
+    assert "tower Y: endstop +0.2" in texts["marlin"] and "M666 Y" in texts["marlin"]
+    assert "printer.cfg" not in texts["marlin"] + texts["rrf"] and "M666" not in texts["klipper"]
+    assert "rotation_distance" in texts["klipper"] and "M92 Z" in texts["rrf"]

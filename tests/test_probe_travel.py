@@ -135,3 +135,10 @@ def test_rrf_dive_heights(tmp_path, m558, height):
     travel = RRF_FIRMWARE.probe_travel(_config_g(tmp_path, "G31 P500 X0 Y25 Z16.695", m558))
     assert travel.height == pytest.approx(height, abs=1e-9)
     assert travel.height >= 16.695 + MIN_TRAVEL_MARGIN
+
+
+def test_an_rrf_dive_height_rrf_computes_is_refused_for_the_program_alone(tmp_path):
+    config = _config_g(tmp_path, "G31 P500 X0 Y25 Z16.695", 'M558 P5 C"zprobe.in" H{global.dive} F120')
+    assert RRF_FIRMWARE.read_config(config).radius == 134.5  # the configuration reads as before
+    with pytest.raises(InputError, match=r"config.g: line 14, M558 H: the dive height is not a number"):
+        RRF_FIRMWARE.probe_travel(config)

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..geometry import Tolerances
+from .firmware.owner_keys import OwnerKeys
 from .identification.errormodels import SCALE_TRAVEL_MM, PrinterModel
 
 #: A quantity is determined when its σ is below this fraction of its σ before any measurement.
@@ -208,3 +209,45 @@ def _quantity_rows(calibration: Calibration, model: PrinterModel) -> tuple[np.nd
     # towers leaning alike by the top's move m are the bed turned by β with β × z = −m: β = (m_y, −m_x)
     rows[18], rows[19] = shared[1], -shared[0]
     return rows, units
+
+
+def owner_lines(errors: PrinterErrors, keys: OwnerKeys, firmware: str) -> list[str]:
+    """The printer's errors in its owner's words, each with the firmware's value that holds it, or none.
+
+    Args:
+        errors: The printer's errors (:func:`printer_errors`, with ``keys.towers`` as names).
+        keys: Where the firmware keeps each value (:attr:`~.firmware.base.Firmware.owner_keys`).
+        firmware: The firmware's name users read (``Klipper``).
+
+    Returns:
+        One line per tower and per error class, then the bed, then what stays.
+    """
+    out = [f"What the measurements say of the printer, in {firmware}'s words (± one σ):"]
+    stays = []
+    for i, t in enumerate(errors.towers):
+        out.append(f"  tower {t.name}: endstop {t.endstop.words('mm')} ({_high(t.endstop)}), held by "
+                   f"{keys.key(keys.endstop, i)}")
+        out.append(f"  tower {t.name}: travel {t.travel.words('%')} ({_travel(t.travel)}), held by "
+                   f"{keys.key(keys.travel, i)}")
+        out.append(f"  tower {t.name}: rods {t.rods.words('mm')}, the pair {t.rods_apart.words('mm')} apart; "
+                   f"their mean held by {keys.key(keys.rods, i)}")
+        out.append(f"  tower {t.name}: leans outwards {t.lean_out.words('deg', 3)}, sideways "
+                   f"{t.lean_side.words('deg', 3)}")
+        if t.lean_out.determined or t.lean_side.determined:
+            stays.append(f"tower {t.name}'s lean ({keys.key(keys.angle, i)} holds a sideways lean at the bed "
+                         "only)")
+    if errors.bed_tilt.determined and errors.bed_tilt.value > 2.0 * errors.bed_tilt.sigma:
+        tilt = errors.bed_tilt
+        holder = f"held by {keys.bed_tilt}" if keys.bed_tilt else f"no {firmware} value holds it"
+        out.append(f"  bed: tilted {tilt.value:.3f} ± {tilt.sigma:.3f} deg relative to the towers, low "
+                   f"towards azimuth {errors.bed_low_azimuth:.0f} deg; {holder}")
+        if not keys.bed_tilt:
+            stays.append("the bed's tilt")
+    elif errors.bed_tilt.determined:
+        out.append(f"  bed: level relative to the towers within {2.0 * errors.bed_tilt.sigma:.3f} deg")
+    else:
+        out.append(f"  bed: tilt {errors.bed_tilt.words('deg', 3)}")
+    if stays:
+        out.append(f"  {firmware}'s values cannot hold {', '.join(stays)}: the G-code route "
+                   "(deltacal compensate) corrects them")
+    return out

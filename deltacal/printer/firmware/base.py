@@ -52,6 +52,7 @@ from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
+from .owner_keys import OwnerKeys
 from .probe_log import ProbeLog
 from .probing import PROBE_CLEARANCE, ProbeTravel
 
@@ -248,6 +249,8 @@ class Firmware(ABC, Generic[ModelT]):
     calibrated_file: ClassVar[str]
     minimum_z_key: ClassVar[str]
     apply_note: ClassVar[str]
+    #: Where it keeps each value an owner adjusts, in its words (:class:`~.owner_keys.OwnerKeys`).
+    owner_keys: ClassVar[OwnerKeys]
     export_file: ClassVar[str]
     values_words: ClassVar[str]
     export_needs_config: ClassVar[str] = ""

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...exceptions import AssemblyError, InputError
+from ...exceptions import AssemblyError, IdentificationError, InputError, PoorFitError
 from ...geometry import DeltaGeometry, Tolerances
 from ...io import save_calibration
 from ...io.tables import data_row
@@ -35,6 +35,7 @@ from ...printer.identification.fit import (
     printer_outliers,
 )
 from ...printer.identification.outliers import Outliers
+from ...printer.identification.where import holds_in_words
 from ...printer.robot import NominalLinearDelta
 from ..base import Done, check_files, warn
 from ..requests import IdentifyRequest
@@ -62,19 +63,25 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
                                trigger_height=files.trigger)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
-                                tolerance_scale=request.tolerance_scale or "evidence")
+                                tolerance_scale=request.tolerance_scale or "evidence",
+                                workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit)
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
     if not request.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
             raise _outlier_error(found, data, files)
-    result = identify_printer(start, data, model, options=options)
+    try:
+        result = identify_printer(start, data, model, options=options)
+    except PoorFitError as exc:
+        raise IdentificationError(f"{paths[0]}: {exc}; nothing written (--accept-poor-fit keeps such a "
+                                  "fit)") from None
     save_calibration(result, request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
-    return Done((result.report(), f"\nwrote {request.output}"))
+    where = () if result.holds is None else (f"where it holds: {holds_in_words(result.holds)}",)
+    return Done((result.report(), *where, f"\nwrote {request.output}"))
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import (
     BASIC_TITLE,
@@ -52,6 +53,14 @@ if TYPE_CHECKING:
     from ..probing import ProbeTravel
 
 
+#: Where the firmware keeps each value an owner adjusts (:class:`~..owner_keys.OwnerKeys`).
+OWNER_KEYS = OwnerKeys(
+    towers=("A", "B", "C"), rod_names=("a", "b", "c"), endstop="[stepper_{lower}] position_endstop",
+    travel="[stepper_{lower}] rotation_distance", rods="[stepper_{lower}] arm_length",
+    angle="[stepper_{lower}] angle", bed_tilt="", where="printer.cfg",
+)
+
+
 class Klipper(Firmware[KlipperDelta]):
     """Klipper: ``printer.cfg``, :class:`~.model.KlipperDelta`, :class:`~.model.KlipperController`."""
 
@@ -63,6 +72,7 @@ class Klipper(Firmware[KlipperDelta]):
     calibrated_file: ClassVar[str] = "printer_calibrated.cfg"
     minimum_z_key: ClassVar[str] = "minimum_z_position"
     apply_note: ClassVar[str] = APPLY_NOTE
+    owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.cfg"
     values_words: ClassVar[str] = "the [printer] and [stepper_a..c] values of printer.cfg"
     export_needs_config: ClassVar[str] = (

@@ -19,6 +19,7 @@ from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
 from .dialect import marlin_dialect
@@ -35,6 +36,14 @@ if TYPE_CHECKING:
     from ..probing import ProbeTravel
 
 
+#: Where the firmware keeps each value an owner adjusts (:class:`~..owner_keys.OwnerKeys`).
+OWNER_KEYS = OwnerKeys(
+    towers=("X", "Y", "Z"), rod_names=("A", "B", "C"), endstop="M666 {tower}", travel="M92 {tower}",
+    rods="M665 {rod} (diagonal rod trim)", angle="M665 {tower} (tower angle trim)", bed_tilt="",
+    where="the M503 settings (send them, then M500)",
+)
+
+
 class Marlin(Firmware[MarlinDelta]):
     """Marlin 2.x: an ``M503`` capture, :class:`~.model.MarlinDelta`, :class:`~.model.MarlinController`."""
 
@@ -47,6 +56,7 @@ class Marlin(Firmware[MarlinDelta]):
     calibrated_file: ClassVar[str] = "printer_calibrated.gcode"
     minimum_z_key: ClassVar[str] = "M211 Min Z"
     apply_note: ClassVar[str] = APPLY_NOTE
+    owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.gcode"
     values_words: ClassVar[str] = "M665, M666 and M92 lines, saved by M500"
 

@@ -266,7 +266,11 @@ def _run(path: Path, settings: RRFSettings, running: list[Path], variables: Vari
             raise InputError(f"{line.code} inside the '{block.keyword}' block of line {block.line}: which "
                              "branch RRF runs is known only when it runs the file: write the values that "
                              "apply without the condition", str(path), f"line {number}")
-        line.params = substitute(line.params, variables, str(path), number, line.code)
+        try:
+            line.params = substitute(line.params, variables, str(path), number, line.code)
+        except InputError:
+            if line.code != "M558":  # the dive height: refused where the probe program needs it alone
+                raise
         if line.code in ("M98", "M501"):
             _call(line, settings, running, variables, sys_dir)
         elif line.code == "G31":
@@ -361,8 +365,11 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
-    elif line.code == "M558" and "H" in p and ("K" not in p or line.number("K") == 0):
-        settings.set(line, "H", line.numbers("H", 2))
+    elif line.code == "M558" and "H" in p and p.get("K", "0").strip() in ("0", ""):
+        try:
+            settings.set(line, "H", line.numbers("H", 2))
+        except InputError:  # an expression: refused only where the dive height is needed (the probe program)
+            settings.set(line, "H", [math.nan])
     elif line.code == "M579" or (line.code == "M556" and "S" in p):
         _refuse_unread(line)
 

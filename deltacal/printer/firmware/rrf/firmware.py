@@ -17,6 +17,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..owner_keys import OwnerKeys
 from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
@@ -42,6 +43,14 @@ if TYPE_CHECKING:
     from ..probing import ProbeTravel
 
 
+#: Where the firmware keeps each value an owner adjusts (:class:`~..owner_keys.OwnerKeys`).
+OWNER_KEYS = OwnerKeys(
+    towers=("X", "Y", "Z"), rod_names=("X", "Y", "Z"), endstop="M666 {tower}", travel="M92 {tower}",
+    rods="M665 L (tower {rod}'s of a:b:c)", angle="M665 {tower} (angle correction)", bed_tilt="M666 A B",
+    where="config.g / config-override.g",
+)
+
+
 class RRF(Firmware[RRFDelta]):
     """RepRapFirmware 3.x: ``config.g``, :class:`~.model.RRFDelta`, :class:`~.model.RRFController`."""
 
@@ -53,6 +62,7 @@ class RRF(Firmware[RRFDelta]):
     calibrated_file: ClassVar[str] = "config-override.g"
     minimum_z_key: ClassVar[str] = "M208 Z minimum"
     apply_note: ClassVar[str] = APPLY_NOTE
+    owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.g"
     values_words: ClassVar[str] = "M665 and M666 lines for config-override.g, M92 for config.g"
 

@@ -36,12 +36,21 @@ def probe_lines(x: float, y: float) -> tuple[str, ...]:
 
 
 def rrf_probe_travel(settings: RRFSettings) -> ProbeTravel:
-    """The height to travel at between probe points: ``G31 Z`` + ``M558 H`` (module docstring)."""
+    """The height to travel at between probe points: ``G31 Z`` + ``M558 H`` (module docstring).
+
+    Raises:
+        InputError: an ``M558 H`` that is not a number, naming its line.
+    """
     trigger = settings.get("G31 Z", DEFAULT_TRIGGER_HEIGHT)
     where = settings.where.get("G31 Z")
     trigger_key = (f"G31 Z, line {where.line} of {where.source}" if where is not None else
                    f"RepRapFirmware's default: no G31 Z in {settings.source}")
-    dive = max(settings.values.get("M558 H", [DEFAULT_DIVE_HEIGHT]))
+    dives = settings.values.get("M558 H", [DEFAULT_DIVE_HEIGHT])
+    if not all(np.isfinite(dives)):
+        raise settings.error("M558 H", "the dive height is not a number deltacal reads (an expression RRF "
+                                       "computes?): the probe program's travel height is not known; write "
+                                       "the number")
+    dive = max(dives)
     line = settings.where.get("M558 H")
     key = (f"G31 Z + M558 H{dive:g} (line {line.line} of {line.source})" if line is not None else
            f"G31 Z + RepRapFirmware's default dive height (no M558 H) {dive:g}")
