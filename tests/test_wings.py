@@ -19,6 +19,7 @@ from deltacal.wings import (
     ExportRequest,
     IdentifyRequest,
     PlanRequest,
+    ReportRequest,
     SimulateRequest,
 )
 
@@ -60,6 +61,15 @@ def test_a_robot_file_is_parsed_once(monkeypatch):
     (lambda: PlanRequest(ROBOT, "o", strategy="doptimal", n=4), "--n and --epsilon apply to --strategy bai"),
     (lambda: ExportRequest("c.toml", controller="klipper"), "--controller klipper needs -o CALIBRATED.cfg"),
     (lambda: ExportRequest("c.toml", mjcf="r.xml", config="p.cfg"), "--config and --keep-rotation-distance"),
+    (lambda: ExportRequest("c.toml", controller="marlin", config="m.txt", output="o", live=True),
+     "--live applies to --controller klipper "),
+    (lambda: ExportRequest("c.toml", mjcf="r.xml", live=True), "--live applies to --controller klipper"),
+    (lambda: ExportRequest("c.toml", controller="klipper", output="o", live=True),
+     "--live needs --config printer.cfg"),
+    (lambda: ExportRequest("c.toml", controller="klipper", config="p.cfg", output="o", robot="k.toml",
+                           live=True),
+     "--live takes Klipper's values and volume from --config alone"),
+    (lambda: ReportRequest("c.toml", "r.html", firmware="grbl"), "--firmware grbl: one of klipper"),
     (lambda: CompensateRequest("c.toml", "t.csv", "o.csv", firmware="marlin"),
      "--firmware applies with --controller"),
     (lambda: CompensateRequest("c.toml", "p.gcode", "o.gcode"),
@@ -116,3 +126,18 @@ def test_a_firmware_configuration_is_told_and_read_once(tmp_path, monkeypatch):
     with pytest.raises(UsageError, match="is a linear Delta printer's, but the calibration"):
         wings.compensate(CompensateRequest(rotary, tmp_path / "t.csv", tmp_path / "o2.csv", controller=cfg))
     assert np.loadtxt(tmp_path / "o.csv", delimiter=",", skiprows=1).shape == (2, 6)
+
+
+def test_a_printers_report_refuses_measurements_without_their_controller_and_a_rotarys_a_controller(tmp_path):
+    """report: a printer's measurements need --controller (commanded positions); a rotary Delta takes none."""
+    printer = tmp_path / "printer.toml"
+    save_geometry(load_printer(KOSSEL).geometry(), printer)
+    (tmp_path / "probe.csv").write_text("x_mm,y_mm,z_mm\n0,0,1\n")
+    with pytest.raises(UsageError, match="a printer's measurements are of commanded positions: give "):
+        wings.report(ReportRequest(printer, tmp_path / "r.html", measurements=tmp_path / "probe.csv"))
+    rotary = tmp_path / "rotary.toml"
+    save_geometry(load_nominal(ROBOT).geometry(), rotary)
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    with pytest.raises(UsageError, match=r"^--controller applies to a printer's calibration"):
+        wings.report(ReportRequest(rotary, tmp_path / "r.html", controller=cfg))
+    assert not (tmp_path / "r.html").exists()

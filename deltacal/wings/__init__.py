@@ -23,9 +23,9 @@ from pathlib import Path
 from ..chains import Chain
 from ..geometry import DeltaGeometry
 from ..io import load_calibration, read_toml
-from ..io.paths import check_input
+from ..io.paths import check_input, check_output_folder
 from ..io.robot import robot_kind
-from ..printer.firmware import config_files
+from ..printer.firmware import config_files, firmware_named
 from .base import Done, Robot, Wing, check_files
 from .compensate_job import Progress, compensate_targets
 from .printer import PRINTER, PrinterWing
@@ -91,11 +91,16 @@ def export(request: ExportRequest) -> Done:
     """``deltacal export``: an MJCF model (either kind), or the calibration's wing's controller values.
 
     A firmware's values may not overwrite a file its configuration (``config``) reads; ``live``
-    writes a folder, checked by the wing.
+    writes the firmware's files in a folder (:attr:`~deltacal.printer.firmware.base.Firmware.live_files`).
+    Every file is checked before the calibration is read.
     """
     read = config_files(request.config, request.controller) if request.config is not None else ()
-    check_files((request.calibration, request.robot, request.config),
-                None if request.live else request.mjcf if request.mjcf is not None else request.output, read)
+    inputs = (request.calibration, request.robot, request.config)
+    output = request.mjcf if request.mjcf is not None else request.output
+    check_files(inputs, None if request.live else output, read)
+    live = firmware_named(str(request.controller)) if request.live else None
+    if live is not None and request.output is not None:
+        check_output_folder(request.output, live.live_files, (*inputs, *read), "export --live")
     if request.mjcf is not None:
         geometry, stations = _exported_geometry(request.calibration)
         return wing_for(geometry.chain).export_mjcf(request, geometry, stations)

@@ -18,10 +18,9 @@ from ...chains import PRISMATIC, Chain
 from ...controller import FIT_KINDS
 from ...exceptions import UsageError
 from ...geometry import DeltaGeometry, Workspace
-from ...io.paths import check_output_folder
 from ...kinematics.workspace import default_workspace
 from ...printer.files.robot_file import load_printer
-from ...printer.firmware import config_files, firmware_named, firmwares
+from ...printer.firmware import firmware_named, firmwares
 from ...printer.firmware.base import Firmware, FirmwareModel
 from ...printer.firmware.config_file import read_firmware_config, refuse_deltacal_file
 from ...printer.firmware.export import export_firmware_values
@@ -106,9 +105,7 @@ class PrinterWing(Wing):
 def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
     """``export --live``: the correction the firmware runs itself, through the values of ``--config``."""
     assert request.config is not None and request.output is not None
-    refuse_deltacal_file(request.config, "--config")
-    inputs = (request.calibration, *config_files(request.config, firmware.name))
-    check_output_folder(request.output, firmware.live_files, inputs, "export --live")
+    refuse_deltacal_file(request.config, "--config")  # its output folder checked by the job (wings.export)
     config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
     config.check_printer(calibration.geometry, request.calibration)
     return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration)))
