@@ -126,7 +126,7 @@ def _klipper_route(nominal: DeltaGeometry, geometry: DeltaGeometry, truth: Delta
     radius = float(np.max(np.hypot(points[:, 0], points[:, 1])))
     top = float(np.max(points[:, 2]))
     fit = fit_klipper(geometry, start, step, Workspace(radius, top, top), grid=points,
-                      first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                      first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True)
     q = fit.klipper.inverse(points, step)
     return Route("klipper", *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points),
                  held=fit.held)

@@ -272,7 +272,8 @@ class Firmware(ABC, Generic[ModelT]):
     @abstractmethod
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> FirmwareFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            flatness: float | None = None) -> FirmwareFit:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -285,6 +286,7 @@ class Firmware(ABC, Generic[ModelT]):
             minimax: The least largest error over the volume, not the least squares, the first layer
                 no less flat than the least squares leave it (:func:`~.fitting.least_largest`):
                 what ``export`` writes.
+            flatness: With ``minimax``, the first layer's largest |height error| allowed instead [mm].
         """
 
     @abstractmethod

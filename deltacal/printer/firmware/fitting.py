@@ -189,7 +189,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                  wanted: list[int], max_iter: int = 30, first_layer_weight: float = 0.0,
                  part_frame: bool = True, title: str = "the firmware",
-                 minimax: bool = False) -> GaussNewton[ModelT]:
+                 minimax: bool = False, flatness: float | None = None) -> GaussNewton[ModelT]:
     """The firmware's values that leave the least squared nozzle error over the grid (see the module).
 
     With ``minimax``, those values moved to leave the least largest error (:func:`least_largest`).
@@ -207,6 +207,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
         part_frame: Judge the volume's errors in the printed part's frame.
         title: The firmware's name, for the message of a fit that does not converge.
         minimax: Then the least largest error over the grid, the first layer no less flat.
+        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -251,7 +252,8 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
             raise ConvergenceError(f"the {title} fit did not converge in {max_iter} iterations (last step "
                                    f"moved the nozzle by {change:.3g} mm)", change)
     if minimax:
-        model = least_largest(geometry, model, vector, step_distance, workspace, grid, columns, part_frame)
+        model = least_largest(geometry, model, vector, step_distance, workspace, grid, columns, part_frame,
+                              flatness=flatness)
     return GaussNewton(model, columns, [names[k] for k in base.unidentifiable], singular, iteration)
 
 

@@ -89,10 +89,11 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> KlipperFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            flatness: float | None = None) -> KlipperFit:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           first_layer_weight=first_layer_weight, minimax=minimax)
+                           first_layer_weight=first_layer_weight, minimax=minimax, flatness=flatness)
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:

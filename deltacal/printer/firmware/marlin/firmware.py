@@ -74,10 +74,11 @@ class Marlin(Firmware[MarlinDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0, minimax: bool = False) -> MarlinFit:
+            first_layer_weight: float = 0.0, minimax: bool = False,
+            flatness: float | None = None) -> MarlinFit:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,
-                          minimax)
+                          minimax, flatness)
 
     def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
                          radius: float) -> dict[str, MarlinDelta]:

@@ -64,7 +64,8 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0, minimax: bool = False) -> MarlinFit:
+               first_layer_weight: float = 0.0, minimax: bool = False,
+               flatness: float | None = None) -> MarlinFit:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     Args:
@@ -76,6 +77,7 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         minimax: Then the least largest error over the volume, the first layer no less flat
             (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
+        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
@@ -85,7 +87,7 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
 
     def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight, minimax=least_largest)
+                           first_layer_weight=first_layer_weight, minimax=least_largest, flatness=flatness)
 
     first = fit(to_klipper(start))
     mean = float(np.mean(from_klipper(first.klipper, start).angle_trim))

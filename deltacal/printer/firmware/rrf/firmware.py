@@ -91,6 +91,7 @@ class RRF(Firmware[RRFDelta]):
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
         minimax: bool = False,
+        flatness: float | None = None,
     ) -> RRFFit:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -101,6 +102,7 @@ class RRF(Firmware[RRFDelta]):
             hold_step_distance=hold_step_distance,
             first_layer_weight=first_layer_weight,
             minimax=minimax,
+            flatness=flatness,
         )
 
     def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:
