@@ -119,7 +119,7 @@ def test_largest_step_solves_the_linear_minimax(seed):
     a, B = rng.normal(0.0, 0.05, (200, 3)), rng.normal(0.0, 0.02, (200, 3, 5))
     c, D = rng.normal(0.0, 0.01, 80), rng.normal(0.0, 0.01, (80, 5))
     flatness = float(np.max(np.abs(c)))
-    step, largest, _ = largest_step(a, B, c, D, flatness, 10.0, Cuts.largest(a, c))
+    step, largest, _ = largest_step(a, B, c, D, flatness, 2.0 * flatness, 10.0, Cuts.largest(a, c))
     assert_allclose(largest, np.max(np.linalg.norm(a + B @ step, axis=1)), rtol=1e-12, atol=0)
     assert np.max(np.abs(c + D @ step)) <= flatness + 1e-6
     assert np.max(np.abs(step)) < 10.0  # the trust region did not bind
