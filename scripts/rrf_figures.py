@@ -4,8 +4,9 @@ For each seed: a typical kit printer running RRF's nominal values is probed and 
 object (simulated through RRF's model), is identified, then judged over the printable volume:
 uncalibrated, corrected targets through RRF's model, the exported M665/M666/M92 values (as
 ``export`` fits them) and the best such values (fitted to the true printer: the least largest error
-with the first layer as flat as the exported values leave it), each as the printed part's error (less the shift along the
-bed and turn about its normal, which no measurement sees). Run: ``python scripts/rrf_figures.py``.
+with the first layer as flat as the exported values leave it), each as the printed part's error
+(less the shift along the bed and turn about its normal, which no measurement sees). Run:
+``python scripts/rrf_figures.py``.
 """
 
 from __future__ import annotations
