@@ -21,10 +21,12 @@ anchor's: radius 92 mm, z 0.2 to 100 mm; :func:`~deltacal.printer.firmware.klipp
 and over the first layer (z = 0.2 mm, :func:`~deltacal.printer.firmware.klipper.fit.first_layer`):
 
 * the firmware's values (nominal, its own calibrations) and deltacal's exported values (the
-  firmware's values fitted to the identified printer, :meth:`~deltacal.printer.firmware.base.Firmware.fit`,
-  for each first-layer weight asked; with ``best``, also fitted to the TRUE printer, the best the
-  firmware's values can do): the nozzle where the true printer puts it when the firmware commands
-  the target with those values;
+  firmware's values fitted to the identified printer as ``export`` fits them,
+  :meth:`~deltacal.printer.firmware.base.Firmware.fit` with ``minimax``: the least largest error,
+  the first layer as flat as the least squares with each first-layer weight asked leave it; with
+  ``best``, also fitted to the TRUE printer, the least largest error the firmware's values can leave
+  with the first layer as flat as the exported values leave it): the nozzle where the true printer
+  puts it when the firmware commands the target with those values;
 * the G-code route: the corrected targets that make the identified printer land on the targets
   (:func:`~deltacal.controller.corrected_targets`), sent through the firmware's NOMINAL values to
   the true printer (:func:`gcode_refused` counts those its limits would not take).
@@ -194,7 +196,8 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
         weights: First-layer weights of the exported values to fit.
         distance_sigma: σ of every distance, the firmware's and deltacal's [mm] (default a caliper's).
         firmware_type: The firmware the printer runs (default Klipper).
-        best: Also the firmware's values fitted to the TRUE printer (:func:`best_name`, each weight).
+        best: Also the firmware's values fitted to the TRUE printer (:func:`best_name`, each weight):
+            the least largest error with the first layer as flat as the exported values leave it.
     """
     firmware = firmware_type.nominal(printer)
     step = printer.step_distance
@@ -209,10 +212,11 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
                               tolerances=Tolerances.printer_kit())
     for w in weights:
         configs[exported_name(w)] = firmware_type.fit(result.geometry, firmware, step, WORKSPACE,
-                                                      first_layer_weight=w).values
+                                                      first_layer_weight=w, minimax=True).values
     for w in weights if best else ():
-        configs[best_name(w)] = firmware_type.fit(truth, firmware, step, WORKSPACE,
-                                                  first_layer_weight=w).values
+        layer = nozzle_errors(truth, configs[exported_name(w)], step, first_layer(WORKSPACE))[:, 2]
+        configs[best_name(w)] = firmware_type.fit(truth, firmware, step, WORKSPACE, first_layer_weight=w,
+                                                  minimax=True, flatness=float(np.max(np.abs(layer)))).values
     return PrinterRun(made, firmware, step, probe, distances, result, configs, firmware_type)
 
 

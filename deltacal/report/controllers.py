@@ -141,7 +141,7 @@ def _fitted_route(firmware: Firmware[Any], nominal: DeltaGeometry, geometry: Del
     radius = float(np.max(np.hypot(points[:, 0], points[:, 1])))
     top = float(np.max(points[:, 2]))
     fit = firmware.fit(geometry, start, step, Workspace(radius, top, top), grid=points,
-                       first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                       first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True)
     q = fit.values.inverse(points, step)
     return Route(firmware.name, *_nozzle_error(geometry, q, points), *_nozzle_error(truth, q, points),
                  held=fit.held)

@@ -308,7 +308,7 @@ class Firmware(ABC, Generic[ModelT]):
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None) -> FirmwareFit[ModelT]:
+            grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -323,6 +323,7 @@ class Firmware(ABC, Generic[ModelT]):
                 what ``export`` writes.
             grid: The nozzle targets the errors are judged at [mm], (N, 3) (default: a grid of the
                 printable volume, :func:`~deltacal.printer.firmware.fitting.printable_grid`).
+            flatness: With ``minimax``, the first layer's largest |height error| allowed instead [mm].
         """
 
     @abstractmethod

@@ -194,7 +194,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                  wanted: list[int], max_iter: int = 30, first_layer_weight: float = 0.0,
                  part_frame: bool = True, title: str = "the firmware",
-                 minimax: bool = False) -> GaussNewton[ModelT]:
+                 minimax: bool = False, flatness: float | None = None) -> GaussNewton[ModelT]:
     """The firmware's values that leave the least squared nozzle error over the grid (see the module).
 
     With ``minimax``, those values moved to leave the least largest error (:func:`least_largest`).
@@ -212,6 +212,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
         part_frame: Judge the volume's errors in the printed part's frame.
         title: The firmware's name, for the message of a fit that does not converge.
         minimax: Then the least largest error over the grid, the first layer no less flat.
+        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -256,7 +257,8 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
             raise ConvergenceError(f"the {title} fit did not converge in {max_iter} iterations (last step "
                                    f"moved the nozzle by {change:.3g} mm)", change)
     if minimax:
-        model = least_largest(geometry, model, vector, step_distance, workspace, grid, columns, part_frame)
+        model = least_largest(geometry, model, vector, step_distance, workspace, grid, columns, part_frame,
+                              flatness=flatness)
     return GaussNewton(model, columns, [names[k] for k in base.unidentifiable], singular, iteration)
 
 
@@ -300,7 +302,8 @@ class Cuts:
         rows: The grid points cut, (m,) (a point may be cut along several directions).
         units: The direction of each cut, unit vectors, (m, 3).
         level: The first layer's points bounded, (p,).
-        signs: The side of each bound: +1 bounds z from above, -1 from below, (p,).
+        signs: The side of each bound: +1 bounds z from above (by the flatness and the highest),
+            -1 from below (by minus the flatness and the lowest), (p,).
     """
 
     rows: np.ndarray
@@ -310,10 +313,12 @@ class Cuts:
 
     @classmethod
     def largest(cls, a: np.ndarray, c: np.ndarray, count: int = FIRST_CUTS) -> Cuts:
-        """Cuts along the ``count`` largest errors a (N, 3), bounds on the ``count`` largest |c| (K,)."""
+        """Cuts along the ``count`` largest errors a, bounds on the ``count/2`` highest and lowest c."""
         rows = np.argsort(-np.linalg.norm(a, axis=1), kind="stable")[:count]
-        level = np.argsort(-np.abs(c), kind="stable")[:count]
-        return cls(rows, a[rows] / np.linalg.norm(a[rows], axis=1, keepdims=True), level, np.sign(c[level]))
+        order = np.argsort(c, kind="stable")
+        level = np.concatenate([order[::-1][:count // 2], order[:count // 2]])
+        signs = np.repeat([1.0, -1.0], [min(count // 2, len(c))] * 2)
+        return cls(rows, a[rows] / np.linalg.norm(a[rows], axis=1, keepdims=True), level, signs)
 
     def more(self, rows: np.ndarray, units: np.ndarray, level: np.ndarray, signs: np.ndarray) -> Cuts:
         """These cuts and the given ones."""
@@ -321,16 +326,18 @@ class Cuts:
                     np.concatenate([self.level, level]), np.concatenate([self.signs, signs]))
 
 
-def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, flatness: float,
+def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, flatness: float, spread: float,
                  reach: float, cuts: Cuts) -> tuple[np.ndarray, float, Cuts]:
-    """The step d (``|d_l| <= reach``) leaving the least largest ``|a_i + B_i d|``, ``|c + D d| <= flatness``.
+    """The step d (``|d_l| <= reach``) leaving the least largest ``|a_i + B_i d|``, the first layer bounded.
 
-    The Euclidean norm is the largest of its cuts ``u . v`` over unit vectors u (equal along v):
-    a linear program in (d, t), least t over the cuts ``u_i . (a_i + B_i d) <= t`` and the first
-    layer's bounds ``s_j (c_j + D_j d) <= flatness``, begun with ``cuts``; then a cut along each of
-    the errors the solution leaves most above t, and a bound on the first layer's points it leaves
-    most above the flatness, are added until none is above by more than :data:`CUT_TOLERANCE`
-    (Kelley's cutting planes: the solution is then the least largest error of the linear model).
+    The first layer's height errors ``z = c + D d`` stay within ``flatness`` (``|z| <= flatness``) and
+    their peak to valley within ``spread``. The Euclidean norm is the largest of its cuts ``u . v``
+    over unit vectors u (equal along v): a linear program in (d, t, h, l), least t over the cuts
+    ``u_i . (a_i + B_i d) <= t``, the first layer's rows ``l <= z_j <= h``, ``|z_j| <= flatness``
+    and ``h - l <= spread``, begun with ``cuts``; then a cut along each of the errors the solution
+    leaves most above t, and the rows of the first layer's points it leaves most outside its bounds,
+    are added until none is outside by more than :data:`CUT_TOLERANCE` (Kelley's cutting planes:
+    the solution is then the least largest error of the linear model).
 
     Args:
         a: The volume's errors [mm], (N, 3).
@@ -338,6 +345,7 @@ def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, fla
         c: The first layer's height errors [mm], (K,).
         D: Their Jacobian [mm per unit of d], (K, k).
         flatness: The first layer's largest |height error| allowed [mm].
+        spread: The first layer's largest peak to valley allowed [mm].
         reach: The trust region: the largest |d_l|.
         cuts: The rows to begin with (:meth:`Cuts.largest`, or a previous step's).
 
@@ -348,28 +356,36 @@ def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, fla
     from scipy.optimize import linprog  # here: scipy.optimize takes a while to import
 
     k = B.shape[2]
-    cost = np.zeros(k + 1)
-    cost[-1] = 1.0
-    bounds = [(-reach, reach)] * k + [(0.0, None)]
+    cost = np.zeros(k + 3)
+    cost[k] = 1.0
+    bounds = [(-reach, reach)] * k + [(0.0, None), (None, None), (None, None)]
+    spread_row = np.zeros((1, k + 3))
+    spread_row[0, k + 1:] = (1.0, -1.0)  # h - l <= spread
     for _ in range(MAX_CUTS):
+        s = cuts.signs[:, None]
+        side = np.where(s > 0.0, np.array([[0.0, -1.0, 0.0]]), np.array([[0.0, 0.0, 1.0]]))  # z <= h, l <= z
+        level = s * D[cuts.level]
         A_ub = np.vstack([
-            np.column_stack([np.einsum("nj,njk->nk", cuts.units, B[cuts.rows]), -np.ones(len(cuts.rows))]),
-            np.column_stack([cuts.signs[:, None] * D[cuts.level], np.zeros(len(cuts.level))])])
-        b_ub = np.concatenate([-np.einsum("nj,nj->n", cuts.units, a[cuts.rows]),
-                               flatness - cuts.signs * c[cuts.level]])
+            np.column_stack([np.einsum("nj,njk->nk", cuts.units, B[cuts.rows]), -np.ones(len(cuts.rows)),
+                             np.zeros((len(cuts.rows), 2))]),
+            np.column_stack([level, np.zeros((len(level), 3))]), np.column_stack([level, side]), spread_row])
+        z0 = cuts.signs * c[cuts.level]
+        b_ub = np.concatenate([-np.einsum("nj,nj->n", cuts.units, a[cuts.rows]), flatness - z0, -z0,
+                               [spread]])
         solved = linprog(cost, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs")
         if solved.status != 0:
             return np.zeros(k), float(np.max(np.linalg.norm(a, axis=1))), cuts
-        d, t = solved.x[:k], float(solved.x[k])
+        d, (t, high, low) = solved.x[:k], solved.x[k:]
         v, z = a + B @ d, c + D @ d
         size = np.linalg.norm(v, axis=1)
         above = np.argsort(t - size, kind="stable")[:CUTS_PER_ROUND]
         above = above[size[above] > t + CUT_TOLERANCE]
-        over = np.argsort(-np.abs(z), kind="stable")[:CUTS_PER_ROUND]
-        over = over[np.abs(z[over]) > flatness + CUT_TOLERANCE]
+        out = np.maximum(z - min(flatness, high), max(-flatness, low) - z)
+        over = np.argsort(-out, kind="stable")[:CUTS_PER_ROUND]
+        over = over[out[over] > CUT_TOLERANCE]
         if len(above) == 0 and len(over) == 0:
             break
-        cuts = cuts.more(above, v[above] / size[above, None], over, np.sign(z[over]))
+        cuts = cuts.more(above, v[above] / size[above, None], over, np.where(z[over] > high, 1.0, -1.0))
     return d, float(np.max(np.linalg.norm(a + B @ d, axis=1))), cuts
 
 
@@ -379,13 +395,13 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
                   flatness: float | None = None) -> ModelT:
     """The firmware's values that leave the least largest nozzle error over the grid, from ``start``.
 
-    The first layer's flatness (largest |z error| over :func:`first_layer`) stays no worse than the
-    start's, or ``flatness`` (within :data:`FLATNESS_SLACK`): a constraint, not a weight. Each step is
-    :func:`largest_step` on the errors linearised at the current values (:func:`part_errors`), the
-    values scaled by how far each moves the nozzle (RMS over the grid), within a trust region, begun
-    with the last step's cuts. A step is kept if the largest error over the grid, recomputed, falls
-    and the first layer stays within the flatness; one that lowers the error but leaves the first
-    layer above it (the second order of the step) is tried again with the linear model's flatness
+    The first layer (:func:`first_layer`) stays no worse than the start leaves it: its largest
+    |z error| and its peak to valley (within :data:`FLATNESS_SLACK`); constraints, not weights. Each
+    step is :func:`largest_step` on the errors linearised at the current values (:func:`part_errors`),
+    the values scaled by how far each moves the nozzle (RMS over the grid), within a trust region,
+    begun with the last step's cuts. A step is kept if the largest error over the grid, recomputed,
+    falls and the first layer stays within its bounds; one that lowers the error but leaves the
+    first layer outside (the second order of the step) is tried again with the linear model's bounds
     lowered by the excess; else the region shrinks. Deterministic (HiGHS' simplex).
 
     Args:
@@ -398,8 +414,8 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
         columns: Indices (in the value vector) of the values varied; the others are held.
         part_frame: Judge the volume's errors in the printed part's frame.
         max_iter: Steps at most.
-        flatness: The first layer's largest |z error| allowed [mm] (default: the start's); a start
-            above it is brought within it where a step can.
+        flatness: The first layer's largest |z error| allowed instead [mm] (its peak to valley then
+            bounded by twice that alone); a start outside it is brought within it where a step can.
 
     Raises:
         UnreachableError: a target out of the firmware's reach at ``start``.
@@ -410,16 +426,20 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
     def errors(model: ModelT) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return part_errors(geometry, model, vector, step_distance, grid, layer, columns, part_frame)
 
+    def first(z: np.ndarray) -> np.ndarray:  # [mm]: largest |z|, peak to valley
+        return np.array([np.max(np.abs(z)), np.ptp(z)])
+
     a, B, c, D = errors(start)
     largest = float(np.max(np.linalg.norm(a, axis=1)))
-    flatness = float(np.max(np.abs(c))) if flatness is None else flatness
-    within = float(np.max(np.abs(c))) <= flatness + FLATNESS_SLACK
-    bound, cuts = flatness, Cuts.largest(a, c)
+    limits = first(c) if flatness is None else np.array([flatness, 2.0 * flatness])
+    within = bool(np.all(first(c) <= limits + FLATNESS_SLACK))
+    bounds, cuts = limits, Cuts.largest(a, c)
     scale = np.sqrt(np.mean(np.sum(B**2, axis=1), axis=0))  # [mm per unit]: RMS nozzle motion
     scale = np.where(scale > 0.0, scale, 1.0)
     model, reach = start, 1.0  # [mm]
     for _ in range(max_iter):
-        step, predicted, cuts = largest_step(a, B / scale, c, D / scale, bound, reach, cuts)
+        step, predicted, cuts = largest_step(a, B / scale, c, D / scale, float(bounds[0]), float(bounds[1]),
+                                             reach, cuts)
         if within and largest - predicted < LARGEST_TOLERANCE or not np.any(step):
             break
         values = vector.values_of(model)
@@ -430,14 +450,14 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
         except UnreachableError:
             reach = float(np.max(np.abs(step))) / 4.0
             continue
-        now, flat = float(np.max(np.linalg.norm(found[0], axis=1))), float(np.max(np.abs(found[2])))
+        now, excess = float(np.max(np.linalg.norm(found[0], axis=1))), first(found[2]) - limits
         better = now < largest or not within
-        if better and flat <= flatness + FLATNESS_SLACK:
+        if better and np.all(excess <= FLATNESS_SLACK):
             gain = (largest - now) / (largest - predicted) if within else 1.0
-            model, (a, B, c, D), largest, bound, within = trial, found, now, flatness, True  # cuts stay cuts
+            model, (a, B, c, D), largest, bounds, within = trial, found, now, limits, True  # cuts stay cuts
             reach = 2.0 * reach if gain > 0.75 else reach
-        elif better and bound > 0.5 * flatness:
-            bound -= flat - flatness
+        elif better and np.all(bounds > 0.5 * limits):
+            bounds = bounds - np.maximum(excess, 0.0)
         else:
             reach = float(np.max(np.abs(step))) / 4.0
     return model

@@ -118,10 +118,11 @@ class Klipper(Firmware[KlipperDelta]):
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None) -> FirmwareFit[KlipperDelta]:
+            grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           grid=grid, first_layer_weight=first_layer_weight, minimax=minimax)
+                           grid=grid, first_layer_weight=first_layer_weight, minimax=minimax,
+                           flatness=flatness)
 
     def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
                     source: str = "") -> tuple[str, ...]:

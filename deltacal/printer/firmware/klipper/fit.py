@@ -81,6 +81,7 @@ def fit_klipper(
     first_layer_weight: float = 0.0,
     part_frame: bool = True,
     minimax: bool = False,
+    flatness: float | None = None,
 ) -> FirmwareFit[KlipperDelta]:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
 
@@ -104,6 +105,7 @@ def fit_klipper(
         part_frame: Judge the volume's errors in the printed part's frame (see above).
         minimax: Then the least largest error over the grid, the first layer no less flat
             (:func:`~..fitting.least_largest`).
+        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -112,7 +114,7 @@ def fit_klipper(
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
     wanted = [c for c in range(10 if hold_step_distance else 13) if not (part_frame and c == _ANGLE_C)]
     found = gauss_newton(geometry, start, KLIPPER_VALUES, step_distance, workspace, grid, wanted, max_iter,
-                         first_layer_weight, part_frame, "Klipper", minimax)
+                         first_layer_weight, part_frame, "Klipper", minimax, flatness)
     fitted = [KLIPPER_NAMES[c] for c in found.columns]
     return FirmwareFit(
         values=found.model,

@@ -112,6 +112,7 @@ class RRF(Firmware[RRFDelta]):
         first_layer_weight: float = 0.0,
         minimax: bool = False,
         grid: np.ndarray | None = None,
+        flatness: float | None = None,
     ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -123,6 +124,7 @@ class RRF(Firmware[RRFDelta]):
             grid=grid,
             first_layer_weight=first_layer_weight,
             minimax=minimax,
+            flatness=flatness,
         )
 
     def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:

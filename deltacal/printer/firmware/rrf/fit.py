@@ -123,6 +123,7 @@ def fit_rrf(
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
     minimax: bool = False,
+    flatness: float | None = None,
 ) -> FirmwareFit[RRFDelta]:
     """RRF's values that leave the least squared nozzle error over the printable volume (the part's frame).
 
@@ -137,6 +138,7 @@ def fit_rrf(
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
         minimax: Then the least largest error over the grid, the first layer no less flat
             (:func:`~..fitting.least_largest`).
+        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -145,7 +147,7 @@ def fit_rrf(
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
     wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES)) if c != _ANGLE_Z]
     found = gauss_newton(geometry, start, RRF_VALUES, step_distance, workspace, grid, wanted, max_iter,
-                         first_layer_weight, True, "RepRapFirmware", minimax)
+                         first_layer_weight, True, "RepRapFirmware", minimax, flatness)
     rrf = normalised(found.model)
     fitted = [RRF_NAMES[c] for c in found.columns]
     return FirmwareFit(
