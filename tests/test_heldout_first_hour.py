@@ -92,7 +92,17 @@ def _tevo() -> Held:
                 (210.0, 330.0, 90.0), 40.0 / 3200.0, 140.0, 0.315, 10.0)
 
 
-CASES = [_tevo()]
+def _qqs_pro_klipper() -> Held:
+    # [printer] delta_radius 130, [stepper_a] arm_length 280.0 and position_endstop 370 (stepper_b and
+    # _c take a's), rotation_distance 32 / 3200, [delta_calibrate] radius 120, horizontal_move_z 10;
+    # [bltouch] z_offset -2.3 ([probe] commented out)
+    top = 370.0 + _root(280.0, 130.0) + 30.0
+    return Held("klipper-flsun-qqs-pro-bltouch", (HELD / "klipper" / "flsun-qqs-pro-bltouch-cobrapi.cfg",),
+                "klipper", SLICERS / "ideamaker-4.4.gcode", (280.0,) * 3, 130.0, (top,) * 3,
+                (210.0, 330.0, 90.0), 32.0 / 3200.0, 120.0, -2.3, 10.0)
+
+
+CASES = [_tevo(), _qqs_pro_klipper()]
 
 
 def _ids(case: Held) -> str:
