@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 import shutil
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -137,6 +138,7 @@ def _given(case: Held, folder: Path) -> Path:
 def _imported(case: Held, tmp_path: Path, capsys) -> Path:
     config = _given(case, tmp_path)
     assert main(["import", str(config), "-o", str(tmp_path / "robot")]) == 0, capsys.readouterr().err
+    capsys.readouterr()
     return tmp_path / "robot" / "printer.toml"
 
 
@@ -162,7 +164,8 @@ def _program_heights(program: str) -> list[float]:
 def _planned(case: Held, robot: Path, config: Path, folder: Path, capsys) -> Path:
     plan = folder / "plan"
     assert main(["plan", str(robot), "--object", "--controller", str(config), "-o", str(plan)]) == 0
-    capsys.readouterr()
+    said = capsys.readouterr().err.splitlines()
+    assert len(said) == len(set(said)), said  # each warning once (RRF's missing config-override.g: 3 times)
     program = (plan / "probe.gcode").read_text()
     heights = _program_heights(program)
     points = len((plan / "probe.csv").read_text().splitlines()) - 1
@@ -171,6 +174,20 @@ def _planned(case: Held, robot: Path, config: Path, folder: Path, capsys) -> Pat
     assert case.travel >= case.trigger + MIN_TRAVEL_MARGIN - 1e-9
     assert f"the probe triggers with the nozzle {case.trigger:g} mm above the bed" in program
     return plan
+
+
+def test_a_missing_file_config_g_runs_is_warned_of_once_by_plan():
+    """plan reads config.g for the model, then again for the probe's travel: one warning, as Klipper's."""
+    config = HELD / "rrf" / "duet3d-dc42kossel" / "config.g"
+    firmware = firmware_named("rrf")
+    assert firmware is not None
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("default")
+        firmware.read_config(config)
+        firmware.probe_travel(config)
+    assert [str(w.message).split(": ", 2)[-1] for w in said] == [
+        "M501 runs config-override.g, not found at "
+        f"{config.parent / 'config-override.g'}: its values (if any) are not read"]
 
 
 def _identified(case: Held, robot: Path, config: Path, plan: Path, folder: Path, capsys) -> Path:
