@@ -115,7 +115,19 @@ def _dc42_kossel() -> Held:
                 (210.0 - 0.105, 330.0 + 0.161, 90.0), 1.0 / 200.0, 150.0, -0.10, -0.10 + 6.0)
 
 
-CASES = [_tevo(), _qqs_pro_klipper(), _dc42_kossel()]
+def _super_racer_rrf() -> Held:
+    # config.g: M665 R151.67 L315 B132 H330, M92 X80 Y80 Z80, M558 P8 H8, G31 Z20, then M501: its
+    # config-override.g's M665 L315.000:315.000:315.000 R151.654 H335.853 B132.0 Y-0.450
+    # Z0.000, M666 X0.631 Y-0.228 Z-0.403 and G31 Z17.54 are the ones RRF ends with
+    rod, radius, height = 315.0, 151.654, 335.853
+    tops = tuple(height + _root(rod, radius) + adj + 30.0 for adj in (0.631, -0.228, -0.403))
+    folder = HELD / "rrf" / "flsun-sr-qianqin"
+    files = tuple(folder / name for name in ("config.g", "config-override.g", "homedelta.g"))
+    return Held("rrf-flsun-super-racer", files, "rrf", SLICERS / "cura-5.6.gcode", (rod,) * 3, radius, tops,
+                (210.0 - 0.041, 330.0 - 0.450, 90.0), 1.0 / 80.0, 132.0, 17.54, 17.54 + 8.0)
+
+
+CASES = [_tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf()]
 
 
 def _ids(case: Held) -> str:
@@ -213,6 +225,11 @@ def _exported(case: Held, cal: Path, robot: Path, config: Path, folder: Path, ca
     printed = capsys.readouterr().out
     fitted, given = (float(m) for m in re.findall(r"values: 3-D max (\d+\.\d+) mm", printed))
     assert fitted < given
+    # how to apply names the lines where the values live: each is that command's line of that file
+    named = re.findall(r"the (M\d+) line of (\S+) \(line (\d+)\)", printed)
+    assert bool(named) == (case.firmware == "rrf"), printed
+    for code, name, line in named:
+        assert (config.parent / name).read_text().splitlines()[int(line) - 1].startswith(code + " ")
     return out.read_text()
 
 
