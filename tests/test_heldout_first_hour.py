@@ -127,7 +127,18 @@ def _super_racer_rrf() -> Held:
                 (210.0 - 0.041, 330.0 - 0.450, 90.0), 1.0 / 80.0, 132.0, 17.54, 17.54 + 8.0)
 
 
-CASES = [_tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf()]
+def _qqs_marlin() -> Held:
+    # M665 L280.0000 R141.9439 H354.3339 X0.0353 Y0.2565 Z-0.2919 A0 B0 C0, M666 X0 Y-2.7082 Z-3.1732,
+    # M92 X100 Y100 Z100, M851 Z-19.3200 (G28 puts the nozzle at H - M851 Z; each M666 moves its carriage
+    # down from the endstop after homing); no M211 line (Marlin's default 140 mm, held to the rods' reach)
+    rod, radius, home = 280.0, 141.9439, 354.3339 + 19.32
+    tops = tuple(home + _root(rod, radius) - adj + 30.0 for adj in (0.0, -2.7082, -3.1732))
+    return Held("marlin-flsun-qqs", (HELD / "marlin" / "flsun-qqs-marlin2-m503.txt",), "marlin",
+                SLICERS / "cura-5.6.gcode", (rod,) * 3, radius, tops, (210.0353, 330.2565, 90.0 - 0.2919),
+                1.0 / 100.0, None, 19.32, 19.32 + 5.0)
+
+
+CASES = [_qqs_marlin(), _tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf()]
 
 
 def _ids(case: Held) -> str:
