@@ -179,6 +179,36 @@ def test_import_gives_the_files_numbers(case, tmp_path, capsys):
         assert printer.workspace.radius == pytest.approx(case.workspace, abs=1e-9)
 
 
+ANYCUBIC_LOG = HELD / "marlin" / "anycubic-kossel-plus-marlin110-octoprint.log"
+ANYCUBIC_H = HELD / "marlin" / "anycubic-kossel-plus-Configuration.h"
+
+
+def _one_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("\n") == 1, err
+    return err
+
+
+def test_marlin_1_1_0s_log_is_refused_saying_where_its_homed_height_is(tmp_path, capsys):
+    """OctoPrint's terminal of an Anycubic Marlin 1.1.0: the report at start and M503's, no M665 H."""
+    assert main(["import", str(ANYCUBIC_LOG), "-o", str(tmp_path / "robot")]) == 1
+    err = _one_line(capsys)
+    assert f"{ANYCUBIC_LOG}: line 80: no M665 H: the report of a Marlin without it (1.1.0 or older" in err
+    assert "MANUAL_Z_HOME_POS of its Configuration.h, plus this report's M206 Z0)" in err
+    assert "add a line 'M665 H<that height>' to the capture" in err and not (tmp_path / "robot").exists()
+
+
+@pytest.mark.parametrize("command", ["import", "plan"])
+def test_the_same_printers_configuration_h_is_refused_as_a_capture(command, tmp_path, capsys):
+    robot = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
+    argv = {"import": ["import", str(ANYCUBIC_H)],
+            "plan": ["plan", str(robot), "--object", "--controller", str(ANYCUBIC_H)]}[command]
+    assert main([*argv, "-o", str(tmp_path / "out")]) == 1
+    err = _one_line(capsys)
+    assert f"{ANYCUBIC_H}: line 54: a Marlin Configuration.h holds the compiled defaults" in err
+    assert "send M503 to the printer and save its whole answer" in err and not (tmp_path / "out").exists()
+
+
 # ------------------------------------------------------------------ the route: plan to compensate
 def _program_heights(program: str) -> list[float]:
     return [float(z) for z in _Z.findall(program)]
