@@ -33,6 +33,8 @@ from deltacal.printer.firmware.probing import MIN_TRAVEL_MARGIN
 DATA = Path(__file__).resolve().parent / "data"
 HELD = DATA / "heldout"
 SLICERS = DATA / "slicers"
+ANYCUBIC_LOG = HELD / "marlin" / "anycubic-kossel-plus-marlin110-octoprint.log"
+ANYCUBIC_H = HELD / "marlin" / "anycubic-kossel-plus-Configuration.h"
 _Z = re.compile(r"^G1 .*\bZ(-?[\d.]+)", re.MULTILINE)
 _XYZ = re.compile(r"^G[01] X(-?[\d.]+) Y(-?[\d.]+) Z(-?[\d.]+)", re.MULTILINE)
 #: Heights below which no move of a slicer's program is the first after a homing (blended in near the top).
@@ -57,6 +59,7 @@ class Held:
         trigger: The probe's trigger height: the nozzle's height above the bed at the trigger [mm].
         travel: The height ``probe.gcode`` travels at [mm].
         added: A line the owner adds to the file when its import says to (appended).
+        exports: Whether export writes the firmware's values (else it refuses, saying why).
     """
 
     name: str
@@ -72,6 +75,7 @@ class Held:
     trigger: float
     travel: float
     added: str = ""
+    exports: bool = True
 
     @property
     def config(self) -> Path:
@@ -138,7 +142,19 @@ def _qqs_marlin() -> Held:
                 1.0 / 100.0, None, 19.32, 19.32 + 5.0)
 
 
-CASES = [_qqs_marlin(), _tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf()]
+def _anycubic_marlin_1_1_0() -> Held:
+    # M665 L271.50 R135.40 S80.00 A0 B0 C0 (no H: Marlin 1.1.0), M666 X0 Y0 Z0, M206 Z0, M92 X80 Y80 Z80,
+    # M851 Z-15.80; the owner adds 'M665 H270' as import says: MANUAL_Z_HOME_POS 270 of the same
+    # firmware's Configuration.h + M206 Z0, where its G28 puts the nozzle (it homes up: M851 Z apart)
+    rod, radius = 271.5, 135.4
+    top = 270.0 + _root(rod, radius) + 30.0
+    return Held("marlin-1.1.0-anycubic-kossel-plus", (ANYCUBIC_LOG,), "marlin", SLICERS / "cura-5.6.gcode",
+                (rod,) * 3, radius, (top,) * 3, (210.0, 330.0, 90.0), 1.0 / 80.0, None, 15.8, 15.8 + 5.0,
+                added="M665 H270", exports=False)
+
+
+CASES = [_qqs_marlin(), _tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf(),
+         _anycubic_marlin_1_1_0()]
 
 
 def _ids(case: Held) -> str:
@@ -177,10 +193,6 @@ def test_import_gives_the_files_numbers(case, tmp_path, capsys):
     assert printer.workspace is not None
     if case.workspace is not None:
         assert printer.workspace.radius == pytest.approx(case.workspace, abs=1e-9)
-
-
-ANYCUBIC_LOG = HELD / "marlin" / "anycubic-kossel-plus-marlin110-octoprint.log"
-ANYCUBIC_H = HELD / "marlin" / "anycubic-kossel-plus-Configuration.h"
 
 
 def _one_line(capsys) -> str:
@@ -261,8 +273,15 @@ def _identified(case: Held, robot: Path, config: Path, plan: Path, folder: Path,
 
 def _exported(case: Held, cal: Path, robot: Path, config: Path, folder: Path, capsys) -> str:
     out = folder / "exported"
-    assert main(["export", str(cal), "--controller", case.firmware, "--config", str(config), "--robot",
-                 str(robot), "-o", str(out)]) == 0
+    argv = ["export", str(cal), "--controller", case.firmware, "--config", str(config), "--robot", str(robot),
+            "-o", str(out)]
+    if not case.exports:  # Marlin 1.1.0 takes no M665 H nor X Y Z: export would write what it ignores
+        assert main(argv) == 1 and not out.exists()
+        err = _one_line(capsys)
+        assert f"{config.name}: the report of a Marlin 1.1.0 or older (M665 L R S, no H)" in err
+        assert "correct each program with deltacal compensate through this capture" in err
+        return ""
+    assert main(argv) == 0
     printed = capsys.readouterr().out
     fitted, given = (float(m) for m in re.findall(r"values: 3-D max (\d+\.\d+) mm", printed))
     assert fitted < given
