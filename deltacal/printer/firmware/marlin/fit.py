@@ -20,6 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ....exceptions import InputError
 from ....geometry import DeltaGeometry, Workspace
 from ..base import FirmwareFit
 from ..fitting import error_stats, printable_grid
@@ -27,6 +28,12 @@ from ..klipper.fit import KLIPPER_NAMES, fit_klipper
 from .model import MarlinDelta
 from .values import from_klipper, to_klipper
 
+#: Why the values of a Marlin 1.1.0's report are not fitted, and what to do instead.
+OLD_MARLIN_REFUSED = ("the report of a Marlin 1.1.0 or older (M665 L R S, no H): its M665 takes L R S A B C "
+                      "only, its homed height (MANUAL_Z_HOME_POS) and tower angles are compiled in, so the "
+                      "values deltacal fits (Marlin 2's M665 L R H X Y Z A B C, M666, M92) would not be "
+                      "taken: update Marlin and capture M503 again, or correct each program with deltacal "
+                      "compensate through this capture")
 #: Marlin's values in the fit's order (the step distances are ``M92``'s).
 MARLIN_NAMES = ("M665 R", "M665 X", "M665 Y", "M665 Z", "M665 L+A", "M665 L+B", "M665 L+C",
                 "M666 X", "M666 Y", "M666 Z", "M92 X", "M92 Y", "M92 Z")
@@ -59,9 +66,12 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
 
     Raises:
+        InputError: ``start`` is a Marlin 1.1.0's report (:attr:`~.model.MarlinDelta.compiled_height`).
         ConvergenceError: Gauss-Newton did not converge.
         UnreachableError: a target out of Marlin's reach.
     """
+    if start.compiled_height:
+        raise InputError(OLD_MARLIN_REFUSED, start.name)
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
 
     def fit(klipper_start, least_largest=False):

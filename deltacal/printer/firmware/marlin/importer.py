@@ -6,7 +6,9 @@
 * per tower: ``rod_length_mm`` = ``M665 L`` + ``A``/``B``/``C``; ``tower_azimuth_deg`` = 210, 330,
   90 + ``M665 X Y Z``; ``endstop_height_mm`` = ``M665 H − M851 Z + sqrt(rod² − R²)`` (+ the
   ``M666`` move G28 makes, when Marlin makes it) + nozzle drop: each carriage's height at its
-  endstop (:attr:`~.model.MarlinDelta.carriage_top`); ``step_distance_mm`` = 1 / ``M92``;
+  endstop (:attr:`~.model.MarlinDelta.carriage_top`); a Marlin 1.1.0's report, its homed height
+  added as a line ``M665 H`` (``MANUAL_Z_HOME_POS + M206 Z``), takes that height whole, ``M851 Z``
+  apart (its ``G28`` homes up: no probe offset); ``step_distance_mm`` = 1 / ``M92``;
 * ``tower_radius_mm`` = ``M665 R`` + the effector radius; ``nozzle_mm`` = ``[0, 0, −drop]``;
 * ``[workspace] radius_mm`` = the soft endstops' radius (``M211``'s ``Min``/``Max``, else Marlin's
   default 140), never beyond what the rods reach at the bed with a margin, as the other firmwares'
@@ -40,10 +42,12 @@ def marlin_imported_values(path: str | Path) -> tuple[MarlinDelta, ImportedValue
         "Marlin's default soft endstops' radius (no M211 Min/Max in the capture)"
     printable = within_reach(marlin.soft_endstops.radius, words, reach_radius(marlin.rods, marlin.radius),
                              "the rods' reach (a carriage at most 12 times faster than the nozzle)")
+    home = "M665 H (the homed height given: Marlin 1.1.0's G28 keeps M851 Z apart)" \
+        if marlin.compiled_height else "M665 H - M851 Z"
     values = ImportedValues(
         "Marlin", str(path), (marlin.radius, "M665 R"), (marlin.rods, "M665 L + A/B/C"),
         (np.array(BASE_ANGLES_DEG) + marlin.angle_trim, "210, 330, 90 + M665 X/Y/Z"),
-        (np.array(marlin.carriage_top), "M665 H - M851 Z + sqrt(rod^2 - R^2) (+ G28's M666 move)"),
+        (np.array(marlin.carriage_top), f"{home} + sqrt(rod^2 - R^2) (+ G28's M666 move)"),
         (marlin.step_distance, "1 / M92"), printable,
         "Marlin's full-radius height (radius tapered above)", where="M665 H")
     return marlin, values

@@ -109,6 +109,12 @@ class MarlinDelta:
         segments_per_second: ``M665 S`` (kept to be written back).
         extruder_steps_per_mm: ``M92 E`` (kept to be written back), or None.
         name: A name (the settings file's).
+        compiled_height: The report is a Marlin 1.1.0's (or older): its ``M665`` takes ``L R S A B
+            C`` only, its homed height and tower angles are compiled in. Its homed height, given as
+            a line ``M665 H`` added to the capture, is where its ``G28`` puts the nozzle whatever
+            ``M851 Z`` (``MANUAL_Z_HOME_POS`` + ``M206 Z``: it homes up, no probe offset taken
+            off); ``height`` holds it as Marlin 2's ``M665 H`` (that height + ``M851 Z``), so the
+            model is the same. Its values cannot be written back (:func:`~.fit.fit_marlin` refuses).
     """
 
     radius: float
@@ -123,6 +129,7 @@ class MarlinDelta:
     segments_per_second: float = DEFAULT_SEGMENTS_PER_SECOND
     extruder_steps_per_mm: float | None = None
     name: str = ""
+    compiled_height: bool = False
 
     def __post_init__(self) -> None:
         for key in ("angle_trim", "rod_trim", "endstop_adj", "steps_per_mm", "probe_offset"):

@@ -88,12 +88,15 @@ class MarlinSettings:
         values: Command -> key -> value.
         lines: (command, key) -> the 1-based line of its value.
         limits: ``Min`` and ``Max`` of ``M211``'s report, or None.
+        old_report: The line of the last ``M665`` line with ``L``, when it has no ``H`` (a Marlin
+            1.1.0's report, its homed height compiled in), else 0.
     """
 
     source: str
     values: dict[str, dict[str, float]] = field(default_factory=dict)
     lines: dict[tuple[str, str], int] = field(default_factory=dict)
     limits: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    old_report: int = 0
 
     def error(self, command: str, key: str, detail: str) -> InputError:
         """A one-line error naming the file, the line and the key."""
@@ -165,12 +168,16 @@ def read_marlin_settings(path: str | Path) -> MarlinSettings:
                              "25.4 to 2 decimals (0.254 mm, and M92 as steps per mm / 25.4), too coarse to "
                              "calibrate: send G21, then M503, and capture that", source,
                              f"line {number}, {command}")
-        for key, value in _WORD.findall(line[len(command):]):
+        words = _WORD.findall(line[len(command):])
+        for key, value in words:
             key = key.upper()
             if key not in KEYS[command]:
                 continue
             settings.values.setdefault(command, {})[key] = _number(value, source, number, command, key)
             settings.lines[(command, key)] = number
+        given = {key.upper() for key, _ in words}
+        if command == "M665" and "L" in given:  # a report's line; an added 'M665 H' alone is not one
+            settings.old_report = 0 if "H" in given else number
     return settings
 
 
@@ -237,6 +244,9 @@ def marlin_from_settings(settings: MarlinSettings) -> MarlinDelta:
     """
     _refuse_old_report(settings)
     get = settings.get
+    height = get("M665", "H")
+    if settings.old_report:  # Marlin 1.1.0 homes up to MANUAL_Z_HOME_POS + M206 Z, M851 Z apart
+        height += get("M851", "Z", 0.0)
     trims = settings.values.get("M665", {})
     rod_b = get("M665", "B", 0.0) if ("A" in trims or "C" in trims) else 0.0
     for key, test, words in (("L", lambda v: v > 0.0, "a positive length"), ("R", lambda v: v > 0.0,
@@ -257,7 +267,7 @@ def marlin_from_settings(settings: MarlinSettings) -> MarlinDelta:
                           bool(get("M211", "S", 1.0)))
     try:
         return MarlinDelta(
-            radius=get("M665", "R"), rod=get("M665", "L"), height=get("M665", "H"),
+            radius=get("M665", "R"), rod=get("M665", "L"), height=height,
             angle_trim=np.array([get("M665", k, 0.0) for k in "XYZ"]),
             rod_trim=np.array([get("M665", "A", 0.0), rod_b, get("M665", "C", 0.0)]),
             endstop_adj=np.array([get("M666", k, 0.0) for k in "XYZ"]),
@@ -267,6 +277,7 @@ def marlin_from_settings(settings: MarlinSettings) -> MarlinDelta:
             segments_per_second=get("M665", "S", DEFAULT_SEGMENTS_PER_SECOND),
             extruder_steps_per_mm=settings.values.get("M92", {}).get("E"),
             name=Path(settings.source).name,
+            compiled_height=bool(settings.old_report),
         )
     except GeometryError as exc:
         raise InputError(str(exc), settings.source, "M665") from None

@@ -305,8 +305,10 @@ def _call(line: RRFLine, settings: RRFSettings, running: list[Path], variables: 
             raise line.error("P", f"{name} calls itself (through {Path(running[-1]).name}): RRF would run it "
                              "until its macro stack is full")
     if not called.exists():
+        # issued from this line (stacklevel 1): Python's registry says it once however many times one
+        # command reads config.g (plan reads it for the model and again for the probe's travel)
         warn(f"{line.source}: line {line.line}: {line.code} runs {name}, not found at {called}: its values "
-             "(if any) are not read", InputWarning, stacklevel=4)
+             "(if any) are not read", InputWarning, stacklevel=1)
         return
     if not called.is_file():
         raise InputError(f"{line.code} runs {called}, not a regular file (a folder, a pipe, a device)",

@@ -7,12 +7,14 @@ is the one instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
+from ....exceptions import InputWarning
 from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
@@ -141,8 +143,14 @@ class RRF(Firmware[RRFDelta]):
         return rrf_probe_program(points, title, clearance)
 
     def probe_travel(self, path: str | Path) -> ProbeTravel:
-        """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed)."""
-        return rrf_probe_travel(read_rrf_settings(path))
+        """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed).
+
+        A file ``config.g`` runs and that is missing is not warned of here: the reading of the
+        configuration (:meth:`read_config`, before the probe program is planned) warns once.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return rrf_probe_travel(read_rrf_settings(path))
 
     def config_files(self, path: str | Path) -> tuple[Path, ...]:
         """:func:`~.apply.rrf_config_files`: ``config.g``, the files it runs and ``homedelta.g``."""
