@@ -237,7 +237,9 @@ def _planned(case: Held, robot: Path, config: Path, folder: Path, capsys) -> Pat
     assert len(heights) == 1 + 2 * points  # the rise after G28, then a travel and a rise per point
     assert_allclose(heights, case.travel, rtol=0, atol=5e-4)  # written with 3 decimals
     assert case.travel >= case.trigger + MIN_TRAVEL_MARGIN - 1e-9
-    assert f"the probe triggers with the nozzle {case.trigger:g} mm above the bed" in program
+    # a trigger below the bed said so (not "-2.3 mm above")
+    side = f"{case.trigger:g} mm above" if case.trigger >= 0 else f"{-case.trigger:g} mm below"
+    assert f"the probe triggers with the nozzle {side} the bed (" in program
     return plan
 
 

@@ -63,7 +63,9 @@ def probe_travel(trigger: float, trigger_key: str, own: Sequence[tuple[float, st
     """
     if not all(np.isfinite([trigger, *(h for h, _, _ in own)])):
         raise ValueError("the probe's trigger and travel heights must be finite")
-    trigger_words = f"the probe triggers with the nozzle {trigger:g} mm above the bed ({trigger_key})"
+    # below the bed: a nozzle that presses the bed to trigger (Duet3D's Smart Effector, G31 Z-0.1)
+    side = f"{trigger:g} mm above" if trigger >= 0.0 else f"{-trigger:g} mm below"
+    trigger_words = f"the probe triggers with the nozzle {side} the bed ({trigger_key})"
     refused = []
     for height, key, below in own:
         if height >= trigger + MIN_TRAVEL_MARGIN:
