@@ -181,8 +181,7 @@ def _imported(case: Held, tmp_path: Path, capsys) -> Path:
     return tmp_path / "robot" / "printer.toml"
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if i else c
-                                  for i, c in enumerate(CASES)], ids=_ids)
+@pytest.mark.parametrize("case", CASES, ids=_ids)
 def test_import_gives_the_files_numbers(case, tmp_path, capsys):
     printer = load_printer(_imported(case, tmp_path, capsys))
     assert_allclose(printer.rod_length, case.rods, rtol=0, atol=1e-9)
