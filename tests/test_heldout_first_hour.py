@@ -153,8 +153,19 @@ def _anycubic_marlin_1_1_0() -> Held:
                 added="M665 H270", exports=False)
 
 
+def _anycubic_rrf() -> Held:
+    # config.g: M665 R134.67 L271.5 B120 H305, M666 X0 Y0 Z0, M92 X80 Y80 Z80, M558 P4 H10, G31 Z17.941 and
+    # no M501: the config-override.g beside it (M665 ... H290.000) is never run, so not read
+    rod, radius = 271.5, 134.67
+    top = 305.0 + _root(rod, radius) + 30.0
+    folder = HELD / "rrf" / "anycubic-kossel-citruspers"
+    files = tuple(folder / name for name in ("config.g", "config-override.g", "homedelta.g"))
+    return Held("rrf-anycubic-kossel-no-m501", files, "rrf", SLICERS / "cura-5.6.gcode", (rod,) * 3, radius,
+                (top,) * 3, (210.0, 330.0, 90.0), 1.0 / 80.0, 120.0, 17.941, 17.941 + 10.0)
+
+
 CASES = [_qqs_marlin(), _tevo(), _qqs_pro_klipper(), _dc42_kossel(), _super_racer_rrf(),
-         _anycubic_marlin_1_1_0()]
+         _anycubic_marlin_1_1_0(), _anycubic_rrf()]
 
 
 def _ids(case: Held) -> str:
@@ -181,8 +192,7 @@ def _imported(case: Held, tmp_path: Path, capsys) -> Path:
     return tmp_path / "robot" / "printer.toml"
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if i else c
-                                  for i, c in enumerate(CASES)], ids=_ids)
+@pytest.mark.parametrize("case", CASES, ids=_ids)
 def test_import_gives_the_files_numbers(case, tmp_path, capsys):
     printer = load_printer(_imported(case, tmp_path, capsys))
     assert_allclose(printer.rod_length, case.rods, rtol=0, atol=1e-9)
@@ -292,6 +302,10 @@ def _exported(case: Held, cal: Path, robot: Path, config: Path, folder: Path, ca
     assert bool(named) == (case.firmware == "rrf"), printed
     for code, name, line in named:
         assert (config.parent / name).read_text().splitlines()[int(line) - 1].startswith(code + " ")
+    if case.firmware == "rrf" and not re.search(r"^M501\b", config.read_text(), flags=re.MULTILINE):
+        # a config-override.g beside a config.g that never runs it is not where the values live
+        assert {name for _, name, _ in named} == {"config.g"}
+        assert "config.g runs no M501, so M500 (config-override.g) would be lost at the next" in printed
     return out.read_text()
 
 
