@@ -52,6 +52,11 @@ def test_a_marlin_or_rrf_printers_report_fits_and_names_its_own_values(printer, 
     for phrase in (f"controller is its firmware ({words[0]})", *words, "firmware values fitted"):
         assert phrase in text, phrase
     assert "printer.cfg" not in text and "Klipper" not in text and "--controller klipper" not in text
+    # issue 39: the owner's part first, each tower's endstop in mm and lean in deg in the firmware's words
+    # (Marlin's and RRF's towers are X, Y, Z; their endstops M666), before any parameter name
+    owner = text.index("tower X: endstop")
+    assert owner < text.index("<h2>Base parameters") and owner < text.index("b11x")
+    assert "M666 X" in text and "tower Z: leans outwards" in text and " deg" in text
     # the fitted route is the firmware's own fit (its names held), and it holds a part of the error
     firmware = firmware_named(name)
     calibration = load_calibration(folder / "cal.toml")
