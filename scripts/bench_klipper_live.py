@@ -119,9 +119,8 @@ def cpu_time(args: list[str], cwd: Path) -> float:
 
 def live_rows(repeat: int, seed: int) -> list[tuple]:
     """The rows (name, value, unit, target, (least, greatest)); none without ``KLIPPER_DIR``."""
-    from deltacal.printer.robot_file import load_printer
-
     from deltacal.io import load_calibration, save_geometry
+    from deltacal.printer.files.robot_file import load_printer
     from deltacal.printer.firmware.klipper.firmware import KLIPPER
     from deltacal.printer.firmware.klipper.live.export import export_live, module_text
     from deltacal.printer.simulation import random_printer, typical_kit

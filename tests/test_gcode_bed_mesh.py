@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 from conftest import MODELS, kossel_printer_cfg
-from deltacal.printer.robot_file import load_printer
 
 from deltacal import InputWarning
 from deltacal.cli import main
 from deltacal.gcode import filter_lines
 from deltacal.io.geometry_file import save_geometry
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from deltacal.printer.robot_file import load_printer
 
 from deltacal import InputError
 from deltacal.cli import main
 from deltacal.gcode import filter_lines
 from deltacal.io.geometry_file import save_geometry
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.marlin.settings import load_marlin
 from deltacal.printer.firmware.rrf.config import load_rrf

@@ -27,8 +27,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from deltacal.printer.plan import plan_object
-from deltacal.printer.robot_file import load_printer
 
 from deltacal.cli import main
 from deltacal.exceptions import GeometryError
@@ -36,6 +34,7 @@ from deltacal.gcode.marker import MARKER
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration, save_calibration
 from deltacal.kinematics import exact
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
 from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FILE, module_text, section_text
@@ -49,6 +48,7 @@ from deltacal.printer.firmware.klipper.live.field import (
 )
 from deltacal.printer.firmware.klipper.model import KlipperController, KlipperDelta
 from deltacal.printer.identification import PrinterMeasurements, identify_printer
+from deltacal.printer.printed.plan import plan_object
 from deltacal.printer.robot import less_bed_motion
 from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
 
