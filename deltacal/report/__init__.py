@@ -163,7 +163,11 @@ def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None
     if firmware is None:
         firmware = firmwares()[0]
     keys = firmware.owner_keys
-    return owner_lines(printer_errors(cal, names=keys.towers), keys, firmware.title)
+    try:
+        errors = printer_errors(cal, names=keys.towers)
+    except ValueError:  # a calibration that regrouped the model's parameters: the engineer's part alone
+        return None
+    return owner_lines(errors, keys, firmware.title)
 
 
 def _file_names(paths: str | Path | Sequence[str | Path] | None) -> str | None:
