@@ -26,6 +26,7 @@ from .compensation import LinearCalibration
 from .errormodels import ErrorModel, get_model
 from .exceptions import InputError
 from .geometry import DeltaGeometry
+from .holds import WhereItHolds
 from .identification.columns import COMPLIANCE, COMPLIANCE_NAMES, FRAME, GEOMETRY, POINT, ParameterKind
 from .identification.frames import InstrumentFrame, axes_motion
 from .identification.options import Method
@@ -155,6 +156,10 @@ class Calibration:
         compliance_sigma: σ of the actuators' compliances [rad/N m] when they were identified with
             the geometry (0 for one the measurements could not identify), else None; the
             compliances themselves are ``geometry.compliance`` (:attr:`compliance`).
+        holds: Where a printer's calibration holds: the σ of its nozzle correction over the
+            printable volume (:class:`~deltacal.holds.WhereItHolds`), which ``compensate``, ``export``,
+            the report and the live Klipper module read; None for a rotary Delta's, or a file written
+            before it was known (corrected everywhere).
         source: The file it was read from ("" when built in memory).
     """
 
@@ -176,6 +181,7 @@ class Calibration:
     outlier_rows: list[int] = field(default_factory=list)
     frames: dict[str, FrameRecord] = field(default_factory=dict)
     compliance_sigma: np.ndarray | None = None
+    holds: WhereItHolds | None = None
     source: str = ""
 
     @classmethod
@@ -214,7 +220,7 @@ class Calibration:
             outlier_lines=[] if lines is None else [int(lines[k]) for k in result.outliers],
             outlier_rows=[int(k) + 1 for k in result.outliers],
             frames={name: FrameRecord.from_frame(name, f) for name, f in result.frames.items()},
-            compliance_sigma=compliance_sigma,
+            compliance_sigma=compliance_sigma, holds=result.holds,
         )
 
     @property

@@ -64,8 +64,9 @@ class UnreachableError(DeltacalError):
             ``"singular"``, ``"check_failed"``, ``"other_assembly"``: reached only in another
             assembly than the one the robot is in when it comes from its workspace; for corrected
             targets, ``"controller_out_of_reach"`` and ``"controller_singular"``: the controller's
-            own model cannot command the joints that put the real robot there). Callers branch
-            on it, never on the message.
+            own model cannot command the joints that put the real robot there; ``"not_held"``:
+            where a printer's calibration does not hold, refused when asked). Callers branch on it,
+            never on the message.
     """
 
     OUT_OF_REACH = "out_of_reach"
@@ -74,8 +75,9 @@ class UnreachableError(DeltacalError):
     OTHER_ASSEMBLY = "other_assembly"
     CONTROLLER_OUT_OF_REACH = "controller_out_of_reach"
     CONTROLLER_SINGULAR = "controller_singular"
+    NOT_HELD = "not_held"
     REASONS = (OUT_OF_REACH, SINGULAR, CHECK_FAILED, OTHER_ASSEMBLY, CONTROLLER_OUT_OF_REACH,
-               CONTROLLER_SINGULAR)
+               CONTROLLER_SINGULAR, NOT_HELD)
     #: the words used for each reason in messages
     WORDS = {
         OUT_OF_REACH: "out of reach of the robot",
@@ -86,6 +88,8 @@ class UnreachableError(DeltacalError):
         CONTROLLER_OUT_OF_REACH: ("not commandable through the controller's model (its model has no "
                                   "knee-out assembly at the joints that put the robot there)"),
         CONTROLLER_SINGULAR: "too close to a singularity of the controller's model",
+        NOT_HELD: ("where the calibration does not hold (its correction's σ there is above the bound: the "
+                   "measurements do not determine it)"),
     }
 
     def __init__(self, message: str, indices=(), targets=None, reason: str = OUT_OF_REACH):

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import tempfile
 import time
 from dataclasses import dataclass, replace
@@ -39,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from deltacal.calibration import Calibration
-from deltacal.controller import corrected_targets
+from deltacal.controller import corrected_targets, weighted_targets
 from deltacal.geometry import DeltaGeometry, Workspace
 from deltacal.io.atomic import atomic_write_text
 from deltacal.printer.comparison import CLASSES, DISTANCE_SIGMA, PROBE_RADIUS, PROBE_SIGMA
@@ -84,15 +85,15 @@ def commands_of(calibration: Calibration, controller, targets: np.ndarray) -> tu
     """What ``compensate`` sends for ``targets`` through ``controller`` [mm], and its corrections' weights.
 
     The weights (N, 2): how much of the calibration's correction along the bed and in height each
-    command carries (1: all of it).
+    command carries (1: all of it; :func:`deltacal.controller.weighted_targets`).
     """
-    commands = corrected_targets(calibration, controller, targets).commands
-    return commands, np.ones((len(targets), 2))
+    held = weighted_targets(calibration, controller, targets)
+    return held.commands, held.weights
 
 
 def bed_offset(calibration: Calibration, controller, layer: np.ndarray) -> float:
     """The run's own z offset: its whole correction's mean height over the first layer [mm] (the bed's)."""
-    whole = corrected_targets(calibration, controller, layer).commands
+    whole = corrected_targets(calibration, controller, layer, bound=math.inf).commands
     return float(np.mean(whole[:, 2] - layer[:, 2]))
 
 

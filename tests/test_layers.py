@@ -38,6 +38,7 @@ LAYERS = {
     "controller": 38,
     "calibration": 36,
     "identification": 35,
+    "holds": 34,  # where a printer's calibration holds: its σ grid, read by calibration and above
     "compensation": 33,
     "observations": 30,
     "identifiability": 30,

@@ -11,6 +11,7 @@ import argparse
 from .. import wings
 from ..compensation import METHODS
 from ..gcode import DEFAULT_SEGMENT_MM
+from ..holds import DEFAULT_BOUND
 from ..wings.requests import CompensateRequest
 from .common import add_firmware_argument, non_negative_float, positive_float, request, show, three_numbers
 from .progress import Progress
@@ -47,6 +48,13 @@ def add_parser(sub) -> None:
                    help="mass carried at the TCP [kg] (default 0): with a calibration that identified the "
                         "actuators' compliances, the readings (or a controller's corrected targets) put "
                         "the loaded TCP on the targets (exact method)")
+    p.add_argument("--sigma-bound", type=positive_float, default=DEFAULT_BOUND, metavar="MM",
+                   help=f"a printer: the σ of a correction accepted [mm] (default {DEFAULT_BOUND:g}): where "
+                        "the calibration's correction has a larger σ (the measurements do not determine it) "
+                        "the controller's own command is sent, blended in from half of it")
+    p.add_argument("--refuse-unheld", action="store_true",
+                   help="a printer: refuse a target where the correction is not wholly applied (its σ above "
+                        "half --sigma-bound) instead of sending the controller's own command there")
     p.add_argument("--segment-mm", type=positive_float, metavar="S",
                    help=f"G-code: longest move sent [mm] (default {DEFAULT_SEGMENT_MM:g}); longer moves are "
                         "split so the real path follows the intended straight line")

@@ -13,6 +13,7 @@ controller's values. Vectorised over targets. Units: mm and rad (a printer's rea
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple, Protocol
 
 import numpy as np
@@ -21,6 +22,8 @@ from ..calibration import Calibration
 from ..compensation import compensate
 from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
+from ..holds import DEFAULT_BOUND, bed_points
+from ..kinematics import exact
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import COMMAND_MARGIN
 from .limits import CommandLimits
@@ -84,8 +87,20 @@ def corrected_targets(
     targets: np.ndarray,
     min_margin: float = 1.0,
     payload: float = 0.0,
+    bound: float = DEFAULT_BOUND,
+    refuse: bool = False,
 ) -> CorrectedTargets:
     """The targets to send ``controller`` so that the calibrated robot's TCP reaches ``targets``.
+
+    A printer's calibration that knows where it holds (:attr:`Calibration.holds
+    <deltacal.calibration.Calibration.holds>`) corrects only there: its identified printer is first
+    put in the controller's frame (:func:`aligned_to_controller`: no correction moves the part along
+    the bed or turns it), then each command is the controller's own (the target) plus the
+    correction times its weight (:meth:`~deltacal.holds.WhereItHolds.weights`, the horizontal and
+    the vertical part each by its own σ): the correction where its σ is at most half the bound and
+    the correction at least twice its σ, the controller's own command where its σ is above the bound
+    or the correction within its σ of zero, blended smoothly between. A geometry, or a calibration
+    without that knowledge (a rotary Delta's), is corrected everywhere.
 
     Args:
         calibration: The calibration (or the identified geometry itself).
@@ -96,6 +111,9 @@ def corrected_targets(
             :func:`~deltacal.compensation.compensate`) and the controller's model at the readings.
         payload: Mass at the TCP [kg]: with compliant actuators the loaded TCP reaches the targets
             (the readings are exact compensation's with this payload).
+        bound: The σ of a correction accepted [mm] (``math.inf``: every correction applied).
+        refuse: Refuse the targets where the correction is not wholly applied (its weight below 1)
+            instead of blending in the controller's own command.
 
     Returns:
         The commands [mm] and readings [rad; a printer's, mm], each (N, 3).
@@ -105,14 +123,78 @@ def corrected_targets(
         UnreachableError: naming the targets by index: out of the real robot's reach or near its
             singularities (compensate's reasons), or not commandable through the controller's
             model (``controller_out_of_reach``: no assembly of its model at those readings, or only
-            on its other branch) or near its singularities (``controller_singular``).
+            on its other branch) or near its singularities (``controller_singular``), or (with
+            ``refuse``) where the calibration does not hold (``not_held``).
     """
+    held = weighted_targets(calibration, controller, targets, min_margin, payload, bound, refuse)
+    return CorrectedTargets(held.commands, held.readings)
+
+
+class WeightedTargets(NamedTuple):
+    """Corrected targets, their readings, and how much of the calibration's correction each carries.
+
+    Attributes:
+        commands: Targets to send the controller [mm], (N, 3).
+        readings: The readings its inverse gives for them [rad; a printer's, mm], (N, 3).
+        weights: The weight of each command's correction along the bed and in height (1: all of
+            it, 0: the controller's own command), (N, 2); ones where the calibration corrects
+            everywhere.
+    """
+
+    commands: np.ndarray
+    readings: np.ndarray
+    weights: np.ndarray
+
+
+def weighted_targets(
+    calibration: Calibration | DeltaGeometry,
+    controller: CommandModel,
+    targets: np.ndarray,
+    min_margin: float = 1.0,
+    payload: float = 0.0,
+    bound: float = DEFAULT_BOUND,
+    refuse: bool = False,
+) -> WeightedTargets:
+    """:func:`corrected_targets` with the weight of each command's correction (see there)."""
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
+    holds = calibration.holds if isinstance(calibration, Calibration) else None
     virtual = controller.virtual
     if virtual.chain != geometry.chain:
         raise GeometryError(f"the controller {controller.name or ''!r} runs a {virtual.chain.name} Delta's "
                             f"model, the robot {geometry.name or ''!r} is a {geometry.chain.name} one")
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    everywhere = np.ones((targets.shape[0], 2))
+    if holds is None:
+        return WeightedTargets(*_checked(geometry, controller, targets, min_margin, payload), everywhere)
+    if not math.isfinite(bound):
+        aligned = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
+        return WeightedTargets(*_checked(aligned, controller, targets, min_margin, payload), everywhere)
+    weights = holds.weights(targets, bound)
+    if refuse and np.any(weights < 1.0):
+        raise UnreachableError.from_mask(np.any(weights < 1.0, axis=1), targets, UnreachableError.NOT_HELD)
+    commands = targets.copy()
+    acting = np.flatnonzero(np.any(weights > 0.0, axis=1))
+    if acting.size:  # where the correction has no weight the identified printer is not asked
+        aligned = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
+        try:
+            full = _checked(aligned, controller, targets[acting], min_margin, payload).commands
+        except UnreachableError as exc:
+            raise UnreachableError.from_mask(np.isin(np.arange(targets.shape[0]), acting[exc.indices]),
+                                             targets, exc.reason) from None
+        change = full - targets[acting]
+        weights[acting] = holds.weights(targets[acting], bound, change)
+        commands[acting] = targets[acting] + weights[acting][:, [0, 0, 1]] * change
+    readings = controller.inverse(commands, check=False)
+    bad = ~np.all(np.isfinite(readings), axis=1)
+    if np.any(bad):
+        raise UnreachableError.from_mask(bad, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
+    return WeightedTargets(commands, readings, weights)
+
+
+def _checked(geometry: DeltaGeometry, controller: CommandModel, targets: np.ndarray, min_margin: float,
+             payload: float) -> CorrectedTargets:
+    """The commands that put ``geometry``'s TCP on the targets, checked through the controller's model."""
+    virtual = controller.virtual
     q = compensate(geometry, targets, "exact", min_margin=min_margin, payload=payload)
     commands = controller.forward(q, check=False)
     unassembled = ~np.all(np.isfinite(commands), axis=1)
@@ -128,3 +210,34 @@ def corrected_targets(
     if np.any(other_branch):
         raise UnreachableError.from_mask(other_branch, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
     return CorrectedTargets(commands, q)
+
+
+def aligned_to_controller(geometry: DeltaGeometry, controller: CommandModel, radius: float) -> DeltaGeometry:
+    """A printer moved along its bed and turned about its normal into the controller's frame.
+
+    No probe height and no distance sees a printer shifted along its bed or turned about its normal:
+    the identification leaves that motion wherever its priors put it, and a command through another
+    configuration would carry it. Here it is the controller's: the identified printer's nozzle at
+    the readings the controller commands for the first layer's points (:func:`~deltacal.holds.bed_points`
+    over ``radius``) has, after the motion, the controller's mean place and turn (the closed-form
+    least-squares rotation and shift of the plane, Kabsch in 2-D). Nothing moves vertically.
+
+    Args:
+        geometry: The identified printer.
+        controller: The controller's model.
+        radius: The printable radius [mm].
+
+    Returns:
+        The printer moved (the same printer: every measurement it predicts is unchanged).
+    """
+    points = bed_points(radius)
+    q = controller.inverse(points, check=False)
+    ok = np.all(np.isfinite(q), axis=1)
+    nozzle = exact.forward(geometry, q[ok]).point(geometry.tool)[:, :2]
+    goal = points[ok, :2]
+    a, b = nozzle - nozzle.mean(axis=0), goal - goal.mean(axis=0)
+    angle = math.atan2(float(np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])), float(np.sum(a * b)))
+    c, s = math.cos(angle), math.sin(angle)
+    rotation = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    shift = goal.mean(axis=0) - rotation[:2, :2] @ nozzle.mean(axis=0)
+    return geometry.moved_rigidly(rotation, np.array([shift[0], shift[1], 0.0]))

@@ -335,6 +335,17 @@ class ErrorModel(ABC):
         """
         raise NotImplementedError(f"the {self.name!r} error model states no prior from tolerances")
 
+    def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry) -> np.ndarray:
+        """P, the prior covariance's factor ``Σ = P Pᵀ`` (n, n): by default ``diag(prior_sigma)``.
+
+        A model whose parameters share a common mode (a printer's bed) states it here.
+
+        Args:
+            tolerances: The build tolerances.
+            geometry: The geometry the parameters deviate from.
+        """
+        return np.diag(self.prior_sigma(tolerances))
+
     def check_fits(self, geometry: DeltaGeometry) -> None:
         """GeometryError unless the model is written for the geometry's chain (rotary or linear Delta)."""
         if geometry.chain != self.chain:

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry import DeltaGeometry
+from ..holds import WhereItHolds
 from ..identifiability import BaseParameters
 from ..observations import DISTANCE, ORIENTATION, POSITION, Rows
 from .columns import COMPLIANCE_NAMES, GEOMETRY, Column
@@ -89,6 +90,8 @@ class IdentificationResult:
         confounded: Coordinates of free points that the geometry's own parameters already
             account for (held at their given values).
         columns: The record (name, kind, unit) of each parameter of ``base.names``, in order.
+        holds: Where a printer's calibration holds: the σ of its nozzle correction over the
+            printable volume (:class:`~deltacal.holds.WhereItHolds`), or None (a rotary Delta's).
     """
 
     model: str
@@ -116,6 +119,7 @@ class IdentificationResult:
     inlier_variance_factor: float = float("nan")
     confounded: tuple[str, ...] = ()
     columns: tuple[Column, ...] = ()
+    holds: WhereItHolds | None = None
 
     def __post_init__(self) -> None:
         if len(self.columns) != len(self.base.names):

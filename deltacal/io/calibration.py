@@ -20,6 +20,7 @@ from ..calibration import BaseParameter, BaseUnit, Calibration, FrameRecord, kin
 from ..compensation import LinearCalibration
 from ..errormodels import get_model
 from ..exceptions import InputError
+from ..holds import WhereItHolds
 from ..identification import IdentificationResult, ResidualStats
 from ..identification.frames import InstrumentFrame
 from ..identification.options import Method
@@ -116,6 +117,8 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     if cal.compliance_sigma is not None:
         data["compliance"] = {"actuator_rad_per_nm": [float(v) for v in cal.geometry.compliance],
                               "sigma_rad_per_nm": [float(v) for v in cal.compliance_sigma]}
+    if cal.holds is not None:
+        data["holds"] = holds_to_dict(cal.holds)
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
@@ -128,6 +131,44 @@ def calibration_to_dict(calibration: Calibration) -> dict:
             for name, f in cal.frames.items()
         }
     return data
+
+
+#: Decimals of the σ written in ``[holds]`` [mm].
+HOLDS_DECIMALS = 7
+
+
+def holds_to_dict(holds: WhereItHolds) -> dict:
+    """A calibration's ``[holds]`` table: its grid (mm, degrees) and the σ at each node [mm]."""
+    return {"radius_mm": [float(v) for v in holds.radius],
+            "azimuth_deg": [float(np.round(math.degrees(v), 9)) for v in holds.azimuth],
+            "height_mm": [float(v) for v in holds.height], "measured_top_mm": float(holds.measured_top),
+            "horizontal_sigma_mm": np.round(holds.horizontal, HOLDS_DECIMALS).tolist(),
+            "vertical_sigma_mm": np.round(holds.vertical, HOLDS_DECIMALS).tolist()}
+
+
+def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
+    """The ``[holds]`` table of a calibration file, checked; None when it has none."""
+    if "holds" not in data:
+        return None
+    t = TomlTable(data, source).table("holds")
+    assert t is not None
+    t.check_unknown(["radius_mm", "azimuth_deg", "height_mm", "measured_top_mm", "horizontal_sigma_mm",
+                     "vertical_sigma_mm"])
+    axes = {}
+    for key in ("radius_mm", "azimuth_deg", "height_mm"):
+        raw = t.raw(key)
+        axes[key] = t.vector(key, (len(raw) if isinstance(raw, list) else -1,))
+    shape = (axes["radius_mm"].size, axes["azimuth_deg"].size, axes["height_mm"].size)
+    sigma = {key: t.vector(key, shape) for key in ("horizontal_sigma_mm", "vertical_sigma_mm")}
+    for key, value in sigma.items():
+        if np.any(value < 0.0):
+            raise t.error(key, f"must not be negative, got {float(np.min(value))!r}")
+    try:
+        return WhereItHolds(axes["radius_mm"], np.radians(axes["azimuth_deg"]), axes["height_mm"],
+                            sigma["horizontal_sigma_mm"], sigma["vertical_sigma_mm"],
+                            t.number("measured_top_mm"))
+    except ValueError as exc:
+        raise t.error("radius_mm", str(exc)) from None
 
 
 def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
@@ -218,6 +259,7 @@ def load_calibration(path: str | Path) -> Calibration:
         outlier_lines=_names(cal, "outlier_lines", int, "an array of line numbers"),
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
         frames=_frames(data, source), source=source, compliance_sigma=_compliance_sigma(data, source),
+        holds=holds_from_dict(data, source),
     )
     calibration.check()
     return calibration

@@ -25,6 +25,7 @@ import numpy as np
 from ..chains import PRISMATIC
 from ..exceptions import GeometryError
 from ..geometry import DeltaGeometry, Workspace, radial_vectors, tangent_vectors
+from ..holds import in_plane_motion as in_plane_motion  # its home: a printer's gauge
 from ..towers import TOWERS, per_tower
 
 #: The values a printer holds per tower (conventions, "Printers as they are found").
@@ -123,19 +124,6 @@ class NominalLinearDelta:
             chain=PRISMATIC,
             step_distance=self.step_distance.copy(),
         )
-
-
-def in_plane_motion(points: np.ndarray) -> np.ndarray:
-    """Nozzle displacement per unit shift along the bed (x, y) and turn about its normal (z) [rad], (N, 3, 3).
-
-    No probe height and no printed distance sees a printer shifted along its bed or turned about
-    its normal, and a part printed so is the same part: the gauge of a printer's errors.
-    """
-    points = np.atleast_2d(points)
-    A = np.zeros((points.shape[0], 3, 3))
-    A[:, 0, 0] = A[:, 1, 1] = 1.0
-    A[:, 0, 2], A[:, 1, 2] = -points[:, 1], points[:, 0]
-    return A
 
 
 def less_bed_motion(points: np.ndarray, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -36,6 +36,7 @@ from ..io.paths import check_output
 from ..printer.firmware import config_files
 from ..printer.firmware.base import Firmware
 from ..printer.firmware.config_file import FirmwareConfig, controller_firmware
+from ..printer.identification.where import holds_in_words
 from .base import Done, check_files, warn
 from .requests import CompensateRequest
 from .workers import Job, Refused, shared_values, solved_in_order
@@ -80,7 +81,8 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     if refused is not None:  # a bad value anywhere came first; the file's rows are now known
         raise _unreachable(*refused, targets_file, _frame_hint(request, frames)) from refused[0]
     writer = JointsWriter if controller is None else CommandsWriter
-    job = Job(geometry, controller, request.method, linear, request.payload, writer)
+    job = Job(geometry, controller, request.method, linear, request.payload, writer, calibration,
+              request.sigma_bound, request.refuse_unheld)
     beyond = None if controller is None or controller.limits is None else RefusedCommands(controller.limits)
     with writer(request.output) as out:
         for chunk, values in solved_in_order(job, targets_file.chunks(), to_base, targets_file.rows):
@@ -100,7 +102,8 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
             raise refusal
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {request.controller}")
-    return Done((f"wrote {out.rows} {what} to {request.output}",))
+    held = () if controller is None else where_it_holds(calibration, request.sigma_bound)
+    return Done((f"wrote {out.rows} {what} to {request.output}", *held))
 
 
 def _warn_rigid_route(request: CompensateRequest, compliance: np.ndarray) -> None:
@@ -127,7 +130,8 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
     if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes
         raise UsageError(f"--controller {request.controller}: a controller interpolating in "
                          f"{controller.interpolation} space cannot be sent a corrected G-code program")
-    job = Job(calibration.geometry, controller, "exact", None, request.payload, None)
+    job = Job(calibration.geometry, controller, "exact", None, request.payload, None, calibration,
+              request.sigma_bound, request.refuse_unheld)
     lines = os.path.getsize(request.targets) // 25  # about 25 bytes a line: sets whether workers share it
     dialect = None
     if config is not None:
@@ -141,7 +145,8 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
                      lambda fraction, _: report(fraction, "program"), home=controller.home,
                      dialect=dialect, limits=controller.limits, marker=marker)
     return Done((f"wrote the program corrected for the controller {request.controller} to {request.output} "
-                 f"(moves split every {segment:g} mm at most)",))
+                 f"(moves split every {segment:g} mm at most)",
+                 *where_it_holds(calibration, request.sigma_bound)))
 
 
 def _controller(request: CompensateRequest, geometry: Any,
@@ -220,3 +225,11 @@ def _unreachable(exc: UnreachableError, chunk: TargetChunk, targets_file: Target
         + (hint if exc.reason == UnreachableError.OUT_OF_REACH and len(lines) * 2 > len(chunk) else ""),
         targets_file.source, f"{chunk.where(k)}, columns x_mm..z_mm",
     )
+
+
+def where_it_holds(calibration, bound: float) -> tuple[str, ...]:
+    """Where a printer's corrections were applied, why not elsewhere, what to measure (none if unknown)."""
+    if calibration is None or getattr(calibration, "holds", None) is None:
+        return ()
+    return (f"corrections applied where their σ is at most {0.5 * bound:g} mm, blended into the controller's "
+            f"own commands up to {bound:g} mm (--sigma-bound): {holds_in_words(calibration.holds, bound)}",)

@@ -24,6 +24,7 @@ from ..controller import FIT_KINDS
 from ..errormodels import MODEL_NAMES, PRINTER_MODEL_NAMES
 from ..exceptions import UsageError
 from ..gcode import MAX_COORDINATE_MM, MIN_SEGMENT_MM, is_gcode_path
+from ..holds import DEFAULT_BOUND
 from ..identification import FitOptions
 from ..identification.options import Frame, Pairs
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
@@ -373,7 +374,9 @@ class CompensateRequest:
     ``targets``: a CSV of TCP targets, or a G-code program (``.gcode``, ``.gco``, ``.g``, ``.nc``)
     for ``controller`` (a controller file, a robot file, or a printer's firmware configuration);
     ``start``: the TCP's position at the program's start [mm]; ``segment_mm``: its longest move
-    sent [mm]; ``payload``: the mass at the TCP [kg].
+    sent [mm]; ``payload``: the mass at the TCP [kg]; ``sigma_bound``: a printer's correction applied
+    where its σ is at most half of it, the controller's own command where it is above it [mm];
+    ``refuse_unheld``: refuse such targets instead.
     """
 
     calibration: Path_
@@ -387,8 +390,13 @@ class CompensateRequest:
     payload: float = 0.0
     segment_mm: float | None = None
     start: tuple[float, float, float] | None = None
+    sigma_bound: float = DEFAULT_BOUND
+    refuse_unheld: bool = False
 
     def __post_init__(self) -> None:
+        if not self.sigma_bound > 0.0:
+            raise UsageError(f"--sigma-bound {self.sigma_bound:g}: the σ of a correction accepted must be "
+                             "positive")
         if self.firmware is not None and self.controller is None:
             raise UsageError("--firmware applies with --controller (the firmware's configuration)")
         _check_firmware(self.firmware)

@@ -27,6 +27,7 @@ import numpy as np
 from ..compensation import compensate
 from ..controller import corrected_targets
 from ..exceptions import UnreachableError
+from ..holds import DEFAULT_BOUND
 
 #: Targets from which a pool of workers solves the file.
 POOL_ROWS = 100_000
@@ -44,13 +45,18 @@ class Job:
     linear: Any
     payload: float
     writer: Any
+    calibration: Any = None  # a printer's corrections act where it holds (corrected_targets)
+    bound: float = DEFAULT_BOUND
+    refuse: bool = False
 
     def values(self, targets: np.ndarray) -> np.ndarray | UnreachableError:
         """The targets' joint readings [rad] (or corrected targets [mm]), or their refusal."""
         try:
             if self.controller is None:
                 return compensate(self.geometry, targets, self.method, self.linear, payload=self.payload)
-            return corrected_targets(self.geometry, self.controller, targets, payload=self.payload).commands
+            return corrected_targets(self.geometry if self.calibration is None else self.calibration,
+                                     self.controller, targets, payload=self.payload, bound=self.bound,
+                                     refuse=self.refuse).commands
         except UnreachableError as exc:
             return exc
 

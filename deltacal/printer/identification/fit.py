@@ -28,25 +28,29 @@ measurements. Units: mm and rad.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, replace
 from typing import Literal, TypedDict, Unpack, get_args
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from ...errormodels import ErrorModel, get_model
-from ...exceptions import AssemblyError, ConvergenceError
-from ...geometry import DeltaGeometry, Tolerances
+from ...exceptions import AssemblyError, ConvergenceError, PoorFitError
+from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...identifiability import BaseParameters, base_parameters
 from ...identification.columns import build_columns
 from ...identification.options import Method
+from ...identification.quality import excess_bound
 from ...identification.result import IdentificationResult, ResidualStats
 from ...identification.solver import solve_wls
 from ...kinematics import exact
 from ...observations import rigid_alignment
 from ...options import with_overrides
 from ...rotations import skew
-from .evidence import SCALE_RANGE, evidence_scale
+from .evidence import SCALE_RANGE, evidence_scales
 from .outliers import Outliers, find_outliers
+from .where import point_rows, where_it_holds
 
 #: Probe trigger repeatability [mm] (a typical inductive or switch probe).
 HEIGHT_SIGMA = 0.01
@@ -130,15 +134,6 @@ class PrinterMeasurements:
         return self.height_sigma, self.distance_sigma, self.position_sigma
 
 
-def _point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local: np.ndarray):
-    """A plate point in {O} at readings q and its sensitivity to the model's parameters, (N, 3, n)."""
-    pose = exact.forward(geometry, q)
-    S = model.sensitivity(geometry, q, pose)
-    arm = pose.rotation @ local  # (N, 3)
-    point = pose.position + arm
-    return point, S[:, :3] - np.einsum("nkl,nlp->nkp", skew(arm), S[:, 3:])
-
-
 def residuals_and_regressor(
     geometry: DeltaGeometry, model: ErrorModel, data: PrinterMeasurements
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -149,11 +144,11 @@ def residuals_and_regressor(
         2 a coordinate of a measured position.
     """
     tool = geometry.tool
-    z, Jz = _point_rows(geometry, model, data.probe, tool + data.probe_offset)
+    z, Jz = point_rows(geometry, model, data.probe, tool + data.probe_offset)
     rows = [((data.trigger_height - z[:, 2]) / data.height_sigma, Jz[:, 2] / data.height_sigma)]
     if data.distance.size:
         M = data.distance.shape[0]
-        p, J = _point_rows(geometry, model, data.pairs.reshape(-1, 3), tool)
+        p, J = point_rows(geometry, model, data.pairs.reshape(-1, 3), tool)
         p, J = p.reshape(M, 2, 3), J.reshape(M, 2, 3, -1)
         d = p[:, 0] - p[:, 1]
         norm = np.linalg.norm(d, axis=1)
@@ -161,7 +156,7 @@ def residuals_and_regressor(
         Jd = np.einsum("mk,mkp->mp", u, J[:, 0] - J[:, 1])
         rows.append(((data.distance - norm) / data.distance_sigma, Jd / data.distance_sigma))
     if data.positions.size:
-        p, J = _point_rows(geometry, model, data.positions, tool)
+        p, J = point_rows(geometry, model, data.positions, tool)
         frame = np.zeros((p.shape[0], 3, 6))  # the instrument frame's small motions: shift, turn
         frame[:, :, :3] = np.eye(3)
         frame[:, :, 3:] = -skew(p)
@@ -197,8 +192,8 @@ def measured_combinations(start: DeltaGeometry, data: PrinterMeasurements,
     """
     error_model = get_model(model) if isinstance(model, str) else model
     _, W, _ = residuals_and_regressor(start, error_model, data)
-    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
-    determined = int(np.sum(np.linalg.svd(W * prior, compute_uv=False) > 1.0))
+    factor = error_model.prior_factor(tolerances or Tolerances.printer_kit(), start)
+    determined = int(np.sum(np.linalg.svd(W @ factor, compute_uv=False) > 1.0))
     return base_parameters(W, error_model.names, rtol=RANK_RTOL, prefer=error_model.preferred,
                            rank=determined)
 
@@ -213,9 +208,10 @@ def posterior_sigma(start: DeltaGeometry, data: PrinterMeasurements, model: str 
     """
     error_model = get_model(model) if isinstance(model, str) else model
     _, W, _ = residuals_and_regressor(start, error_model, data)
-    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
-    _, _, Rinv = solve_wls(np.vstack([W * prior, np.eye(prior.size)]), np.zeros(W.shape[0] + prior.size))
-    return prior, np.sqrt(np.sum(Rinv**2, axis=1)) * prior
+    factor = error_model.prior_factor(tolerances or Tolerances.printer_kit(), start)
+    n = factor.shape[0]
+    _, _, Rinv = solve_wls(np.vstack([W @ factor, np.eye(n)]), np.zeros(W.shape[0] + n))
+    return np.sqrt(np.sum(factor**2, axis=1)), np.sqrt(np.sum((factor @ Rinv) ** 2, axis=1))
 
 
 @dataclass(frozen=True)
@@ -227,6 +223,10 @@ class PrinterFitOptions:
         tolerances: The build tolerances (None: :meth:`Tolerances.printer_kit`).
         tolerance_scale: ``"evidence"`` (the measurements choose it) or a factor applied to every
             tolerance (1: as given).
+        workspace: The printable volume where the calibration's σ is given
+            (:class:`~deltacal.holds.WhereItHolds`; None: the measurements' radius, 200 mm high).
+        accept_poor_fit: Return a poor fit (:func:`poor_fit`) with a warning instead of raising
+            :class:`~deltacal.exceptions.PoorFitError`.
 
     Raises:
         ValueError: a method or scale out of its range (the message names the field and value).
@@ -236,12 +236,16 @@ class PrinterFitOptions:
     method: Method = "iterated"
     tolerances: Tolerances | None = None
     tolerance_scale: float | Literal["evidence"] = "evidence"
+    workspace: Workspace | None = None
+    accept_poor_fit: bool = False
 
     def __post_init__(self) -> None:
         if self.method not in get_args(Method):
             raise ValueError(f"method must be 'linear' or 'iterated', got {self.method!r}")
         if self.tolerances is not None and not isinstance(self.tolerances, Tolerances):
             raise TypeError(f"tolerances must be a Tolerances, got {self.tolerances!r}")
+        if self.workspace is not None and not isinstance(self.workspace, Workspace):
+            raise TypeError(f"workspace must be a Workspace, got {self.workspace!r}")
         scale = self.tolerance_scale
         if scale != "evidence" and (isinstance(scale, str) or not isinstance(scale, (int, float))
                                     or not scale > 0.0):
@@ -254,6 +258,8 @@ class PrinterFitOverrides(TypedDict, total=False):
     method: Method
     tolerances: Tolerances | None
     tolerance_scale: float | Literal["evidence"]
+    workspace: Workspace | None
+    accept_poor_fit: bool
 
 
 def identify_printer(
@@ -289,26 +295,32 @@ def identify_printer(
 
     Returns:
         The result: the identified geometry on the true bed (z = 0), every parameter with its
-        posterior σ; its hints say the scale of the tolerances and what only they bound; its
-        ``outliers`` the measurements that do not fit the others (:func:`printer_outliers`: probe
-        heights, then distances, then positions, from 0), kept in the fit (the caller decides).
+        posterior σ; its hints say the scale of the tolerances, the noise factors and what only the
+        tolerances bound; its ``outliers`` the measurements that do not fit the others
+        (:func:`printer_outliers`: probe heights, then distances, then positions, from 0), kept in
+        the fit (the caller decides); its ``holds`` where it holds (:func:`~.where.where_it_holds`).
+
+    Raises:
+        PoorFitError: a poor fit (:func:`poor_fit`), unless ``accept_poor_fit``.
     """
     options = with_overrides(PrinterFitOptions, options, overrides)
     method = options.method
     error_model = get_model(model) if isinstance(model, str) else model
     error_model.check_fits(start)
     given = options.tolerances or Tolerances.printer_kit()
-    scale, how = _tolerance_scale(start, data, error_model, given, options)
+    scale, noise, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
-    prior = error_model.prior_sigma(used)
-    measured = measured_combinations(start, data, error_model, used)
+    factor = error_model.prior_factor(used, start)  # the prior covariance is factor @ factor.T
+    taken = with_noise(data, noise)  # the measurements' σ: the given times each kind's s0
+    measured = measured_combinations(start, taken, error_model, used)
     r0, _, kind = residuals_and_regressor(start, error_model, data)
-    total, geometry, r, W, iterations = _map_fit(start, data, error_model, prior, method)
-    augmented = np.vstack([W, np.diag(1.0 / prior)])
-    _, _, Rinv = solve_wls(augmented * prior, np.zeros(augmented.shape[0]))
-    cov = (Rinv @ Rinv.T) * np.outer(prior, prior)
+    total, geometry, r, W, iterations = _map_fit(start, taken, error_model, factor, method)
+    n = factor.shape[0]
+    _, _, Rinv = solve_wls(np.vstack([W @ factor, np.eye(n)]), np.zeros(W.shape[0] + n))
+    cov = factor @ (Rinv @ Rinv.T) @ factor.T
     sigma = np.sqrt(np.diag(cov))
-    chi2 = float(r @ r + np.sum((total / prior) ** 2))
+    r = r * np.sqrt(noise[kind])  # whitened by the σ given, as s0² judges them
+    chi2 = float(r @ r + np.sum(solve_triangular(factor, total, lower=True) ** 2))
     variance_factor = chi2 / max(r.size - (6 if data.positions.size else 0), 1)  # the frame's 6
     flagged = printer_outliers(start, data, error_model, options)
     inlier_factor = variance_factor
@@ -316,18 +328,20 @@ def identify_printer(
         rows = flagged.kept[measurement_of_rows(data)]
         inlier_factor = float(flagged.residual[rows] @ flagged.residual[rows]) / max(int(rows.sum()), 1)
     held = measured.unidentifiable_names
-    hints = [f"the build tolerances scaled by {scale:.3g} ({how})"]
+    hints = [f"the build tolerances scaled by {scale:.3g} ({how})", *_noise_hints(data, noise)]
     warnings = []
-    if options.tolerance_scale == "evidence" and scale >= SCALE_RANGE[1] * (1.0 - 1e-6):
+    at_limit = options.tolerance_scale == "evidence" and scale >= SCALE_RANGE[1] * (1.0 - 1e-6)
+    if at_limit:
         warnings.append(f"the build tolerances scaled by {scale:.3g}, the largest searched: the measurements "
                         "fit no printer within it (a gross error in a file? the files of another printer?)")
     if held:
         hints.append(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
                      f"combinations; the build tolerances bound the other {len(held)} ({', '.join(held)})")
-    return IdentificationResult(
+    result = IdentificationResult(
         model=error_model.name, method=method, geometry=geometry, start=start,
         # with the priors every parameter is kept, in the model's order
-        base=base_parameters(augmented, error_model.names, rtol=RANK_RTOL, prefer=error_model.names),
+        base=base_parameters(np.vstack([W, np.linalg.inv(factor)]), error_model.names, rtol=RANK_RTOL,
+                             prefer=error_model.names),
         values=total, sigma=sigma,
         correlation=cov / np.outer(sigma, sigma), before=_stats(r0, kind, data), after=_stats(r, kind, data),
         outliers=[int(k) for k in flagged.indices], iterations=iterations,
@@ -336,7 +350,56 @@ def identify_printer(
         residual_after=r * np.asarray(data.sigma)[kind],
         independent_rows=r.size, columns=build_columns(error_model).columns,
         hints=tuple(hints), warnings=tuple(warnings),
+        holds=where_it_holds(geometry, error_model, cov, options.workspace or default_volume(geometry, data),
+                             measured_top(geometry, data)),
     )
+    poor = poor_fit(variance_factor, r.size, at_limit)
+    if poor and not options.accept_poor_fit:
+        raise PoorFitError(poor, result, [], (PoorFitError.LARGE_RESIDUALS,))
+    return replace(result, warnings=(*warnings, f"{poor} (kept: poor fit accepted)")) if poor else result
+
+
+#: s0² beyond which a printer's fit is poor whatever its tolerances: residuals 5 times the σ given. A
+#: printed object's scatter gives 3-4 (docs/printers.md, the real V400 runs); a probe height off by a
+#: millimetre, another printer's data or a wrong trigger height give tens to thousands.
+PRINTER_POOR_FIT = 25.0
+
+
+def poor_fit(variance_factor: float, rows: int, at_limit: bool) -> str:
+    """Why a printer's fit is poor, in one line ("" when it is not).
+
+    Poor: s0² above :data:`PRINTER_POOR_FIT`, or beyond what noise gives
+    (:func:`~deltacal.identification.quality.excess_bound`) with the tolerances' scale at the
+    largest searched (the measurements fit no printer within its tolerances).
+    """
+    if not (variance_factor > PRINTER_POOR_FIT or (at_limit and variance_factor > excess_bound(rows))):
+        return ""
+    limit = f" with the build tolerances scaled by {SCALE_RANGE[1]:g}, the largest searched," * at_limit
+    return (f"a poor fit: s0² = {variance_factor:.3g} (residuals {math.sqrt(variance_factor):.2g} times the "
+            f"σ given){limit} is far beyond what the measurements' noise gives: a probe biased across the "
+            "bed, a bed that moved between the points, a wrong trigger height (z_offset), or another "
+            "printer's data?")
+
+
+def measured_points(geometry: DeltaGeometry, data: PrinterMeasurements) -> np.ndarray:
+    """Where the nozzle was at every measurement's readings [mm], (K, 3)."""
+    readings = np.concatenate([data.probe, data.pairs.reshape(-1, 3), data.positions])
+    return exact.forward(geometry, readings).point(geometry.tool)
+
+
+def measured_top(geometry: DeltaGeometry, data: PrinterMeasurements) -> float:
+    """The highest the nozzle was at a measurement [mm]."""
+    return float(np.max(measured_points(geometry, data)[:, 2]))
+
+
+#: The height of :func:`default_volume` [mm].
+DEFAULT_HEIGHT = 200.0
+
+
+def default_volume(geometry: DeltaGeometry, data: PrinterMeasurements) -> Workspace:
+    """The printable volume when none is given: the measurements' radius, :data:`DEFAULT_HEIGHT` high."""
+    radius = float(np.max(np.hypot(*measured_points(geometry, data)[:, :2].T)))
+    return Workspace(radius=radius, height=DEFAULT_HEIGHT, top_z=DEFAULT_HEIGHT)
 
 
 def scaled_tolerances(tolerances: Tolerances, scale: float) -> Tolerances:
@@ -345,18 +408,22 @@ def scaled_tolerances(tolerances: Tolerances, scale: float) -> Tolerances:
                                               for f in dataclasses.fields(tolerances)})
 
 
-def _map_fit(start: DeltaGeometry, data: PrinterMeasurements, error_model: ErrorModel, prior: np.ndarray,
+def _map_fit(start: DeltaGeometry, data: PrinterMeasurements, error_model: ErrorModel, factor: np.ndarray,
              method: Method) -> tuple[np.ndarray, DeltaGeometry, np.ndarray, np.ndarray, int]:
-    """The most probable parameters with these priors: (values, geometry, whitened r and W there, steps)."""
+    """The most probable parameters with the prior ``N(0, factor factorᵀ)``.
+
+    Returns:
+        The values, the geometry, the whitened residuals and regressor there, the steps made.
+    """
     total = np.zeros(error_model.size)
     geometry = start
     r, W, _ = residuals_and_regressor(start, error_model, data)
     iterations = 0
     while iterations < (1 if method == "linear" else MAX_ITERATIONS):
         iterations += 1
-        whitened = np.vstack([W * prior, np.eye(prior.size)])  # in units of each tolerance
-        step, _, _ = solve_wls(whitened, np.concatenate([r, -total / prior]))
-        step = step * prior
+        whitened = np.vstack([W @ factor, np.eye(factor.shape[0])])  # in units of the prior
+        step, _, _ = solve_wls(whitened, np.concatenate([r, -solve_triangular(factor, total, lower=True)]))
+        step = factor @ step
         for _ in range(HALVINGS):  # a step that leaves a reading unassembled is halved
             try:
                 geometry = error_model.apply(start, total + step)
@@ -374,14 +441,48 @@ def _map_fit(start: DeltaGeometry, data: PrinterMeasurements, error_model: Error
 
 
 def _tolerance_scale(start: DeltaGeometry, data: PrinterMeasurements, error_model: ErrorModel,
-                     given: Tolerances, options: PrinterFitOptions) -> tuple[float, str]:
-    """The factor of the tolerances the fit takes, and how it was chosen (in words)."""
-    if options.tolerance_scale != "evidence":
-        return float(options.tolerance_scale), "as asked"
-    total, _, r, W, _ = _map_fit(start, data, error_model, error_model.prior_sigma(given), options.method)
+                     given: Tolerances, options: PrinterFitOptions) -> tuple[float, np.ndarray, str]:
+    """The tolerances' factor the fit takes, each kind's noise factor s0² (3,), and how the first was chosen.
+
+    Both from the evidence (:func:`~.evidence.evidence_scales`), linearised at the fit with the
+    tolerances as given (or as asked); a scale asked is taken as it is, the s0² found for it. The
+    factors are by kind: probe heights, distances, positions (1 for a kind without rows).
+    """
+    asked = options.tolerance_scale != "evidence"
+    start_scale = float(options.tolerance_scale) if asked else 1.0
+    factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start)
+    total, _, r, W, _ = _map_fit(start, data, error_model, factor, options.method)
+    _, _, kind = residuals_and_regressor(start, error_model, data)
     y = r + W @ total  # the measurements about the estimate, in its linearisation
-    scale = evidence_scale(y, W, lambda s: error_model.prior_sigma(scaled_tolerances(given, s)))
-    return scale, "the scale the measurements make most probable"
+    def factor_of(s: float) -> np.ndarray:
+        return error_model.prior_factor(scaled_tolerances(given, s), start)
+
+    scale, rows = evidence_scales(y, W, factor_of, kind, (start_scale, start_scale) if asked else SCALE_RANGE)
+    noise = np.ones(3)
+    noise[kind] = rows
+    return scale, noise, "as asked" if asked else "the scale the measurements make most probable"
+
+
+def with_noise(data: PrinterMeasurements, noise: np.ndarray) -> PrinterMeasurements:
+    """The measurements with each kind's σ times the square root of its noise factor s0² (3,)."""
+    factor = np.sqrt(np.asarray(noise, dtype=float))
+    return dataclasses.replace(data, height_sigma=data.height_sigma * float(factor[0]),
+                               distance_sigma=data.distance_sigma * float(factor[1]),
+                               position_sigma=data.position_sigma * float(factor[2]))
+
+
+def _noise_hints(data: PrinterMeasurements, noise: np.ndarray) -> list[str]:
+    """The kinds of measurement whose misfit the evidence takes as more than their σ given, in words."""
+    words = []
+    for k, (what, rows) in enumerate((("probe heights", data.probe.shape[0]),
+                                      ("distances", data.distance.shape[0]),
+                                      ("positions", data.positions.shape[0]))):
+        if rows and noise[k] > 1.0 + 1e-6:
+            factor = math.sqrt(noise[k])
+            words.append(f"the {what}' σ taken as {factor:.3g} times the σ given ({data.sigma[k]:g} mm -> "
+                         f"{data.sigma[k] * factor:.3g} mm, with the tolerances' scale: their misfit is more "
+                         "than the instruments' noise, what no model of the printer holds)")
+    return words
 
 
 def measurement_of_rows(data: PrinterMeasurements) -> np.ndarray:
@@ -428,11 +529,11 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
 
     def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)
-        scale, _ = _tolerance_scale(start, subset, error_model, given, options)
-        prior = error_model.prior_sigma(scaled_tolerances(given, scale))
-        geometry = _map_fit(start, subset, error_model, prior, options.method)[1]
+        scale, noise, _ = _tolerance_scale(start, subset, error_model, given, options)
+        factor = error_model.prior_factor(scaled_tolerances(given, scale), start)
+        geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[1]
         r, W, _ = residuals_and_regressor(geometry, error_model, data)
-        return r, W * prior
+        return r, W @ factor
 
     _, _, kind = residuals_and_regressor(start, error_model, data)
     return find_outliers(fit, measurement_of_rows(data), kind)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...calibration import Calibration
-from ...exceptions import AssemblyError, InputError
+from ...exceptions import AssemblyError, IdentificationError, InputError, PoorFitError
 from ...geometry import DeltaGeometry, Tolerances
 from ...io import save_calibration
 from ...io.tables import data_row
@@ -36,6 +36,7 @@ from ...printer.identification.fit import (
     printer_outliers,
 )
 from ...printer.identification.outliers import Outliers
+from ...printer.identification.where import holds_in_words
 from ...printer.owner import measured_covariance, owner_lines, printer_errors
 from ...printer.robot import NominalLinearDelta
 from ..base import Done, check_files, warn
@@ -64,20 +65,26 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
                                trigger_height=files.trigger)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
-                                tolerance_scale=request.tolerance_scale or "evidence")
+                                tolerance_scale=request.tolerance_scale or "evidence",
+                                workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit)
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
     if not request.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
             raise _outlier_error(found, data, files)
-    result = identify_printer(start, data, model, options=options)
+    try:
+        result = identify_printer(start, data, model, options=options)
+    except PoorFitError as exc:
+        raise IdentificationError(f"{paths[0]}: {exc}; nothing written (--accept-poor-fit keeps such a "
+                                  "fit)") from None
     save_calibration(result, request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
+    where = () if result.holds is None else (f"where it holds: {holds_in_words(result.holds)}",)
     owner = _owner_part(result, start, data, firmware, request)
-    return Done((*owner, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
+    return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
 
 
 def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmware, request: IdentifyRequest
@@ -92,7 +99,7 @@ def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmwar
             f"{request.controller} -o {firmware.export_file} writes {firmware.title}'s values "
             f"({keys.where}); "
             f"deltacal compensate {request.output} PART.gcode --controller {request.controller} corrects "
-            "everything, the leans and the bed's tilt too")
+            "everything, where the calibration holds")
     return (*owner_lines(errors, keys, firmware.title), step)
 
 

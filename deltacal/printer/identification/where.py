@@ -1,0 +1,175 @@
+"""Where a printer's identification holds: the σ of its nozzle correction over the printable volume.
+
+A corrected command is the one that puts the identified printer's nozzle on the target; the real
+printer differs from the identified one by the estimation error δθ of its parameters (covariance
+Σ, :func:`~.fit.identify_printer`), so the nozzle lands at ``target + J δθ``, with J the exact
+nozzle sensitivity (:func:`~.fit.point_rows`: the error model's plate sensitivity with the
+nozzle's lever) at the readings that command the target. No measurement sees the printer shifted
+along its bed or turned about its normal; the correction is made in the controller's frame, whose
+shift and turn over the first layer (:func:`~deltacal.holds.bed_points`) are the controller's own
+(:func:`~deltacal.controller.targets.aligned_to_controller`), so those motions are taken out of J:
+``J' = J − A(p) A_bed⁺ J_bed,xy`` (A: :func:`~deltacal.holds.in_plane_motion`), and
+``Cov(p) = J' Σ J'ᵀ``. :func:`where_it_holds` evaluates it on the grid of
+:class:`~deltacal.holds.WhereItHolds`; :func:`holds_in_words` says where the nozzle is known to
+better than a bound. Vectorised over points. Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...errormodels import ErrorModel
+from ...exceptions import AssemblyError
+from ...geometry import DeltaGeometry, Workspace
+from ...holds import DEFAULT_BOUND, WhereItHolds, bed_points, in_plane_motion
+from ...kinematics import exact
+from ...rotations import skew
+
+#: A measured layer thinner than this is "at one height" [mm]: its data cannot tell heights apart.
+ONE_LAYER_MM = 25.0
+
+
+def point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local: np.ndarray):
+    """A plate point in {O} at readings q, (N, 3), and its exact sensitivity to the model's parameters.
+
+    Args:
+        geometry: The printer, at which the sensitivity is taken.
+        model: Its error model.
+        q: Readings [mm], (N, 3).
+        local: The point in the plate frame [mm], (3,) (the nozzle: ``geometry.tool``).
+
+    Returns:
+        The point (N, 3) and its displacement per unit parameter (N, 3, n): the plate's sensitivity
+        (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) with the point's lever.
+    """
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose)
+    arm = pose.rotation @ local  # (N, 3)
+    point = pose.position + arm
+    return point, S[:, :3] - np.einsum("nkl,nlp->nkp", skew(arm), S[:, 3:])
+
+
+def readings_at(geometry: DeltaGeometry, points: np.ndarray) -> np.ndarray:
+    """Readings that put the geometry's nozzle at points [mm], (N, 3); NaN rows where it cannot."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    with np.errstate(invalid="ignore"):
+        return exact.inverse(geometry, points, check=False)
+
+
+def _sensitivity(geometry: DeltaGeometry, model: ErrorModel,
+                 points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The nozzle's sensitivity at the readings of points, (K, 3, n), and the mask of the points reached."""
+    q = readings_at(geometry, points)
+    ok = np.all(np.isfinite(q), axis=1)
+    while np.any(ok):
+        kept = np.flatnonzero(ok)
+        try:
+            return point_rows(geometry, model, q[kept], geometry.tool)[1], ok
+        except AssemblyError as exc:  # readings the forward cannot assemble back: out of reach too
+            ok[kept[np.asarray(exc.indices, dtype=int)] if exc.indices else kept] = False
+    return np.zeros((0, 3, model.size)), ok
+
+
+def bed_gauge(geometry: DeltaGeometry, model: ErrorModel, radius: float) -> np.ndarray:
+    """The shift along the bed and turn about its normal each parameter moves the first layer by, (3, n).
+
+    The least-squares in-plane motion of the nozzle's x, y displacements over the first layer's
+    points (:func:`~deltacal.holds.bed_points`): the motion the controller's frame takes back.
+    """
+    points = bed_points(radius)
+    J, ok = _sensitivity(geometry, model, points)
+    A = in_plane_motion(points[ok])[:, :2]
+    return np.linalg.lstsq(A.reshape(-1, 3), J[:, :2].reshape(-1, model.size), rcond=None)[0]
+
+
+def correction_sensitivity(geometry: DeltaGeometry, model: ErrorModel, points: np.ndarray,
+                           radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """J': the corrected nozzle's displacement per unit parameter at points, in the controller's frame.
+
+    Args:
+        geometry: The identified printer.
+        model: Its error model.
+        points: Targets [mm], (N, 3).
+        radius: The printable radius, whose first layer fixes the frame along the bed [mm].
+
+    Returns:
+        J' (K, 3, n) at the points reached, and the mask of those points (N,).
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    J, ok = _sensitivity(geometry, model, points)
+    return J - in_plane_motion(points[ok]) @ bed_gauge(geometry, model, radius), ok
+
+
+def correction_covariance(geometry: DeltaGeometry, model: ErrorModel, covariance: np.ndarray,
+                          points: np.ndarray, radius: float) -> np.ndarray:
+    """Covariance of where a corrected command puts the nozzle at points [mm²], (N, 3, 3); NaN out of reach.
+
+    Args:
+        geometry: The identified printer.
+        model: Its error model.
+        covariance: Its parameters' covariance (the model's order) [mm², rad²], (n, n).
+        points: Targets [mm], (N, 3).
+        radius: The printable radius (the first layer that fixes the frame along the bed) [mm].
+    """
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    J, ok = correction_sensitivity(geometry, model, points, radius)
+    out = np.full((points.shape[0], 3, 3), np.nan)
+    out[ok] = np.einsum("nir,rs,njs->nij", J, covariance, J)
+    return out
+
+
+def where_it_holds(geometry: DeltaGeometry, model: ErrorModel, covariance: np.ndarray, workspace: Workspace,
+                   measured_top: float = 0.0) -> WhereItHolds:
+    """The σ of the nozzle correction on the grid of :class:`~deltacal.holds.WhereItHolds` over the volume.
+
+    Args:
+        geometry: The identified printer.
+        model: Its error model.
+        covariance: Its parameters' covariance (the model's order), (n, n).
+        workspace: The printable cylinder (its radius; heights from the bed to its top).
+        measured_top: The highest nozzle height a measurement was made at [mm].
+    """
+    radius, azimuth, height = WhereItHolds.grid(workspace.radius, workspace.top_z)
+    cov = correction_covariance(geometry, model, covariance, WhereItHolds.nodes(radius, azimuth, height),
+                                workspace.radius)
+    horizontal = np.sqrt(np.clip(np.linalg.eigvalsh(np.nan_to_num(cov[:, :2, :2]))[:, -1], 0.0, None))
+    vertical = np.sqrt(np.clip(cov[:, 2, 2], 0.0, None))
+    reached = np.all(np.isfinite(cov.reshape(-1, 9)), axis=1)
+    shape = (radius.size, azimuth.size, height.size)
+    return WhereItHolds(radius, azimuth, height, np.where(reached, horizontal, np.inf).reshape(shape),
+                        np.where(reached, vertical, np.inf).reshape(shape), float(measured_top))
+
+
+def holds_in_words(holds: WhereItHolds, bound: float = DEFAULT_BOUND) -> str:
+    """Where the calibration determines the nozzle to better than ``bound``, in one sentence.
+
+    E.g. "the nozzle is known within 0.05 mm (σ) up to z = 3.1 mm over r <= 116 mm (0.082 mm at
+    the bed at r = 152 mm); 0.9 mm at z = 50 mm: the measurements are all at one height (z up to
+    18 mm): print the tall object (`deltacal plan --object`) to calibrate heights".
+    """
+    full = float(holds.radius[-1])
+    radius = holds.held_radius(bound)
+    if not math.isfinite(radius):
+        bed = holds.level_sigma()[0]
+        where = f"the nozzle is known within {bound:g} mm (σ) nowhere: {bed:.3g} mm at the bed"
+        up_to = -math.inf
+    else:
+        up_to = holds.held_up_to(bound, radius)
+        if up_to >= holds.height[-1] and radius >= full:
+            return (f"the nozzle is known within {bound:g} mm (σ) over the whole printable volume (r <= "
+                    f"{full:g} mm, z up to {holds.height[-1]:g} mm; {holds.level_sigma().max():.3g} mm at "
+                    "most)")
+        where = (f"the nozzle is known within {bound:g} mm (σ) up to z = {up_to:.3g} mm over r <= "
+                 f"{radius:.3g} mm")
+        if radius < full:
+            where += f" ({holds.level_sigma()[0]:.3g} mm at the bed out to r = {full:g} mm)"
+    above = [k for k in range(holds.height.size) if holds.height[k] > max(up_to, 0.0)]
+    probe = next((k for k in above if holds.height[k] >= 50.0), above[-1] if above else None)
+    if probe is not None:
+        where += f"; {holds.level_sigma(max(radius, 0.0))[probe]:.3g} mm at z = {holds.height[probe]:g} mm"
+    if holds.measured_top < ONE_LAYER_MM:
+        where += (f": the measurements are all at one height (z up to {holds.measured_top:.3g} mm): print "
+                  "the tall object (`deltacal plan --object`) to calibrate heights")
+    return where + "; elsewhere compensate sends the controller's own commands"
