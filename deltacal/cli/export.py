@@ -18,13 +18,14 @@ from ..controller import FIT_KINDS, Controller, fit_controller
 from ..exceptions import AssemblyError, GeometryError, InputError, UnreachableError, UsageError
 from ..export import write_mjcf
 from ..geometry import DeltaGeometry, Workspace
+from ..holds import DEFAULT_BOUND
 from ..io import control_character, load_calibration, load_nominal, read_toml, save_controller
 from ..printer.firmware import firmware_named
 from ..printer.firmware.klipper.firmware import KLIPPER
 from ..report.accuracy import GRID, workspace_slices
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
-from .common import check_input, check_output, three_numbers
+from .common import check_input, check_output, positive_float, three_numbers
 from .export_firmware import run_firmware
 from .export_klipper import run_klipper
 from .firmware import firmware_names
@@ -195,6 +196,9 @@ def add_parser(sub) -> None:
                         "default: the nominal printer's values, 200 full steps x 16 microsteps); rrf: its "
                         "config.g or config-override.g (its values start the fit, its M350 microstepping "
                         "goes with M92; default: the nominal printer's values, x16)")
+    p.add_argument("--sigma-bound", type=positive_float, default=DEFAULT_BOUND, metavar="MM",
+                   help=f"a printer's values: fitted where the calibration's correction has a σ of at most "
+                        f"MM (default {DEFAULT_BOUND:g})")
     p.add_argument("--keep-rotation-distance", action="store_true",
                    help="with --controller klipper|marlin|rrf: hold each tower's rotation_distance (Marlin, "
                         "RRF: M92) (the --config's, else the nominal step distance's)")

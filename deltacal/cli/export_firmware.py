@@ -24,9 +24,10 @@ import numpy as np
 from ..exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ..geometry import DeltaGeometry, Workspace
 from ..io import load_calibration
-from ..printer.firmware.base import ErrorFigures, Firmware, FirmwareModel
+from ..printer.firmware.base import ErrorFigures, Firmware, FirmwareModel, undetermined_values
 from ..printer.firmware.budget import BED_TILT, error_budget
 from ..printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
+from ..printer.identification.where import holds_in_words
 from ..robots import load_robot as load_robot_file
 from ..viz import default_workspace
 from .common import check_input, check_output
@@ -39,7 +40,7 @@ def run_firmware(args: argparse.Namespace, firmware: Firmware[Any]) -> int:
     with fit_refusals(args, begun, "the firmware's"):
         fit = firmware.fit(begun.geometry, begun.start, begun.step, begun.workspace,
                            hold_step_distance=args.keep_rotation_distance,
-                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, hold=begun.kept)
         budget = source_budget(firmware, begun, args.keep_rotation_distance)
     lines = summary(firmware, fit.before, fit.after, budget, begun, fit.held, begun.config is not None)
     firmware.save_config(args.output, fit.values, args.config,
@@ -63,6 +64,8 @@ class ExportStart:
         start: The values the fit starts from (``--config``'s, else the nominal printer's).
         workspace: The printable volume.
         where: Where the volume comes from, for the messages.
+        kept: The classical values the calibration's measurements do not determine: kept at the
+            start's (:func:`~deltacal.printer.firmware.base.undetermined_values`).
     """
 
     geometry: DeltaGeometry
@@ -72,6 +75,7 @@ class ExportStart:
     start: Any
     workspace: Workspace
     where: str
+    kept: tuple[str, ...] = ()
 
 
 def export_start(args: argparse.Namespace, firmware: Firmware[Any], output: str, values: str,
@@ -119,7 +123,16 @@ def export_start(args: argparse.Namespace, firmware: Firmware[Any], output: str,
     except GeometryError as exc:
         raise InputError(str(exc), str(args.calibration), "key nominal") from None
     workspace, where = printable_volume(args, nominal)
-    return ExportStart(geometry, nominal, config, step, start, workspace, where)
+    if calibration.holds is not None:
+        held = calibration.holds.held_volume(workspace, args.sigma_bound)
+        if held is None:
+            raise InputError(f"the calibration holds nowhere within σ {args.sigma_bound:g} mm "
+                             f"(--sigma-bound): {holds_in_words(calibration.holds, args.sigma_bound)}; no "
+                             "value to export",
+                             str(args.calibration))
+        workspace, where = held, f"{where}, where the calibration holds (σ within {args.sigma_bound:g} mm)"
+    return ExportStart(geometry, nominal, config, step, start, workspace, where,
+                       undetermined_values(calibration.holds))
 
 
 @contextmanager
@@ -206,6 +219,9 @@ def summary(firmware: Firmware[Any], before: ErrorFigures, after: ErrorFigures,
              f"max |dz| {before.flatness:.3f} mm, peak to valley {before.flatness_pv:.3f} mm"]
     if held:
         lines.append(f"  held (not fitted): {', '.join(held)}")
+    if begun.kept:
+        lines.append(f"  kept at {start} (the measurements do not determine them better than the build "
+                     f"tolerances): {', '.join(begun.kept)}")
     lines.append(f"what {firmware.title}'s values cannot hold of each error source alone (3-D max / first "
                  "layer max |dz|; deltacal compensate corrects them):")
     width = max(len(label) for label in budget)

@@ -33,7 +33,7 @@ def run_klipper(args: argparse.Namespace) -> int:
     workspace = begun.workspace
     with fit_refusals(args, begun, "Klipper's"):
         fit = KLIPPER.fit(geometry, start, step, workspace, hold_step_distance=args.keep_rotation_distance,
-                          first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT)
+                          first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, hold=begun.kept)
         budget = source_budget(KLIPPER, begun, args.keep_rotation_distance)
     lines = summary(KLIPPER, fit.before, fit.after, budget, begun, fit.held, args.config is not None)
     values = KLIPPER.admit_bed(fit.klipper, geometry, step, workspace.radius)

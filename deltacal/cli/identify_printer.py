@@ -33,7 +33,7 @@ from ..printer.identification.fit import (
     printer_outliers,
 )
 from ..printer.identification.outliers import Outliers
-from ..printer.identification.where import holds_in_words
+from ..printer.identification.where import holds_in_words, values_in_words
 from ..printer.robot import NominalLinearDelta
 from .common import check_input, check_output, positive_float, sigma, three_numbers, warn
 from .firmware import add_firmware_argument, controller_firmware
@@ -74,7 +74,8 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     options = PrinterFitOptions(method="linear" if args.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
                                 tolerance_scale=args.tolerance_scale or "evidence",
-                                workspace=printer.workspace, accept_poor_fit=args.accept_poor_fit)
+                                workspace=printer.workspace, accept_poor_fit=args.accept_poor_fit,
+                                calibrated_start=kind.calibrated_from_saved(args.controller))
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
     if not args.accept_poor_fit:
@@ -90,6 +91,8 @@ def run_printer(args: argparse.Namespace, printer: NominalLinearDelta) -> int:
     print(result.report())
     if result.holds is not None:
         print(f"where it holds: {holds_in_words(result.holds)}")
+        if result.holds.values:
+            print(f"firmware values: {values_in_words(result.holds)}")
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])

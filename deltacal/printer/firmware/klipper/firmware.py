@@ -7,6 +7,7 @@ instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
@@ -41,6 +42,7 @@ from .log import is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program
+from .saved import read_saved_calibration
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
@@ -89,10 +91,10 @@ class Klipper(Firmware[KlipperDelta]):
 
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
-            first_layer_weight: float = 0.0) -> KlipperFit:
+            first_layer_weight: float = 0.0, hold: Sequence[str] = ()) -> KlipperFit:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
-                           first_layer_weight=first_layer_weight)
+                           first_layer_weight=first_layer_weight, hold=hold)
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:
@@ -107,6 +109,10 @@ class Klipper(Firmware[KlipperDelta]):
         distances = measuring.distances(model, pairs)
         return {BASIC_TITLE: klipper_basic(model, probe),
                 ENHANCED_TITLE: klipper_enhanced(model, probe, pairs, distances)}
+
+    def calibrated_from_saved(self, path: str | Path) -> bool:
+        """Whether ``printer.cfg``'s SAVE_CONFIG block holds ``[delta_calibrate]`` measurements."""
+        return not read_saved_calibration(read_klipper_config(path)).empty
 
     def probe_program(self, points: np.ndarray, title: str = "", clearance: float = PROBE_CLEARANCE) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""

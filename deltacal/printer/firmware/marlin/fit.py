@@ -16,6 +16,7 @@ Units: mm; trims in degrees.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -64,7 +65,7 @@ def _names(klipper_names: list[str]) -> list[str]:
 
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
-               first_layer_weight: float = 0.0) -> MarlinFit:
+               first_layer_weight: float = 0.0, hold: Sequence[str] = ()) -> MarlinFit:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     Args:
@@ -74,6 +75,7 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
         workspace: The printable cylinder (heights 0.2 mm to its top).
         hold_step_distance: Keep the start's ``M92``.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        hold: Values kept at the start's, by their classical names (Klipper's, ``KLIPPER_NAMES``).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge.
@@ -83,7 +85,7 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
 
     def fit(klipper_start):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight)
+                           first_layer_weight=first_layer_weight, hold=hold)
 
     first = fit(to_klipper(start))
     mean = float(np.mean(from_klipper(first.klipper, start).angle_trim))

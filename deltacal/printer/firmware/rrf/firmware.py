@@ -7,6 +7,7 @@ is the one instance. Units: mm, angles in rad.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
@@ -90,6 +91,7 @@ class RRF(Firmware[RRFDelta]):
         workspace: Workspace,
         hold_step_distance: bool = False,
         first_layer_weight: float = 0.0,
+        hold: Sequence[str] = (),
     ) -> RRFFit:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -99,6 +101,7 @@ class RRF(Firmware[RRFDelta]):
             workspace,
             hold_step_distance=hold_step_distance,
             first_layer_weight=first_layer_weight,
+            hold=hold,
         )
 
     def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:

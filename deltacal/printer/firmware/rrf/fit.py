@@ -17,6 +17,7 @@ fraction.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -45,6 +46,13 @@ RRF_NAMES = (
     "step_distance_b",
     "step_distance_c",
 )
+#: RRF's value of each classical one (:data:`~..base.CLASSICAL_NAMES`).
+CLASSICAL_OF = {"delta_radius": "M665 R", "angle_a": "M665 X", "angle_b": "M665 Y", "angle_c": "M665 Z",
+                "arm_length_a": "M665 L a", "arm_length_b": "M665 L b", "arm_length_c": "M665 L c",
+                "position_endstop_a": "M666 X", "position_endstop_b": "M666 Y",
+                "position_endstop_c": "M666 Z",
+                "step_distance_a": "step_distance_a", "step_distance_b": "step_distance_b",
+                "step_distance_c": "step_distance_c"}
 #: The index of ``M665 Z`` (held: the part's turn) and of the step distances.
 _ANGLE_Z = 3
 _STEPS = 13
@@ -149,6 +157,7 @@ def fit_rrf(
     grid: np.ndarray | None = None,
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
+    hold: Sequence[str] = (),
 ) -> RRFFit:
     """RRF's values that leave the least squared nozzle error over the printable volume (the part's frame).
 
@@ -161,13 +170,16 @@ def fit_rrf(
         grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
         max_iter: Gauss-Newton iterations at most.
         first_layer_weight: Weight of the first layer's z errors (0: the volume alone).
+        hold: Values kept at the start's, by their classical names (:data:`CLASSICAL_OF`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
         UnreachableError: a target out of RRF's reach.
     """
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
-    wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES)) if c != _ANGLE_Z]
+    held = {RRF_NAMES.index(CLASSICAL_OF[name]) for name in hold if name in CLASSICAL_OF}
+    wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES))
+              if c != _ANGLE_Z and c not in held]
     found = gauss_newton(geometry, start, RRF_VALUES, step_distance, workspace, grid, wanted, max_iter,
                          first_layer_weight, True, "RepRapFirmware")
     rrf = normalised(found.model)
