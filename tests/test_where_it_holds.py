@@ -318,6 +318,10 @@ def test_identify_says_where_it_holds_and_export_keeps_what_it_does_not_determin
     assert "print the tall object (`deltacal plan --object`) to calibrate heights" in said
     assert "firmware values: the measurements determine the firmware's delta_radius" in said
     assert "not scale_a, scale_b, scale_c" in said
+    assert main(["report", str(cal), "-o", str(tmp_path / "report.html"), "--no-view", "--robot",
+                 str(out / "printer.toml")]) == 0
+    page = (tmp_path / "report.html").read_text()
+    assert '<p id="holds"><b>Where it holds.</b> the nozzle is known within 0.05 mm' in page
     assert main(["export", str(cal), "--controller", "klipper", "--config", str(run), "--robot",
                  str(out / "printer.toml"), "-o", str(exported)]) == 0
     said = capsys.readouterr().out
@@ -367,3 +371,45 @@ def test_one_printers_saved_runs_agree_where_they_correct(script, printer):
     for row in found["runs"]:
         assert row["first_layer_weights"]["vertical"] > 0.5, row["run"]  # it corrects the first layer
         assert row["first_layer_xy_move_mm"] <= 0.05, row["run"]  # and does not move the part
+
+
+#: Simulated printers no figure was tuned on (scripts/where_it_holds.py's are 38000 and 38100).
+FRESH_SEEDS = {"typical kit": 38600, "well built": 38700}
+#: What the issue asks and this work does not reach, as measured on these printers (docs/printers.md,
+#: "What is left"): a strict xfail turns into a failure the day it holds.
+NOT_REACHED = {
+    ("typical kit", "probe bias"): "first layer 0.028 mm against Klipper's 0.028 (limit 0.025): the biased "
+                                   "probe is followed",
+    ("well built", "plain"): "3-D max 0.061 mm at z 0.2 against Klipper's 0.054; first layer 0.019 / 0.017",
+    ("well built", "probe bias"): "3-D max 0.063 mm at z 10 against 0.056; first layer 0.034 / 0.032",
+    ("well built", "bed bowl"): "3-D max 0.067 mm at z 0.2 against 0.061; first layer 0.021 / 0.019",
+    ("well built", "object small"): "first layer 0.018 mm against Klipper's 0.017 (limit 0.017)",
+}
+
+
+def _done_when(label: str, effect: str):
+    marks = [pytest.mark.slow]
+    if (label, effect) in NOT_REACHED:
+        marks.append(pytest.mark.xfail(strict=True, reason=NOT_REACHED[(label, effect)]))
+    return pytest.param(label, effect, marks=marks, id=f"{label}-{effect}")
+
+
+@pytest.mark.parametrize("label, effect", [_done_when(label, effect) for label in FRESH_SEEDS
+                                           for effect in ("plain", "probe bias", "bed bowl", "object small")])
+def test_klippers_data_alone_correct_no_worse_than_klippers_values(script, tmp_path, label, effect):
+    """Simulated printers with only Klipper's saved data: never worse than its values, a better first layer.
+
+    Issue 38's Done when, on the mean of 3 fresh printers: the corrected commands' 3-D max at z 0.2 /
+    10 / 25 / 50 / 100 mm within 0.005 mm of Klipper's own values', the first layer's height error at
+    most 0.8 times Klipper's + 0.003 mm.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rows = [script.simulated_printer(FRESH_SEEDS[label] + k, label, effect, tmp_path) for k in range(3)]
+    summary = script.summary(rows)
+    klipper, corrected = summary["klipper"], summary["corrected"]
+    for z, theirs in klipper["max_3d_mm"].items():
+        assert corrected["max_3d_mm"][z] <= theirs + 0.005, (z, corrected["max_3d_mm"][z], theirs)
+    first = klipper["first_layer_height_error_mm"]
+    assert corrected["first_layer_height_error_mm"] <= 0.8 * first + 0.003, (corrected, first)
+    assert corrected["first_layer_xy_move_mm"] <= 0.05
