@@ -24,9 +24,11 @@ Units: mm and rad.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from .geometry import Workspace
 
 #: The σ of a correction a printer's owner accepts by default [mm]: a correction whose σ is above it
 #: is not applied (the controller's own command is sent there).
@@ -45,6 +47,9 @@ BED_POINTS = (0.25, 0.5, 0.75, 1.0)
 BED_RING = 12
 #: The first layer's height [mm].
 FIRST_LAYER = 0.2
+#: A firmware's value is determined by the measurements when its σ after them is at most this share of
+#: its σ from the build tolerances alone (:meth:`WhereItHolds.determined`).
+DETERMINED = 1.0 / 3.0
 #: A correction this many times its σ is wholly applied (:func:`significance_weight`).
 SIGNIFICANT = 2.0
 #: The σ a node the printer cannot reach is given [mm]: no correction there, and the interpolation stays
@@ -87,7 +92,8 @@ def correction_weight(sigma: np.ndarray, bound: float) -> np.ndarray:
     a continuous slope. An infinite or NaN σ has weight 0.
     """
     sigma = np.asarray(sigma, dtype=float)
-    t = np.clip((np.nan_to_num(sigma, nan=np.inf) - 0.5 * bound) / (0.5 * bound), 0.0, 1.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # an infinite σ: weight 0
+        t = np.clip((np.nan_to_num(sigma, nan=np.inf) - 0.5 * bound) / (0.5 * bound), 0.0, 1.0)
     return 1.0 - t * t * (3.0 - 2.0 * t)
 
 
@@ -115,6 +121,10 @@ class WhereItHolds:
             (R, A, Z); :data:`UNREACHED` where the printer cannot reach.
         vertical: σ of the correction's height [mm], (R, A, Z).
         measured_top: The highest point a measurement was made at [mm] (where the data stop).
+        values: The firmware's classical values (``delta_radius``, ``angle_a``, ``arm_length_a``,
+            ``endstop_a``, ``scale_a``...: the ``klipper`` error model's names, which every
+            firmware's values are), each with the ratio of its σ after the measurements to its σ
+            from the build tolerances alone (:meth:`determined`).
     """
 
     radius: np.ndarray
@@ -123,6 +133,15 @@ class WhereItHolds:
     horizontal: np.ndarray
     vertical: np.ndarray
     measured_top: float = 0.0
+    values: dict[str, float] = field(default_factory=dict)
+
+    def determined(self, ratio: float = DETERMINED) -> tuple[str, ...]:
+        """The firmware's values the measurements determine: their σ at most ``ratio`` of the tolerances'."""
+        return tuple(name for name, r in self.values.items() if r <= ratio)
+
+    def undetermined(self, ratio: float = DETERMINED) -> tuple[str, ...]:
+        """The firmware's values only the build tolerances bound (:meth:`determined`'s others)."""
+        return tuple(name for name, r in self.values.items() if not r <= ratio)
 
     def __post_init__(self) -> None:
         for name in ("radius", "azimuth", "height"):
@@ -179,8 +198,11 @@ class WhereItHolds:
                 corrections: np.ndarray | None = None) -> np.ndarray:
         """The weights of the correction's horizontal and vertical parts, (N, 2).
 
-        :func:`correction_weight` of each part's σ against ``bound``; with the corrections, times
-        :func:`significance_weight` of each part's size against its σ.
+        :func:`correction_weight` of each part's σ against ``bound``; with the corrections, the
+        horizontal part's times :func:`significance_weight` of its size against its σ (the probe
+        measures heights; a correction along the bed from bed-level data comes through the model's
+        coupling of the towers' leans and positions with the heights, and is applied only where it
+        stands out of its own σ).
 
         Args:
             points: Targets [mm], (N, 3).
@@ -192,8 +214,7 @@ class WhereItHolds:
         if corrections is not None:
             corrections = np.atleast_2d(np.asarray(corrections, dtype=float))
             along = np.hypot(corrections[:, 0], corrections[:, 1])
-            size = np.column_stack([along, np.abs(corrections[:, 2])])
-            weights = weights * significance_weight(size, sigma)
+            weights[:, 0] = weights[:, 0] * significance_weight(along, sigma[:, 0])
         return weights
 
     def level_sigma(self, radius: float = math.inf) -> np.ndarray:
@@ -216,6 +237,18 @@ class WhereItHolds:
         lo, hi = level[k - 1], level[k]
         t = (bound - lo) / (hi - lo) if hi > lo else 0.0
         return float(self.height[k - 1] + t * (self.height[k] - self.height[k - 1]))
+
+    def held_volume(self, within: Workspace, bound: float = DEFAULT_BOUND) -> Workspace | None:
+        """The part of a printable cylinder where the nozzle's σ stays within ``bound`` (None: none of it).
+
+        Its radius is :meth:`held_radius`'s, its top :meth:`held_up_to`'s over that radius (at least
+        the first layer's height), each within ``within``'s.
+        """
+        radius = min(self.held_radius(bound), within.radius)
+        if not radius > 0.0:
+            return None
+        top = min(max(self.held_up_to(bound, radius), FIRST_LAYER), within.top_z)
+        return Workspace(radius=radius, height=top, top_z=top)
 
     def held_radius(self, bound: float = DEFAULT_BOUND) -> float:
         """The largest grid radius where the first layer's 3-D σ stays within ``bound`` [mm] (-inf: none)."""

@@ -115,7 +115,7 @@ def cross_validate(runs: list[Run]) -> list[dict]:
     out = []
     for i, fit_run in enumerate(runs):
         result = identify_printer(fit_run.nominal, fit_run.measurements(), "printer",
-                                  tolerance_scale="evidence")
+                                  tolerance_scale="evidence", calibrated_start=True)  # as identify does
         others = [runs[j] for j in range(len(runs)) if j != i]
         ours = [residuals_identified(result.geometry, fit_run.step, run) for run in others]
         theirs = [residuals_klipper(fit_run.klipper, run) for run in others]

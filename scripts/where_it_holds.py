@@ -45,6 +45,7 @@ from deltacal.geometry import DeltaGeometry, Workspace
 from deltacal.io.atomic import atomic_write_text
 from deltacal.printer.comparison import CLASSES, DISTANCE_SIGMA, PROBE_RADIUS, PROBE_SIGMA
 from deltacal.printer.files.robot_file import load_printer
+from deltacal.printer.firmware.base import undetermined_values
 from deltacal.printer.firmware.fitting import printable_grid
 from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper
@@ -132,7 +133,7 @@ def read_real_run(path: Path) -> RealRun:
 
 def calibrate(nominal: DeltaGeometry, data: PrinterMeasurements) -> tuple[Calibration, dict]:
     """``identify``'s calibration of the measurements, and its fit's figures."""
-    result = identify_printer(nominal, data, "printer")
+    result = identify_printer(nominal, data, "printer", calibrated_start=True)  # a saved DELTA_CALIBRATE
     return Calibration.from_result(result), {"s0_squared": float(result.variance_factor),
                                              "hints": list(result.hints), "warnings": list(result.warnings)}
 
@@ -294,8 +295,11 @@ def simulated_printer(seed: int, label: str, effect: str, folder: Path) -> dict:
     controller = KLIPPER.controller(run.klipper, run.step)
     own = {z: t for z, t in layers.items()}
     ours = {z: commands_of(calibration, controller, t)[0] for z, t in layers.items()}
-    exported = KLIPPER.fit(calibration.geometry, run.klipper, run.step, Workspace(SIM_RADIUS, 100.0, 100.0),
-                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT).values
+    volume = Workspace(SIM_RADIUS, 100.0, 100.0)
+    held = volume if calibration.holds is None else calibration.holds.held_volume(volume)
+    exported = run.klipper if held is None else KLIPPER.fit(
+        calibration.geometry, run.klipper, run.step, held, first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT,
+        hold=undetermined_values(calibration.holds)).values  # as export --controller klipper
     return {"seed": seed, "effect": effect, **fit,
             "klipper": judged(run.truth, run, layers, own, run.klipper),
             "corrected": judged(run.truth, run, layers, ours, run.klipper),

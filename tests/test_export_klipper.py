@@ -8,20 +8,25 @@ Klipper's own enhanced calibration on measurements of the same kind.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 
 from deltacal.cli import main
+from deltacal.controller import corrected_targets
+from deltacal.controller.targets import aligned_to_controller
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.io import load_calibration, load_nominal, save_calibration, save_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
 from deltacal.printer.firmware.klipper.config import load_klipper
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import error_stats, printable_grid, values_of
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
@@ -148,9 +153,15 @@ def test_a_calibrated_config_whose_towers_step_differently_serves_compensate(pri
     assert main(["compensate", str(printer["calibration"]), str(csv), "--controller",
                  str(merged), "-o", str(tmp_path / "sent.csv")]) == 0
     table = np.loadtxt(tmp_path / "sent.csv", delimiter=",", skiprows=1)
-    geometry = load_calibration(printer["calibration"]).geometry
-    landed = exact.forward(geometry, exported.inverse(table[:, 3:], STEP)).point(geometry.tool)
-    assert np.max(np.linalg.norm(landed - table[:, :3], axis=1)) < 1e-6
+    calibration = load_calibration(printer["calibration"])
+    controller = KLIPPER.controller(exported, STEP)  # readings counted in the calibration's step distance
+    read = table[:, :3]  # the targets as written
+    assert_allclose(table[:, 3:], corrected_targets(calibration, controller, read).commands, atol=1e-8)
+    # corrected wholly, the identified printer (put in the controller's frame along the bed) lands on them
+    whole = corrected_targets(calibration, controller, read, bound=math.inf).commands
+    geometry = aligned_to_controller(calibration.geometry, controller, float(calibration.holds.radius[-1]))
+    landed = exact.forward(geometry, exported.inverse(whole, STEP)).point(geometry.tool)
+    assert np.max(np.linalg.norm(landed - read, axis=1)) < 1e-6
 
 
 def test_the_step_distance_is_kept_in_the_calibration(printer):

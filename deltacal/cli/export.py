@@ -11,10 +11,11 @@ import argparse
 
 from .. import wings
 from ..controller import FIT_KINDS
+from ..holds import DEFAULT_BOUND
 from ..io import control_character
 from ..printer.firmware.config_file import firmware_names
 from ..wings.requests import ExportRequest
-from .common import request, show, three_numbers
+from .common import positive_float, request, show, three_numbers
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,6 +64,9 @@ def add_parser(sub) -> None:
                         "default: the nominal printer's values, 200 full steps x 16 microsteps); rrf: its "
                         "config.g or config-override.g (its values start the fit, its M350 microstepping "
                         "goes with M92; default: the nominal printer's values, x16)")
+    p.add_argument("--sigma-bound", type=positive_float, default=DEFAULT_BOUND, metavar="MM",
+                   help=f"a printer's values: fitted where the calibration's correction has a σ of at most "
+                        f"MM (default {DEFAULT_BOUND:g})")
     p.add_argument("--keep-rotation-distance", action="store_true",
                    help="with --controller klipper|marlin|rrf: hold each tower's rotation_distance (Marlin, "
                         "RRF: M92) (the --config's, else the nominal step distance's)")

@@ -97,9 +97,10 @@ def corrected_targets(
     put in the controller's frame (:func:`aligned_to_controller`: no correction moves the part along
     the bed or turns it), then each command is the controller's own (the target) plus the
     correction times its weight (:meth:`~deltacal.holds.WhereItHolds.weights`, the horizontal and
-    the vertical part each by its own σ): the correction where its σ is at most half the bound and
-    the correction at least twice its σ, the controller's own command where its σ is above the bound
-    or the correction within its σ of zero, blended smoothly between. A geometry, or a calibration
+    the vertical part each by its own σ): the correction where its σ is at most half the bound (and,
+    along the bed, the correction at least twice its σ), the controller's own command where its σ is
+    above the bound (or, along the bed, the correction within its σ of zero), blended smoothly
+    between. A geometry, or a calibration
     without that knowledge (a rotary Delta's), is corrected everywhere.
 
     Args:

@@ -335,7 +335,8 @@ class ErrorModel(ABC):
         """
         raise NotImplementedError(f"the {self.name!r} error model states no prior from tolerances")
 
-    def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry) -> np.ndarray:
+    def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
+                     calibrated: bool = False) -> np.ndarray:
         """P, the prior covariance's factor ``Σ = P Pᵀ`` (n, n): by default ``diag(prior_sigma)``.
 
         A model whose parameters share a common mode (a printer's bed) states it here.
@@ -343,6 +344,8 @@ class ErrorModel(ABC):
         Args:
             tolerances: The build tolerances.
             geometry: The geometry the parameters deviate from.
+            calibrated: Whether that geometry's controller values were calibrated from the very
+                measurements being fitted (a printer's saved ``DELTA_CALIBRATE``).
         """
         return np.diag(self.prior_sigma(tolerances))
 

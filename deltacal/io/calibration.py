@@ -143,7 +143,8 @@ def holds_to_dict(holds: WhereItHolds) -> dict:
             "azimuth_deg": [float(np.round(math.degrees(v), 9)) for v in holds.azimuth],
             "height_mm": [float(v) for v in holds.height], "measured_top_mm": float(holds.measured_top),
             "horizontal_sigma_mm": np.round(holds.horizontal, HOLDS_DECIMALS).tolist(),
-            "vertical_sigma_mm": np.round(holds.vertical, HOLDS_DECIMALS).tolist()}
+            "vertical_sigma_mm": np.round(holds.vertical, HOLDS_DECIMALS).tolist(),
+            "value_names": list(holds.values), "value_sigma_ratio": [float(v) for v in holds.values.values()]}
 
 
 def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
@@ -153,7 +154,9 @@ def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
     t = TomlTable(data, source).table("holds")
     assert t is not None
     t.check_unknown(["radius_mm", "azimuth_deg", "height_mm", "measured_top_mm", "horizontal_sigma_mm",
-                     "vertical_sigma_mm"])
+                     "vertical_sigma_mm", "value_names", "value_sigma_ratio"])
+    names = _names(t, "value_names", str, "an array of names") if t.has("value_names") else []
+    ratios = t.vector("value_sigma_ratio", (len(names),)) if names else np.zeros(0)
     axes = {}
     for key in ("radius_mm", "azimuth_deg", "height_mm"):
         raw = t.raw(key)
@@ -166,7 +169,7 @@ def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
     try:
         return WhereItHolds(axes["radius_mm"], np.radians(axes["azimuth_deg"]), axes["height_mm"],
                             sigma["horizontal_sigma_mm"], sigma["vertical_sigma_mm"],
-                            t.number("measured_top_mm"))
+                            t.number("measured_top_mm"), dict(zip(names, ratios.tolist(), strict=True)))
     except ValueError as exc:
         raise t.error("radius_mm", str(exc)) from None
 

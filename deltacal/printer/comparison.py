@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..controller import corrected_targets
 from ..geometry import DeltaGeometry, Tolerances, Workspace
 from ..identification.result import IdentificationResult
@@ -221,9 +222,12 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
 
 
 def gcode_commands(run: PrinterRun, targets: np.ndarray) -> np.ndarray:
-    """The G-code route's commands: corrected targets through the firmware's nominal values [mm], (N, 3)."""
+    """The G-code route's commands: corrected targets through the firmware's nominal values [mm], (N, 3).
+
+    As ``compensate`` sends them: in the controller's frame along the bed, where the calibration holds.
+    """
     controller = run.firmware_type.controller(run.firmware, run.step_distance)
-    return corrected_targets(run.result.geometry, controller, targets).commands
+    return corrected_targets(Calibration.from_result(run.result), controller, targets).commands
 
 
 def gcode_route_errors(run: PrinterRun, targets: np.ndarray) -> np.ndarray:

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..io.toml import exact_degrees
+from ..printer.identification.where import holds_in_words, values_in_words
 from .accuracy import AccuracyMap
 from .controllers import ControllerRoutes
 from .deflection import DeflectionMap
@@ -265,6 +266,11 @@ def _accuracy(page: Page) -> str:
     rows = [[td(s.label), cell(float(np.nanmin(v)) * 1000.0, 4), cell(float(np.nanmax(v)) * 1000.0, 4)]
             for s, v in zip(a.slices, a.sigma, strict=True)]
     out += table(["slice", "smallest σ [µm]", "largest σ [µm]"], rows, "accuracy-slices")
+    holds = page.calibration.holds
+    if holds is not None:
+        out += f"<p id=\"holds\"><b>Where it holds.</b> {esc(holds_in_words(holds))}.</p>"
+        if holds.values:
+            out += f"<p id=\"holds-values\">{esc(values_in_words(holds))}.</p>"
     if chain.on_bed:
         out += ("<p><b>How to use it.</b> Where σ is large, the probe heights and printed distances say "
                 "little about the printer there: probe the bed there, or print and measure features at those "

@@ -306,7 +306,8 @@ class ExportRequest:
     keyframe as text, deg or a printer's mm). ``controller``: a rotary Delta's controller values
     that fit best (``offsets``, ``limbs``), or a firmware's (its name: ``klipper``, ``marlin``,
     ``rrf``; ``config``: the configuration the printer runs; ``keep_rotation_distance``: its step
-    distances held); ``robot``: the robot file whose ``[workspace]`` the fit covers. ``live``: the
+    distances held; ``sigma_bound``: the values fitted where the calibration's σ is within it [mm]);
+    ``robot``: the robot file whose ``[workspace]`` the fit covers. ``live``: the
     correction the firmware runs itself (Klipper's module and its section,
     :attr:`~deltacal.printer.firmware.base.Firmware.live_files`), computed through the values of
     ``config``, written in the folder ``output``.
@@ -322,8 +323,12 @@ class ExportRequest:
     name: str | None = None
     home: str | None = None
     live: bool = False
+    sigma_bound: float = DEFAULT_BOUND
 
     def __post_init__(self) -> None:
+        if not self.sigma_bound > 0.0:
+            raise UsageError(f"--sigma-bound {self.sigma_bound:g}: the σ of a correction accepted must be "
+                             "positive")
         if (self.mjcf is None) == (self.controller is None):
             raise UsageError("give --mjcf ROBOT.xml or --controller KIND (one of them)")
         firmware = firmware_named(self.controller) if self.controller is not None else None

@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -50,6 +51,7 @@ from ...controller.targets import CommandModel, corrected_targets
 from ...exceptions import InputError
 from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
+from ...holds import WhereItHolds
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .owner_keys import OwnerKeys
@@ -168,6 +170,30 @@ class Measuring(Protocol):
 
 
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
+
+#: The classical delta values every firmware holds, in Klipper's words (each firmware's fit knows its
+#: own values of each): a radius, each tower's angle, arm, endstop and step distance.
+CLASSICAL_NAMES = (
+    "delta_radius", "angle_a", "angle_b", "angle_c", "arm_length_a", "arm_length_b", "arm_length_c",
+    "position_endstop_a", "position_endstop_b", "position_endstop_c",
+    "step_distance_a", "step_distance_b", "step_distance_c",
+)
+
+
+def undetermined_values(holds: WhereItHolds | None) -> tuple[str, ...]:
+    """The classical values (:data:`CLASSICAL_NAMES`) a calibration's measurements do not determine.
+
+    Those of :meth:`~deltacal.holds.WhereItHolds.undetermined` (the ``klipper`` error model's names:
+    ``endstop_a`` is ``position_endstop_a``, ``scale_a`` is ``step_distance_a``); none without
+    that knowledge (a calibration written before it was kept).
+    """
+    if holds is None:
+        return ()
+    words = {"endstop": "position_endstop", "scale": "step_distance"}
+    named = [words.get(name.rpartition("_")[0], name.rpartition("_")[0]) + "_" + name.rpartition("_")[2]
+             if name != "delta_radius" else name for name in holds.undetermined()]
+    # tower C's angle is the printed part's turn, held by every fit
+    return tuple(name for name in CLASSICAL_NAMES if name in named and name != "angle_c")
 
 
 @dataclass(frozen=True)
@@ -308,7 +334,8 @@ class Firmware(ABC, Generic[ModelT]):
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[ModelT]:
+            grid: np.ndarray | None = None, flatness: float | None = None,
+            hold: Sequence[str] = ()) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 
         Args:
@@ -324,6 +351,9 @@ class Firmware(ABC, Generic[ModelT]):
             grid: The nozzle targets the errors are judged at [mm], (N, 3) (default: a grid of the
                 printable volume, :func:`~deltacal.printer.firmware.fitting.printable_grid`).
             flatness: With ``minimax``, the first layer's largest |height error| allowed instead [mm].
+            hold: More values to keep at the start's, by their classical names (:data:`CLASSICAL_NAMES`:
+                ``delta_radius``, ``angle_a``, ``arm_length_a``, ``position_endstop_a``,
+                ``step_distance_a``...): the firmware holds its values of those.
         """
 
     @abstractmethod
@@ -528,6 +558,15 @@ class Firmware(ABC, Generic[ModelT]):
             InputError: the configuration's first problem.
         """
         return (Path(path),)
+
+    def calibrated_from_saved(self, path: str | Path) -> bool:
+        """Whether the configuration's values were calibrated by the firmware from measurements it saved.
+
+        Klipper's ``SAVE_CONFIG`` after ``DELTA_CALIBRATE`` keeps the probe heights (and
+        ``DELTA_ANALYZE``'s distances) beside the values fitted to them; ``deltacal import`` reads
+        those measurements back. A firmware that saves none: False.
+        """
+        return False
 
     def is_probe_log(self, text: str) -> bool:
         """Whether a file's text is a log of this firmware: its probe results, or marks only a log has.

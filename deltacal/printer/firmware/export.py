@@ -28,8 +28,10 @@ import numpy as np
 from ...calibration import Calibration
 from ...exceptions import ConvergenceError, GeometryError, InputError, UnreachableError, UsageError
 from ...geometry import DeltaGeometry, Workspace
+from ...holds import DEFAULT_BOUND
+from ..identification.where import holds_in_words
 from . import check_config_firmware
-from .base import ErrorFigures, Firmware, FirmwareModel
+from .base import ErrorFigures, Firmware, FirmwareModel, undetermined_values
 from .budget import BED_TILT, error_budget
 from .config_file import check_printer_values, refuse_deltacal_file
 from .fitting import EXPORT_FIRST_LAYER_WEIGHT
@@ -47,6 +49,8 @@ class ExportStart:
         start: The values the fit starts from (``--config``'s, else the nominal printer's).
         workspace: The printable volume.
         where: Where the volume comes from, for the messages (``" of kossel.toml"``).
+        kept: The classical values the calibration's measurements do not determine: kept at the
+            start's (:func:`~deltacal.printer.firmware.base.undetermined_values`).
     """
 
     geometry: DeltaGeometry
@@ -56,6 +60,7 @@ class ExportStart:
     start: Any
     workspace: Workspace
     where: str
+    kept: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -82,7 +87,8 @@ class FirmwareExport:
 def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, source: str | Path,
                            workspace: Workspace, where: str, config: str | Path | None = None,
                            hold_step_distance: bool = False,
-                           volume_source: str | Path | None = None) -> FirmwareExport:
+                           volume_source: str | Path | None = None,
+                           sigma_bound: float = DEFAULT_BOUND) -> FirmwareExport:
     """The firmware's values that fit a printer's calibration best over its printable volume (see the module).
 
     Args:
@@ -94,17 +100,24 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
         config: The configuration the printer runs (its values start the fit), or None.
         hold_step_distance: Keep the step distances (``--keep-rotation-distance``).
         volume_source: The file whose ``[workspace]`` is the volume (the messages name it), or None.
+        sigma_bound: Where the calibration knows where it holds
+            (:attr:`~deltacal.calibration.Calibration.holds`), the values are fitted over the part of
+            the volume where the nozzle's σ is within this [mm], and those its measurements do not
+            determine are kept at the start's.
 
     Raises:
         UsageError: a deltacal file as ``config``, or no ``config`` where the firmware needs it.
-        InputError: a file's first problem, a target out of the firmware's reach, no convergence.
+        InputError: a file's first problem, a target out of the firmware's reach, no convergence, a
+            calibration that holds nowhere within ``sigma_bound``.
     """
-    begun = export_start(firmware, calibration, source, workspace, where, config, hold_step_distance)
+    begun = export_start(firmware, calibration, source, workspace, where, config, hold_step_distance,
+                         sigma_bound)
+    workspace = begun.workspace
     whose = f"{firmware.title}'s"
     with fit_refusals(begun, whose, source, volume_source):
         fit = firmware.fit(begun.geometry, begun.start, begun.step, workspace,
                            hold_step_distance=hold_step_distance,
-                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True)
+                           first_layer_weight=EXPORT_FIRST_LAYER_WEIGHT, minimax=True, hold=begun.kept)
         budget = source_budget(firmware, begun, hold_step_distance)
     lines = summary(firmware, fit.before, fit.after, budget, begun, fit.held, config is not None)
     values = fit.values
@@ -121,13 +134,16 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
 
 def export_start(firmware: Firmware[Any], calibration: Calibration, source: str | Path, workspace: Workspace,
                  where: str, config: str | Path | None = None,
-                 hold_step_distance: bool = False) -> ExportStart:
-    """Read what the fit starts from: the configuration's values, the step distances, the start.
+                 hold_step_distance: bool = False, sigma_bound: float = DEFAULT_BOUND) -> ExportStart:
+    """Read what the fit starts from: the configuration's values, the step distances, the start, the volume.
+
+    The volume is where the calibration holds within ``sigma_bound`` (all of ``workspace`` for a
+    calibration that does not say where it holds).
 
     Raises:
         UsageError: a deltacal file as ``config``, or no ``config`` where the firmware needs it.
-        InputError: a file's first problem (named by its line or key), or a configuration of
-            another printer.
+        InputError: a file's first problem (named by its line or key), a configuration of another
+            printer, or a calibration that holds nowhere within ``sigma_bound``.
     """
     if config is not None:
         refuse_deltacal_file(config, "--config")
@@ -144,7 +160,15 @@ def export_start(firmware: Firmware[Any], calibration: Calibration, source: str 
         start = values if values is not None else firmware.start(replace(nominal, step_distance=step))
     except GeometryError as exc:
         raise InputError(str(exc), str(source), "key nominal") from None
-    return ExportStart(geometry, nominal, values, step, start, workspace, where)
+    if calibration.holds is not None:
+        held = calibration.holds.held_volume(workspace, sigma_bound)
+        if held is None:
+            raise InputError(f"the calibration holds nowhere within σ {sigma_bound:g} mm (--sigma-bound): "
+                             f"{holds_in_words(calibration.holds, sigma_bound)}; no value to export",
+                             str(source))
+        workspace, where = held, f"{where}, where the calibration holds (σ within {sigma_bound:g} mm)"
+    return ExportStart(geometry, nominal, values, step, start, workspace, where,
+                       undetermined_values(calibration.holds))
 
 
 @contextmanager
@@ -222,6 +246,9 @@ def summary(firmware: Firmware[Any], before: ErrorFigures, after: ErrorFigures,
              f"max |dz| {before.flatness:.3f} mm, peak to valley {before.flatness_pv:.3f} mm"]
     if held:
         lines.append(f"  held (not fitted): {', '.join(held)}")
+    if begun.kept:
+        lines.append(f"  kept at {start} (the measurements do not determine them better than the build "
+                     f"tolerances): {', '.join(begun.kept)}")
     lines.append(f"what {firmware.title}'s values cannot hold of each error source alone (3-D max / first "
                  "layer max |dz|; deltacal compensate corrects them):")
     width = max(len(label) for label in budget)

@@ -39,6 +39,7 @@ from ...errormodels.base import (
     rod_index,
 )
 from ...geometry import DeltaGeometry, Tolerances
+from ...kinematics import exact
 
 #: The travel a ``scale{i}`` parameter is given per [mm]: its value is the error over this travel.
 SCALE_TRAVEL_MM = 100.0
@@ -117,12 +118,37 @@ class PrinterModel(ErrorModel):
         An effector ball's x and y also carry its tower's position (Eq. 13); a lean and an endstop
         also carry the bed's tilt and height (:data:`BED_TILT`, :data:`BED_HEIGHT`).
         """
+        return self._sigma(tolerances, BED_TILT, BED_HEIGHT)
+
+    def _sigma(self, tolerances: Tolerances, bed_tilt: float, bed_height: float) -> np.ndarray:
         tower = float(np.hypot(tolerances.ball_centre, tolerances.axis_position))
-        lean = float(np.hypot(tolerances.axis_direction, BED_TILT))
-        sigma = {"tower": tower, "ball": tolerances.ball_centre, "rod": tolerances.rod_length, "lean": lean,
-                 "endstop": float(np.hypot(tolerances.encoder_offset, BED_HEIGHT)),
+        sigma = {"tower": tower, "ball": tolerances.ball_centre, "rod": tolerances.rod_length,
+                 "lean": float(np.hypot(tolerances.axis_direction, bed_tilt)),
+                 "endstop": float(np.hypot(tolerances.encoder_offset, bed_height)),
                  "scale": SCALE_TRAVEL_MM * tolerances.joint_scale}
         return np.array([sigma[kind] for kind in self._kinds])
+
+    def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
+                     calibrated: bool = False) -> np.ndarray:
+        """P with ``Σ = P Pᵀ``: the build tolerances, the bed's place and the firmware's calibrated values.
+
+        Where the bed sits is free (:data:`BED_TILT`, :data:`BED_HEIGHT`), but a bed tilted moves the
+        whole printer rigidly against it, and a bed raised or lowered moves every endstop alike:
+        those modes (:func:`bed_modes`) take the bed's prior; each tower's own lean and endstop keep
+        their build tolerance (a tower leaning alone is a build error of a tenth of a degree, not the
+        half degree a bed may be tilted by). When the start is the firmware's values ``calibrated``
+        from the very measurements identified (a saved ``DELTA_CALIBRATE``), the values its own
+        calibration fits (:data:`FIRMWARE_VALUES`, :func:`firmware_modes`) take wide priors
+        (:data:`FIRMWARE_FREE`): a prior centred on them along their own directions would tell the
+        evidence only that the data agree with it (the tolerances' scale would collapse).
+        """
+        diagonal = self._sigma(tolerances, 0.0, 0.0)
+        modes = bed_modes(self, geometry) * np.array([BED_TILT, BED_TILT, BED_HEIGHT])
+        cov = np.diag(diagonal**2) + modes @ modes.T
+        if calibrated:
+            firmware = firmware_modes(self, geometry) * np.array(FIRMWARE_FREE)
+            cov = cov + firmware @ firmware.T
+        return np.linalg.cholesky(cov)
 
 
 class FirmwareErrorModel(ErrorModel):
@@ -171,3 +197,57 @@ class FirmwareErrorModel(ErrorModel):
         return np.array([radius] + [angle] * 3 + [tolerances.rod_length] * 3
                         + [float(np.hypot(tolerances.encoder_offset, BED_HEIGHT))] * 3
                         + [SCALE_TRAVEL_MM * tolerances.joint_scale] * 3)
+
+
+def _readings(geometry: DeltaGeometry) -> np.ndarray:
+    """Readings of two rings of points, on the bed and half a tower's reach above it [mm], (24, 3)."""
+    reach = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
+    angle = np.linspace(0.0, 2.0 * np.pi, 12, endpoint=False)
+    ring = 0.4 * reach * np.column_stack([np.cos(angle), np.sin(angle), np.zeros(12)])
+    return exact.inverse(geometry, np.concatenate([ring, ring + [0.0, 0.0, 0.5 * reach]]))
+
+
+def bed_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
+    """The parameters that move a printer rigidly against its bed: tilted about x, about y, raised, (n, 3).
+
+    Per unit: a turn of 1 rad about the x and the y axis through the bed's centre, a rise of 1 mm.
+    The rise is every endstop moved up alike. The tilts are the least-squares parameters whose
+    plate displacement (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) is the rigid turn's
+    ``(ω × p, ω)`` at the readings of two rings of points, on the bed and half a tower's reach above
+    it (the model holds a rigid turn of the whole printer: its towers lean and move, its balls stay).
+    """
+    q = _readings(geometry)
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose).reshape(-1, model.size)
+    modes = np.zeros((model.size, 3))
+    for k, omega in enumerate(np.eye(3)[:2]):
+        turn = np.concatenate([np.cross(omega, pose.position), np.broadcast_to(omega, pose.position.shape)],
+                              axis=1)
+        modes[:, k] = np.linalg.lstsq(S, turn.reshape(-1), rcond=None)[0]
+    modes[[model.names.index(f"endstop{i}") for i in range(1, 4)], 2] = 1.0
+    return modes
+
+
+#: The firmware's own calibrated values (Klipper's ``DELTA_CALIBRATE`` + ``DELTA_ANALYZE``, Marlin's
+#: ``G33``, RepRapFirmware's ``G32``: a radius, two towers' angles, the arms, the endstops), as
+#: :class:`FirmwareErrorModel`'s names, and their priors' σ in a printer's fit [mm, rad]: wide, since the
+#: firmware fits them to the very measurements the printer's fit takes (a prior centred on values
+#: fitted to the same data would tell nothing of the tolerances but that the data agree with it).
+FIRMWARE_VALUES = ("delta_radius", "angle_a", "angle_b", "arm_length_a", "arm_length_b", "arm_length_c",
+                   "endstop_a", "endstop_b", "endstop_c")
+FIRMWARE_FREE = (1.0, 0.005, 0.005, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
+
+
+def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
+    """The parameters that move the printer as each of the firmware's own calibrated values does, (n, 9).
+
+    Per unit of each of :data:`FIRMWARE_VALUES`: the least-squares parameters whose plate
+    displacement is that value's (:class:`FirmwareErrorModel`'s sensitivity) at the readings of
+    :func:`bed_modes`.
+    """
+    firmware = FirmwareErrorModel()
+    q = _readings(geometry)
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose).reshape(-1, model.size)
+    F = firmware.sensitivity(geometry, q, pose)[:, :, [firmware.names.index(n) for n in FIRMWARE_VALUES]]
+    return np.linalg.lstsq(S, F.reshape(-1, len(FIRMWARE_VALUES)), rcond=None)[0]

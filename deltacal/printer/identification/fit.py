@@ -41,7 +41,6 @@ from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...identifiability import BaseParameters, base_parameters
 from ...identification.columns import build_columns
 from ...identification.options import Method
-from ...identification.quality import excess_bound
 from ...identification.result import IdentificationResult, ResidualStats
 from ...identification.solver import solve_wls
 from ...kinematics import exact
@@ -50,7 +49,7 @@ from ...options import with_overrides
 from ...rotations import skew
 from .evidence import SCALE_RANGE, evidence_scales
 from .outliers import Outliers, find_outliers
-from .where import point_rows, where_it_holds
+from .where import firmware_determination, point_rows, where_it_holds
 
 #: Probe trigger repeatability [mm] (a typical inductive or switch probe).
 HEIGHT_SIGMA = 0.01
@@ -227,6 +226,9 @@ class PrinterFitOptions:
             (:class:`~deltacal.holds.WhereItHolds`; None: the measurements' radius, 200 mm high).
         accept_poor_fit: Return a poor fit (:func:`poor_fit`) with a warning instead of raising
             :class:`~deltacal.exceptions.PoorFitError`.
+        calibrated_start: The start is the firmware's values calibrated from these very
+            measurements (a saved ``DELTA_CALIBRATE``): the directions of the values its own
+            calibration fits take wide priors (:meth:`~.errormodels.PrinterModel.prior_factor`).
 
     Raises:
         ValueError: a method or scale out of its range (the message names the field and value).
@@ -238,6 +240,7 @@ class PrinterFitOptions:
     tolerance_scale: float | Literal["evidence"] = "evidence"
     workspace: Workspace | None = None
     accept_poor_fit: bool = False
+    calibrated_start: bool = False
 
     def __post_init__(self) -> None:
         if self.method not in get_args(Method):
@@ -260,6 +263,7 @@ class PrinterFitOverrides(TypedDict, total=False):
     tolerance_scale: float | Literal["evidence"]
     workspace: Workspace | None
     accept_poor_fit: bool
+    calibrated_start: bool
 
 
 def identify_printer(
@@ -310,7 +314,7 @@ def identify_printer(
     given = options.tolerances or Tolerances.printer_kit()
     scale, noise, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
-    factor = error_model.prior_factor(used, start)  # the prior covariance is factor @ factor.T
+    factor = error_model.prior_factor(used, start, options.calibrated_start)  # the prior's Σ: factor factorᵀ
     taken = with_noise(data, noise)  # the measurements' σ: the given times each kind's s0
     measured = measured_combinations(start, taken, error_model, used)
     r0, _, kind = residuals_and_regressor(start, error_model, data)
@@ -329,14 +333,13 @@ def identify_printer(
         inlier_factor = float(flagged.residual[rows] @ flagged.residual[rows]) / max(int(rows.sum()), 1)
     held = measured.unidentifiable_names
     hints = [f"the build tolerances scaled by {scale:.3g} ({how})", *_noise_hints(data, noise)]
-    warnings = []
-    at_limit = options.tolerance_scale == "evidence" and scale >= SCALE_RANGE[1] * (1.0 - 1e-6)
-    if at_limit:
-        warnings.append(f"the build tolerances scaled by {scale:.3g}, the largest searched: the measurements "
-                        "fit no printer within it (a gross error in a file? the files of another printer?)")
+    warnings: list[str] = []
+    at_limit = options.tolerance_scale == "evidence" and scale >= SCALE_RANGE[1] / AT_LIMIT
     if held:
         hints.append(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
                      f"combinations; the build tolerances bound the other {len(held)} ({', '.join(held)})")
+    volume = options.workspace or default_volume(geometry, data)
+    build = build_sigma(error_model, used)
     result = IdentificationResult(
         model=error_model.name, method=method, geometry=geometry, start=start,
         # with the priors every parameter is kept, in the model's order
@@ -350,10 +353,10 @@ def identify_printer(
         residual_after=r * np.asarray(data.sigma)[kind],
         independent_rows=r.size, columns=build_columns(error_model).columns,
         hints=tuple(hints), warnings=tuple(warnings),
-        holds=where_it_holds(geometry, error_model, cov, options.workspace or default_volume(geometry, data),
-                             measured_top(geometry, data)),
+        holds=replace(where_it_holds(geometry, error_model, cov, volume, measured_top(geometry, data)),
+                      values=firmware_determination(geometry, error_model, cov, build, volume)),
     )
-    poor = poor_fit(variance_factor, r.size, at_limit)
+    poor = "" if flagged.indices.size else poor_fit(variance_factor, at_limit)  # outliers: said as such
     if poor and not options.accept_poor_fit:
         raise PoorFitError(poor, result, [], (PoorFitError.LARGE_RESIDUALS,))
     return replace(result, warnings=(*warnings, f"{poor} (kept: poor fit accepted)")) if poor else result
@@ -365,20 +368,40 @@ def identify_printer(
 PRINTER_POOR_FIT = 25.0
 
 
-def poor_fit(variance_factor: float, rows: int, at_limit: bool) -> str:
+#: A tolerances' scale within this factor of the largest searched is at the limit.
+AT_LIMIT = 1.1
+
+
+def poor_fit(variance_factor: float, at_limit: bool) -> str:
     """Why a printer's fit is poor, in one line ("" when it is not).
 
-    Poor: s0² above :data:`PRINTER_POOR_FIT`, or beyond what noise gives
-    (:func:`~deltacal.identification.quality.excess_bound`) with the tolerances' scale at the
-    largest searched (the measurements fit no printer within its tolerances).
+    Poor: s0² above :data:`PRINTER_POOR_FIT` (the misfit the noise factors did not take), or the
+    tolerances' scale at the largest searched (:data:`AT_LIMIT`): the measurements fit no printer
+    within four times a kit's tolerances, whatever s0² the geometry so bent leaves. A misfit that
+    looks like noise goes to the noise factors (:func:`~.evidence.evidence_scales`) and is said
+    there; one that looks like a printer far out of its tolerances is refused here.
     """
-    if not (variance_factor > PRINTER_POOR_FIT or (at_limit and variance_factor > excess_bound(rows))):
+    if not (variance_factor > PRINTER_POOR_FIT or at_limit):
         return ""
-    limit = f" with the build tolerances scaled by {SCALE_RANGE[1]:g}, the largest searched," * at_limit
-    return (f"a poor fit: s0² = {variance_factor:.3g} (residuals {math.sqrt(variance_factor):.2g} times the "
-            f"σ given){limit} is far beyond what the measurements' noise gives: a probe biased across the "
-            "bed, a bed that moved between the points, a wrong trigger height (z_offset), or another "
-            "printer's data?")
+    if at_limit:
+        why = (f"the measurements fit no printer within {SCALE_RANGE[1]:g} times the build tolerances (s0² "
+               f"{variance_factor:.3g})")
+    else:
+        why = (f"s0² = {variance_factor:.3g} (residuals {math.sqrt(variance_factor):.2g} times the σ given), "
+               "far beyond what the measurements' noise gives")
+    return (f"a poor fit: {why}: a probe biased across the bed, a bed that moved between the points, a wrong "
+            "trigger height (z_offset), or another printer's data?")
+
+
+def build_sigma(model: ErrorModel, tolerances: Tolerances) -> np.ndarray:
+    """Each parameter's σ from the build tolerances alone: the bed's free tilt and height left out (n,).
+
+    The priors' σ of the bed's tilt and height (:data:`~.errormodels.BED_TILT`, ``BED_HEIGHT``) say
+    where a bed may sit, not how well a printer is built: with them, any probe height would
+    "determine" every endstop and lean.
+    """
+    bed = model.prior_sigma(scaled_tolerances(tolerances, 0.0))  # the bed's alone
+    return np.sqrt(np.clip(model.prior_sigma(tolerances) ** 2 - bed**2, 0.0, None))
 
 
 def measured_points(geometry: DeltaGeometry, data: PrinterMeasurements) -> np.ndarray:
@@ -450,12 +473,12 @@ def _tolerance_scale(start: DeltaGeometry, data: PrinterMeasurements, error_mode
     """
     asked = options.tolerance_scale != "evidence"
     start_scale = float(options.tolerance_scale) if asked else 1.0
-    factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start)
+    factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start, options.calibrated_start)
     total, _, r, W, _ = _map_fit(start, data, error_model, factor, options.method)
     _, _, kind = residuals_and_regressor(start, error_model, data)
     y = r + W @ total  # the measurements about the estimate, in its linearisation
     def factor_of(s: float) -> np.ndarray:
-        return error_model.prior_factor(scaled_tolerances(given, s), start)
+        return error_model.prior_factor(scaled_tolerances(given, s), start, options.calibrated_start)
 
     scale, rows = evidence_scales(y, W, factor_of, kind, (start_scale, start_scale) if asked else SCALE_RANGE)
     noise = np.ones(3)
@@ -530,7 +553,7 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
     def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)
         scale, noise, _ = _tolerance_scale(start, subset, error_model, given, options)
-        factor = error_model.prior_factor(scaled_tolerances(given, scale), start)
+        factor = error_model.prior_factor(scaled_tolerances(given, scale), start, options.calibrated_start)
         geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[1]
         r, W, _ = residuals_and_regressor(geometry, error_model, data)
         return r, W @ factor

@@ -20,10 +20,10 @@ import math
 
 import numpy as np
 
-from ...errormodels import ErrorModel
+from ...errormodels import ErrorModel, get_model
 from ...exceptions import AssemblyError
 from ...geometry import DeltaGeometry, Workspace
-from ...holds import DEFAULT_BOUND, WhereItHolds, bed_points, in_plane_motion
+from ...holds import DEFAULT_BOUND, DETERMINED, WhereItHolds, bed_points, in_plane_motion
 from ...kinematics import exact
 from ...rotations import skew
 
@@ -140,6 +140,74 @@ def where_it_holds(geometry: DeltaGeometry, model: ErrorModel, covariance: np.nd
     shape = (radius.size, azimuth.size, height.size)
     return WhereItHolds(radius, azimuth, height, np.where(reached, horizontal, np.inf).reshape(shape),
                         np.where(reached, vertical, np.inf).reshape(shape), float(measured_top))
+
+
+def firmware_determination(geometry: DeltaGeometry, model: ErrorModel, covariance: np.ndarray,
+                           tolerances: np.ndarray, workspace: Workspace) -> dict[str, float]:
+    """How well the measurements determine each firmware value: its σ after them over the tolerances'.
+
+    The firmware's classical values (the ``klipper`` error model's: a radius, each tower's angle,
+    arm, endstop and step scale, which every firmware's values are) that best fit a printer over the
+    printable volume are, to first order, ``v = G θ`` of its parameters θ: with J the nozzle's
+    sensitivity over a grid of the volume (:func:`point_rows`) less the shift along the bed and the
+    turn about its normal (the printed part's frame, where tower C's angle is held), and F the
+    parameters that move the printer as each value does (least squares on the plate's
+    sensitivities), ``G = (J F)⁺ J``. A value's σ after the measurements is ``√ diag(G Σ Gᵀ)``, from
+    the build tolerances alone ``√ diag(G Σ₀ Gᵀ)``. The value with the largest ratio above
+    :data:`~deltacal.holds.DETERMINED` is held (kept at the firmware's own), and the others judged
+    again without it, until every value left is determined: an endstop the data fix only with its
+    tower's step distance is determined once the step distance is kept.
+
+    Args:
+        geometry: The identified printer.
+        model: Its error model.
+        covariance: Its parameters' covariance after the measurements, (n, n).
+        tolerances: Their σ from the build tolerances alone (the bed's place left out), (n,).
+        workspace: The printable volume.
+
+    Returns:
+        The ratio of the two σ for each of the ``klipper`` error model's names (at its last judgement).
+    """
+    firmware = get_model("klipper")
+    grid = WhereItHolds.nodes(*WhereItHolds.grid(workspace.radius, workspace.top_z))
+    q = readings_at(geometry, grid)
+    q = q[np.all(np.isfinite(q), axis=1)]
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose)
+    moves = firmware.sensitivity(geometry, q, pose).reshape(-1, firmware.size)
+    F = np.linalg.lstsq(S.reshape(-1, model.size), moves, rcond=None)[0]
+    lever = skew(pose.rotation @ geometry.tool)
+    J = (S[:, :3] - np.einsum("nkl,nlp->nkp", lever, S[:, 3:])).reshape(-1, model.size)
+    A = in_plane_motion(pose.point(geometry.tool)).reshape(-1, 3)
+    J = J - A @ np.linalg.lstsq(A, J, rcond=None)[0]  # the printed part's frame
+    ratio = dict.fromkeys(firmware.names, 1.0)
+    free = [k for k, name in enumerate(firmware.names) if name != "angle_c"]  # the part's turn
+    while free:
+        G = np.linalg.pinv(J @ F[:, free], rcond=1e-9) @ J
+        after = np.sqrt(np.einsum("kn,nm,km->k", G, covariance, G))
+        before = np.sqrt(np.einsum("kn,n,kn->k", G, tolerances**2, G))
+        judged = after / np.maximum(before, 1e-300)
+        for k, r in zip(free, judged, strict=True):
+            ratio[firmware.names[k]] = float(r)
+        worst = int(np.argmax(judged))
+        if judged[worst] <= DETERMINED:
+            break
+        free.pop(worst)
+    return ratio
+
+
+def values_in_words(holds: WhereItHolds) -> str:
+    """Which of the firmware's values the measurements determine, and which export keeps, in one sentence."""
+    named = [name for name in holds.values if name != "angle_c"]  # the part's turn: every fit holds it
+    if not named:
+        return ""
+    kept = [name for name in holds.undetermined() if name in named]
+    determined = [name for name in named if name not in kept]
+    words = f"the measurements determine the firmware's {', '.join(determined) or 'no value'}"
+    if kept:
+        words += (f"; not {', '.join(kept)} (σ over {DETERMINED:.2g} of their build tolerance): export keeps "
+                  "the firmware's own")
+    return words
 
 
 def holds_in_words(holds: WhereItHolds, bound: float = DEFAULT_BOUND) -> str:

@@ -78,7 +78,8 @@ class PrinterWing(Wing):
             return _export_live(firmware, request, calibration)
         workspace, where = printable_volume(request.robot, calibration.nominal)
         export = export_firmware_values(firmware, calibration, request.calibration, workspace, where,
-                                        request.config, request.keep_rotation_distance, request.robot)
+                                        request.config, request.keep_rotation_distance, request.robot,
+                                        request.sigma_bound)
         export.save(request.output, request.config)
         wrote = f"wrote the {firmware.title} values that best fit {request.calibration} to {request.output}"
         return Done((wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))

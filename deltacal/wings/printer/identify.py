@@ -36,7 +36,7 @@ from ...printer.identification.fit import (
     printer_outliers,
 )
 from ...printer.identification.outliers import Outliers
-from ...printer.identification.where import holds_in_words
+from ...printer.identification.where import holds_in_words, values_in_words
 from ...printer.owner import measured_covariance, owner_lines, printer_errors
 from ...printer.robot import NominalLinearDelta
 from ..base import Done, check_files, warn
@@ -66,7 +66,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence",
-                                workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit)
+                                workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit,
+                                calibrated_start=firmware.calibrated_from_saved(request.controller))
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
     if not request.accept_poor_fit:
@@ -82,7 +83,11 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])
-    where = () if result.holds is None else (f"where it holds: {holds_in_words(result.holds)}",)
+    where: tuple[str, ...] = ()
+    if result.holds is not None:
+        where = (f"where it holds: {holds_in_words(result.holds)}",)
+        if result.holds.values:
+            where += (f"firmware values: {values_in_words(result.holds)}",)
     owner = _owner_part(result, start, data, firmware, request)
     return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
 

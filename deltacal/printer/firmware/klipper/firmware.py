@@ -8,6 +8,8 @@ instance. Units: mm, angles in rad.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
@@ -45,6 +47,7 @@ from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_probe_program, klipper_probe_travel
+from .saved import read_saved_calibration
 
 if TYPE_CHECKING:
     from ....calibration import Calibration
@@ -118,11 +121,12 @@ class Klipper(Firmware[KlipperDelta]):
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[KlipperDelta]:
+            grid: np.ndarray | None = None, flatness: float | None = None,
+            hold: Sequence[str] = ()) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,
                            grid=grid, first_layer_weight=first_layer_weight, minimax=minimax,
-                           flatness=flatness)
+                           flatness=flatness, hold=hold)
 
     def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
                     source: str = "") -> tuple[str, ...]:
@@ -142,6 +146,10 @@ class Klipper(Firmware[KlipperDelta]):
         distances = measuring.distances(model, pairs)
         return {BASIC_TITLE: klipper_basic(model, probe),
                 ENHANCED_TITLE: klipper_enhanced(model, probe, pairs, distances)}
+
+    def calibrated_from_saved(self, path: str | Path) -> bool:
+        """Whether ``printer.cfg``'s SAVE_CONFIG block holds ``[delta_calibrate]`` measurements."""
+        return not read_saved_calibration(read_klipper_config(path)).empty
 
     def probe_program(self, points: np.ndarray, title: str = "",
                       clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:

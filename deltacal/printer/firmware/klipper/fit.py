@@ -20,12 +20,13 @@ Units: mm and rad (the dataclass's angles), degrees only in reports.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
-from ..base import FirmwareFit
+from ..base import CLASSICAL_NAMES, FirmwareFit
 from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
@@ -37,12 +38,8 @@ from ..fitting import nozzle_errors as nozzle_errors
 from ..fitting import printable_grid as printable_grid
 from .model import KlipperDelta
 
-#: Klipper's values in the order of the fit's unknowns (step distances last).
-KLIPPER_NAMES = (
-    "delta_radius", "angle_a", "angle_b", "angle_c", "arm_length_a", "arm_length_b", "arm_length_c",
-    "position_endstop_a", "position_endstop_b", "position_endstop_c",
-    "step_distance_a", "step_distance_b", "step_distance_c",
-)
+#: Klipper's values in the order of the fit's unknowns (step distances last): the classical names.
+KLIPPER_NAMES = CLASSICAL_NAMES
 #: The index of ``angle_c`` in :data:`KLIPPER_NAMES`.
 _ANGLE_C = 3
 
@@ -82,6 +79,7 @@ def fit_klipper(
     part_frame: bool = True,
     minimax: bool = False,
     flatness: float | None = None,
+    hold: Sequence[str] = (),
 ) -> FirmwareFit[KlipperDelta]:
     """Klipper's values that leave the least squared nozzle error over the printable volume.
 
@@ -106,13 +104,15 @@ def fit_klipper(
         minimax: Then the least largest error over the grid, the first layer no less flat
             (:func:`~..fitting.least_largest`).
         flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
+        hold: Values (:data:`KLIPPER_NAMES`) kept at the start's.
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
         UnreachableError: a target out of Klipper's reach.
     """
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
-    wanted = [c for c in range(10 if hold_step_distance else 13) if not (part_frame and c == _ANGLE_C)]
+    wanted = [c for c in range(10 if hold_step_distance else 13)
+              if not (part_frame and c == _ANGLE_C) and KLIPPER_NAMES[c] not in hold]
     found = gauss_newton(geometry, start, KLIPPER_VALUES, step_distance, workspace, grid, wanted, max_iter,
                          first_layer_weight, part_frame, "Klipper", minimax, flatness)
     fitted = [KLIPPER_NAMES[c] for c in found.columns]

@@ -8,6 +8,7 @@ the one instance. Units: mm, trims in degrees.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
@@ -88,10 +89,11 @@ class Marlin(Firmware[MarlinDelta]):
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[MarlinDelta]:
+            grid: np.ndarray | None = None, flatness: float | None = None,
+            hold: Sequence[str] = ()) -> FirmwareFit[MarlinDelta]:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,
-                          minimax, grid, flatness)
+                          minimax, grid, flatness, hold)
 
     def own_calibrations(self, model: MarlinDelta, measuring: Measuring,
                          radius: float) -> dict[str, MarlinDelta]:

@@ -16,6 +16,7 @@ Units: mm; trims in degrees.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -47,7 +48,8 @@ def _names(klipper_names: list[str]) -> list[str]:
 def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
                workspace: Workspace, hold_step_distance: bool = False,
                first_layer_weight: float = 0.0, minimax: bool = False,
-               grid: np.ndarray | None = None, flatness: float | None = None) -> FirmwareFit[MarlinDelta]:
+               grid: np.ndarray | None = None, flatness: float | None = None,
+               hold: Sequence[str] = ()) -> FirmwareFit[MarlinDelta]:
     """Marlin's values that leave the least squared nozzle error over the printable volume.
 
     The fit's names are :data:`MARLIN_NAMES`; its singular values and iterations are those of the
@@ -64,6 +66,7 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
             (:func:`~..fitting.least_largest`; in the second fit, the trims' sum held).
         grid: Targets [mm], (N, 3) (default :func:`~..fitting.printable_grid`).
         flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
+        hold: Values kept at the start's, by their classical names (Klipper's, ``KLIPPER_NAMES``).
 
     Raises:
         InputError: ``start`` is a Marlin 1.1.0's report (:attr:`~.model.MarlinDelta.compiled_height`).
@@ -76,7 +79,8 @@ def fit_marlin(geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.nd
 
     def fit(klipper_start, least_largest=False):
         return fit_klipper(geometry, klipper_start, step_distance, workspace, hold_step_distance, grid,
-                           first_layer_weight=first_layer_weight, minimax=least_largest, flatness=flatness)
+                           first_layer_weight=first_layer_weight, minimax=least_largest, flatness=flatness,
+                           hold=hold)
 
     first = fit(to_klipper(start))
     mean = float(np.mean(from_klipper(first.values, start).angle_trim))

@@ -8,6 +8,7 @@ is the one instance. Units: mm, angles in rad.
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
@@ -115,6 +116,7 @@ class RRF(Firmware[RRFDelta]):
         minimax: bool = False,
         grid: np.ndarray | None = None,
         flatness: float | None = None,
+        hold: Sequence[str] = (),
     ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""
         return fit_rrf(
@@ -127,6 +129,7 @@ class RRF(Firmware[RRFDelta]):
             first_layer_weight=first_layer_weight,
             minimax=minimax,
             flatness=flatness,
+            hold=hold,
         )
 
     def own_calibrations(self, model: RRFDelta, measuring: Measuring, radius: float) -> dict[str, RRFDelta]:

@@ -17,6 +17,7 @@ fraction.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -46,6 +47,13 @@ RRF_NAMES = (
     "step_distance_b",
     "step_distance_c",
 )
+#: RRF's value of each classical one (:data:`~..base.CLASSICAL_NAMES`).
+CLASSICAL_OF = {"delta_radius": "M665 R", "angle_a": "M665 X", "angle_b": "M665 Y", "angle_c": "M665 Z",
+                "arm_length_a": "M665 L a", "arm_length_b": "M665 L b", "arm_length_c": "M665 L c",
+                "position_endstop_a": "M666 X", "position_endstop_b": "M666 Y",
+                "position_endstop_c": "M666 Z",
+                "step_distance_a": "step_distance_a", "step_distance_b": "step_distance_b",
+                "step_distance_c": "step_distance_c"}
 #: The index of ``M665 Z`` (held: the part's turn) and of the step distances.
 _ANGLE_Z = 3
 _STEPS = 13
@@ -124,6 +132,7 @@ def fit_rrf(
     first_layer_weight: float = 0.0,
     minimax: bool = False,
     flatness: float | None = None,
+    hold: Sequence[str] = (),
 ) -> FirmwareFit[RRFDelta]:
     """RRF's values that leave the least squared nozzle error over the printable volume (the part's frame).
 
@@ -139,13 +148,16 @@ def fit_rrf(
         minimax: Then the least largest error over the grid, the first layer no less flat
             (:func:`~..fitting.least_largest`).
         flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
+        hold: Values kept at the start's, by their classical names (:data:`CLASSICAL_OF`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
         UnreachableError: a target out of RRF's reach.
     """
     grid = printable_grid(workspace) if grid is None else np.atleast_2d(np.asarray(grid, dtype=float))
-    wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES)) if c != _ANGLE_Z]
+    held = {RRF_NAMES.index(CLASSICAL_OF[name]) for name in hold if name in CLASSICAL_OF}
+    wanted = [c for c in range(_STEPS if hold_step_distance else len(RRF_NAMES))
+              if c != _ANGLE_Z and c not in held]
     found = gauss_newton(geometry, start, RRF_VALUES, step_distance, workspace, grid, wanted, max_iter,
                          first_layer_weight, True, "RepRapFirmware", minimax, flatness)
     rrf = normalised(found.model)
