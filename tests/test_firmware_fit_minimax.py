@@ -170,14 +170,9 @@ def _on(printer, firmware, values):
 
 
 @pytest.mark.slow
-def test_exported_values_no_worse_than_the_least_squares(fresh, request):
+def test_exported_values_no_worse_than_the_least_squares(fresh):
     """On the printer they are fitted to: a lower largest error, the first layer no worse (its largest
     |dz| and its peak to valley); on the true printers, a lower largest error on the mean."""
-    if fresh[0][0] is MARLIN:  # known defect, found at the end of session 11 (see its closing note)
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "Marlin's values are turned after the fit (from_klipper(turn=True)): its first layer's largest "
-            "|dz| ends 1.06e-6 mm above the least squares' (bound 1e-6); fit_marlin must hold the bound "
-            "after the turn")))
     judged = []
     for firmware, _, truth, _, fits in fresh:
         squares, least = fits[False].after, fits[True].after

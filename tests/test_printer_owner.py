@@ -89,7 +89,7 @@ def test_the_owner_reads_each_towers_error_and_the_bed_from_a_calibration(nomina
     # raises its +x side: low towards azimuth 180°
     assert abs((errors.bed_low_azimuth - 180.0 + 180.0) % 360.0 - 180.0) < 10.0
     text = "\n".join(errors.lines())
-    assert "tower B: endstop +0.2" in text and "stops high" in text
+    assert b.endstop.value > 0.0 and f"tower B: endstop {b.endstop.value:+.2f}" in text and "stops high" in text
     assert "travels long" in text
 
 
@@ -112,12 +112,14 @@ def test_the_owner_is_told_in_each_firmwares_words(nominal):
     truth = MODEL.apply(nominal, _deviations(endstop2=0.23))
     result = identify_printer(nominal, _measure(truth, np.random.default_rng(3903)))
     calibration = Calibration.from_result(result)
-    texts = {}
+    texts, b = {}, printer_errors(calibration).towers[1].endstop
+    assert abs(b.value - 0.23) < 3 * b.sigma  # tower B's own endstop read back (as the test above)
     for name in ("klipper", "marlin", "rrf"):
         firmware = firmware_named(name)
         errors = printer_errors(calibration, names=firmware.owner_keys.towers)
         texts[name] = "\n".join(owner_lines(errors, firmware.owner_keys, firmware.title))
-    assert "tower B: endstop +0.2" in texts["klipper"] and "[stepper_b] position_endstop" in texts["klipper"]
-    assert "tower Y: endstop +0.2" in texts["marlin"] and "M666 Y" in texts["marlin"]
+    said = f"endstop {b.value:+.2f} ± {b.sigma:.2f} mm (stops high)"
+    assert f"tower B: {said}" in texts["klipper"] and "[stepper_b] position_endstop" in texts["klipper"]
+    assert f"tower Y: {said}" in texts["marlin"] and "M666 Y" in texts["marlin"]
     assert "printer.cfg" not in texts["marlin"] + texts["rrf"] and "M666" not in texts["klipper"]
     assert "rotation_distance" in texts["klipper"] and "M92 Z" in texts["rrf"]

@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
@@ -62,6 +62,7 @@ if TYPE_CHECKING:
     from ...calibration import Calibration
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
+    from .fitting import Flatness
 
 
 
@@ -334,7 +335,7 @@ class Firmware(ABC, Generic[ModelT]):
     def fit(self, geometry: DeltaGeometry, start: ModelT, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None,
+            grid: np.ndarray | None = None, flatness: Flatness = None,
             hold: Sequence[str] = ()) -> FirmwareFit[ModelT]:
         """The values that leave the least nozzle error of an identified printer over its printable volume.
 

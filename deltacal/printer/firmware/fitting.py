@@ -50,6 +50,9 @@ LARGEST_TOLERANCE = 1e-5
 #: What a step of :func:`least_largest` may leave above the start's flatness: the second order of a
 #: step the linear model keeps within it [mm].
 FLATNESS_SLACK = 1e-6
+#: The first layer's bounds of :func:`least_largest` [mm]: None (the start's), its largest |z error|
+#: (its peak to valley then bounded by twice that alone), or both (largest |z error|, peak to valley).
+Flatness = float | tuple[float, float] | None
 #: :func:`largest_step`'s cutting planes: the cuts to begin with, the rounds at most, the cuts each
 #: round adds at most, and how far above the bound a cut is wanted [mm] (HiGHS holds rows to 1e-7).
 FIRST_CUTS, MAX_CUTS, CUTS_PER_ROUND, CUT_TOLERANCE = 30, 60, 10, 1e-6
@@ -194,7 +197,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                  wanted: list[int], max_iter: int = 30, first_layer_weight: float = 0.0,
                  part_frame: bool = True, title: str = "the firmware",
-                 minimax: bool = False, flatness: float | None = None) -> GaussNewton[ModelT]:
+                 minimax: bool = False, flatness: Flatness = None) -> GaussNewton[ModelT]:
     """The firmware's values that leave the least squared nozzle error over the grid (see the module).
 
     With ``minimax``, those values moved to leave the least largest error (:func:`least_largest`).
@@ -212,7 +215,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
         part_frame: Judge the volume's errors in the printed part's frame.
         title: The firmware's name, for the message of a fit that does not converge.
         minimax: Then the least largest error over the grid, the first layer no less flat.
-        flatness: With ``minimax``, the first layer's largest |z error| allowed instead [mm].
+        flatness: With ``minimax``, the first layer's bounds instead (:data:`Flatness`).
 
     Raises:
         ConvergenceError: Gauss-Newton did not converge in ``max_iter`` iterations.
@@ -389,10 +392,17 @@ def largest_step(a: np.ndarray, B: np.ndarray, c: np.ndarray, D: np.ndarray, fla
     return d, float(np.max(np.linalg.norm(a + B @ d, axis=1))), cuts
 
 
+def flatness_limits(flatness: float | tuple[float, float]) -> np.ndarray:
+    """The first layer's largest |z error| and peak to valley allowed, of a :data:`Flatness` [mm], (2,)."""
+    if isinstance(flatness, tuple):
+        return np.array(flatness, dtype=float)
+    return np.array([flatness, 2.0 * flatness])
+
+
 def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[ModelT],
                   step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                   columns: Sequence[int], part_frame: bool = True, max_iter: int = 40,
-                  flatness: float | None = None) -> ModelT:
+                  flatness: Flatness = None) -> ModelT:
     """The firmware's values that leave the least largest nozzle error over the grid, from ``start``.
 
     The first layer (:func:`first_layer`) stays no worse than the start leaves it: its largest
@@ -414,8 +424,8 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
         columns: Indices (in the value vector) of the values varied; the others are held.
         part_frame: Judge the volume's errors in the printed part's frame.
         max_iter: Steps at most.
-        flatness: The first layer's largest |z error| allowed instead [mm] (its peak to valley then
-            bounded by twice that alone); a start outside it is brought within it where a step can.
+        flatness: The first layer's bounds instead of the start's (:data:`Flatness`); a start
+            outside them is brought within them where a step can.
 
     Raises:
         UnreachableError: a target out of the firmware's reach at ``start``.
@@ -431,7 +441,7 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
 
     a, B, c, D = errors(start)
     largest = float(np.max(np.linalg.norm(a, axis=1)))
-    limits = first(c) if flatness is None else np.array([flatness, 2.0 * flatness])
+    limits = first(c) if flatness is None else flatness_limits(flatness)
     within = bool(np.all(first(c) <= limits + FLATNESS_SLACK))
     bounds, cuts = limits, Cuts.largest(a, c)
     scale = np.sqrt(np.mean(np.sum(B**2, axis=1), axis=0))  # [mm per unit]: RMS nozzle motion

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
@@ -52,6 +51,7 @@ from .saved import read_saved_calibration
 if TYPE_CHECKING:
     from ....calibration import Calibration
     from ...robot import NominalLinearDelta
+    from ..fitting import Flatness
     from ..probe_log import ProbeLog
     from ..probing import ProbeTravel
 
@@ -121,7 +121,7 @@ class Klipper(Firmware[KlipperDelta]):
     def fit(self, geometry: DeltaGeometry, start: KlipperDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None,
+            grid: np.ndarray | None = None, flatness: Flatness = None,
             hold: Sequence[str] = ()) -> FirmwareFit[KlipperDelta]:
         """:func:`~.fit.fit_klipper` (the printed part's frame)."""
         return fit_klipper(geometry, start, step_distance, workspace, hold_step_distance=hold_step_distance,

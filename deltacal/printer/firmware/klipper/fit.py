@@ -31,7 +31,7 @@ from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
 from ..fitting import ErrorStats as ErrorStats
-from ..fitting import ValueVector, gauss_newton
+from ..fitting import Flatness, ValueVector, gauss_newton
 from ..fitting import error_stats as error_stats
 from ..fitting import first_layer as first_layer
 from ..fitting import nozzle_errors as nozzle_errors
@@ -78,7 +78,7 @@ def fit_klipper(
     first_layer_weight: float = 0.0,
     part_frame: bool = True,
     minimax: bool = False,
-    flatness: float | None = None,
+    flatness: Flatness = None,
     hold: Sequence[str] = (),
 ) -> FirmwareFit[KlipperDelta]:
     """Klipper's values that leave the least squared nozzle error over the printable volume.

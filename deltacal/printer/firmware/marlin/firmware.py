@@ -34,6 +34,7 @@ from .values import marlin_from_geometry, marlin_from_printer
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
+    from ..fitting import Flatness
     from ..probing import ProbeTravel
 
 
@@ -89,7 +90,7 @@ class Marlin(Firmware[MarlinDelta]):
     def fit(self, geometry: DeltaGeometry, start: MarlinDelta, step_distance: np.ndarray | float,
             workspace: Workspace, hold_step_distance: bool = False,
             first_layer_weight: float = 0.0, minimax: bool = False,
-            grid: np.ndarray | None = None, flatness: float | None = None,
+            grid: np.ndarray | None = None, flatness: Flatness = None,
             hold: Sequence[str] = ()) -> FirmwareFit[MarlinDelta]:
         """:func:`~.fit.fit_marlin` (the printed part's frame, Marlin's rules)."""
         return fit_marlin(geometry, start, step_distance, workspace, hold_step_distance, first_layer_weight,

@@ -42,6 +42,7 @@ from .probing import rrf_probe_program, rrf_probe_travel
 if TYPE_CHECKING:
     from ...files.importer import PrinterImport
     from ...robot import NominalLinearDelta
+    from ..fitting import Flatness
     from ..probe_log import ProbeLog
     from ..probing import ProbeTravel
 
@@ -115,7 +116,7 @@ class RRF(Firmware[RRFDelta]):
         first_layer_weight: float = 0.0,
         minimax: bool = False,
         grid: np.ndarray | None = None,
-        flatness: float | None = None,
+        flatness: Flatness = None,
         hold: Sequence[str] = (),
     ) -> FirmwareFit[RRFDelta]:
         """:func:`~.fit.fit_rrf` (the printed part's frame, ``M665 Z`` held as ``G32`` holds it)."""

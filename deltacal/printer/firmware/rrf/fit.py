@@ -25,7 +25,7 @@ import numpy as np
 from ....geometry import DeltaGeometry, Workspace
 from .. import fitting
 from ..base import FirmwareFit
-from ..fitting import ErrorStats, ValueVector, gauss_newton, printable_grid
+from ..fitting import ErrorStats, Flatness, ValueVector, gauss_newton, printable_grid
 from .model import RRFDelta
 
 #: RRF's values in the order of the fit's unknowns (steps last).
@@ -131,7 +131,7 @@ def fit_rrf(
     max_iter: int = 30,
     first_layer_weight: float = 0.0,
     minimax: bool = False,
-    flatness: float | None = None,
+    flatness: Flatness = None,
     hold: Sequence[str] = (),
 ) -> FirmwareFit[RRFDelta]:
     """RRF's values that leave the least squared nozzle error over the printable volume (the part's frame).
