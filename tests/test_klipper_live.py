@@ -28,21 +28,33 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from deltacal.calibration import Calibration
 from deltacal.cli import main
+from deltacal.controller import corrected_targets, weighted_targets
+from deltacal.controller.targets import aligned_to_controller
+from deltacal.errormodels import get_model
 from deltacal.exceptions import GeometryError
 from deltacal.gcode.marker import MARKER
 from deltacal.geometry import Tolerances
+from deltacal.holds import DEFAULT_BOUND, SIGNIFICANT, WhereItHolds, correction_weight, significance_weight
 from deltacal.io import load_calibration, save_calibration
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
-from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FILE, module_text, section_text
+from deltacal.printer.firmware.klipper.live.export import (
+    LIVE_FILES,
+    SECTION_FILE,
+    SPLIT_TOLERANCE_MM,
+    module_text,
+    section_text,
+)
 from deltacal.printer.firmware.klipper.live.field import (
     CorrectionField,
     LiveVolume,
     SamplingError,
     correction_field,
+    curvature_bound,
     exact_correction,
     sampling_error,
 )
@@ -65,7 +77,21 @@ STEP_PINS = ("PF0", "PF6", "PL3")
 
 
 # ------------------------------------------------------------------ the module, without Klipper
-def _smooth_field(step: float = 10.0) -> CorrectionField:
+def _holds(rng: np.random.Generator) -> WhereItHolds:
+    """A made-up σ grid over the smooth field's volume whose weights go from 1 to 0 inside it.
+
+    Its vertical σ crosses the bound (0.05 mm) between z = 20 and 50 mm; its horizontal σ is near the
+    corrections' size there (0.05 to 0.4 mm), so that their significance weighs too.
+    """
+    radius, azimuth, height = WhereItHolds.grid(60.0, 80.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")
+    horizontal = (0.001 + 0.0015 * z + 0.0001 * r) * rng.uniform(0.8, 1.2, r.shape)
+    vertical = (0.005 + 0.0012 * z) * rng.uniform(0.8, 1.2, r.shape)
+    return WhereItHolds(radius, azimuth, height, horizontal, vertical)
+
+
+def _smooth_field(step: float = 10.0, holds: WhereItHolds | None = None,
+                  bound: float = DEFAULT_BOUND) -> CorrectionField:
     """A correction field of made-up smooth values (a few 0.1 mm), zero at the grid's border."""
     volume = LiveVolume(radius=60.0, min_z=0.0, max_z=80.0, limit_z=60.0, delta_radius=100.0, arm=200.0,
                         slow_radius=50.0)
@@ -75,14 +101,15 @@ def _smooth_field(step: float = 10.0) -> CorrectionField:
     fade *= np.clip(1.0 - np.abs(z - 40.0) / 75.0, 0.0, 1.0) ** 2
     values = np.stack([0.3 * np.sin(x / 40.0) + 0.1 * z / 80.0, 0.2 * np.cos(y / 35.0) * x / 80.0,
                        0.4 + 0.1 * x * y / 5000.0], axis=-1) * fade[..., None]
-    return CorrectionField(np.array([a[0] for a in axes]), step, values, volume)
+    return CorrectionField(np.array([a[0] for a in axes]), step, values, volume, holds=holds, bound=bound)
 
 
 def _grid(field: CorrectionField) -> live.CorrectionGrid:
-    """The module's grid of a field, as the section gives it (its values in nm)."""
+    """The module's grid of a field, as the section gives it (its values in nm, its σ grid)."""
     values = live.decode_values("\n".join(_encoded(field)), ValueError)
     curvature = [[1e-4] * field.shape[2]]
-    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6)
+    holds = live.read_holds(_Section(_section(field))) if field.holds is not None else None
+    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6, holds)
 
 
 def _encoded(field: CorrectionField) -> list[str]:
@@ -105,14 +132,57 @@ def test_the_module_interpolates_as_the_library_does():
     assert grid.at(500.0, 0.0, 10.0) is None and grid.command(500.0, 0.0, 10.0) == (500.0, 0.0, 10.0)
 
 
+def test_the_module_weights_the_correction_as_the_library_does():
+    """σ (trilinear on the calibration's grid) and the weights, in pure Python, are the library's.
+
+    At random points of a made-up σ grid whose weights go from 1 to 0 inside the volume: the
+    module's σ is :meth:`WhereItHolds.sigma`, its weights :meth:`WhereItHolds.weights` of its own
+    interpolated correction, and its correction the field's :meth:`CorrectionField.applied`.
+    """
+    assert live.SIGNIFICANT == SIGNIFICANT
+    holds = _holds(np.random.default_rng(7))
+    field = _smooth_field(holds=holds)
+    grid = _grid(field)
+    rng = np.random.default_rng(8)
+    points = np.column_stack([rng.uniform(-75, 75, (3000, 2)), rng.uniform(-10, 100, 3000)])
+    points[:40, :2] = 0.0  # the axis, where the azimuth is undefined
+    points[40:80, 1] = 0.0  # the azimuth 0 from either side
+    points[40:60, 0] = -np.abs(points[40:60, 0])
+    assert np.max(np.abs(np.array([grid.holds.sigma(*p) for p in points]) - holds.sigma(points))) < 1e-12
+    interpolated = np.array([grid.at(*p) or (0.0, 0.0, 0.0) for p in points])
+    ours = np.array([grid.holds.weights(*p, *c[:2]) for p, c in zip(points, interpolated, strict=True)])
+    theirs = holds.weights(points, DEFAULT_BOUND, interpolated)
+    assert np.max(np.abs(ours - theirs)) < 1e-12
+    applied = np.array([grid.correction(*p) or (0.0, 0.0, 0.0) for p in points])
+    assert np.max(np.abs(applied - field.applied(points))) < 2e-6
+    # the formulas, one by one, where they are strictly between their ends too
+    sigma = np.concatenate([rng.uniform(0.0, 0.08, 200), [0.025, 0.05, np.inf, np.nan, 0.0]])
+    size = rng.uniform(0.0, 0.3, sigma.size)
+    for bound in (DEFAULT_BOUND, 0.03):
+        assert np.allclose([live.correction_weight(v, bound) for v in sigma], correction_weight(sigma, bound),
+                           rtol=0.0, atol=1e-15)
+    assert np.allclose([live.significance_weight(a, b) for a, b in zip(size, sigma[:-2], strict=False)],
+                       significance_weight(size[:-2], sigma[:-2]), rtol=0.0, atol=1e-15)
+    # the weights are all three kinds here: the test is not of a constant
+    inside = np.hypot(points[:, 0], points[:, 1]) < 60.0
+    for w in (theirs[inside, 0], theirs[inside, 1]):
+        assert np.any(w == 1.0) and np.any(w == 0.0) and np.mean((w > 0.0) & (w < 1.0)) > 0.05
+    # an infinite bound applies every correction wholly, as corrected_targets(bound=inf) does
+    whole = _grid(_smooth_field(holds=holds, bound=math.inf))
+    assert whole.holds.weights(10.0, 5.0, 70.0, 0.0, 0.0) == (1.0, 1.0)
+    assert whole.correction(10.0, 5.0, 70.0) == whole.at(10.0, 5.0, 70.0)
+
+
 def test_the_modules_inverse_is_exact_and_never_raises():
-    field = _smooth_field()
+    field = _smooth_field(holds=_holds(np.random.default_rng(7)))
     grid = _grid(field)
     rng = np.random.default_rng(4)
-    for p in np.column_stack([rng.uniform(-40, 40, 50), rng.uniform(-40, 40, 50), rng.uniform(0, 80, 50)]):
+    applied = 0
+    for p in np.column_stack([rng.uniform(-40, 40, 200), rng.uniform(-40, 40, 200), rng.uniform(0, 80, 200)]):
         command = grid.command(*p)
-        assert np.linalg.norm(np.subtract(command, p)) > 1e-3  # a correction is applied
+        applied += np.linalg.norm(np.subtract(command, p)) > 1e-3
         assert np.allclose(grid.program_point(*command), p, rtol=0.0, atol=1e-9)
+    assert applied > 50  # a correction is applied (weighted: where the made-up σ holds)
     # positions Klipper makes up while homing, and worse: returned as they are
     for made_up in [(0.0, 0.0, -365.0), (1e9, 0.0, 0.0), (math.nan, 0.0, 0.0), (math.inf, -math.inf, 1.0)]:
         back = grid.program_point(*made_up)
@@ -171,7 +241,8 @@ def _section(field: CorrectionField) -> str:
 
 
 def test_the_section_reads_back_into_the_module():
-    field = _smooth_field()
+    holds = _holds(np.random.default_rng(7))
+    field = _smooth_field(holds=holds, bound=0.04)
     section = _Section(_section(field))
     grid, values, volume = live.read_section(section)
     assert section.read == set(section.options) - {"split_tolerance", "sampling_error", "calibration"}
@@ -182,16 +253,28 @@ def test_the_section_reads_back_into_the_module():
     assert section.get("calibration") == "my cal?1.toml"  # a '#' would start a comment in Klipper
     point = (12.5, -31.0, 44.0)
     assert np.allclose(grid.at(*point), field(np.array([point]))[0], rtol=0.0, atol=2e-6)
+    # where the calibration holds: its σ grid, exact, and the bound
+    assert grid.holds.bound == 0.04
+    assert list(grid.holds.radius) == list(holds.radius) and list(grid.holds.height) == list(holds.height)
+    assert list(grid.holds.azimuth) == list(holds.azimuth)
+    assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    # a calibration without it (a geometry): the whole correction, no σ keys
+    plain = _Section(_section(_smooth_field()))
+    assert live.read_section(plain)[0].holds is None and "holds_sigma" not in plain.options
+    assert plain.read == set(plain.options) - {"split_tolerance", "sampling_error", "calibration"}
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    (("format: deltacal-klipper-live-1", "format: deltacal-klipper-live-9"), "this module reads"),
+    (("format: deltacal-klipper-live-2", "format: deltacal-klipper-live-9"), "this module reads"),
     (("grid_shape: 21, 21, 17", "grid_shape: 20, 21, 17"), "values, expected"),
     (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "key split_curvature"),
     (("correction:\n  eN", "correction:\n  #N"), "key correction"),
+    (("holds_height: 0.0, 0.5", "holds_height: 0.5, 0.5"), "key holds_height: two increasing values"),
+    (("50.0, 60.0\n", "50.0, 60.0, 70.0\n"), "key holds_sigma: 2016 values, expected 2304"),
+    (("holds_sigma:\n  eN", "holds_sigma:\n  #N"), "key holds_sigma: not deltacal's"),
 ])
 def test_a_broken_section_is_refused_naming_its_key(change, message):
-    text = _section(_smooth_field())
+    text = _section(_smooth_field(holds=_holds(np.random.default_rng(7))))
     assert change[0] in text
     with pytest.raises(configparser.Error, match=message):
         live.read_section(_Section(text.replace(*change, 1)))
@@ -406,9 +489,19 @@ def test_get_position_never_raises():
         assert module.get_position()[2] == made_up[2] or math.isnan(made_up[0])
 
 
-def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_holds():
-    """At its nodes in the volume the field is the exact correction; a weight function multiplies it."""
+def _made_up_calibration(geometry, holds: WhereItHolds) -> Calibration:
+    """A calibration of this geometry that knows where it holds (the made-up σ grid)."""
+    return Calibration(geometry, PRINTER.geometry(), get_model("printer"), [], np.zeros((0, 0)), holds=holds)
 
+
+def test_the_field_is_the_whole_correction_and_the_module_weights_it_as_the_offline_route():
+    """At its nodes in the volume the field is the exact whole correction; applied, the offline route's.
+
+    A calibration without a σ grid (a geometry): the library's correction, everywhere. One with it:
+    the grid holds the correction of the identified printer in Klipper's frame (``corrected_targets``
+    with ``bound = inf``); weighted, it is the offline route's with the bound (to the sampling error),
+    where the weights go from 1 to 0 inside the volume.
+    """
     truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
     firmware = KlipperDelta.from_printer(PRINTER)
     controller = KlipperController(firmware, STEP)
@@ -423,15 +516,66 @@ def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_hol
     assert np.max(np.abs(field.values)) > 0.1 and not np.any(field.values[[0, -1]])  # 0 at the border
     error = sampling_error(field, truth, controller, count=300)
     assert error.points == 300 and error.max < 0.002
+    assert field.holds is None and np.array_equal(field.applied(nodes), field(nodes))
 
-    def holds(points):  # where a calibration holds: x > 10 mm fully, nothing below x = -10 mm
-        return np.clip((points[:, 0] + 10.0) / 20.0, 0.0, 1.0)
+    radius, azimuth, height = WhereItHolds.grid(150.0, 300.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")  # the vertical part held up to z 10-20 mm
+    holds = WhereItHolds(radius, azimuth, height, 0.01 + 0.002 * z + 0.0001 * r, 0.005 + 0.002 * z)
+    calibration = _made_up_calibration(truth, holds)
+    held = correction_field(calibration, controller, volume, step=10.0)
+    whole = corrected_targets(calibration, controller, nodes[inside], bound=math.inf).commands - nodes[inside]
+    assert np.allclose(held.values.reshape(-1, 3)[inside], whole, rtol=0.0, atol=1e-12)
+    aligned = aligned_to_controller(truth, controller, 150.0)
+    assert np.max(np.abs(exact_correction(aligned, controller, nodes[inside]) - whole)) < 1e-9
+    assert np.max(np.abs(whole - exact_values)) > 0.01  # not the unaligned printer's
+    points = volume.sample(300, np.random.default_rng(6))
+    offline = weighted_targets(calibration, controller, points)
+    assert np.any(offline.weights == 1.0) and np.any(offline.weights == 0.0)
+    assert np.mean((offline.weights > 0.0) & (offline.weights < 1.0)) > 0.05
+    assert np.max(np.abs(held.applied(points) - (offline.commands - points))) < 0.002
+    error = sampling_error(held, calibration, controller, count=300)
+    assert error.points == 300 and error.max < 0.002
+    with pytest.raises(GeometryError, match="must be positive"):
+        correction_field(calibration, controller, volume, step=10.0, bound=0.0)
 
-    weighted = correction_field(truth, controller, volume, step=10.0, weight=holds)
-    assert np.allclose(weighted.values.reshape(-1, 3), field.values.reshape(-1, 3) * holds(nodes)[:, None],
-                       rtol=0.0, atol=1e-12)
-    with pytest.raises(GeometryError, match=r"in \[0, 1\]"):
-        correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
+
+def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_correction():
+    """The module's cut keeps each segment's chord within the tolerance of the applied correction.
+
+    The applied correction (weighted: its weights turn from 1 to 0 inside the volume, bent where
+    the σ grid's trilinear interpolation bends) at 200 points along each segment of random long
+    moves, cut as the module cuts them by :func:`curvature_bound`, against the segment's chord.
+    """
+    truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
+    firmware = KlipperDelta.from_printer(PRINTER)
+    controller = KlipperController(firmware, STEP)
+    volume = LiveVolume(60.0, 0.0, 60.0, firmware.limit_z, firmware.delta_radius, 269.0, 50.0)
+    radius, azimuth, height = WhereItHolds.grid(150.0, 300.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")
+    holds = WhereItHolds(radius, azimuth, height, 0.003 + 0.0015 * z + 0.0001 * r, 0.004 + 0.003 * z)
+    field = correction_field(_made_up_calibration(truth, holds), controller, volume, step=10.0)
+    bound = curvature_bound(field)
+    grid = live.CorrectionGrid(tuple(field.origin), field.step, field.shape, [], bound.tolist())
+    rng = np.random.default_rng(9)
+    ends = volume.sample(120, rng).reshape(60, 2, 3)
+    ends[:30, :, 2] = rng.uniform(0.0, 25.0, (30, 1))  # moves along a layer through the transition
+    worst, weighted, cuts = 0.0, [], 0
+    for start, end in ends:
+        count = grid.segments(list(start), list(end), SPLIT_TOLERANCE_MM)
+        cuts += count
+        knots = start + np.outer(np.arange(count + 1) / count, end - start)
+        t = np.linspace(0.0, 1.0, 201)[:, None]
+        for a, b in zip(knots[:-1], knots[1:], strict=True):
+            along = a + t * (b - a)
+            values = field.applied(along)
+            chord = values[:1] + t * (values[-1:] - values[:1])
+            worst = max(worst, _max(values - chord))
+            weighted.append(field.weights(along, field(along)))
+    weights = np.concatenate(weighted)
+    print(f"\nlargest chord error {worst:.5f} mm, {cuts} segments of 60 moves")
+    assert np.any(weights == 1.0) and np.any(weights == 0.0) and np.mean((weights > 0) & (weights < 1)) > 0.05
+    assert worst <= SPLIT_TOLERANCE_MM
+    assert cuts > 120  # long moves were cut
 
 
 def test_export_live_refusals(tmp_path, capsys):
