@@ -807,16 +807,21 @@ def nozzle(geometry, klipper: KlipperDelta, heights: np.ndarray) -> np.ndarray:
     return exact.forward(geometry, readings).point(geometry.tool)
 
 
-@pytest.fixture(scope="module")
-def kossel(tmp_path_factory):
-    """A kit printer identified from the planned object, its printer.cfg, and ``export --live``'s output."""
-    folder = tmp_path_factory.mktemp("live")
+def _kossel(folder: Path, bed_only: bool = False, bound: float = DEFAULT_BOUND) -> dict:
+    """A kit printer identified from the planned object, its printer.cfg, and ``export --live``'s output.
+
+    ``bed_only``: from the probe heights and the object's distances at the bed alone (its first balls,
+    8 mm up), as Klipper's own calibration measures: its calibration holds near the bed and not
+    far above it, where the weights of its correction turn from 1 to 0 inside the volume.
+    """
     firmware = KlipperDelta.from_printer(PRINTER)
     rng = np.random.default_rng(4101)
     truth = random_printer(PRINTER, rng, typical_kit())
     plan = plan_object(PRINTER, firmware)
     probe = probe_heights(truth, firmware, STEP, plan.probe[:, :2], 0.01, rng)
     pairs = plan.features[plan.pairs].reshape(-1, 6)
+    if bed_only:
+        pairs = pairs[np.maximum(pairs[:, 2], pairs[:, 5]) < 10.0]
     distance = printed_distances(truth, firmware, STEP, pairs, 0.02, rng)
     data = PrinterMeasurements(firmware.inverse(probe, STEP), firmware.inverse(pairs.reshape(-1, 3), STEP)
                                .reshape(-1, 2, 3), distance)
@@ -830,23 +835,43 @@ def kossel(tmp_path_factory):
     said = io.StringIO()
     with contextlib.redirect_stdout(said):
         status = main(["export", str(calibration), "--controller", "klipper", "--config", str(config),
-                       "--live", "-o", str(out)])
+                       "--live", "-o", str(out), "--sigma-bound", repr(bound)])
     assert status == 0
     live_config = folder / "printer_live.cfg"
     live_config.write_text(printer_cfg(firmware, f"\n[include {out / SECTION_FILE}]\n"))
+    loaded = load_calibration(calibration)
+    assert loaded.holds is not None
+    controller = KlipperController(firmware, STEP)
     return {"folder": folder, "firmware": load_klipper(config), "truth": truth, "calibration": calibration,
-            "geometry": load_calibration(calibration).geometry, "config": config, "live_config": live_config,
-            "out": out, "said": said.getvalue()}
+            "geometry": loaded.geometry, "config": config, "live_config": live_config, "out": out,
+            "said": said.getvalue(), "loaded": loaded, "controller": controller, "bound": bound,
+            "aligned": aligned_to_controller(loaded.geometry, controller, float(loaded.holds.radius[-1]))}
+
+
+@pytest.fixture(scope="module")
+def kossel(tmp_path_factory):
+    """The Kossel kit identified from the planned object (its calibration holds almost everywhere)."""
+    return _kossel(tmp_path_factory.mktemp("live"))
+
+
+@pytest.fixture(scope="module")
+def kossel_bed(tmp_path_factory):
+    """The Kossel kit identified from bed-level data, exported and compensated with --sigma-bound 0.04."""
+    return _kossel(tmp_path_factory.mktemp("live_bed"), bed_only=True, bound=0.04)
 
 
 @pytest.mark.slow
-def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_error(kossel):
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_error(printer, request):
+    kossel = request.getfixturevalue(printer)
     out, said = kossel["out"], kossel["said"]
     assert sorted(p.name for p in out.iterdir()) == sorted(LIVE_FILES)
     assert (out / "deltacal_geometry.py").read_text(encoding="utf-8") == module_text()
-    error = re.search(r"sampling error against the exact correction at (\d+) points of the volume: max "
-                      r"([\d.]+) mm within radius ([\d.]+) mm \(where Klipper moves at full speed\), "
-                      r"([\d.]+) mm out to the rim", said)
+    bound = kossel["bound"]
+    error = re.search(r"sampling error against the exact correction at (\d+) points of the volume \(weighted "
+                      rf"where the calibration holds within σ {bound:g} mm, as compensate --sigma-bound "
+                      rf"{bound:g} does: its σ grid goes with the section\): max ([\d.]+) mm within radius "
+                      r"([\d.]+) mm \(where Klipper moves at full speed\), ([\d.]+) mm out to the rim", said)
     assert error, said
     # far below the calibration's sigma where Klipper prints at full speed, and stated
     assert int(error[1]) > 3000 and float(error[2]) < 0.002 and float(error[4]) < 0.05
@@ -854,6 +879,14 @@ def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_err
     print("\n" + said)
     text = (out / SECTION_FILE).read_text(encoding="utf-8")
     assert f"sampling_error: max {error[2]} mm within radius {error[3]} mm" in text
+    # the σ grid and the bound the module weights the correction with, as the library holds them
+    section = _Section(text)
+    grid = live.read_section(section)[0]
+    holds = kossel["loaded"].holds
+    assert grid.holds.bound == bound and list(grid.holds.height) == list(holds.height)
+    assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    print(f"section: {len(text.encode())} bytes, grid {section.get('grid_shape')} nodes, σ grid "
+          f"{holds.horizontal.shape}")
 
 
 def _volume_points(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -877,6 +910,7 @@ class Landed:
 
     commands: np.ndarray  # Klipper's toolhead at each point (the commands), (N, 3)
     exact: dict[str, np.ndarray]  # printer -> its nozzle at each point, exact carriages, (N, 3)
+    # (the identified printer: in Klipper's frame, as the correction puts it, aligned_to_controller)
     rounded: dict[str, np.ndarray]  # printer -> its nozzle at each point, carriages as stepped, (N, 3)
     path: np.ndarray  # the identified printer's nozzle along the moves (exact carriages), (M, 3)
     path_move: np.ndarray  # each path sample's move (0: the first point's), (M,)
@@ -893,22 +927,23 @@ def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0), path: bool
     # the decoded steps are Klipper's commands, rounded to a step
     assert stepped.shape == exact_heights.shape
     assert np.max(np.abs(stepped - exact_heights)) <= 0.5 * float(np.max(firmware.step_distance)) + 1e-6
-    printers = {"identified": kossel["geometry"], "true": kossel["truth"]}
+    printers = {"identified": kossel["aligned"], "true": kossel["truth"]}
     travel, known = exact_travel(steps) if path else (np.zeros((0, 3)), np.zeros(0, dtype=bool))
     path_heights = start_heights + travel[known] * firmware.step_distance
     return Landed(commands, {k: nozzle(g, firmware, exact_heights) for k, g in printers.items()},
                   {k: nozzle(g, firmware, stepped) for k, g in printers.items()},
-                  nozzle(kossel["geometry"], firmware, path_heights) if path else np.zeros((0, 3)),
+                  nozzle(kossel["aligned"], firmware, path_heights) if path else np.zeros((0, 3)),
                   moves(steps)[known] if path else np.zeros(0, dtype=int))
 
 
 def _offline(kossel, program: str, name: str) -> str:
     """The program corrected by ``compensate`` for the printer's configuration (the offline route)."""
-    source, corrected = kossel["folder"] / f"{name}.gcode", kossel["folder"] / f"{name}_corrected.gcode"
+    folder, bound = kossel["folder"], repr(kossel["bound"])
+    source, corrected = folder / f"{name}.gcode", folder / f"{name}_corrected.gcode"
     source.write_text(program, encoding="utf-8")
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["compensate", str(kossel["calibration"]), str(source), "--controller",
-                     str(kossel["config"]), "-o", str(corrected)]) == 0
+                     str(kossel["config"]), "-o", str(corrected), "--sigma-bound", bound]) == 0
     return corrected.read_text(encoding="utf-8")
 
 
@@ -917,14 +952,23 @@ def _max(errors: np.ndarray) -> float:
 
 
 @pytest.mark.slow
-def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(kossel, klipper):
-    """Done when (issue 41): within 1.2x the offline route's 3-D max + 0.005 mm, at most 0.05 mm.
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(printer, request, klipper):
+    """Done when (issue 41): within 1.2x the offline route's 3-D max + 0.005 mm; the offline route's commands.
 
-    Before step rounding (the carriages at Klipper's commands); on the identified printer, and on the
-    true one as the printed part sees it (less the shift along the bed and the turn about its
-    normal, which no measurement of the planned object sees: both routes leave them alike).
+    The offline route: ``compensate`` with the same ``--sigma-bound`` (the correction weighted where
+    the calibration holds). Before step rounding (the carriages at Klipper's commands); on the
+    identified printer (in Klipper's frame, where the correction puts it), and on the true one as
+    the printed part sees it (less the shift along the bed and the turn about its normal, which no
+    measurement of the planned object sees: both routes leave them alike). Where the whole
+    correction is applied (both weights 1) the identified nozzle is on the point.
     """
+    kossel = request.getfixturevalue(printer)
     points = _volume_points(np.random.default_rng(41), 30)
+    weights = weighted_targets(kossel["loaded"], kossel["controller"], points, bound=kossel["bound"]).weights
+    whole = np.all(weights == 1.0, axis=1)
+    if printer == "kossel_bed":  # its held region ends inside the volume: weights of every kind
+        assert np.any(whole) and np.any(weights == 0.0) and np.any((weights > 0.0) & (weights < 1.0))
     program = _program(points)
     module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"),
                      path=False)
@@ -932,45 +976,98 @@ def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(koss
     offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"),
                       path=False)
     figures = {}
-    for printer in ("identified", "true"):
-        errors = [landed.exact[printer] - points for landed in (module, offline)]
-        errors += [landed.rounded[printer] - points for landed in (module, offline)]
-        if printer == "true":
+    for name in ("identified", "true"):
+        errors = [landed.exact[name] - points for landed in (module, offline)]
+        errors += [landed.rounded[name] - points for landed in (module, offline)]
+        if name == "true":
             errors = [less_bed_motion(points, e)[0] for e in errors]
-        figures[printer] = [round(_max(e), 5) for e in errors]
-        ours, theirs = figures[printer][:2]
+        figures[name] = [round(_max(e), 5) for e in errors]
+        ours, theirs = figures[name][:2]
         assert ours <= 1.2 * theirs + 0.005, figures
-    assert figures["identified"][0] <= 0.05, figures
-    print(f"\n3-D max [mm] (module, offline; the same with step rounding): {figures}")
+    held = _max(module.exact["identified"][whole] - points[whole])
+    assert held <= 0.005, held
+    apart = _max(module.commands - offline.commands)
+    print(f"\n{printer}: 3-D max [mm] (module, offline; the same with step rounding): {figures}; where "
+          f"wholly corrected ({int(whole.sum())} of {len(points)} points), the identified nozzle within "
+          f"{held:.5f} mm; weights {np.round(weights.T, 3).tolist()}; commands apart {apart:.5f} mm")
     # the module's commands are the offline route's, to the field's sampling error
-    assert np.max(np.linalg.norm(module.commands - offline.commands, axis=1)) < 0.005
+    assert apart < 0.005
 
 
-def _line_deviation(landed: Landed, points: np.ndarray) -> float:
-    """The largest distance of the path from the straight line of its move, moves 2 on (from a point)."""
-    worst = 0.0
+def _intended(kossel, a: np.ndarray, b: np.ndarray, count: int = 4000) -> np.ndarray:
+    """Where the offline route's exact commands put the identified nozzle along the move a -> b, (count, 3).
+
+    The straight line where the whole correction is applied; where it is weighted down, the
+    identified printer's nozzle under the weighted commands (as far off the line as the correction
+    not applied).
+    """
+    x = a + np.linspace(0.0, 1.0, count)[:, None] * (b - a)
+    commands = weighted_targets(kossel["loaded"], kossel["controller"], x, bound=kossel["bound"]).commands
+    return nozzle(kossel["aligned"], kossel["firmware"], kossel["firmware"].carriage_heights(commands))
+
+
+def _path_deviation(kossel, landed: Landed, points: np.ndarray) -> tuple[float, float]:
+    """The largest distance of the path from its move's intended path, and from its straight line.
+
+    Moves 2 on (from a point); the intended path (:func:`_intended`) as a polyline, each path sample
+    against its pieces near the sample's place along the move.
+    """
+    worst = line = 0.0
     for k in range(1, len(points)):
         on = landed.path[landed.path_move == k]
         a, b = points[k - 1], points[k]
-        u = (b - a) / np.linalg.norm(b - a)
+        length = float(np.linalg.norm(b - a))
+        u = (b - a) / length
         rel = on - a
-        worst = max(worst, float(np.max(np.linalg.norm(rel - np.outer(rel @ u, u), axis=1), initial=0.0)))
-    return worst
+        line = max(line, float(np.max(np.linalg.norm(rel - np.outer(rel @ u, u), axis=1), initial=0.0)))
+        curve = _intended(kossel, a, b)
+        near = np.rint(np.clip(rel @ u / length, 0.0, 1.0) * (len(curve) - 2)).astype(int)
+        best = np.full(len(on), np.inf)
+        for shift in range(-40, 41):  # the pieces within 2.4 mm along the move or more
+            i = np.clip(near + shift, 0, len(curve) - 2)
+            p, q = curve[i], curve[i + 1]
+            t = np.clip(np.sum((on - p) * (q - p), axis=1) / np.sum((q - p) ** 2, axis=1), 0.0, 1.0)
+            best = np.minimum(best, np.linalg.norm(on - p - t[:, None] * (q - p), axis=1))
+        worst = max(worst, float(np.max(best, initial=0.0)))
+    return worst, line
 
 
 @pytest.mark.slow
-def test_long_moves_stay_on_their_straight_line(kossel, klipper):
-    """Done when: the path within max(0.02, 1.2x the offline route's + 0.005 mm) of the straight line."""
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_long_moves_stay_on_their_straight_line(printer, request, klipper):
+    """Done when: the path within max(0.02, 1.2x the offline route's + 0.005 mm) of its intended path.
+
+    The intended path: where the offline route's exact commands along the move put the identified
+    nozzle (the straight line where the whole correction is applied: the planned object's
+    calibration). On the bed-level one the moves cross where its weights turn from 1 to 0.
+    """
+    kossel = request.getfixturevalue(printer)
     points = np.array([[-100.0, -40.0, 0.3], [100.0, 40.0, 0.3], [-60.0, 90.0, 0.3], [70.0, -80.0, 120.0],
                        [-110.0, 10.0, 60.0], [0.0, 112.0, 5.0]])
     program = _program(points)
     module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "lines_live"))
     corrected = _offline(kossel, program, "lines")
     offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "lines_offline"))
-    ours, theirs = _line_deviation(module, points), _line_deviation(offline, points)
-    print(f"\nlargest distance from the straight line [mm]: module {ours:.4f}, offline {theirs:.4f}")
+    (ours, our_line), (theirs, their_line) = _path_deviation(kossel, module, points), \
+        _path_deviation(kossel, offline, points)
+    print(f"\n{printer}: largest distance from the intended path [mm]: module {ours:.4f}, offline "
+          f"{theirs:.4f}; from the straight line: module {our_line:.4f}, offline {their_line:.4f}; "
+          f"{len(module.path)} path samples")
     assert len(module.path) > 1000
     assert ours <= max(0.02, 1.2 * theirs + 0.005)
+    if printer == "kossel":  # wholly corrected: the intended path is the straight line
+        assert our_line <= max(0.02, 1.2 * their_line + 0.005)
+    else:
+        weights = weighted_targets(kossel["loaded"], kossel["controller"], _intended_points(points),
+                                   bound=kossel["bound"]).weights
+        assert np.any(weights == 1.0) and np.any(weights == 0.0) and np.any((weights > 0.0) & (weights < 1.0))
+        assert our_line > 0.1  # the correction is not applied all along: the path is not the line
+
+
+def _intended_points(points: np.ndarray, count: int = 400) -> np.ndarray:
+    """Points along each move of a program, (count x moves, 3)."""
+    t = np.linspace(0.0, 1.0, count)[:, None, None]
+    return (points[:-1] + t * (points[1:] - points[:-1])).reshape(-1, 3)
 
 
 @pytest.mark.slow
@@ -991,7 +1088,7 @@ def test_arcs_are_corrected_as_klippers_gcode_arcs_cuts_them(kossel, klipper):
         heights = kossel["firmware"].carriage_heights(np.array([[0.0, 0.0, 150.0]]))[0] + \
             travel[known] * kossel["firmware"].step_distance
         on_arc = moves(steps)[known] == 1
-        path = nozzle(kossel["geometry"], kossel["firmware"], heights[on_arc])
+        path = nozzle(kossel["aligned"], kossel["firmware"], heights[on_arc])
         assert len(path) > 500
         off = np.hypot(np.hypot(*(path[:, :2] - centre).T) - radius, path[:, 2] - z)
         deviation[route] = float(np.max(off))
@@ -1015,16 +1112,25 @@ def test_get_position_after_set_kinematic_position_is_the_programs_last_point(ko
 
 
 @pytest.mark.slow
-def test_after_homing_the_position_is_where_the_identified_nozzle_is(kossel, klipper):
+def test_after_homing_the_position_is_the_point_whose_command_is_klippers_home(kossel, klipper):
+    """After G28 the position reported is the program point the offline route sends to Klipper's home.
+
+    Where the correction is wholly applied there, the identified nozzle at its endstops.
+    """
     program = "G28\nGET_POSITION\nG1 X10 Y-20 Z100 F6000\nGET_POSITION\n"
     run = run_klippy(klipper, kossel["live_config"], program, "home_live")
     assert run.status == 0, run.log[-3000:]
     reported = gcode_positions(run.log)
-    geometry = kossel["geometry"]
-    home = exact.forward(geometry, np.zeros((1, 3))).point(geometry.tool)[0]  # every carriage at its endstop
-    print(f"\nafter G28: reported {reported[0]}, the identified nozzle at its endstops {home}")
-    assert np.linalg.norm(reported[0] - home) < 0.01
-    assert np.linalg.norm(reported[0] - kossel["firmware"].home_position) > 0.05  # not Klipper's own home
+    home = kossel["firmware"].home_position
+    held = weighted_targets(kossel["loaded"], kossel["controller"], reported[:1], bound=kossel["bound"])
+    print(f"\nafter G28: reported {reported[0]}, its command {held.commands[0]}, Klipper's home {home}, "
+          f"weights {held.weights[0]}")
+    assert np.linalg.norm(held.commands[0] - home) < 0.001
+    assert np.linalg.norm(reported[0] - home) > 0.05  # not Klipper's own home: a correction there
+    if np.all(held.weights == 1.0):
+        geometry = kossel["aligned"]  # every carriage at its endstop
+        endstops = exact.forward(geometry, np.zeros((1, 3))).point(geometry.tool)[0]
+        assert np.linalg.norm(reported[0] - endstops) < 0.01
     assert np.allclose(reported[1], [10.0, -20.0, 100.0], atol=1e-6)
 
 
@@ -1071,8 +1177,7 @@ def _beyond_the_rim(kossel) -> np.ndarray:
     angle = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
     rim = firmware.max_radius - 0.05
     points = np.column_stack([rim * np.cos(angle), rim * np.sin(angle), np.full(angle.size, 20.0)])
-    controller = KlipperController(firmware, STEP)
-    commands = points + exact_correction(load_calibration(kossel["calibration"]), controller, points)
+    commands = points + exact_correction(kossel["loaded"], kossel["controller"], points, kossel["bound"])
     beyond = np.hypot(commands[:, 0], commands[:, 1]) > firmware.max_radius + 0.01
     assert np.any(beyond)
     return points[np.flatnonzero(beyond)[0]]
