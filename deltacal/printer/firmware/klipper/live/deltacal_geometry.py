@@ -111,25 +111,41 @@ class SigmaGrid:
         self.stride_a = len(self.height)
         self.stride_r = len(self.azimuth) * len(self.height)
         self.vertical_start = len(self.radius) * self.stride_r
+        self._corners = {}
 
     def sigma(self, x, y, z):
-        """The sigma of the correction's horizontal and vertical parts at (x, y, z) [mm]."""
+        """The sigma of the correction's horizontal and vertical parts at (x, y, z) [mm].
+
+        The 8 nodes around the point's cell are kept per cell (a print's moves stay in few cells).
+        """
         ir, fr = _cell(self.radius, math.hypot(x, y))
         iz, fz = _cell(self.height, z)
         count, step = len(self.azimuth), self.step
         phi = math.atan2(y, x) % (2.0 * math.pi)
         ia = int(math.floor((phi - self.azimuth[0]) / step)) % count
         fa = min(max(((phi - self.azimuth[ia]) / step) % 1.0, 0.0), 1.0)
-        values, sr, sa = self.sigma_values, self.stride_r, self.stride_a
-        out = []
+        corners = self._corners.get((ir, ia, iz))
+        if corners is None:
+            corners = self._gather(ir, ia, iz)
+        h00, h01, h10, h11, v00, v01, v10, v11 = (
+            (1.0 - fz) * low + fz * high for low, high in zip(corners[::2], corners[1::2]))  # noqa: B905
+        gr, ga = 1.0 - fr, 1.0 - fa
+        return (gr * (ga * h00 + fa * h01) + fr * (ga * h10 + fa * h11),
+                gr * (ga * v00 + fa * v01) + fr * (ga * v10 + fa * v11))
+
+    def _gather(self, ir, ia, iz):
+        """The sigma at the 8 nodes of cell (ir, ia, iz), horizontal then vertical (kept)."""
+        values, sr, sa, count = self.sigma_values, self.stride_r, self.stride_a, len(self.azimuth)
+        corners = []
         for start in (0, self.vertical_start):
-            total = 0.0
-            for dr, wr in ((0, 1.0 - fr), (1, fr)):
-                for da, wa in ((0, 1.0 - fa), (1, fa)):
+            for dr in (0, 1):
+                for da in (0, 1):
                     base = start + (ir + dr) * sr + ((ia + da) % count) * sa + iz
-                    total += wr * wa * ((1.0 - fz) * values[base] + fz * values[base + 1])
-            out.append(total)
-        return out[0], out[1]
+                    corners += [values[base], values[base + 1]]
+        if len(self._corners) >= 4096:
+            self._corners.clear()
+        self._corners[(ir, ia, iz)] = corners
+        return corners
 
     def weights(self, x, y, z, cx, cy):
         """The weights of the correction (cx, cy, ...) at (x, y, z): its horizontal part's, its vertical's."""
