@@ -143,7 +143,7 @@ def _held(field: CorrectionField) -> str:
     if field.holds is None:
         return ""
     if not math.isfinite(field.bound):
-        return " (the whole correction everywhere: --sigma-bound inf)"
+        return " (the whole correction everywhere: an infinite bound)"
     return (f" (weighted where the calibration holds within σ {field.bound:g} mm, as compensate "
             f"--sigma-bound {field.bound:g} does: its σ grid goes with the section)")
 
