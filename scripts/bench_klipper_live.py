@@ -4,7 +4,9 @@ The pinned Klipper (``KLIPPER_DIR``, copied to a temporary folder: it builds its
 runs a printing-like program in batch mode (``klippy.py printer.cfg -i program.gcode -o out.serial``)
 on a Kossel-sized printer: without any move transform (the baseline), with a loaded ``bed_mesh``
 (a 7 x 7 bicubic profile of a 0.1 mm bowl, loaded by ``BED_MESH_PROFILE LOAD``), and with the live
-module (``[include deltacal_geometry.cfg]``, exported for a typical kit printer). The figure is the
+module (``[include deltacal_geometry.cfg]``, exported for a typical kit printer identified from the
+planned object's simulated measurements: its calibration knows where it holds, so the module
+weights each point's correction as the offline route does). The figure is the
 CPU time of the klippy process (user + system: the machine's other load counts less than in wall
 time), the median of ``repeat`` runs each, the three interleaved; the ratio module / bed_mesh is the
 issue's (at most 1.25). ``python scripts/bench_klipper_live.py`` prints them; ``scripts/bench.py``
@@ -117,13 +119,33 @@ def cpu_time(args: list[str], cwd: Path) -> float:
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def identified(printer, firmware, seed: int, path: Path) -> None:
+    """A typical kit printer identified from the planned object's simulated measurements, saved."""
+    from deltacal.geometry import Tolerances
+    from deltacal.io import save_calibration
+    from deltacal.printer.identification import PrinterMeasurements, identify_printer
+    from deltacal.printer.printed.plan import plan_object
+    from deltacal.printer.simulation import printed_distances, probe_heights, random_printer, typical_kit
+
+    rng = np.random.default_rng(seed)
+    truth = random_printer(printer, rng, typical_kit())
+    step = printer.step_distance
+    plan = plan_object(printer, firmware)
+    probe = probe_heights(truth, firmware, step, plan.probe[:, :2], 0.01, rng)
+    pairs = plan.features[plan.pairs].reshape(-1, 6)
+    distance = printed_distances(truth, firmware, step, pairs, 0.02, rng)
+    data = PrinterMeasurements(firmware.inverse(probe, step),
+                               firmware.inverse(pairs.reshape(-1, 3), step).reshape(-1, 2, 3), distance)
+    save_calibration(identify_printer(printer.geometry(), data, "printer", method="iterated",
+                                      tolerances=Tolerances.printer_kit()), path)
+
+
 def live_rows(repeat: int, seed: int) -> list[tuple]:
     """The rows (name, value, unit, target, (least, greatest)); none without ``KLIPPER_DIR``."""
-    from deltacal.io import load_calibration, save_geometry
+    from deltacal.io import load_calibration
     from deltacal.printer.files.robot_file import load_printer
     from deltacal.printer.firmware.klipper.firmware import KLIPPER
     from deltacal.printer.firmware.klipper.live.export import export_live, module_text
-    from deltacal.printer.simulation import random_printer, typical_kit
 
     source = os.environ.get("KLIPPER_DIR")
     if not source or not (Path(source) / "klippy" / "klippy.py").is_file():
@@ -138,10 +160,9 @@ def live_rows(repeat: int, seed: int) -> list[tuple]:
         subprocess.run([sys.executable, "-c", "import chelper; chelper.get_ffi()"], cwd=klipper / "klippy",
                        check=True, capture_output=True)
         (klipper / "klippy" / "extras" / "deltacal_geometry.py").write_text(module_text(), encoding="utf-8")
-        truth = random_printer(printer, np.random.default_rng(seed), typical_kit())
-        save_geometry(truth, folder / "truth.toml")
+        identified(printer, firmware, seed, folder / "cal.toml")
         (folder / "printer.cfg").write_text(printer_cfg(firmware))
-        export_live(load_calibration(folder / "truth.toml"), folder / "printer.cfg", folder / "live")
+        export_live(load_calibration(folder / "cal.toml"), folder / "printer.cfg", folder / "live")
         text = program()
         mesh = printer_cfg(firmware, bed_mesh_section())
         runs = {"baseline": (printer_cfg(firmware), text),

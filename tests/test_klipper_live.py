@@ -28,21 +28,33 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from deltacal.calibration import Calibration
 from deltacal.cli import main
+from deltacal.controller import corrected_targets, weighted_targets
+from deltacal.controller.targets import aligned_to_controller
+from deltacal.errormodels import get_model
 from deltacal.exceptions import GeometryError
 from deltacal.gcode.marker import MARKER
 from deltacal.geometry import Tolerances
+from deltacal.holds import DEFAULT_BOUND, SIGNIFICANT, WhereItHolds, correction_weight, significance_weight
 from deltacal.io import load_calibration, save_calibration
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
-from deltacal.printer.firmware.klipper.live.export import LIVE_FILES, SECTION_FILE, module_text, section_text
+from deltacal.printer.firmware.klipper.live.export import (
+    LIVE_FILES,
+    SECTION_FILE,
+    SPLIT_TOLERANCE_MM,
+    module_text,
+    section_text,
+)
 from deltacal.printer.firmware.klipper.live.field import (
     CorrectionField,
     LiveVolume,
     SamplingError,
     correction_field,
+    curvature_bound,
     exact_correction,
     sampling_error,
 )
@@ -65,7 +77,21 @@ STEP_PINS = ("PF0", "PF6", "PL3")
 
 
 # ------------------------------------------------------------------ the module, without Klipper
-def _smooth_field(step: float = 10.0) -> CorrectionField:
+def _holds(rng: np.random.Generator) -> WhereItHolds:
+    """A made-up σ grid over the smooth field's volume whose weights go from 1 to 0 inside it.
+
+    Its vertical σ crosses the bound (0.05 mm) between z = 20 and 50 mm; its horizontal σ is near the
+    corrections' size there (0.05 to 0.4 mm), so that their significance weighs too.
+    """
+    radius, azimuth, height = WhereItHolds.grid(60.0, 80.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")
+    horizontal = (0.001 + 0.0015 * z + 0.0001 * r) * rng.uniform(0.8, 1.2, r.shape)
+    vertical = (0.005 + 0.0012 * z) * rng.uniform(0.8, 1.2, r.shape)
+    return WhereItHolds(radius, azimuth, height, horizontal, vertical)
+
+
+def _smooth_field(step: float = 10.0, holds: WhereItHolds | None = None,
+                  bound: float = DEFAULT_BOUND) -> CorrectionField:
     """A correction field of made-up smooth values (a few 0.1 mm), zero at the grid's border."""
     volume = LiveVolume(radius=60.0, min_z=0.0, max_z=80.0, limit_z=60.0, delta_radius=100.0, arm=200.0,
                         slow_radius=50.0)
@@ -75,14 +101,15 @@ def _smooth_field(step: float = 10.0) -> CorrectionField:
     fade *= np.clip(1.0 - np.abs(z - 40.0) / 75.0, 0.0, 1.0) ** 2
     values = np.stack([0.3 * np.sin(x / 40.0) + 0.1 * z / 80.0, 0.2 * np.cos(y / 35.0) * x / 80.0,
                        0.4 + 0.1 * x * y / 5000.0], axis=-1) * fade[..., None]
-    return CorrectionField(np.array([a[0] for a in axes]), step, values, volume)
+    return CorrectionField(np.array([a[0] for a in axes]), step, values, volume, holds=holds, bound=bound)
 
 
 def _grid(field: CorrectionField) -> live.CorrectionGrid:
-    """The module's grid of a field, as the section gives it (its values in nm)."""
+    """The module's grid of a field, as the section gives it (its values in nm, its σ grid)."""
     values = live.decode_values("\n".join(_encoded(field)), ValueError)
     curvature = [[1e-4] * field.shape[2]]
-    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6)
+    holds = live.read_holds(_Section(_section(field))) if field.holds is not None else None
+    return live.CorrectionGrid(tuple(field.origin), field.step, field.shape, values, curvature, 1e-6, holds)
 
 
 def _encoded(field: CorrectionField) -> list[str]:
@@ -105,14 +132,57 @@ def test_the_module_interpolates_as_the_library_does():
     assert grid.at(500.0, 0.0, 10.0) is None and grid.command(500.0, 0.0, 10.0) == (500.0, 0.0, 10.0)
 
 
+def test_the_module_weights_the_correction_as_the_library_does():
+    """σ (trilinear on the calibration's grid) and the weights, in pure Python, are the library's.
+
+    At random points of a made-up σ grid whose weights go from 1 to 0 inside the volume: the
+    module's σ is :meth:`WhereItHolds.sigma`, its weights :meth:`WhereItHolds.weights` of its own
+    interpolated correction, and its correction the field's :meth:`CorrectionField.applied`.
+    """
+    assert live.SIGNIFICANT == SIGNIFICANT
+    holds = _holds(np.random.default_rng(7))
+    field = _smooth_field(holds=holds)
+    grid = _grid(field)
+    rng = np.random.default_rng(8)
+    points = np.column_stack([rng.uniform(-75, 75, (3000, 2)), rng.uniform(-10, 100, 3000)])
+    points[:40, :2] = 0.0  # the axis, where the azimuth is undefined
+    points[40:80, 1] = 0.0  # the azimuth 0 from either side
+    points[40:60, 0] = -np.abs(points[40:60, 0])
+    assert np.max(np.abs(np.array([grid.holds.sigma(*p) for p in points]) - holds.sigma(points))) < 1e-12
+    interpolated = np.array([grid.at(*p) or (0.0, 0.0, 0.0) for p in points])
+    ours = np.array([grid.holds.weights(*p, *c[:2]) for p, c in zip(points, interpolated, strict=True)])
+    theirs = holds.weights(points, DEFAULT_BOUND, interpolated)
+    assert np.max(np.abs(ours - theirs)) < 1e-12
+    applied = np.array([grid.correction(*p) or (0.0, 0.0, 0.0) for p in points])
+    assert np.max(np.abs(applied - field.applied(points))) < 2e-6
+    # the formulas, one by one, where they are strictly between their ends too
+    sigma = np.concatenate([rng.uniform(0.0, 0.08, 200), [0.025, 0.05, np.inf, np.nan, 0.0]])
+    size = rng.uniform(0.0, 0.3, sigma.size)
+    for bound in (DEFAULT_BOUND, 0.03):
+        assert np.allclose([live.correction_weight(v, bound) for v in sigma], correction_weight(sigma, bound),
+                           rtol=0.0, atol=1e-15)
+    assert np.allclose([live.significance_weight(a, b) for a, b in zip(size, sigma[:-2], strict=False)],
+                       significance_weight(size[:-2], sigma[:-2]), rtol=0.0, atol=1e-15)
+    # the weights are all three kinds here: the test is not of a constant
+    inside = np.hypot(points[:, 0], points[:, 1]) < 60.0
+    for w in (theirs[inside, 0], theirs[inside, 1]):
+        assert np.any(w == 1.0) and np.any(w == 0.0) and np.mean((w > 0.0) & (w < 1.0)) > 0.05
+    # an infinite bound applies every correction wholly, as corrected_targets(bound=inf) does
+    whole = _grid(_smooth_field(holds=holds, bound=math.inf))
+    assert whole.holds.weights(10.0, 5.0, 70.0, 0.0, 0.0) == (1.0, 1.0)
+    assert whole.correction(10.0, 5.0, 70.0) == whole.at(10.0, 5.0, 70.0)
+
+
 def test_the_modules_inverse_is_exact_and_never_raises():
-    field = _smooth_field()
+    field = _smooth_field(holds=_holds(np.random.default_rng(7)))
     grid = _grid(field)
     rng = np.random.default_rng(4)
-    for p in np.column_stack([rng.uniform(-40, 40, 50), rng.uniform(-40, 40, 50), rng.uniform(0, 80, 50)]):
+    applied = 0
+    for p in np.column_stack([rng.uniform(-40, 40, 200), rng.uniform(-40, 40, 200), rng.uniform(0, 80, 200)]):
         command = grid.command(*p)
-        assert np.linalg.norm(np.subtract(command, p)) > 1e-3  # a correction is applied
+        applied += np.linalg.norm(np.subtract(command, p)) > 1e-3
         assert np.allclose(grid.program_point(*command), p, rtol=0.0, atol=1e-9)
+    assert applied > 50  # a correction is applied (weighted: where the made-up σ holds)
     # positions Klipper makes up while homing, and worse: returned as they are
     for made_up in [(0.0, 0.0, -365.0), (1e9, 0.0, 0.0), (math.nan, 0.0, 0.0), (math.inf, -math.inf, 1.0)]:
         back = grid.program_point(*made_up)
@@ -171,7 +241,8 @@ def _section(field: CorrectionField) -> str:
 
 
 def test_the_section_reads_back_into_the_module():
-    field = _smooth_field()
+    holds = _holds(np.random.default_rng(7))
+    field = _smooth_field(holds=holds, bound=0.04)
     section = _Section(_section(field))
     grid, values, volume = live.read_section(section)
     assert section.read == set(section.options) - {"split_tolerance", "sampling_error", "calibration"}
@@ -182,16 +253,28 @@ def test_the_section_reads_back_into_the_module():
     assert section.get("calibration") == "my cal?1.toml"  # a '#' would start a comment in Klipper
     point = (12.5, -31.0, 44.0)
     assert np.allclose(grid.at(*point), field(np.array([point]))[0], rtol=0.0, atol=2e-6)
+    # where the calibration holds: its σ grid, exact, and the bound
+    assert grid.holds.bound == 0.04
+    assert list(grid.holds.radius) == list(holds.radius) and list(grid.holds.height) == list(holds.height)
+    assert list(grid.holds.azimuth) == list(holds.azimuth)
+    assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    # a calibration without it (a geometry): the whole correction, no σ keys
+    plain = _Section(_section(_smooth_field()))
+    assert live.read_section(plain)[0].holds is None and "holds_sigma" not in plain.options
+    assert plain.read == set(plain.options) - {"split_tolerance", "sampling_error", "calibration"}
 
 
 @pytest.mark.parametrize(("change", "message"), [
-    (("format: deltacal-klipper-live-1", "format: deltacal-klipper-live-9"), "this module reads"),
+    (("format: deltacal-klipper-live-2", "format: deltacal-klipper-live-9"), "this module reads"),
     (("grid_shape: 21, 21, 17", "grid_shape: 20, 21, 17"), "values, expected"),
     (("grid_shape: 21, 21, 17", "grid_shape: 21, 21, 16"), "key split_curvature"),
     (("correction:\n  eN", "correction:\n  #N"), "key correction"),
+    (("holds_height: 0.0, 0.5", "holds_height: 0.5, 0.5"), "key holds_height: two increasing values"),
+    (("50.0, 60.0\n", "50.0, 60.0, 70.0\n"), "key holds_sigma: 2016 values, expected 2304"),
+    (("holds_sigma:\n  eN", "holds_sigma:\n  #N"), "key holds_sigma: not deltacal's"),
 ])
 def test_a_broken_section_is_refused_naming_its_key(change, message):
-    text = _section(_smooth_field())
+    text = _section(_smooth_field(holds=_holds(np.random.default_rng(7))))
     assert change[0] in text
     with pytest.raises(configparser.Error, match=message):
         live.read_section(_Section(text.replace(*change, 1)))
@@ -406,9 +489,19 @@ def test_get_position_never_raises():
         assert module.get_position()[2] == made_up[2] or math.isnan(made_up[0])
 
 
-def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_holds():
-    """At its nodes in the volume the field is the exact correction; a weight function multiplies it."""
+def _made_up_calibration(geometry, holds: WhereItHolds) -> Calibration:
+    """A calibration of this geometry that knows where it holds (the made-up σ grid)."""
+    return Calibration(geometry, PRINTER.geometry(), get_model("printer"), [], np.zeros((0, 0)), holds=holds)
 
+
+def test_the_field_is_the_whole_correction_and_the_module_weights_it_as_the_offline_route():
+    """At its nodes in the volume the field is the exact whole correction; applied, the offline route's.
+
+    A calibration without a σ grid (a geometry): the library's correction, everywhere. One with it:
+    the grid holds the correction of the identified printer in Klipper's frame (``corrected_targets``
+    with ``bound = inf``); weighted, it is the offline route's with the bound (to the sampling error),
+    where the weights go from 1 to 0 inside the volume.
+    """
     truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
     firmware = KlipperDelta.from_printer(PRINTER)
     controller = KlipperController(firmware, STEP)
@@ -423,15 +516,66 @@ def test_the_field_is_the_librarys_correction_weighted_where_the_calibration_hol
     assert np.max(np.abs(field.values)) > 0.1 and not np.any(field.values[[0, -1]])  # 0 at the border
     error = sampling_error(field, truth, controller, count=300)
     assert error.points == 300 and error.max < 0.002
+    assert field.holds is None and np.array_equal(field.applied(nodes), field(nodes))
 
-    def holds(points):  # where a calibration holds: x > 10 mm fully, nothing below x = -10 mm
-        return np.clip((points[:, 0] + 10.0) / 20.0, 0.0, 1.0)
+    radius, azimuth, height = WhereItHolds.grid(150.0, 300.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")  # the vertical part held up to z 10-20 mm
+    holds = WhereItHolds(radius, azimuth, height, 0.01 + 0.002 * z + 0.0001 * r, 0.005 + 0.002 * z)
+    calibration = _made_up_calibration(truth, holds)
+    held = correction_field(calibration, controller, volume, step=10.0)
+    whole = corrected_targets(calibration, controller, nodes[inside], bound=math.inf).commands - nodes[inside]
+    assert np.allclose(held.values.reshape(-1, 3)[inside], whole, rtol=0.0, atol=1e-12)
+    aligned = aligned_to_controller(truth, controller, 150.0)
+    assert np.max(np.abs(exact_correction(aligned, controller, nodes[inside]) - whole)) < 1e-9
+    assert np.max(np.abs(whole - exact_values)) > 0.01  # not the unaligned printer's
+    points = volume.sample(300, np.random.default_rng(6))
+    offline = weighted_targets(calibration, controller, points)
+    assert np.any(offline.weights == 1.0) and np.any(offline.weights == 0.0)
+    assert np.mean((offline.weights > 0.0) & (offline.weights < 1.0)) > 0.05
+    assert np.max(np.abs(held.applied(points) - (offline.commands - points))) < 0.002
+    error = sampling_error(held, calibration, controller, count=300)
+    assert error.points == 300 and error.max < 0.002
+    with pytest.raises(GeometryError, match="must be positive"):
+        correction_field(calibration, controller, volume, step=10.0, bound=0.0)
 
-    weighted = correction_field(truth, controller, volume, step=10.0, weight=holds)
-    assert np.allclose(weighted.values.reshape(-1, 3), field.values.reshape(-1, 3) * holds(nodes)[:, None],
-                       rtol=0.0, atol=1e-12)
-    with pytest.raises(GeometryError, match=r"in \[0, 1\]"):
-        correction_field(truth, controller, volume, step=10.0, weight=lambda p: 2.0 * holds(p))
+
+def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_correction():
+    """The module's cut keeps each segment's chord within the tolerance of the applied correction.
+
+    The applied correction (weighted: its weights turn from 1 to 0 inside the volume, bent where
+    the σ grid's trilinear interpolation bends) at 200 points along each segment of random long
+    moves, cut as the module cuts them by :func:`curvature_bound`, against the segment's chord.
+    """
+    truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
+    firmware = KlipperDelta.from_printer(PRINTER)
+    controller = KlipperController(firmware, STEP)
+    volume = LiveVolume(60.0, 0.0, 60.0, firmware.limit_z, firmware.delta_radius, 269.0, 50.0)
+    radius, azimuth, height = WhereItHolds.grid(150.0, 300.0)
+    r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")
+    holds = WhereItHolds(radius, azimuth, height, 0.003 + 0.0015 * z + 0.0001 * r, 0.004 + 0.003 * z)
+    field = correction_field(_made_up_calibration(truth, holds), controller, volume, step=10.0)
+    bound = curvature_bound(field)
+    grid = live.CorrectionGrid(tuple(field.origin), field.step, field.shape, [], bound.tolist())
+    rng = np.random.default_rng(9)
+    ends = volume.sample(120, rng).reshape(60, 2, 3)
+    ends[:30, :, 2] = rng.uniform(0.0, 25.0, (30, 1))  # moves along a layer through the transition
+    worst, weighted, cuts = 0.0, [], 0
+    for start, end in ends:
+        count = grid.segments(list(start), list(end), SPLIT_TOLERANCE_MM)
+        cuts += count
+        knots = start + np.outer(np.arange(count + 1) / count, end - start)
+        t = np.linspace(0.0, 1.0, 201)[:, None]
+        for a, b in zip(knots[:-1], knots[1:], strict=True):
+            along = a + t * (b - a)
+            values = field.applied(along)
+            chord = values[:1] + t * (values[-1:] - values[:1])
+            worst = max(worst, _max(values - chord))
+            weighted.append(field.weights(along, field(along)))
+    weights = np.concatenate(weighted)
+    print(f"\nlargest chord error {worst:.5f} mm, {cuts} segments of 60 moves")
+    assert np.any(weights == 1.0) and np.any(weights == 0.0) and np.mean((weights > 0) & (weights < 1)) > 0.05
+    assert worst <= SPLIT_TOLERANCE_MM
+    assert cuts > 120  # long moves were cut
 
 
 def test_export_live_refusals(tmp_path, capsys):
@@ -663,16 +807,21 @@ def nozzle(geometry, klipper: KlipperDelta, heights: np.ndarray) -> np.ndarray:
     return exact.forward(geometry, readings).point(geometry.tool)
 
 
-@pytest.fixture(scope="module")
-def kossel(tmp_path_factory):
-    """A kit printer identified from the planned object, its printer.cfg, and ``export --live``'s output."""
-    folder = tmp_path_factory.mktemp("live")
+def _kossel(folder: Path, bed_only: bool = False, bound: float = DEFAULT_BOUND) -> dict:
+    """A kit printer identified from the planned object, its printer.cfg, and ``export --live``'s output.
+
+    ``bed_only``: from the probe heights and the object's distances at the bed alone (its first balls,
+    8 mm up), as Klipper's own calibration measures: its calibration holds near the bed and not
+    far above it, where the weights of its correction turn from 1 to 0 inside the volume.
+    """
     firmware = KlipperDelta.from_printer(PRINTER)
     rng = np.random.default_rng(4101)
     truth = random_printer(PRINTER, rng, typical_kit())
     plan = plan_object(PRINTER, firmware)
     probe = probe_heights(truth, firmware, STEP, plan.probe[:, :2], 0.01, rng)
     pairs = plan.features[plan.pairs].reshape(-1, 6)
+    if bed_only:
+        pairs = pairs[np.maximum(pairs[:, 2], pairs[:, 5]) < 10.0]
     distance = printed_distances(truth, firmware, STEP, pairs, 0.02, rng)
     data = PrinterMeasurements(firmware.inverse(probe, STEP), firmware.inverse(pairs.reshape(-1, 3), STEP)
                                .reshape(-1, 2, 3), distance)
@@ -686,23 +835,43 @@ def kossel(tmp_path_factory):
     said = io.StringIO()
     with contextlib.redirect_stdout(said):
         status = main(["export", str(calibration), "--controller", "klipper", "--config", str(config),
-                       "--live", "-o", str(out)])
+                       "--live", "-o", str(out), "--sigma-bound", repr(bound)])
     assert status == 0
     live_config = folder / "printer_live.cfg"
     live_config.write_text(printer_cfg(firmware, f"\n[include {out / SECTION_FILE}]\n"))
+    loaded = load_calibration(calibration)
+    assert loaded.holds is not None
+    controller = KlipperController(firmware, STEP)
     return {"folder": folder, "firmware": load_klipper(config), "truth": truth, "calibration": calibration,
-            "geometry": load_calibration(calibration).geometry, "config": config, "live_config": live_config,
-            "out": out, "said": said.getvalue()}
+            "geometry": loaded.geometry, "config": config, "live_config": live_config, "out": out,
+            "said": said.getvalue(), "loaded": loaded, "controller": controller, "bound": bound,
+            "aligned": aligned_to_controller(loaded.geometry, controller, float(loaded.holds.radius[-1]))}
+
+
+@pytest.fixture(scope="module")
+def kossel(tmp_path_factory):
+    """The Kossel kit identified from the planned object (its calibration holds almost everywhere)."""
+    return _kossel(tmp_path_factory.mktemp("live"))
+
+
+@pytest.fixture(scope="module")
+def kossel_bed(tmp_path_factory):
+    """The Kossel kit identified from bed-level data, exported and compensated with --sigma-bound 0.04."""
+    return _kossel(tmp_path_factory.mktemp("live_bed"), bed_only=True, bound=0.04)
 
 
 @pytest.mark.slow
-def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_error(kossel):
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_error(printer, request):
+    kossel = request.getfixturevalue(printer)
     out, said = kossel["out"], kossel["said"]
     assert sorted(p.name for p in out.iterdir()) == sorted(LIVE_FILES)
     assert (out / "deltacal_geometry.py").read_text(encoding="utf-8") == module_text()
-    error = re.search(r"sampling error against the exact correction at (\d+) points of the volume: max "
-                      r"([\d.]+) mm within radius ([\d.]+) mm \(where Klipper moves at full speed\), "
-                      r"([\d.]+) mm out to the rim", said)
+    bound = kossel["bound"]
+    error = re.search(r"sampling error against the exact correction at (\d+) points of the volume \(weighted "
+                      rf"where the calibration holds within σ {bound:g} mm, as compensate --sigma-bound "
+                      rf"{bound:g} does: its σ grid goes with the section\): max ([\d.]+) mm within radius "
+                      r"([\d.]+) mm \(where Klipper moves at full speed\), ([\d.]+) mm out to the rim", said)
     assert error, said
     # far below the calibration's sigma where Klipper prints at full speed, and stated
     assert int(error[1]) > 3000 and float(error[2]) < 0.002 and float(error[4]) < 0.05
@@ -710,6 +879,14 @@ def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_err
     print("\n" + said)
     text = (out / SECTION_FILE).read_text(encoding="utf-8")
     assert f"sampling_error: max {error[2]} mm within radius {error[3]} mm" in text
+    # the σ grid and the bound the module weights the correction with, as the library holds them
+    section = _Section(text)
+    grid = live.read_section(section)[0]
+    holds = kossel["loaded"].holds
+    assert grid.holds.bound == bound and list(grid.holds.height) == list(holds.height)
+    assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    print(f"section: {len(text.encode())} bytes, grid {section.get('grid_shape')} nodes, σ grid "
+          f"{holds.horizontal.shape}")
 
 
 def _volume_points(rng: np.random.Generator, count: int) -> np.ndarray:
@@ -733,6 +910,7 @@ class Landed:
 
     commands: np.ndarray  # Klipper's toolhead at each point (the commands), (N, 3)
     exact: dict[str, np.ndarray]  # printer -> its nozzle at each point, exact carriages, (N, 3)
+    # (the identified printer: in Klipper's frame, as the correction puts it, aligned_to_controller)
     rounded: dict[str, np.ndarray]  # printer -> its nozzle at each point, carriages as stepped, (N, 3)
     path: np.ndarray  # the identified printer's nozzle along the moves (exact carriages), (M, 3)
     path_move: np.ndarray  # each path sample's move (0: the first point's), (M,)
@@ -749,22 +927,23 @@ def _landed(kossel, klipper: Path, run: Run, start=(0.0, 0.0, 150.0), path: bool
     # the decoded steps are Klipper's commands, rounded to a step
     assert stepped.shape == exact_heights.shape
     assert np.max(np.abs(stepped - exact_heights)) <= 0.5 * float(np.max(firmware.step_distance)) + 1e-6
-    printers = {"identified": kossel["geometry"], "true": kossel["truth"]}
+    printers = {"identified": kossel["aligned"], "true": kossel["truth"]}
     travel, known = exact_travel(steps) if path else (np.zeros((0, 3)), np.zeros(0, dtype=bool))
     path_heights = start_heights + travel[known] * firmware.step_distance
     return Landed(commands, {k: nozzle(g, firmware, exact_heights) for k, g in printers.items()},
                   {k: nozzle(g, firmware, stepped) for k, g in printers.items()},
-                  nozzle(kossel["geometry"], firmware, path_heights) if path else np.zeros((0, 3)),
+                  nozzle(kossel["aligned"], firmware, path_heights) if path else np.zeros((0, 3)),
                   moves(steps)[known] if path else np.zeros(0, dtype=int))
 
 
 def _offline(kossel, program: str, name: str) -> str:
     """The program corrected by ``compensate`` for the printer's configuration (the offline route)."""
-    source, corrected = kossel["folder"] / f"{name}.gcode", kossel["folder"] / f"{name}_corrected.gcode"
+    folder, bound = kossel["folder"], repr(kossel["bound"])
+    source, corrected = folder / f"{name}.gcode", folder / f"{name}_corrected.gcode"
     source.write_text(program, encoding="utf-8")
     with contextlib.redirect_stdout(io.StringIO()):
         assert main(["compensate", str(kossel["calibration"]), str(source), "--controller",
-                     str(kossel["config"]), "-o", str(corrected)]) == 0
+                     str(kossel["config"]), "-o", str(corrected), "--sigma-bound", bound]) == 0
     return corrected.read_text(encoding="utf-8")
 
 
@@ -773,14 +952,23 @@ def _max(errors: np.ndarray) -> float:
 
 
 @pytest.mark.slow
-def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(kossel, klipper):
-    """Done when (issue 41): within 1.2x the offline route's 3-D max + 0.005 mm, at most 0.05 mm.
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(printer, request, klipper):
+    """Done when (issue 41): within 1.2x the offline route's 3-D max + 0.005 mm; the offline route's commands.
 
-    Before step rounding (the carriages at Klipper's commands); on the identified printer, and on the
-    true one as the printed part sees it (less the shift along the bed and the turn about its
-    normal, which no measurement of the planned object sees: both routes leave them alike).
+    The offline route: ``compensate`` with the same ``--sigma-bound`` (the correction weighted where
+    the calibration holds). Before step rounding (the carriages at Klipper's commands); on the
+    identified printer (in Klipper's frame, where the correction puts it), and on the true one as
+    the printed part sees it (less the shift along the bed and the turn about its normal, which no
+    measurement of the planned object sees: both routes leave them alike). Where the whole
+    correction is applied (both weights 1) the identified nozzle is on the point.
     """
+    kossel = request.getfixturevalue(printer)
     points = _volume_points(np.random.default_rng(41), 30)
+    weights = weighted_targets(kossel["loaded"], kossel["controller"], points, bound=kossel["bound"]).weights
+    whole = np.all(weights == 1.0, axis=1)
+    if printer == "kossel_bed":  # its held region ends inside the volume: weights of every kind
+        assert np.any(whole) and np.any(weights == 0.0) and np.any((weights > 0.0) & (weights < 1.0))
     program = _program(points)
     module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "points_live"),
                      path=False)
@@ -788,45 +976,98 @@ def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(koss
     offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "points_offline"),
                       path=False)
     figures = {}
-    for printer in ("identified", "true"):
-        errors = [landed.exact[printer] - points for landed in (module, offline)]
-        errors += [landed.rounded[printer] - points for landed in (module, offline)]
-        if printer == "true":
+    for name in ("identified", "true"):
+        errors = [landed.exact[name] - points for landed in (module, offline)]
+        errors += [landed.rounded[name] - points for landed in (module, offline)]
+        if name == "true":
             errors = [less_bed_motion(points, e)[0] for e in errors]
-        figures[printer] = [round(_max(e), 5) for e in errors]
-        ours, theirs = figures[printer][:2]
+        figures[name] = [round(_max(e), 5) for e in errors]
+        ours, theirs = figures[name][:2]
         assert ours <= 1.2 * theirs + 0.005, figures
-    assert figures["identified"][0] <= 0.05, figures
-    print(f"\n3-D max [mm] (module, offline; the same with step rounding): {figures}")
+    held = _max(module.exact["identified"][whole] - points[whole])
+    assert held <= 0.005, held
+    apart = _max(module.commands - offline.commands)
+    print(f"\n{printer}: 3-D max [mm] (module, offline; the same with step rounding): {figures}; where "
+          f"wholly corrected ({int(whole.sum())} of {len(points)} points), the identified nozzle within "
+          f"{held:.5f} mm; weights {np.round(weights.T, 3).tolist()}; commands apart {apart:.5f} mm")
     # the module's commands are the offline route's, to the field's sampling error
-    assert np.max(np.linalg.norm(module.commands - offline.commands, axis=1)) < 0.005
+    assert apart < 0.005
 
 
-def _line_deviation(landed: Landed, points: np.ndarray) -> float:
-    """The largest distance of the path from the straight line of its move, moves 2 on (from a point)."""
-    worst = 0.0
+def _intended(kossel, a: np.ndarray, b: np.ndarray, count: int = 4000) -> np.ndarray:
+    """Where the offline route's exact commands put the identified nozzle along the move a -> b, (count, 3).
+
+    The straight line where the whole correction is applied; where it is weighted down, the
+    identified printer's nozzle under the weighted commands (as far off the line as the correction
+    not applied).
+    """
+    x = a + np.linspace(0.0, 1.0, count)[:, None] * (b - a)
+    commands = weighted_targets(kossel["loaded"], kossel["controller"], x, bound=kossel["bound"]).commands
+    return nozzle(kossel["aligned"], kossel["firmware"], kossel["firmware"].carriage_heights(commands))
+
+
+def _path_deviation(kossel, landed: Landed, points: np.ndarray) -> tuple[float, float]:
+    """The largest distance of the path from its move's intended path, and from its straight line.
+
+    Moves 2 on (from a point); the intended path (:func:`_intended`) as a polyline, each path sample
+    against its pieces near the sample's place along the move.
+    """
+    worst = line = 0.0
     for k in range(1, len(points)):
         on = landed.path[landed.path_move == k]
         a, b = points[k - 1], points[k]
-        u = (b - a) / np.linalg.norm(b - a)
+        length = float(np.linalg.norm(b - a))
+        u = (b - a) / length
         rel = on - a
-        worst = max(worst, float(np.max(np.linalg.norm(rel - np.outer(rel @ u, u), axis=1), initial=0.0)))
-    return worst
+        line = max(line, float(np.max(np.linalg.norm(rel - np.outer(rel @ u, u), axis=1), initial=0.0)))
+        curve = _intended(kossel, a, b)
+        near = np.rint(np.clip(rel @ u / length, 0.0, 1.0) * (len(curve) - 2)).astype(int)
+        best = np.full(len(on), np.inf)
+        for shift in range(-40, 41):  # the pieces within 2.4 mm along the move or more
+            i = np.clip(near + shift, 0, len(curve) - 2)
+            p, q = curve[i], curve[i + 1]
+            t = np.clip(np.sum((on - p) * (q - p), axis=1) / np.sum((q - p) ** 2, axis=1), 0.0, 1.0)
+            best = np.minimum(best, np.linalg.norm(on - p - t[:, None] * (q - p), axis=1))
+        worst = max(worst, float(np.max(best, initial=0.0)))
+    return worst, line
 
 
 @pytest.mark.slow
-def test_long_moves_stay_on_their_straight_line(kossel, klipper):
-    """Done when: the path within max(0.02, 1.2x the offline route's + 0.005 mm) of the straight line."""
+@pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
+def test_long_moves_stay_on_their_straight_line(printer, request, klipper):
+    """Done when: the path within max(0.02, 1.2x the offline route's + 0.005 mm) of its intended path.
+
+    The intended path: where the offline route's exact commands along the move put the identified
+    nozzle (the straight line where the whole correction is applied: the planned object's
+    calibration). On the bed-level one the moves cross where its weights turn from 1 to 0.
+    """
+    kossel = request.getfixturevalue(printer)
     points = np.array([[-100.0, -40.0, 0.3], [100.0, 40.0, 0.3], [-60.0, 90.0, 0.3], [70.0, -80.0, 120.0],
                        [-110.0, 10.0, 60.0], [0.0, 112.0, 5.0]])
     program = _program(points)
     module = _landed(kossel, klipper, run_klippy(klipper, kossel["live_config"], program, "lines_live"))
     corrected = _offline(kossel, program, "lines")
     offline = _landed(kossel, klipper, run_klippy(klipper, kossel["config"], corrected, "lines_offline"))
-    ours, theirs = _line_deviation(module, points), _line_deviation(offline, points)
-    print(f"\nlargest distance from the straight line [mm]: module {ours:.4f}, offline {theirs:.4f}")
+    (ours, our_line), (theirs, their_line) = _path_deviation(kossel, module, points), \
+        _path_deviation(kossel, offline, points)
+    print(f"\n{printer}: largest distance from the intended path [mm]: module {ours:.4f}, offline "
+          f"{theirs:.4f}; from the straight line: module {our_line:.4f}, offline {their_line:.4f}; "
+          f"{len(module.path)} path samples")
     assert len(module.path) > 1000
     assert ours <= max(0.02, 1.2 * theirs + 0.005)
+    if printer == "kossel":  # wholly corrected: the intended path is the straight line
+        assert our_line <= max(0.02, 1.2 * their_line + 0.005)
+    else:
+        weights = weighted_targets(kossel["loaded"], kossel["controller"], _intended_points(points),
+                                   bound=kossel["bound"]).weights
+        assert np.any(weights == 1.0) and np.any(weights == 0.0) and np.any((weights > 0.0) & (weights < 1.0))
+        assert our_line > 0.1  # the correction is not applied all along: the path is not the line
+
+
+def _intended_points(points: np.ndarray, count: int = 400) -> np.ndarray:
+    """Points along each move of a program, (count x moves, 3)."""
+    t = np.linspace(0.0, 1.0, count)[:, None, None]
+    return (points[:-1] + t * (points[1:] - points[:-1])).reshape(-1, 3)
 
 
 @pytest.mark.slow
@@ -847,7 +1088,7 @@ def test_arcs_are_corrected_as_klippers_gcode_arcs_cuts_them(kossel, klipper):
         heights = kossel["firmware"].carriage_heights(np.array([[0.0, 0.0, 150.0]]))[0] + \
             travel[known] * kossel["firmware"].step_distance
         on_arc = moves(steps)[known] == 1
-        path = nozzle(kossel["geometry"], kossel["firmware"], heights[on_arc])
+        path = nozzle(kossel["aligned"], kossel["firmware"], heights[on_arc])
         assert len(path) > 500
         off = np.hypot(np.hypot(*(path[:, :2] - centre).T) - radius, path[:, 2] - z)
         deviation[route] = float(np.max(off))
@@ -871,16 +1112,25 @@ def test_get_position_after_set_kinematic_position_is_the_programs_last_point(ko
 
 
 @pytest.mark.slow
-def test_after_homing_the_position_is_where_the_identified_nozzle_is(kossel, klipper):
+def test_after_homing_the_position_is_the_point_whose_command_is_klippers_home(kossel, klipper):
+    """After G28 the position reported is the program point the offline route sends to Klipper's home.
+
+    Where the correction is wholly applied there, the identified nozzle at its endstops.
+    """
     program = "G28\nGET_POSITION\nG1 X10 Y-20 Z100 F6000\nGET_POSITION\n"
     run = run_klippy(klipper, kossel["live_config"], program, "home_live")
     assert run.status == 0, run.log[-3000:]
     reported = gcode_positions(run.log)
-    geometry = kossel["geometry"]
-    home = exact.forward(geometry, np.zeros((1, 3))).point(geometry.tool)[0]  # every carriage at its endstop
-    print(f"\nafter G28: reported {reported[0]}, the identified nozzle at its endstops {home}")
-    assert np.linalg.norm(reported[0] - home) < 0.01
-    assert np.linalg.norm(reported[0] - kossel["firmware"].home_position) > 0.05  # not Klipper's own home
+    home = kossel["firmware"].home_position
+    held = weighted_targets(kossel["loaded"], kossel["controller"], reported[:1], bound=kossel["bound"])
+    print(f"\nafter G28: reported {reported[0]}, its command {held.commands[0]}, Klipper's home {home}, "
+          f"weights {held.weights[0]}")
+    assert np.linalg.norm(held.commands[0] - home) < 0.001
+    assert np.linalg.norm(reported[0] - home) > 0.05  # not Klipper's own home: a correction there
+    if np.all(held.weights == 1.0):
+        geometry = kossel["aligned"]  # every carriage at its endstop
+        endstops = exact.forward(geometry, np.zeros((1, 3))).point(geometry.tool)[0]
+        assert np.linalg.norm(reported[0] - endstops) < 0.01
     assert np.allclose(reported[1], [10.0, -20.0, 100.0], atol=1e-6)
 
 
@@ -927,8 +1177,7 @@ def _beyond_the_rim(kossel) -> np.ndarray:
     angle = np.linspace(0.0, 2.0 * np.pi, 360, endpoint=False)
     rim = firmware.max_radius - 0.05
     points = np.column_stack([rim * np.cos(angle), rim * np.sin(angle), np.full(angle.size, 20.0)])
-    controller = KlipperController(firmware, STEP)
-    commands = points + exact_correction(load_calibration(kossel["calibration"]), controller, points)
+    commands = points + exact_correction(kossel["loaded"], kossel["controller"], points, kossel["bound"])
     beyond = np.hypot(commands[:, 0], commands[:, 1]) > firmware.max_radius + 0.01
     assert np.any(beyond)
     return points[np.flatnonzero(beyond)[0]]

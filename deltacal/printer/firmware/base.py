@@ -51,7 +51,7 @@ from ...controller.targets import CommandModel, corrected_targets
 from ...exceptions import InputError
 from ...gcode.dialect import GENERIC, Dialect
 from ...geometry import DeltaGeometry, Workspace
-from ...holds import WhereItHolds
+from ...holds import DEFAULT_BOUND, WhereItHolds
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .owner_keys import OwnerKeys
@@ -398,7 +398,7 @@ class Firmware(ABC, Generic[ModelT]):
         return self.apply_note
 
     def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
-                    source: str = "") -> tuple[str, ...]:
+                    source: str = "", sigma_bound: float = DEFAULT_BOUND) -> tuple[str, ...]:
         """Write the correction the firmware runs itself (:attr:`live_files`) in ``folder``; what to say.
 
         Computed for the values of the configuration ``config`` the printer runs (``export --live``).
@@ -408,6 +408,8 @@ class Firmware(ABC, Generic[ModelT]):
             config: The configuration the printer runs.
             folder: The output folder (made if missing; its parent must exist).
             source: The calibration's file, for the files and the messages.
+            sigma_bound: The σ of a correction accepted [mm], where the calibration knows where it
+                holds (the offline route's ``--sigma-bound``).
 
         Raises:
             InputError: the configuration's first problem (by default: the firmware has none).

@@ -109,7 +109,8 @@ def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: C
     refuse_deltacal_file(request.config, "--config")  # its output folder checked by the job (wings.export)
     config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
     config.check_printer(calibration.geometry, request.calibration)
-    return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration)))
+    return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration),
+                                     request.sigma_bound))
 
 
 def printable_volume(robot: str | Path | None, nominal: DeltaGeometry) -> tuple[Workspace, str]:

@@ -17,6 +17,7 @@ import numpy as np
 from ....exceptions import InputWarning
 from ....gcode.dialect import ArcP, Dialect, LineReading, Unread
 from ....geometry import DeltaGeometry, Workspace
+from ....holds import DEFAULT_BOUND
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
@@ -129,9 +130,9 @@ class Klipper(Firmware[KlipperDelta]):
                            flatness=flatness, hold=hold)
 
     def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
-                    source: str = "") -> tuple[str, ...]:
+                    source: str = "", sigma_bound: float = DEFAULT_BOUND) -> tuple[str, ...]:
         """The module ``deltacal_geometry.py`` and its section (:func:`~.live.export.export_live`)."""
-        return export_live(calibration, config, folder, source).lines
+        return export_live(calibration, config, folder, source, bound=sigma_bound).lines
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:

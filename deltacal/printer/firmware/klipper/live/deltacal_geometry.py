@@ -9,13 +9,17 @@ own Python on the printer's host. It is deltacal's (BSD-3-Clause), written for K
 it holds no code of Klipper's.
 
 What it does, move by move: a move's program point x is sent to Klipper's kinematics as
-``x + c(x)``, the correction interpolated (Catmull-Rom, tricubic) from its values at the nodes of
-a regular grid (deltacal computed them exactly: the command that puts the identified printer's
-nozzle on x through Klipper's own model). A long move is cut into segments short enough that the
-nozzle stays on the straight line. Where the calibration does not hold the correction is 0 (the
-grid's values fall to 0 there). Klipper's position reports (``get_position``) are the program's
-coordinates: the command is inverted by fixed-point iteration, and a position outside the grid
-(Klipper asks for made-up ones while homing) is returned as it is; it never raises.
+``x + w(x) c(x)``, the correction interpolated (Catmull-Rom, tricubic) from its values at the
+nodes of a regular grid (deltacal computed them exactly: the command that puts the identified
+printer's nozzle on x through Klipper's own model), times its weight where the calibration holds:
+from the sigma of the correction (interpolated trilinearly from the calibration's sigma grid, in radius,
+azimuth and height), the horizontal and the vertical part each weighted as deltacal's offline
+route weights them (1 where the sigma is at most half the bound, 0 from the bound on, a smooth step
+between; the horizontal part also only as far as it stands out of its sigma). A long move is cut into
+segments short enough that the nozzle stays on the straight line. Beyond the printer's reach the
+correction is 0 (the grid's values fall to 0 there). Klipper's position reports (``get_position``)
+are the program's coordinates: the command is inverted by fixed-point iteration, and a position
+outside the grid (Klipper asks for made-up ones while homing) is returned as it is; it never raises.
 
 Where it sits: a move transform (``gcode_move.set_move_transform``) registered while the
 configuration is read, over ``bed_mesh`` (or ``bed_tilt``), which it loads first when the
@@ -33,11 +37,12 @@ import math
 import sys
 import zlib
 from array import array
+from bisect import bisect_right
 from itertools import product, repeat, starmap
 from operator import add, mul
 
 #: The format of the ``[deltacal_geometry]`` section this module reads.
-FORMAT = "deltacal-klipper-live-1"
+FORMAT = "deltacal-klipper-live-2"
 #: How the first line of a program corrected offline by deltacal starts (deltacal.gcode.marker).
 MARKER = "; corrected by deltacal "
 #: The towers, in Klipper's order.
@@ -47,6 +52,108 @@ SAME_VALUE = 1e-9
 #: The inverse's fixed-point iterations at most, and the change at which it stops [mm].
 INVERSE_ITERATIONS = 50
 INVERSE_TOLERANCE = 1e-10
+#: A correction this many times its sigma is wholly applied (deltacal.holds.SIGNIFICANT).
+SIGNIFICANT = 2.0
+
+
+def correction_weight(sigma, bound):
+    """How much of a correction of sigma ``sigma`` is applied (deltacal.holds.correction_weight).
+
+    1 up to half the bound, 0 from it, the smooth step ``1 - 3t^2 + 2t^3`` between; a NaN sigma: 0.
+    """
+    if sigma != sigma:  # NaN
+        return 0.0
+    t = min(max((sigma - 0.5 * bound) / (0.5 * bound), 0.0), 1.0)
+    return 1.0 - t * t * (3.0 - 2.0 * t)
+
+
+def significance_weight(size, sigma):
+    """How much of a correction of this size and sigma is applied (deltacal.holds.significance_weight).
+
+    0 up to its sigma, 1 from SIGNIFICANT times it, the smooth step ``3t^2 - 2t^3`` between.
+    """
+    t = min(max((size / max(sigma, 1e-12) - 1.0) / (SIGNIFICANT - 1.0), 0.0), 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _cell(nodes, value):
+    """The cell of ``value`` among increasing nodes (its lower node's index) and the fraction across it.
+
+    Held at the edges (deltacal.holds's ``_cell``).
+    """
+    last = len(nodes) - 1
+    held = min(max(value, nodes[0]), nodes[last])
+    index = min(max(bisect_right(nodes, held) - 1, 0), last - 1)
+    fraction = (held - nodes[index]) / (nodes[index + 1] - nodes[index])
+    return index, min(max(fraction, 0.0), 1.0)
+
+
+class SigmaGrid:
+    """The sigma of the correction on the calibration's cylindrical grid, and the weights it gives.
+
+    deltacal.holds.WhereItHolds's interpolation (trilinear in radius, azimuth and height, held at
+    the grid's edges) and weights (``weights``), in standard-library Python.
+
+    Args:
+        radius: The grid's radii, increasing from 0 [mm].
+        azimuth: Its azimuths, evenly over a turn [rad].
+        height: Its heights, increasing [mm].
+        sigma: The sigma of the correction's horizontal part at each node (radius slowest, height
+            fastest), then of its vertical part [mm].
+        bound: The sigma of a correction accepted [mm] (inf: every correction wholly applied).
+    """
+
+    def __init__(self, radius, azimuth, height, sigma, bound):
+        self.radius, self.azimuth, self.height = list(radius), list(azimuth), list(height)
+        self.sigma_values = sigma
+        self.bound = bound
+        self.step = 2.0 * math.pi / len(self.azimuth)
+        self.stride_a = len(self.height)
+        self.stride_r = len(self.azimuth) * len(self.height)
+        self.vertical_start = len(self.radius) * self.stride_r
+        self._corners = {}
+
+    def sigma(self, x, y, z):
+        """The sigma of the correction's horizontal and vertical parts at (x, y, z) [mm].
+
+        The 8 nodes around the point's cell are kept per cell (a print's moves stay in few cells).
+        """
+        ir, fr = _cell(self.radius, math.hypot(x, y))
+        iz, fz = _cell(self.height, z)
+        count, step = len(self.azimuth), self.step
+        phi = math.atan2(y, x) % (2.0 * math.pi)
+        ia = int(math.floor((phi - self.azimuth[0]) / step)) % count
+        fa = min(max(((phi - self.azimuth[ia]) / step) % 1.0, 0.0), 1.0)
+        corners = self._corners.get((ir, ia, iz))
+        if corners is None:
+            corners = self._gather(ir, ia, iz)
+        h00, h01, h10, h11, v00, v01, v10, v11 = (
+            (1.0 - fz) * low + fz * high for low, high in zip(corners[::2], corners[1::2]))  # noqa: B905
+        gr, ga = 1.0 - fr, 1.0 - fa
+        return (gr * (ga * h00 + fa * h01) + fr * (ga * h10 + fa * h11),
+                gr * (ga * v00 + fa * v01) + fr * (ga * v10 + fa * v11))
+
+    def _gather(self, ir, ia, iz):
+        """The sigma at the 8 nodes of cell (ir, ia, iz), horizontal then vertical (kept)."""
+        values, sr, sa, count = self.sigma_values, self.stride_r, self.stride_a, len(self.azimuth)
+        corners = []
+        for start in (0, self.vertical_start):
+            for dr in (0, 1):
+                for da in (0, 1):
+                    base = start + (ir + dr) * sr + ((ia + da) % count) * sa + iz
+                    corners += [values[base], values[base + 1]]
+        if len(self._corners) >= 4096:
+            self._corners.clear()
+        self._corners[(ir, ia, iz)] = corners
+        return corners
+
+    def weights(self, x, y, z, cx, cy):
+        """The weights of the correction (cx, cy, ...) at (x, y, z): its horizontal part's, its vertical's."""
+        if not math.isfinite(self.bound):
+            return 1.0, 1.0
+        horizontal, vertical = self.sigma(x, y, z)
+        along = significance_weight(math.hypot(cx, cy), horizontal)
+        return correction_weight(horizontal, self.bound) * along, correction_weight(vertical, self.bound)
 
 
 def catmull_rom(t):
@@ -70,9 +177,10 @@ class CorrectionGrid:
             (non-decreasing in k) and height j (the z nodes): ``curvature[k][j]``, for the splitting
             of moves.
         scale: The unit of ``values`` [mm].
+        holds: Where the calibration holds (:class:`SigmaGrid`), or None: the correction applied wholly.
     """
 
-    def __init__(self, origin, step, shape, values, curvature, scale=1.0):
+    def __init__(self, origin, step, shape, values, curvature, scale=1.0, holds=None):
         self.x0, self.y0, self.z0 = origin
         self.step = step
         self.inverse_step = 1.0 / step
@@ -83,6 +191,7 @@ class CorrectionGrid:
         self.stride_x = 3 * self.nz * self.ny
         self.curvature = curvature
         self.scale = scale
+        self.holds = holds
         self._plane = None
         self._px = self._py = self._pz = ()
         self._cells = {}
@@ -132,9 +241,21 @@ class CorrectionGrid:
         self._cells[(i, j, k)] = cell
         return cell
 
+    def correction(self, x, y, z):
+        """The correction applied at (x, y, z): interpolated, then weighted where the calibration holds.
+
+        Its horizontal part times its weight, its vertical part times its own (:class:`SigmaGrid`);
+        None beyond the grid.
+        """
+        c = self.at(x, y, z)
+        if c is None or self.holds is None:
+            return c
+        horizontal, vertical = self.holds.weights(x, y, z, c[0], c[1])
+        return horizontal * c[0], horizontal * c[1], vertical * c[2]
+
     def command(self, x, y, z):
         """The command for the program point (x, y, z): the point plus its correction."""
-        c = self.at(x, y, z)
+        c = self.correction(x, y, z)
         if c is None:
             return x, y, z
         return x + c[0], y + c[1], z + c[2]
@@ -147,7 +268,7 @@ class CorrectionGrid:
         try:
             px, py, pz = x, y, z
             for _ in range(INVERSE_ITERATIONS):
-                c = self.at(px, py, pz)
+                c = self.correction(px, py, pz)
                 if c is None:
                     return x, y, z
                 nx, ny, nz = x - c[0], y - c[1], z - c[2]
@@ -393,7 +514,38 @@ def read_section(config):
     if len(correction) != expected:
         raise config.error(f"deltacal_geometry: key correction: {len(correction)} values, expected "
                            f"{expected} (3 per node of grid_shape {tuple(shape)})")
-    return CorrectionGrid(origin, step, shape, correction, curvature, unit), values, volume
+    holds = read_holds(config)
+    return CorrectionGrid(origin, step, shape, correction, curvature, unit, holds), values, volume
+
+
+def read_holds(config):
+    """Where the calibration holds (:class:`SigmaGrid`), or None: the section has no sigma grid.
+
+    Raises:
+        config.error: naming the key of the first value missing or wrong.
+    """
+    bound = config.getfloat("sigma_bound", above=0.0)
+    radius_text = config.get("holds_radius", "")
+    if not radius_text.strip():
+        return None
+    nodes = []
+    for key in ("holds_radius", "holds_azimuth", "holds_height"):
+        try:
+            nodes.append([float(v) for v in config.get(key).split(",")])
+        except ValueError as exc:
+            raise config.error(f"deltacal_geometry: key {key}: {exc}") from None
+    radius, azimuth, height = nodes
+    for key, axis in (("holds_radius", radius), ("holds_height", height)):
+        if len(axis) < 2 or any(b <= a for a, b in zip(axis, axis[1:])):  # noqa: B905 (Python 3.7+)
+            raise config.error(f"deltacal_geometry: key {key}: two increasing values or more")
+    if not azimuth:
+        raise config.error("deltacal_geometry: key holds_azimuth: one value or more")
+    sigma = decode_floats(config.get("holds_sigma"), config.error, "holds_sigma")
+    expected = 2 * len(radius) * len(azimuth) * len(height)
+    if len(sigma) != expected or not all(v >= 0.0 for v in sigma):
+        raise config.error(f"deltacal_geometry: key holds_sigma: {len(sigma)} values, expected {expected} "
+                           "non-negative ones (2 per node of holds_radius x holds_azimuth x holds_height)")
+    return SigmaGrid(radius, azimuth, height, sigma, bound)
 
 
 def read_curvature(text, layers, error):
@@ -417,6 +569,21 @@ def decode_values(text, error):
     values = array("i")
     if values.itemsize != 4 or len(data) % 4:
         raise error("deltacal_geometry: key correction: not a whole number of 32-bit values")
+    values.frombytes(data)
+    if sys.byteorder != "little":
+        values.byteswap()
+    return values
+
+
+def decode_floats(text, error, key):
+    """Float values from the section's text: base64 of zlib-compressed little-endian float64."""
+    try:
+        data = zlib.decompress(base64.b64decode("".join(text.split()), validate=True))
+    except (ValueError, zlib.error) as exc:
+        raise error(f"deltacal_geometry: key {key}: not deltacal's encoded values ({exc})") from None
+    values = array("d")
+    if values.itemsize != 8 or len(data) % 8:
+        raise error(f"deltacal_geometry: key {key}: not a whole number of 64-bit values")
     values.frombytes(data)
     if sys.byteorder != "little":
         values.byteswap()

@@ -3,8 +3,10 @@
 Writes ``deltacal_geometry.py`` (:mod:`.deltacal_geometry`, the Klipper extra, as the package holds
 it) and ``deltacal_geometry.cfg``, its ``[deltacal_geometry]`` section: the Klipper values the
 correction was computed for (the module refuses to start under others), the volume it covers,
-the correction at the nodes of its grid (:mod:`.field`), the bound that cuts long moves, and the
-sampling error measured against the exact correction. Both are written once everything is
+the correction at the nodes of its grid (:mod:`.field`), where the calibration holds (its σ grid
+and the bound a correction's σ is accepted within: the module weights the correction as the
+offline route does), the bound that cuts long moves, and the sampling error measured against the
+offline route's exact correction. Both are written once everything is
 computed, each atomically. Units: mm.
 """
 
@@ -22,6 +24,7 @@ import numpy as np
 
 from .....calibration import Calibration
 from .....exceptions import InputError
+from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....io.atomic import atomic_write_text
 from ..config import load_klipper
 from ..model import KlipperController, KlipperDelta
@@ -33,7 +36,6 @@ from .field import (
     CorrectionField,
     LiveVolume,
     SamplingError,
-    WeightFunction,
     correction_field,
     curvature_bound,
     sampling_error,
@@ -81,7 +83,7 @@ def module_text() -> str:
 
 
 def export_live(calibration: Calibration, config: str | Path, folder: str | Path, source: str = "",
-                step: float = DEFAULT_STEP_MM, weight: WeightFunction | None = None) -> LiveExport:
+                step: float = DEFAULT_STEP_MM, bound: float = DEFAULT_BOUND) -> LiveExport:
     """Compute the live correction of ``calibration`` for Klipper's values in ``config``; write both files.
 
     Args:
@@ -90,7 +92,8 @@ def export_live(calibration: Calibration, config: str | Path, folder: str | Path
         folder: The output folder (made if missing; its parent must exist).
         source: The calibration's file, for the section and the messages.
         step: The grid's spacing [mm].
-        weight: Where the calibration holds (:func:`.field.correction_field`).
+        bound: The σ of a correction accepted [mm] where the calibration knows where it holds (the
+            offline route's ``--sigma-bound``; ``math.inf``: the whole correction everywhere).
 
     Raises:
         InputError: the configuration's first problem, or a calibration without its step distance.
@@ -102,7 +105,7 @@ def export_live(calibration: Calibration, config: str | Path, folder: str | Path
                          "known (identify the printer again)", source, "key geometry.step_distance_mm")
     controller = KlipperController(klipper, steps)
     volume = LiveVolume.of(klipper)
-    field = correction_field(calibration, controller, volume, step, weight)
+    field = correction_field(calibration, controller, volume, step, bound)
     error = sampling_error(field, calibration, controller)
     lines = _summary(field, error, klipper)
     text = section_text(field, error, klipper, source, lines)
@@ -124,7 +127,8 @@ def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta
              f"{field.refused} nodes of it, or within {TRUST_NODES * field.step:g} mm of it, refused by the "
              "library (out of the printer's reach, near a singularity): the correction blends to Klipper's "
              "own command there",
-             f"sampling error against the exact correction at {error.points} points of the volume: max "
+             f"sampling error against the exact correction at {error.points} points of the volume"
+             f"{_held(field)}: max "
              f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm (where Klipper moves at "
              f"full speed), {error.max:.4f} mm out to the rim (Klipper's model nears a flat rod there); RMS "
              f"{error.rms:.5f} mm"]
@@ -132,6 +136,16 @@ def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta
     if limits:
         lines.append(limits)
     return tuple(lines)
+
+
+def _held(field: CorrectionField) -> str:
+    """How the correction is weighted, in words for the sampling error's line ("" without a σ grid)."""
+    if field.holds is None:
+        return ""
+    if not math.isfinite(field.bound):
+        return " (the whole correction everywhere: an infinite bound)"
+    return (f" (weighted where the calibration holds within σ {field.bound:g} mm, as compensate "
+            f"--sigma-bound {field.bound:g} does: its σ grid goes with the section)")
 
 
 def _limits_note(field: CorrectionField) -> str:
@@ -142,7 +156,7 @@ def _limits_note(field: CorrectionField) -> str:
     bed = np.stack([np.outer(ring, np.cos(angle)).ravel(), np.outer(ring, np.sin(angle)).ravel(),
                     np.full(ring.size * angle.size, v.min_z)], axis=-1)
     points = np.concatenate([bed, v.sample(4000, np.random.default_rng(7))])
-    commands = points + field(points)
+    commands = points + field.applied(points)
     refused = ~v.admits(commands)
     if not np.any(refused):
         return ""
@@ -183,20 +197,35 @@ def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperD
              "split_tolerance": f"{SPLIT_TOLERANCE_MM:g}",
              "grid_origin": ", ".join(_number(x) for x in field.origin), "grid_step": _number(field.step),
              "grid_shape": ", ".join(str(n) for n in field.shape),
-             "correction_unit": f"{VALUE_UNIT_MM:g}"}
+             "correction_unit": f"{VALUE_UNIT_MM:g}", "sigma_bound": _number(field.bound)}
     bound = curvature_bound(field)
     lines = ["# deltacal's live correction: the [deltacal_geometry] section deltacal_geometry.py reads.",
              f"# To install: {INSTALL_NOTE}.",
              "# Computed for the Klipper values below: the module refuses to start under others (export "
              "again).",
              *(f"# {line}" for line in notes), "", "[deltacal_geometry]",
-             *(f"{key}: {value}" for key, value in keys.items()),
+             *(f"{key}: {value}" for key, value in keys.items()), *holds_lines(field.holds),
              "# split_curvature: per ring of grid_step (from the axis), the bound at each z node [1/mm]",
              "split_curvature:", *("  " + ", ".join(f"{k:.3g}" for k in row) for row in bound),
              "# correction: base64 of the zlib-compressed little-endian int32 values (in correction_unit), "
              "3 per node, x slowest, then y, z, the component fastest",
              "correction:", *("  " + line for line in encode_values(field.values))]
     return "\n".join(lines) + "\n"
+
+
+def holds_lines(holds: WhereItHolds | None) -> list[str]:
+    """The section's lines of where the calibration holds: its σ grid's nodes and σ, exact (none: [])."""
+    if holds is None:
+        return []
+    sigma = np.concatenate([holds.horizontal.ravel(), holds.vertical.ravel()]).astype("<f8").tobytes()
+    text = base64.b64encode(zlib.compress(sigma, 9)).decode("ascii")
+    return [f"holds_radius: {', '.join(_number(r) for r in holds.radius)}",
+            f"holds_azimuth: {', '.join(_number(a) for a in holds.azimuth)}",
+            f"holds_height: {', '.join(_number(z) for z in holds.height)}",
+            "# holds_sigma: base64 of the zlib-compressed little-endian float64 σ [mm] of the correction's "
+            "horizontal part, then of its vertical part, at the nodes of holds_radius x holds_azimuth x "
+            "holds_height (the radius slowest, the height fastest)",
+            "holds_sigma:", *("  " + text[k:k + LINE_CHARS] for k in range(0, len(text), LINE_CHARS))]
 
 
 def encode_values(values: np.ndarray) -> list[str]:

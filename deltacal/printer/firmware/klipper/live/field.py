@@ -16,14 +16,21 @@ refuses a point (out of the identified printer's reach, near a singularity, not 
 through Klipper's model) and farther out, the correction blends to 0, Klipper's own command: the
 same function is continued across those nodes (the library's kinematics without its checks, else
 linear extrapolation), so that points near the border are interpolated from a smooth field, then
-weighted down by a smoothstep over :data:`BLEND_NODES` nodes. A weight function of points
-(``weight``; default 1: the calibration holds wherever the library corrects) multiplies the whole.
-:func:`curvature_bound` gives what the module needs to cut long moves. Units: mm.
+weighted down by a smoothstep over :data:`BLEND_NODES` nodes.
+
+A calibration that knows where it holds (:class:`~deltacal.holds.WhereItHolds`) is corrected only
+there (:func:`~deltacal.controller.weighted_targets`): its weights change from 1 to 0 within a few
+mm where the σ crosses the bound, faster than any grid of the correction could follow. So the grid
+holds the whole correction, smooth (the offline route's with ``bound = inf``: the identified
+printer in Klipper's frame), and the weights are applied at each point after the interpolation,
+from the calibration's σ grid, as the library computes them (:meth:`CorrectionField.applied`: the
+module does the same arithmetic). :func:`curvature_bound` bounds the applied correction's curvature,
+what the module needs to cut long moves. Units: mm.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +38,9 @@ from scipy.ndimage import distance_transform_edt, maximum_filter
 
 from .....calibration import Calibration
 from .....controller import CommandModel, corrected_targets
+from .....controller.targets import aligned_to_controller
 from .....exceptions import AssemblyError, GeometryError, UnreachableError
+from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....kinematics import exact
 from ..model import SLOW_RATIO, KlipperDelta
 
@@ -47,9 +56,14 @@ COVERAGE_NODES = 1
 BLEND_NODES = 2
 #: Calls of the library at most (each may name more refused points at a later check).
 _TRIES = 8
-
-#: A weight function of points: (N, 3) [mm] -> (N,) in [0, 1].
-WeightFunction = Callable[[np.ndarray], np.ndarray]
+#: The curvature of the applied correction is bounded from its values on a grid this many times finer
+#: than the correction's (:func:`curvature_bound`).
+CURVATURE_REFINE = 4
+#: The bound is this many times the largest second difference (:func:`curvature_bound`): a second
+#: difference at spacing f is the curvature averaged over ±f (a hat), and where the curvature jumps
+#: (the smooth steps' ends, the interpolation's nodes) or gathers in a bend (the σ's trilinear
+#: interpolation, its edges) the nearest fine node sees half of it or more.
+CURVATURE_MARGIN = 2.0
 
 
 @dataclass(frozen=True)
@@ -118,6 +132,8 @@ class CorrectionField:
         volume: The volume it was built for.
         refused: Nodes within the trusted margin whose correction the library refused.
         computed: Nodes whose correction the library was asked for.
+        holds: Where the calibration holds (its σ grid), or None: the correction applied wholly.
+        bound: The σ of a correction accepted [mm] (``math.inf``: the whole correction everywhere).
     """
 
     origin: np.ndarray
@@ -126,6 +142,8 @@ class CorrectionField:
     volume: LiveVolume
     refused: int = 0
     computed: int = 0
+    holds: WhereItHolds | None = None
+    bound: float = DEFAULT_BOUND
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -155,6 +173,29 @@ class CorrectionField:
         out[inside] = total
         return out
 
+    def weights(self, points: np.ndarray, corrections: np.ndarray) -> np.ndarray:
+        """The weights of the corrections' horizontal and vertical parts at points, (N, 2).
+
+        :meth:`WhereItHolds.weights <deltacal.holds.WhereItHolds.weights>` with the field's bound
+        (the offline route's, :func:`~deltacal.controller.weighted_targets`); ones without a σ
+        grid or with an infinite bound (every correction applied).
+        """
+        points = np.atleast_2d(np.asarray(points, dtype=float))
+        if self.holds is None or not math.isfinite(self.bound):
+            return np.ones((points.shape[0], 2))
+        return self.holds.weights(points, self.bound, corrections)
+
+    def applied(self, points: np.ndarray, corrections: np.ndarray | None = None) -> np.ndarray:
+        """The correction the module applies at points: interpolated, then weighted, (N, 3) [mm].
+
+        The horizontal part times its weight, the vertical part times its own (:meth:`weights` of
+        the interpolated correction, ``corrections`` if given): the live module's
+        :meth:`.deltacal_geometry.CorrectionGrid.correction`.
+        """
+        points = np.atleast_2d(np.asarray(points, dtype=float))
+        corrections = self(points) if corrections is None else corrections
+        return self.weights(points, corrections)[:, [0, 0, 1]] * corrections
+
 
 def _catmull_rom_weights(t: np.ndarray) -> np.ndarray:
     """The 4 weights of Catmull-Rom's cubic convolution at fractions t in [0, 1), (N,) -> (N, 4)."""
@@ -163,11 +204,13 @@ def _catmull_rom_weights(t: np.ndarray) -> np.ndarray:
                      0.5 * (-3.0 * t3 + 4.0 * t2 + t), 0.5 * (t3 - t2)], axis=-1)
 
 
-def exact_correction(calibration: Calibration, controller: CommandModel, points: np.ndarray) -> np.ndarray:
+def exact_correction(calibration: Calibration, controller: CommandModel, points: np.ndarray,
+                     bound: float = math.inf) -> np.ndarray:
     """The library's correction ``command(x) − x`` at points, NaN rows where it refuses them, (N, 3).
 
-    :func:`~deltacal.controller.corrected_targets` (the offline route's), asked again without the
-    points it refuses until it refuses none.
+    :func:`~deltacal.controller.corrected_targets` (the offline route's) with ``bound`` (by default
+    the whole correction everywhere: what the grid holds), asked again without the points it
+    refuses until it refuses none.
     """
     points = np.atleast_2d(np.asarray(points, dtype=float))
     out = np.full(points.shape, np.nan)
@@ -176,7 +219,8 @@ def exact_correction(calibration: Calibration, controller: CommandModel, points:
         if not todo.size:
             break
         try:
-            out[todo] = corrected_targets(calibration, controller, points[todo]).commands - points[todo]
+            out[todo] = corrected_targets(calibration, controller, points[todo], bound=bound).commands \
+                - points[todo]
             return out
         except (UnreachableError, AssemblyError) as exc:
             if not exc.indices:
@@ -191,16 +235,20 @@ def _continuation(calibration: Calibration, controller: CommandModel, points: np
 
     The identified printer's exact inverse without its checks (a carriage a little above its
     endstop, a pose near a singularity) and the controller's forward model of those travels: used
-    only to continue the field across the border of what the library corrects.
+    only to continue the field across the border of what the library corrects. The printer is the
+    one the library corrects for: with a σ grid, in the controller's frame (:func:`aligned_to_controller`).
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
+    holds = calibration.holds if isinstance(calibration, Calibration) else None
+    if holds is not None:
+        geometry = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
     with np.errstate(invalid="ignore"):
         q = exact.inverse(geometry, points, check=False)
         return controller.forward(q, check=False) - points
 
 
 def correction_field(calibration: Calibration, controller: CommandModel, volume: LiveVolume,
-                     step: float = DEFAULT_STEP_MM, weight: WeightFunction | None = None) -> CorrectionField:
+                     step: float = DEFAULT_STEP_MM, bound: float = DEFAULT_BOUND) -> CorrectionField:
     """The correction of Klipper's commands sampled on a grid over ``volume`` (see the module).
 
     Args:
@@ -209,14 +257,16 @@ def correction_field(calibration: Calibration, controller: CommandModel, volume:
             (:class:`~deltacal.printer.firmware.klipper.model.KlipperController`).
         volume: The volume the program's moves reach.
         step: The grid's spacing [mm].
-        weight: Where the calibration holds: a weight in [0, 1] per point (default 1 wherever the
-            library corrects); the correction is multiplied by it.
+        bound: The σ of a correction accepted [mm], where the calibration knows where it holds (the
+            offline route's ``bound``; ``math.inf``: the whole correction everywhere).
 
     Raises:
-        GeometryError: a spacing that is not a positive length, or a weight out of [0, 1].
+        GeometryError: a spacing that is not a positive length, or a bound that is not positive.
     """
     if not (np.isfinite(step) and step > 0.0):
         raise GeometryError(f"the grid's spacing must be a positive length, got {step!r}")
+    if not bound > 0.0:
+        raise GeometryError(f"the σ of a correction accepted must be positive, got {bound!r}")
     margin = (TRUST_NODES + BLEND_NODES + 2) * step  # trusted, blended, then the zeros the stencil reads
     reach = int(np.ceil((volume.radius + margin) / step))
     xy = np.arange(-reach, reach + 1) * step
@@ -233,14 +283,10 @@ def correction_field(calibration: Calibration, controller: CommandModel, volume:
     continued = _continued(values.reshape(*shape, 3), np.all(np.isfinite(values), axis=1).reshape(shape))
     apart = distance_transform_edt(~known.reshape(shape)) if np.any(known) else np.full(shape, np.inf)
     held = _ramp(beyond.reshape(shape)) * _ramp(apart)
-    if weight is not None:
-        user = np.asarray(weight(flat), dtype=float).reshape(shape)
-        if not np.all((user >= 0.0) & (user <= 1.0)):
-            raise GeometryError("the weight of the points where the calibration holds must be in [0, 1]")
-        held = held * user
     refused = int(np.sum(asked & ~known & (beyond <= TRUST_NODES)))
+    holds = calibration.holds if isinstance(calibration, Calibration) else None
     return CorrectionField(np.array([xy[0], xy[0], z[0]]), float(step), continued * held[..., None], volume,
-                           refused, int(np.sum(asked)))
+                           refused, int(np.sum(asked)), holds, float(bound))
 
 
 def _ramp(nodes_away: np.ndarray) -> np.ndarray:
@@ -296,18 +342,72 @@ def _shifted(a: np.ndarray, axis: int, offset: int) -> np.ndarray:
     return out
 
 
-def curvature_bound(field: CorrectionField) -> np.ndarray:
-    """A bound of the correction's second derivative along any direction, per ring and layer [1/mm].
+def curvature_bound(field: CorrectionField, refine: int = CURVATURE_REFINE) -> np.ndarray:
+    """A bound of the applied correction's second derivative along any direction, per ring and layer [1/mm].
 
-    At ring k (radius k × step) and layer j (the grid's z nodes), the largest ``sqrt(Σ ‖H‖²)`` over
-    the nodes Klipper admits within one ring and one layer of it, H each component's Hessian by
-    finite differences (its norm bounds the second derivative along any unit direction);
-    non-decreasing outwards, so that a move's larger radius (one of its ends) and the layers of its
-    heights give its bound. The chord of a segment of length s is then off the field by at most
-    s² K / 8: the module's cut of long moves. Shape (rings, nz).
+    The applied correction (:meth:`CorrectionField.applied`: interpolated, then weighted where the
+    calibration holds) is evaluated on a grid ``refine`` times finer than the field's over what
+    Klipper admits: its weights turn from 1 to 0 within a few mm, and the σ's trilinear
+    interpolation bends it at the σ grid's nodes, which the field's own nodes would not see. At each
+    fine node, ``sqrt(Σ ‖H‖²)``, H each component's Hessian by finite differences at the fine
+    spacing (its norm bounds the second derivative along any unit direction; across a bend, the
+    slope's change over one fine spacing), times :data:`CURVATURE_MARGIN`. Ring k (radius k × step)
+    and layer j (the field's z nodes) take the largest of the nodes at radius from k × step and
+    heights from z_j up to z_{j+1}, then of their neighbours; non-decreasing outwards, so that a
+    move's larger radius (one of its ends) and the layers of its heights give its bound. The chord
+    of a segment of length s is then off the applied correction by at most s² K / 8: the module's
+    cut of long moves (checked on random moves: tests/test_klipper_live.py). Shape (rings, nz).
     """
-    v, h = field.values, field.step
-    hessian = np.zeros(v.shape[:3])
+    h, volume = field.step, field.volume
+    fine = h / refine
+    low = np.array([-volume.radius, -volume.radius, volume.min_z]) - fine
+    high = np.array([volume.radius, volume.radius, volume.max_z]) + fine
+    first = np.floor((low - field.origin) / fine).astype(int)
+    index = [np.arange(first[k], int(np.ceil((high[k] - field.origin[k]) / fine)) + 1) for k in range(3)]
+    values = field.values
+    for axis in range(3):  # Catmull-Rom is a tensor product: the field at the fine nodes, axis by axis
+        values = _upsampled(values, axis, index[axis], refine)
+    axes = [field.origin[k] + fine * index[k] for k in range(3)]
+    nz = field.shape[2]
+    rings = int(np.ceil(volume.radius / h)) + 2
+    bound = np.zeros((rings, nz))
+    width = 16  # x nodes per slab (and one on each side)
+    for start in range(1, axes[0].size - 1, width):
+        stop = min(start + width, axes[0].size - 1)
+        nodes = np.stack(np.meshgrid(axes[0][start - 1:stop + 1], axes[1], axes[2], indexing="ij"), axis=-1)
+        flat = nodes.reshape(-1, 3)
+        applied = field.applied(flat, values[start - 1:stop + 1].reshape(-1, 3)).reshape(nodes.shape)
+        norm = _hessian_norm(applied, fine)[1:-1, 1:-1, 1:-1].reshape(-1)
+        inner = nodes[1:-1, 1:-1, 1:-1].reshape(-1, 3)
+        admitted = volume.admits(inner)
+        ring = np.minimum((np.hypot(inner[:, 0], inner[:, 1]) / h).astype(int), rings - 1)
+        layer = np.clip(np.floor((inner[:, 2] - field.origin[2]) / h).astype(int), 0, nz - 1)
+        np.maximum.at(bound, (ring[admitted], layer[admitted]), norm[admitted])
+    return CURVATURE_MARGIN * np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0)
+
+
+def _upsampled(values: np.ndarray, axis: int, index: np.ndarray, refine: int) -> np.ndarray:
+    """Catmull-Rom along one axis at the fine nodes ``index`` (in fine spacings from the first node).
+
+    The fine node m lies in the cell of node ``m // refine``, at the fraction ``(m % refine) / refine``
+    across it; its value is the 4 nodes' around it, weighted (:func:`_catmull_rom_weights`).
+    """
+    cell, t = index // refine, (index % refine) / refine
+    weights = _catmull_rom_weights(t)
+    moved = np.moveaxis(values, axis, 0)
+    out = np.zeros((index.size, *moved.shape[1:]))
+    for k in range(4):
+        out += weights[:, k].reshape(-1, *([1] * (moved.ndim - 1))) * moved[cell - 1 + k]
+    return np.moveaxis(out, 0, axis)
+
+
+def _hessian_norm(values: np.ndarray, spacing: float) -> np.ndarray:
+    """``sqrt(Σ ‖H‖²)`` over the components by finite differences at the nodes of a grid, (nx, ny, nz).
+
+    ``values`` (nx, ny, nz, 3) at the grid's spacing; at its outer nodes the differences read zeros.
+    """
+    v = values
+    total = np.zeros(v.shape[:3])
     for a in range(3):
         for b in range(a, 3):
             if a == b:
@@ -315,23 +415,13 @@ def curvature_bound(field: CorrectionField) -> np.ndarray:
             else:
                 d = 0.25 * (_shifted(_shifted(v, a, 1), b, 1) - _shifted(_shifted(v, a, 1), b, -1)
                             - _shifted(_shifted(v, a, -1), b, 1) + _shifted(_shifted(v, a, -1), b, -1))
-            hessian += (1.0 if a == b else 2.0) * np.sum(d**2, axis=-1)
-    norm = np.sqrt(hessian) / h**2
-    nx, ny, nz = field.shape
-    axes = [field.origin[k] + h * np.arange(n) for k, n in enumerate((nx, ny, nz))]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    inside = field.volume.admits(grid)
-    rings = int(np.ceil(field.volume.radius / h)) + 2
-    ring = np.minimum(np.rint(np.hypot(grid[:, 0], grid[:, 1]) / h).astype(int), rings - 1)
-    layer = np.tile(np.arange(nz), nx * ny)
-    bound = np.zeros((rings, nz))
-    np.maximum.at(bound, (ring[inside], layer[inside]), norm.reshape(-1)[inside])
-    return np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0)
+            total += (1.0 if a == b else 2.0) * np.sum(d**2, axis=-1)
+    return np.sqrt(total) / spacing**2
 
 
 @dataclass(frozen=True)
 class SamplingError:
-    """How far the interpolated field is from the exact correction, at points off the grid [mm].
+    """How far the applied correction is from the offline route's exact one, at points off the grid [mm].
 
     Attributes:
         max: The largest distance, over the volume.
@@ -350,12 +440,16 @@ class SamplingError:
 
 def sampling_error(field: CorrectionField, calibration: Calibration, controller: CommandModel,
                    count: int = 4000, seed: int = 41) -> SamplingError:
-    """The field against the library's exact correction at ``count`` points spread over its volume."""
+    """The applied correction against the offline route's at ``count`` points spread over its volume.
+
+    The offline route's: :func:`~deltacal.controller.corrected_targets` with the field's bound (the
+    correction weighted where the calibration holds, exactly); the field's: :meth:`CorrectionField.applied`.
+    """
     points = field.volume.sample(count, np.random.default_rng(seed))
-    exact_values = exact_correction(calibration, controller, points)
+    exact_values = exact_correction(calibration, controller, points, field.bound)
     corrected = np.all(np.isfinite(exact_values), axis=1)
     points = points[corrected]
-    error = np.linalg.norm(field(points) - exact_values[corrected], axis=1)
+    error = np.linalg.norm(field.applied(points) - exact_values[corrected], axis=1)
     if not error.size:
         return SamplingError(float("nan"), float("nan"), float("nan"), 0, count)
     full = np.hypot(points[:, 0], points[:, 1]) <= field.volume.slow_radius
