@@ -62,7 +62,6 @@ if TYPE_CHECKING:
     from ...calibration import Calibration
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
-    from .fitting import Flatness
 
 
 
@@ -196,6 +195,10 @@ def undetermined_values(holds: WhereItHolds | None) -> tuple[str, ...]:
     # tower C's angle is the printed part's turn, held by every fit
     return tuple(name for name in CLASSICAL_NAMES if name in named and name != "angle_c")
 
+
+#: The first layer's bounds of :func:`least_largest` [mm]: None (the start's), its largest |z error|
+#: (its peak to valley then bounded by twice that alone), or both (largest |z error|, peak to valley).
+Flatness = float | tuple[float, float] | None
 
 @dataclass(frozen=True)
 class FirmwareFit(Generic[ModelT]):

@@ -34,7 +34,7 @@ from ...identifiability import base_parameters
 from ...kinematics import exact
 from ...rotations import skew
 from ..robot import in_plane_motion, less_bed_motion
-from .base import FirmwareModel, ModelT
+from .base import FirmwareModel, Flatness, ModelT
 
 #: Gauss-Newton stops when a step moves no nozzle by more than this [mm].
 TOLERANCE = 1e-8
@@ -50,9 +50,6 @@ LARGEST_TOLERANCE = 1e-5
 #: What a step of :func:`least_largest` may leave above the start's flatness: the second order of a
 #: step the linear model keeps within it [mm].
 FLATNESS_SLACK = 1e-6
-#: The first layer's bounds of :func:`least_largest` [mm]: None (the start's), its largest |z error|
-#: (its peak to valley then bounded by twice that alone), or both (largest |z error|, peak to valley).
-Flatness = float | tuple[float, float] | None
 #: :func:`largest_step`'s cutting planes: the cuts to begin with, the rounds at most, the cuts each
 #: round adds at most, and how far above the bound a cut is wanted [mm] (HiGHS holds rows to 1e-7).
 FIRST_CUTS, MAX_CUTS, CUTS_PER_ROUND, CUT_TOLERANCE = 30, 60, 10, 1e-6

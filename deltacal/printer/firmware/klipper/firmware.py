@@ -20,7 +20,7 @@ from ....geometry import DeltaGeometry, Workspace
 from ....holds import DEFAULT_BOUND
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import (
@@ -52,7 +52,6 @@ from .saved import read_saved_calibration
 if TYPE_CHECKING:
     from ....calibration import Calibration
     from ...robot import NominalLinearDelta
-    from ..fitting import Flatness
     from ..probe_log import ProbeLog
     from ..probing import ProbeTravel
 

@@ -26,12 +26,12 @@ from dataclasses import replace
 import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
-from ..base import CLASSICAL_NAMES, FirmwareFit
+from ..base import CLASSICAL_NAMES, FirmwareFit, Flatness
 from ..fitting import EXPORT_FIRST_LAYER_WEIGHT as EXPORT_FIRST_LAYER_WEIGHT
 from ..fitting import FIRST_LAYER as FIRST_LAYER
 from ..fitting import TOLERANCE as TOLERANCE
 from ..fitting import ErrorStats as ErrorStats
-from ..fitting import Flatness, ValueVector, gauss_newton
+from ..fitting import ValueVector, gauss_newton
 from ..fitting import error_stats as error_stats
 from ..fitting import first_layer as first_layer
 from ..fitting import nozzle_errors as nozzle_errors

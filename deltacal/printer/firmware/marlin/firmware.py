@@ -19,7 +19,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
@@ -34,7 +34,6 @@ from .values import marlin_from_geometry, marlin_from_printer
 
 if TYPE_CHECKING:
     from ...robot import NominalLinearDelta
-    from ..fitting import Flatness
     from ..probing import ProbeTravel
 
 

@@ -23,8 +23,8 @@ import numpy as np
 
 from ....exceptions import InputError
 from ....geometry import DeltaGeometry, Workspace
-from ..base import FirmwareFit
-from ..fitting import FLATNESS_SLACK, ErrorStats, Flatness, error_stats, flatness_limits, printable_grid
+from ..base import FirmwareFit, Flatness
+from ..fitting import FLATNESS_SLACK, ErrorStats, error_stats, flatness_limits, printable_grid
 from ..klipper.fit import KLIPPER_NAMES, fit_klipper
 from ..klipper.model import KlipperDelta
 from .model import MarlinDelta

@@ -19,7 +19,7 @@ from ....exceptions import InputWarning
 from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
 from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
@@ -42,7 +42,6 @@ from .probing import rrf_probe_program, rrf_probe_travel
 if TYPE_CHECKING:
     from ...files.importer import PrinterImport
     from ...robot import NominalLinearDelta
-    from ..fitting import Flatness
     from ..probe_log import ProbeLog
     from ..probing import ProbeTravel
 

@@ -24,8 +24,8 @@ import numpy as np
 
 from ....geometry import DeltaGeometry, Workspace
 from .. import fitting
-from ..base import FirmwareFit
-from ..fitting import ErrorStats, Flatness, ValueVector, gauss_newton, printable_grid
+from ..base import FirmwareFit, Flatness
+from ..fitting import ErrorStats, ValueVector, gauss_newton, printable_grid
 from .model import RRFDelta
 
 #: RRF's values in the order of the fit's unknowns (steps last).
