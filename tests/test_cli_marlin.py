@@ -3,6 +3,7 @@ Marlin's model, ``export --controller marlin`` read back as Marlin's values."""
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -12,6 +13,8 @@ from numpy.testing import assert_allclose
 
 from deltacal.cli import main
 from deltacal.compensation import compensate
+from deltacal.controller import corrected_targets
+from deltacal.controller.targets import aligned_to_controller
 from deltacal.io import load_calibration, load_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
@@ -56,8 +59,15 @@ def test_corrected_targets_go_through_marlins_model(identified, capsys):
     assert main(["compensate", str(folder / "cal.toml"), str(folder / "t.csv"), "--controller", str(lowered),
                  "--firmware", "marlin", "-o", str(folder / "c.csv")]) == 0
     sent = np.loadtxt(folder / "c.csv", delimiter=",", skiprows=1)[:, 3:6]
-    geometry = load_calibration(folder / "cal.toml").geometry
-    readings = load_marlin(settings).inverse(sent, PRINTER.step_distance)
+    calibration = load_calibration(folder / "cal.toml")
+    controller = MARLIN.controller(load_marlin(lowered), PRINTER.step_distance)
+    # what compensate sends is the library's route where the calibration holds (weighted by its σ) ...
+    assert_allclose(sent, corrected_targets(calibration, controller, targets).commands, atol=1e-8)
+    # ... and corrected wholly, through Marlin's model, the identified printer (in Marlin's frame along
+    # the bed) lands on the targets
+    whole = corrected_targets(calibration, controller, targets, bound=math.inf).commands
+    geometry = aligned_to_controller(calibration.geometry, controller, float(calibration.holds.radius[-1]))
+    readings = load_marlin(settings).inverse(whole, PRINTER.step_distance)
     assert_allclose(exact.forward(geometry, readings).point(geometry.tool), targets, atol=1e-6)
     assert_allclose(readings, compensate(geometry, targets), atol=1e-6)
 
