@@ -57,6 +57,9 @@ def test_a_marlin_or_rrf_printers_report_fits_and_names_its_own_values(printer, 
     owner = text.index("tower X: endstop")
     assert owner < text.index("<h2>Base parameters") and owner < text.index("b11x")
     assert "M666 X" in text and "tower Z: leans outwards" in text and " deg" in text
+    # and where the calibration holds, in the owner's part too (issue 38)
+    where = text.index("where it holds: the nozzle is known within")
+    assert owner < where < text.index("<h2>Base parameters")
     # the fitted route is the firmware's own fit (its names held), and it holds a part of the error
     firmware = firmware_named(name)
     calibration = load_calibration(folder / "cal.toml")

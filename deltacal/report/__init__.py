@@ -23,6 +23,7 @@ from ..geometry import DeltaGeometry, Workspace
 from ..io import atomic_write_text, load_calibration
 from ..printer.firmware import firmwares
 from ..printer.firmware.base import Firmware, FirmwareModel
+from ..printer.identification.where import holds_in_words
 from ..printer.owner import owner_lines, printer_errors
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
@@ -157,7 +158,11 @@ def write_report(
 
 
 def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None:
-    """A printer's errors in its owner's words, its firmware's (:mod:`deltacal.printer.owner`), or None."""
+    """A printer's errors in its owner's words, its firmware's (:mod:`deltacal.printer.owner`), or None.
+
+    Then where the calibration holds (:func:`~deltacal.printer.identification.where.holds_in_words`),
+    when it knows.
+    """
     if not cal.geometry.chain.firmware or cal.model.name != "printer":
         return None
     if firmware is None:
@@ -167,7 +172,8 @@ def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None
         errors = printer_errors(cal, names=keys.towers)
     except ValueError:  # a calibration that regrouped the model's parameters: the engineer's part alone
         return None
-    return owner_lines(errors, keys, firmware.title)
+    where = [] if cal.holds is None else [f"  where it holds: {holds_in_words(cal.holds)}"]
+    return [*owner_lines(errors, keys, firmware.title), *where]
 
 
 def _file_names(paths: str | Path | Sequence[str | Path] | None) -> str | None:
