@@ -60,6 +60,10 @@ def test_a_marlin_or_rrf_printers_report_fits_and_names_its_own_values(printer, 
     # and where the calibration holds, in the owner's part too (issue 38)
     where = text.index("where it holds: the nozzle is known within")
     assert owner < where < text.index("<h2>Base parameters")
+    # which of the firmware's values the measurements determine, in its words (M666 X, M92 X), not Klipper's
+    values = text[text.index('<p id="holds-values">'):]
+    values = values[:values.index("</p>")]
+    assert "M666 X" in values and "M92 X" in values and "position_endstop" not in values, values
     # the fitted route is the firmware's own fit (its names held), and it holds a part of the error
     firmware = firmware_named(name)
     calibration = load_calibration(folder / "cal.toml")

@@ -363,7 +363,9 @@ def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
                "The identified printer (solid)", "effector tilt exaggerated", "nozzle goes")
     for phrase in phrases:
         assert phrase in text, phrase
-    assert "not computed" not in text and "arm_length" not in text
+    assert "not computed" not in text and "arm_length_" not in text and "endstop_a" not in text
+    # where it holds, the firmware's values in its own words (printer.cfg's keys), not the model's names
+    assert "[stepper_a] position_endstop" in text
     # the firmware's row is Klipper's own model with the nominal values, on the true printer
     calibration = load_calibration(tmp_path / "cal.toml")
     amap = accuracy_map(calibration, kossel.workspace, None, truth, 11)

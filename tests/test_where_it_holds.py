@@ -316,8 +316,10 @@ def test_identify_says_where_it_holds_and_export_keeps_what_it_does_not_determin
     said = capsys.readouterr().out
     assert "where it holds: the nozzle is known within 0.05 mm (σ) up to z = " in said
     assert "print the tall object (`deltacal plan --object`) to calibrate heights" in said
-    assert "firmware values: the measurements determine the firmware's delta_radius" in said
-    assert "not scale_a, scale_b, scale_c" in said
+    # the firmware's values in its own words (printer.cfg's keys)
+    assert "firmware values: the measurements determine the firmware's [printer] delta_radius" in said
+    assert ("not [stepper_a] rotation_distance, [stepper_b] rotation_distance, [stepper_c] rotation_distance"
+            in said)
     assert main(["report", str(cal), "-o", str(tmp_path / "report.html"), "--no-view", "--robot",
                  str(out / "printer.toml")]) == 0
     page = (tmp_path / "report.html").read_text()
@@ -327,6 +329,7 @@ def test_identify_says_where_it_holds_and_export_keeps_what_it_does_not_determin
     said = capsys.readouterr().out
     assert "where the calibration holds (σ within 0.05 mm)" in said
     assert "kept at the --config values (the measurements do not determine them" in said
+    assert "tolerances): [stepper_a] rotation_distance" in said
     written = exported.read_text()
     assert written.count("rotation_distance: 40.000000") == 3  # each tower's as it was
     endstops = [float(line.split(":")[1]) for line in written.splitlines()

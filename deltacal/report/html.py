@@ -15,6 +15,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..io.toml import exact_degrees
+from ..printer.firmware.base import classical_name
 from ..printer.identification.where import holds_in_words, values_in_words
 from .accuracy import AccuracyMap
 from .controllers import ControllerRoutes
@@ -270,7 +271,10 @@ def _accuracy(page: Page) -> str:
     if holds is not None:
         out += f"<p id=\"holds\"><b>Where it holds.</b> {esc(holds_in_words(holds))}.</p>"
         if holds.values:
-            out += f"<p id=\"holds-values\">{esc(values_in_words(holds))}.</p>"
+            firmware = page.controllers.firmware if page.controllers is not None else None
+            words = values_in_words(holds) if firmware is None else values_in_words(
+                holds, lambda name: firmware.value_name(classical_name(name)))
+            out += f"<p id=\"holds-values\">{esc(words)}.</p>"
     if chain.on_bed:
         out += ("<p><b>How to use it.</b> Where σ is large, the probe heights and printed distances say "
                 "little about the printer there: probe the bed there, or print and measure features at those "

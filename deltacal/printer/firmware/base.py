@@ -40,9 +40,10 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
 
 import numpy as np
@@ -180,18 +181,27 @@ CLASSICAL_NAMES = (
 )
 
 
+def classical_name(name: str) -> str:
+    """A :class:`~deltacal.holds.WhereItHolds` value's name as in :data:`CLASSICAL_NAMES`.
+
+    The ``klipper`` error model's names: ``endstop_a`` is ``position_endstop_a``, ``scale_a`` is
+    ``step_distance_a``.
+    """
+    if name == "delta_radius":
+        return name
+    kind, _, tower = name.rpartition("_")
+    return f"{ {'endstop': 'position_endstop', 'scale': 'step_distance'}.get(kind, kind)}_{tower}"
+
+
 def undetermined_values(holds: WhereItHolds | None) -> tuple[str, ...]:
     """The classical values (:data:`CLASSICAL_NAMES`) a calibration's measurements do not determine.
 
-    Those of :meth:`~deltacal.holds.WhereItHolds.undetermined` (the ``klipper`` error model's names:
-    ``endstop_a`` is ``position_endstop_a``, ``scale_a`` is ``step_distance_a``); none without
+    Those of :meth:`~deltacal.holds.WhereItHolds.undetermined` (:func:`classical_name`); none without
     that knowledge (a calibration written before it was kept).
     """
     if holds is None:
         return ()
-    words = {"endstop": "position_endstop", "scale": "step_distance"}
-    named = [words.get(name.rpartition("_")[0], name.rpartition("_")[0]) + "_" + name.rpartition("_")[2]
-             if name != "delta_radius" else name for name in holds.undetermined()]
+    named = [classical_name(name) for name in holds.undetermined()]
     # tower C's angle is the printed part's turn, held by every fit
     return tuple(name for name in CLASSICAL_NAMES if name in named and name != "angle_c")
 
@@ -261,6 +271,8 @@ class Firmware(ABC, Generic[ModelT]):
             configuration the printer runs (:meth:`apply_note_for` says it for one).
         export_file: The file ``deltacal export --controller NAME -o`` writes, as its help names it.
         values_words: What its exported values are, in its own words (``"M665, M666 and M92 lines"``).
+        value_names: Each classical value (:data:`CLASSICAL_NAMES`) in its own words (``"M666 Y"``);
+            :meth:`value_name`.
         export_needs_config: Why the exported values need the configuration the printer runs
             (``--config``) unless the step distances are held, or "" (they do not: the step
             distances alone give the firmware's values).
@@ -283,6 +295,7 @@ class Firmware(ABC, Generic[ModelT]):
     owner_keys: ClassVar[OwnerKeys]
     export_file: ClassVar[str]
     values_words: ClassVar[str]
+    value_names: ClassVar[Mapping[str, str]] = MappingProxyType({})
     export_needs_config: ClassVar[str] = ""
     exports_minimum_z: ClassVar[bool] = False
     live_files: ClassVar[tuple[str, ...]] = ()
@@ -375,6 +388,10 @@ class Firmware(ABC, Generic[ModelT]):
             clearance: The nozzle's height above the bed while it moves between points [mm], or
                 the configuration's :meth:`probe_travel` (its reason then in the header).
         """
+
+    def value_name(self, name: str) -> str:
+        """A classical value's name (:data:`CLASSICAL_NAMES`) in the firmware's words (``value_names``)."""
+        return self.value_names.get(name, name)
 
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """The height :meth:`probe_program` travels at between points, from the firmware's configuration.

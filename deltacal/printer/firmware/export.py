@@ -248,7 +248,7 @@ def summary(firmware: Firmware[Any], before: ErrorFigures, after: ErrorFigures,
         lines.append(f"  held (not fitted): {', '.join(held)}")
     if begun.kept:
         lines.append(f"  kept at {start} (the measurements do not determine them better than the build "
-                     f"tolerances): {', '.join(begun.kept)}")
+                     f"tolerances): {', '.join(firmware.value_name(name) for name in begun.kept)}")
     lines.append(f"what {firmware.title}'s values cannot hold of each error source alone (3-D max / first "
                  "layer max |dz|; deltacal compensate corrects them):")
     width = max(len(label) for label in budget)

@@ -17,6 +17,7 @@ better than a bound. Vectorised over points. Units: mm and rad.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -196,17 +197,20 @@ def firmware_determination(geometry: DeltaGeometry, model: ErrorModel, covarianc
     return ratio
 
 
-def values_in_words(holds: WhereItHolds) -> str:
-    """Which of the firmware's values the measurements determine, and which export keeps, in one sentence."""
-    named = [name for name in holds.values if name != "angle_c"]  # the part's turn: every fit holds it
+def values_in_words(holds: WhereItHolds, name: Callable[[str], str] = str) -> str:
+    """Which of the firmware's values the measurements determine, and which export keeps, in one sentence.
+
+    ``name`` gives each value (its name in :attr:`WhereItHolds.values`) in the firmware's words.
+    """
+    named = [n for n in holds.values if n != "angle_c"]  # the part's turn: every fit holds it
     if not named:
         return ""
-    kept = [name for name in holds.undetermined() if name in named]
-    determined = [name for name in named if name not in kept]
+    kept = [n for n in holds.undetermined() if n in named]
+    determined = [name(n) for n in named if n not in kept]
     words = f"the measurements determine the firmware's {', '.join(determined) or 'no value'}"
     if kept:
-        words += (f"; not {', '.join(kept)} (σ over {DETERMINED:.2g} of their build tolerance): export keeps "
-                  "the firmware's own")
+        words += (f"; not {', '.join(name(n) for n in kept)} (σ over {DETERMINED:.2g} of their build "
+                  "tolerance): export keeps the firmware's own")
     return words
 
 

@@ -27,7 +27,7 @@ from ...printer.files.measurements import (
     read_probe_heights,
 )
 from ...printer.files.same_printer import ENDSTOP_MM, check_step_distance
-from ...printer.firmware.base import FirmwareModel
+from ...printer.firmware.base import FirmwareModel, classical_name
 from ...printer.firmware.config_file import read_firmware_config
 from ...printer.identification.fit import (
     PrinterFitOptions,
@@ -87,7 +87,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     if result.holds is not None:
         where = (f"where it holds: {holds_in_words(result.holds)}",)
         if result.holds.values:
-            where += (f"firmware values: {values_in_words(result.holds)}",)
+            words = values_in_words(result.holds, lambda name: firmware.value_name(classical_name(name)))
+            where += (f"firmware values: {words}",)
     owner = _owner_part(result, start, data, firmware, request)
     return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
 

@@ -8,8 +8,9 @@ instance. Units: mm, angles in rad.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -78,6 +79,21 @@ class Klipper(Firmware[KlipperDelta]):
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.cfg"
     values_words: ClassVar[str] = "the [printer] and [stepper_a..c] values of printer.cfg"
+    value_names: ClassVar[Mapping[str, str]] = MappingProxyType({
+        "delta_radius": "[printer] delta_radius",
+        "angle_a": "[stepper_a] angle",
+        "angle_b": "[stepper_b] angle",
+        "angle_c": "[stepper_c] angle",
+        "arm_length_a": "[stepper_a] arm_length",
+        "arm_length_b": "[stepper_b] arm_length",
+        "arm_length_c": "[stepper_c] arm_length",
+        "position_endstop_a": "[stepper_a] position_endstop",
+        "position_endstop_b": "[stepper_b] position_endstop",
+        "position_endstop_c": "[stepper_c] position_endstop",
+        "step_distance_a": "[stepper_a] rotation_distance",
+        "step_distance_b": "[stepper_b] rotation_distance",
+        "step_distance_c": "[stepper_c] rotation_distance",
+    })
     export_needs_config: ClassVar[str] = (
         "--controller klipper: rotation_distance is the step distance times each tower's "
         "full_steps_per_rotation x microsteps, which the calibration does not hold: give --config "

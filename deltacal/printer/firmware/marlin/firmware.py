@@ -8,9 +8,10 @@ the one instance. Units: mm, trims in degrees.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -60,6 +61,21 @@ class Marlin(Firmware[MarlinDelta]):
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.gcode"
     values_words: ClassVar[str] = "M665, M666 and M92 lines, saved by M500"
+    value_names: ClassVar[Mapping[str, str]] = MappingProxyType({
+        "delta_radius": "M665 R",
+        "angle_a": "M665 X",
+        "angle_b": "M665 Y",
+        "angle_c": "M665 Z",
+        "arm_length_a": "M665 L+A",
+        "arm_length_b": "M665 L+B",
+        "arm_length_c": "M665 L+C",
+        "position_endstop_a": "M666 X",
+        "position_endstop_b": "M666 Y",
+        "position_endstop_c": "M666 Z",
+        "step_distance_a": "M92 X",
+        "step_distance_b": "M92 Y",
+        "step_distance_c": "M92 Z",
+    })
 
     def is_config(self, path: str | Path) -> bool:
         """An ``M503`` capture, or a ``Configuration.h`` (:func:`~.settings.is_marlin_settings`)."""

@@ -8,9 +8,10 @@ is the one instance. Units: mm, angles in rad.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -68,6 +69,21 @@ class RRF(Firmware[RRFDelta]):
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.g"
     values_words: ClassVar[str] = "M665 and M666 lines for config-override.g, M92 for config.g"
+    value_names: ClassVar[Mapping[str, str]] = MappingProxyType({
+        "delta_radius": "M665 R",
+        "angle_a": "M665 X",
+        "angle_b": "M665 Y",
+        "angle_c": "M665 Z",
+        "arm_length_a": "M665 L a",
+        "arm_length_b": "M665 L b",
+        "arm_length_c": "M665 L c",
+        "position_endstop_a": "M666 X",
+        "position_endstop_b": "M666 Y",
+        "position_endstop_c": "M666 Z",
+        "step_distance_a": "M92 X",
+        "step_distance_b": "M92 Y",
+        "step_distance_c": "M92 Z",
+    })
 
     def is_config(self, path: str | Path) -> bool:
         """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
