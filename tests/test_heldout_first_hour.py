@@ -12,6 +12,7 @@ is refused wherever a capture is asked for.
 
 from __future__ import annotations
 
+import math
 import re
 import shutil
 import warnings
@@ -23,6 +24,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 from deltacal.cli import main
+from deltacal.controller import corrected_targets
+from deltacal.controller.targets import aligned_to_controller
 from deltacal.gcode import filter_lines, read_lines
 from deltacal.io import load_calibration, load_geometry
 from deltacal.kinematics import exact
@@ -342,11 +345,17 @@ def _compensated(case: Held, cal: Path, robot: Path, config: Path, folder: Path,
                                            dialect=firmware.dialect(config))))
     sent = _moves(out.read_text())
     assert sent.shape == intended.shape and len(sent) > 100
-    geometry = load_calibration(cal).geometry
-    landed = exact.forward(geometry, controller.inverse(sent)).point(geometry.tool)
+    calibration = load_calibration(cal)
     below = intended[:, 2] < HOME_CLEAR_MM  # off the first move after G28 (the correction blends in)
     assert np.count_nonzero(below) > 100
-    assert_allclose(landed[below], intended[below], rtol=0, atol=2e-3)  # 4 decimals written
+    # what compensate sends is the library's route where the calibration holds (4 decimals written) ...
+    route = corrected_targets(calibration, controller, intended[below]).commands
+    assert_allclose(sent[below], route, rtol=0, atol=2e-3)
+    # ... and corrected wholly, the identified printer in the firmware's frame lands on the program's points
+    whole = corrected_targets(calibration, controller, intended[below], bound=math.inf).commands
+    geometry = aligned_to_controller(calibration.geometry, controller, float(calibration.holds.radius[-1]))
+    landed = exact.forward(geometry, controller.inverse(whole)).point(geometry.tool)
+    assert_allclose(landed, intended[below], rtol=0, atol=1e-6)
 
 
 @pytest.mark.slow

@@ -6,6 +6,7 @@ Real printers differ per tower (Klipper's ``[stepper_a..c]`` hold each tower's `
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -15,6 +16,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from deltacal.calibration import Calibration
 from deltacal.cli.main import main
+from deltacal.controller import corrected_targets
+from deltacal.controller.targets import aligned_to_controller
 from deltacal.exceptions import InputError
 from deltacal.io import load_calibration, load_geometry, save_calibration, save_geometry
 from deltacal.kinematics import exact
@@ -180,8 +183,15 @@ def test_the_commands_take_a_per_tower_printer(tmp_path):
     assert main(["compensate", str(cal), str(csv), "--controller", str(cfg),
                  "-o", str(tmp_path / "sent.csv")]) == 0
     table = np.loadtxt(tmp_path / "sent.csv", delimiter=",", skiprows=1)
-    firmware = KLIPPER.read_config(cfg)
-    sent = exact.forward(geometry, firmware.inverse(table[:, 3:], printer.step_distance)).point(geometry.tool)
+    calibration = load_calibration(cal)
+    controller = KLIPPER.controller(KLIPPER.read_config(cfg), printer.step_distance)
+    # compensate sends the library's route where the calibration holds, and corrected wholly the identified
+    # printer (in Klipper's frame along the bed) lands on the targets
+    route = corrected_targets(calibration, controller, table[:, :3]).commands
+    assert_allclose(table[:, 3:], route, atol=1e-8)
+    whole = corrected_targets(calibration, controller, table[:, :3], bound=math.inf).commands
+    aligned = aligned_to_controller(geometry, controller, float(calibration.holds.radius[-1]))
+    sent = exact.forward(aligned, controller.inverse(whole)).point(aligned.tool)
     assert np.max(np.linalg.norm(sent - table[:, :3], axis=1)) < 1e-6
     assert main(["export", str(cal), "--controller", "klipper", "-o", str(tmp_path / "fitted.cfg"),
                  "--config", str(cfg)]) == 0
