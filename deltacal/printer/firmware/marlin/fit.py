@@ -36,9 +36,9 @@ OLD_MARLIN_REFUSED = ("the report of a Marlin 1.1.0 or older (M665 L R S, no H):
                       "values deltacal fits (Marlin 2's M665 L R H X Y Z A B C, M666, M92) would not be "
                       "taken: update Marlin and capture M503 again, or correct each program with deltacal "
                       "compensate through this capture")
-#: Marlin's values in the fit's order (the step distances are ``M92``'s).
 #: Fits of :func:`_turned_least_largest` at most (its bounds lowered each time by what the turn added).
 TURN_ROUNDS = 3
+#: Marlin's values in the fit's order (the step distances are ``M92``'s).
 MARLIN_NAMES = ("M665 R", "M665 X", "M665 Y", "M665 Z", "M665 L+A", "M665 L+B", "M665 L+C",
                 "M666 X", "M666 Y", "M666 Z", "M92 X", "M92 Y", "M92 Z")
 
