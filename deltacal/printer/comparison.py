@@ -244,8 +244,8 @@ def gcode_refused(run: PrinterRun) -> int:
     write them); a command outside them (:meth:`~deltacal.printer.firmware.base.FirmwareModel.outside`)
     is one the firmware would refuse, clamp or move.
     """
-    limits = run.firmware_type.admit_bed(run.firmware, run.result.geometry, run.step_distance,
-                                         WORKSPACE.radius)
+    limits = run.firmware_type.admit_bed(run.firmware, Calibration.from_result(run.result),
+                                         run.step_distance, WORKSPACE.radius)
     targets = np.concatenate([printable_grid(WORKSPACE), first_layer(WORKSPACE)])
     return int(np.count_nonzero(limits.outside(gcode_commands(run, targets))))
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..controller import corrected_targets
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, marker_line
-from ..io import atomic_write_text, save_calibration, write_stl
+from ..io import atomic_write_text, load_calibration, save_calibration, write_stl
 from .comparison import (
     BASIC,
     CLASSES,
@@ -100,11 +100,12 @@ def _part(run: PrinterRun, out_dir: Path, quick: bool, limits: FirmwareModel,
     source, corrected = out_dir / "part.gcode", out_dir / "part_corrected.gcode"
     atomic_write_text(source, part_gcode((0.2, 50.0) if quick else (0.2, 10.0, 30.0, 60.0, 100.0)))
     controller = run.firmware_type.controller(run.firmware, run.step_distance)
+    calibration = load_calibration(out_dir / "printer_calibration.toml")  # what compensate reads
     intended: list[np.ndarray] = []
 
     def correct(points: np.ndarray) -> np.ndarray:
         intended.append(np.array(points))
-        return corrected_targets(run.result.geometry, controller, points).commands
+        return corrected_targets(calibration, controller, points).commands
 
     filter_gcode(source, corrected, correct, DEFAULT_SEGMENT_MM, home=controller.home, limits=limits,
                  marker=marker_line(config, "printer_calibration.toml"))
@@ -130,7 +131,8 @@ def _admit_bed(run: PrinterRun, cfg: Path) -> FirmwareModel:
     (:meth:`~deltacal.printer.firmware.base.Firmware.admit_bed`: Klipper's ``minimum_z_position``).
     """
     firmware = run.firmware_type
-    admitted = firmware.admit_bed(run.firmware, run.result.geometry, run.step_distance, WORKSPACE.radius)
+    admitted = firmware.admit_bed(run.firmware, load_calibration(cfg.parent / "printer_calibration.toml"),
+                                  run.step_distance, WORKSPACE.radius)
     if admitted is not run.firmware:
         firmware.save_config(cfg, admitted, title=nominal_title(firmware), complete=True,
                              notes=[f"{firmware.minimum_z_key} admits "

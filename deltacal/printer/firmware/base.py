@@ -451,30 +451,35 @@ class Firmware(ABC, Generic[ModelT]):
         """
         return {}
 
-    def admit_bed(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
-                  radius: float) -> ModelT:
+    def admit_bed(self, model: ModelT, calibration: Calibration | DeltaGeometry,
+                  step_distance: np.ndarray | float, radius: float, bound: float = DEFAULT_BOUND) -> ModelT:
         """The values with the lowest Z lowered, if need be, to admit the corrected bed.
 
         Where the true bed (z = 0 of an identified printer) is lower than the firmware's model puts
         it, a corrected first layer is commanded below the firmware's z = 0. The bed's disk of
-        ``radius`` (rings and points every :data:`BED_GRID_MM`) is corrected through the firmware;
-        the lowest Z commanded, less :data:`BED_MARGIN_MM`, rounded down to 0.01 mm, becomes the lowest
-        Z accepted when it is below the model's.
+        ``radius`` (rings and points every :data:`BED_GRID_MM`) is corrected through the firmware as
+        ``compensate`` corrects it (:func:`~deltacal.controller.corrected_targets`: where a calibration
+        holds within ``bound``, in the controller's frame); the lowest Z commanded, less
+        :data:`BED_MARGIN_MM`, rounded down to 0.01 mm, becomes the lowest Z accepted when it is below
+        the model's.
 
         Args:
             model: The firmware's values (what a program is corrected for).
-            geometry: The identified printer (its true bed is z = 0).
+            calibration: The calibration (or the identified printer itself: corrected everywhere;
+                its true bed is z = 0).
             step_distance: The step distance its readings count in [mm].
             radius: The printable radius [mm].
+            bound: The σ of a correction applied [mm] (compensate's ``--sigma-bound``).
         """
-        lowest = self.bed_minimum_z(model, geometry, step_distance, radius)
+        lowest = self.bed_minimum_z(model, calibration, step_distance, radius, bound)
         return model if lowest is None else model.with_minimum_z(lowest)  # type: ignore[return-value]
 
-    def bed_minimum_z(self, model: ModelT, geometry: DeltaGeometry, step_distance: np.ndarray | float,
-                      radius: float) -> float | None:
+    def bed_minimum_z(self, model: ModelT, calibration: Calibration | DeltaGeometry,
+                      step_distance: np.ndarray | float, radius: float,
+                      bound: float = DEFAULT_BOUND) -> float | None:
         """The lowest Z :meth:`admit_bed` sets [mm], or None if the values admit the corrected bed."""
         controller = self.controller(model, step_distance)
-        commands = corrected_targets(geometry, controller, bed_grid(radius)).commands
+        commands = corrected_targets(calibration, controller, bed_grid(radius), bound=bound).commands
         lowest = math.floor((float(np.min(commands[:, 2])) - BED_MARGIN_MM) * 100.0) / 100.0
         low = model.outside(np.array([[0.0, 0.0, lowest]])) != 0
         return lowest if bool(low[0]) else None

@@ -121,7 +121,7 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
         budget = source_budget(firmware, begun, hold_step_distance)
     lines = summary(firmware, fit.before, fit.after, budget, begun, fit.held, config is not None)
     values = fit.values
-    lowest = (firmware.bed_minimum_z(values, begun.geometry, begun.step, workspace.radius)
+    lowest = (firmware.bed_minimum_z(values, calibration, begun.step, workspace.radius, sigma_bound)
               if firmware.exports_minimum_z else None)
     if lowest is not None:
         values = values.with_minimum_z(lowest)
