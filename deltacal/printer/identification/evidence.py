@@ -81,24 +81,7 @@ def evidence_scale(y: np.ndarray, W: np.ndarray, prior_of: Callable[[float], np.
     def value(log_s: float) -> float:
         return log_evidence(y, W, prior_of(math.exp(log_s)))
 
-    grid = np.linspace(math.log(bounds[0]), math.log(bounds[1]), GRID_POINTS)
-    values = np.array([value(g) for g in grid])
-    best = int(np.argmax(values))  # the first of equal values: the smaller scale
-    lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, GRID_POINTS - 1)]
-    golden = (math.sqrt(5.0) - 1.0) / 2.0
-    a, b = hi - golden * (hi - lo), lo + golden * (hi - lo)
-    fa, fb = value(a), value(b)
-    for _ in range(REFINE_STEPS):
-        if fa >= fb:
-            hi, b, fb = b, a, fa
-            a = hi - golden * (hi - lo)
-            fa = value(a)
-        else:
-            lo, a, fa = a, b, fb
-            b = lo + golden * (hi - lo)
-            fb = value(b)
-    found = 0.5 * (lo + hi)
-    return float(math.exp(found if value(found) >= values[best] else grid[best]))
+    return math.exp(_maximum(value, math.log(bounds[0]), math.log(bounds[1]))[0])
 
 
 def _maximum(value: Callable[[float], float], lo: float, hi: float) -> tuple[float, float]:
