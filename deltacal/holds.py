@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import Workspace
+from .geometry import DeltaGeometry, Workspace
 
 #: The σ of a correction a printer's owner accepts by default [mm]: a correction whose σ is above it
 #: is not applied (the controller's own command is sent there).
@@ -125,6 +125,12 @@ class WhereItHolds:
             ``endstop_a``, ``scale_a``...: the ``klipper`` error model's names, which every
             firmware's values are), each with the ratio of its σ after the measurements to its σ
             from the build tolerances alone (:meth:`determined`).
+        along_bed: The printer a correction along the bed follows, or None (the identified one):
+            when the start was the firmware's values fitted to the same measurements (a saved
+            ``DELTA_CALIBRATE``), the start moved only along the parameters' combinations the
+            measurements determine (their σ after them at most :data:`DETERMINED` of the prior's:
+            :func:`~deltacal.printer.identification.fit.determined_values`); the height follows the
+            identified printer.
     """
 
     radius: np.ndarray
@@ -134,6 +140,7 @@ class WhereItHolds:
     vertical: np.ndarray
     measured_top: float = 0.0
     values: dict[str, float] = field(default_factory=dict)
+    along_bed: DeltaGeometry | None = None
 
     def determined(self, ratio: float = DETERMINED) -> tuple[str, ...]:
         """The firmware's values the measurements determine: their σ at most ``ratio`` of the tolerances'."""

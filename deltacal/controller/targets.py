@@ -22,7 +22,7 @@ from ..calibration import Calibration
 from ..compensation import compensate
 from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
-from ..holds import DEFAULT_BOUND, bed_points
+from ..holds import DEFAULT_BOUND, WhereItHolds, bed_points
 from ..kinematics import exact
 from ..kinematics.closed_form import VirtualDelta
 from ..kinematics.singularity import COMMAND_MARGIN
@@ -168,17 +168,16 @@ def weighted_targets(
     if holds is None:
         return WeightedTargets(*_checked(geometry, controller, targets, min_margin, payload), everywhere)
     if not math.isfinite(bound):
-        aligned = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
-        return WeightedTargets(*_checked(aligned, controller, targets, min_margin, payload), everywhere)
+        whole = _framed(geometry, holds, controller, targets, min_margin, payload)
+        return WeightedTargets(whole, controller.inverse(whole, check=False), everywhere)
     weights = holds.weights(targets, bound)
     if refuse and np.any(weights < 1.0):
         raise UnreachableError.from_mask(np.any(weights < 1.0, axis=1), targets, UnreachableError.NOT_HELD)
     commands = targets.copy()
     acting = np.flatnonzero(np.any(weights > 0.0, axis=1))
     if acting.size:  # where the correction has no weight the identified printer is not asked
-        aligned = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
         try:
-            full = _checked(aligned, controller, targets[acting], min_margin, payload).commands
+            full = _framed(geometry, holds, controller, targets[acting], min_margin, payload)
         except UnreachableError as exc:
             raise UnreachableError.from_mask(np.isin(np.arange(targets.shape[0]), acting[exc.indices]),
                                              targets, exc.reason) from None
@@ -190,6 +189,24 @@ def weighted_targets(
     if np.any(bad):
         raise UnreachableError.from_mask(bad, targets, UnreachableError.CONTROLLER_OUT_OF_REACH)
     return WeightedTargets(commands, readings, weights)
+
+
+def _framed(geometry: DeltaGeometry, holds: WhereItHolds, controller: CommandModel, targets: np.ndarray,
+            min_margin: float, payload: float) -> np.ndarray:
+    """The whole correction's commands in the controller's frame [mm], (N, 3), checked.
+
+    Along the bed from :attr:`WhereItHolds.along_bed <deltacal.holds.WhereItHolds.along_bed>` when
+    the calibration has one (the combinations the measurements determine), in height from the
+    identified printer.
+    """
+    radius = float(holds.radius[-1])
+    commands = _checked(aligned_to_controller(geometry, controller, radius), controller, targets, min_margin,
+                        payload).commands
+    if holds.along_bed is not None:
+        along = _checked(aligned_to_controller(holds.along_bed, controller, radius), controller, targets,
+                         min_margin, payload).commands
+        commands[:, :2] = along[:, :2]
+    return commands
 
 
 def _checked(geometry: DeltaGeometry, controller: CommandModel, targets: np.ndarray, min_margin: float,

@@ -144,7 +144,8 @@ def holds_to_dict(holds: WhereItHolds) -> dict:
             "height_mm": [float(v) for v in holds.height], "measured_top_mm": float(holds.measured_top),
             "horizontal_sigma_mm": np.round(holds.horizontal, HOLDS_DECIMALS).tolist(),
             "vertical_sigma_mm": np.round(holds.vertical, HOLDS_DECIMALS).tolist(),
-            "value_names": list(holds.values), "value_sigma_ratio": [float(v) for v in holds.values.values()]}
+            "value_names": list(holds.values), "value_sigma_ratio": [float(v) for v in holds.values.values()],
+            **({} if holds.along_bed is None else {"along_bed": geometry_to_dict(holds.along_bed)})}
 
 
 def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
@@ -154,7 +155,7 @@ def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
     t = TomlTable(data, source).table("holds")
     assert t is not None
     t.check_unknown(["radius_mm", "azimuth_deg", "height_mm", "measured_top_mm", "horizontal_sigma_mm",
-                     "vertical_sigma_mm", "value_names", "value_sigma_ratio"])
+                     "vertical_sigma_mm", "value_names", "value_sigma_ratio", "along_bed"])
     names = _names(t, "value_names", str, "an array of names") if t.has("value_names") else []
     ratios = t.vector("value_sigma_ratio", (len(names),)) if names else np.zeros(0)
     axes = {}
@@ -166,10 +167,15 @@ def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
     for key, value in sigma.items():
         if np.any(value < 0.0):
             raise t.error(key, f"must not be negative, got {float(np.min(value))!r}")
+    along = data["holds"].get("along_bed")
+    if along is not None and not isinstance(along, Mapping):
+        raise t.error("along_bed", f"must be a table (a printer's geometry), got {along!r}")
+    along_bed = None if along is None else geometry_from_dict(along, source, "holds.along_bed.")
     try:
         return WhereItHolds(axes["radius_mm"], np.radians(axes["azimuth_deg"]), axes["height_mm"],
                             sigma["horizontal_sigma_mm"], sigma["vertical_sigma_mm"],
-                            t.number("measured_top_mm"), dict(zip(names, ratios.tolist(), strict=True)))
+                            t.number("measured_top_mm"), dict(zip(names, ratios.tolist(), strict=True)),
+                            along_bed)
     except ValueError as exc:
         raise t.error("radius_mm", str(exc)) from None
 

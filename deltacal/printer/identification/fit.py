@@ -38,6 +38,7 @@ from scipy.linalg import solve_triangular
 from ...errormodels import ErrorModel, get_model
 from ...exceptions import AssemblyError, ConvergenceError, PoorFitError
 from ...geometry import DeltaGeometry, Tolerances, Workspace
+from ...holds import DETERMINED
 from ...identifiability import BaseParameters, base_parameters
 from ...identification.columns import build_columns
 from ...identification.options import Method
@@ -354,12 +355,36 @@ def identify_printer(
         independent_rows=r.size, columns=build_columns(error_model).columns,
         hints=tuple(hints), warnings=tuple(warnings),
         holds=replace(where_it_holds(geometry, error_model, cov, volume, measured_top(geometry, data)),
-                      values=firmware_determination(geometry, error_model, cov, build, volume)),
+                      values=firmware_determination(geometry, error_model, cov, build, volume),
+                      along_bed=error_model.apply(start, determined_values(total, W, factor))
+                      if options.calibrated_start else None),
     )
     poor = "" if flagged.indices.size else poor_fit(variance_factor, at_limit)  # outliers: said as such
     if poor and not options.accept_poor_fit:
         raise PoorFitError(poor, result, [], (PoorFitError.LARGE_RESIDUALS,))
     return replace(result, warnings=(*warnings, f"{poor} (kept: poor fit accepted)")) if poor else result
+
+
+def determined_values(values: np.ndarray, W: np.ndarray, factor: np.ndarray,
+                      ratio: float = DETERMINED) -> np.ndarray:
+    """The parameters' values along the combinations the measurements determine, zero along the others.
+
+    In units of the prior (``u = P⁻¹ θ``, ``Σ₀ = P Pᵀ``), the whitened regressor ``A = W P`` has
+    singular values ``s_i`` and right vectors ``v_i``; along ``v_i`` the σ after the measurements is
+    ``1 / √(1 + s_i²)`` of the prior's. The estimate's components along the ``v_i`` where that ratio
+    is at most ``ratio`` (``s_i ≥ √(1/ratio² − 1)``: √8 for a third) are kept; along the others the
+    start's values stay (zero).
+
+    Args:
+        values: The estimate (the start's deviations, the model's order), (n,).
+        W: The measurements' whitened regressor there, (m, n).
+        factor: The prior's factor P, (n, n), lower triangular.
+        ratio: The largest σ after the measurements, over the prior's, of a determined combination.
+    """
+    _, s, Vt = np.linalg.svd(W @ factor, full_matrices=False)
+    kept = Vt[s >= math.sqrt(1.0 / ratio**2 - 1.0)]
+    u = solve_triangular(factor, values, lower=True)
+    return factor @ (kept.T @ (kept @ u))
 
 
 #: s0² beyond which a printer's fit is poor whatever its tolerances: residuals 5 times the σ given. A

@@ -236,15 +236,19 @@ def _continuation(calibration: Calibration, controller: CommandModel, points: np
     The identified printer's exact inverse without its checks (a carriage a little above its
     endstop, a pose near a singularity) and the controller's forward model of those travels: used
     only to continue the field across the border of what the library corrects. The printer is the
-    one the library corrects for: with a σ grid, in the controller's frame (:func:`aligned_to_controller`).
+    one the library corrects for: with a σ grid, in the controller's frame (:func:`aligned_to_controller`),
+    along the bed the grid's ``along_bed`` printer when it has one.
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
     holds = calibration.holds if isinstance(calibration, Calibration) else None
-    if holds is not None:
-        geometry = aligned_to_controller(geometry, controller, float(holds.radius[-1]))
+    printers = [geometry] if holds is None else [
+        aligned_to_controller(g, controller, float(holds.radius[-1]))
+        for g in (geometry, holds.along_bed) if g is not None]
     with np.errstate(invalid="ignore"):
-        q = exact.inverse(geometry, points, check=False)
-        return controller.forward(q, check=False) - points
+        out = [controller.forward(exact.inverse(g, points, check=False), check=False) - points
+               for g in printers]
+    out[0][:, :2] = out[-1][:, :2]  # along the bed: WhereItHolds.along_bed's, when it has one
+    return out[0]
 
 
 def correction_field(calibration: Calibration, controller: CommandModel, volume: LiveVolume,
