@@ -300,6 +300,11 @@ class Calibration:
         Raises:
             InputError: naming both keys (see docs/errors.md).
         """
+        along = None if self.holds is None else self.holds.along_bed
+        if along is not None and along.chain != self.geometry.chain:
+            raise InputError(f"[holds.along_bed] is {along.chain.words.a_kind}'s geometry, [geometry] "
+                             f"{self.geometry.chain.words.a_kind}'s (it must be the same printer's)",
+                             self.source)
         steps = [self.geometry.step_distance, self.nominal.step_distance]
         known = [v for v in steps if v is not None]
         if len(known) == 1 or (len(known) == 2 and not np.array_equal(known[0], known[1])):

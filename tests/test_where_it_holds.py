@@ -24,7 +24,7 @@ from deltacal.cli.main import main
 from deltacal.controller import corrected_targets, weighted_targets
 from deltacal.controller.targets import aligned_to_controller
 from deltacal.errormodels import get_model
-from deltacal.exceptions import PoorFitError, UnreachableError
+from deltacal.exceptions import InputError, PoorFitError, UnreachableError
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.holds import (
     UNREACHED,
@@ -43,6 +43,7 @@ from deltacal.printer.identification.errormodels import bed_modes, firmware_mode
 from deltacal.printer.identification.evidence import noise_factors
 from deltacal.printer.identification.fit import determined_values, identify_printer
 from deltacal.printer.identification.where import correction_sensitivity, point_rows, readings_at
+from deltacal.robots import load_robot
 
 ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = ROOT / "scripts" / "where_it_holds.py"
@@ -302,6 +303,11 @@ def test_along_the_bed_a_saved_calibration_follows_what_its_measurements_determi
     alone = corrected_targets(plain, controller, targets, bound=math.inf).commands
     assert_allclose(alone[:, 2], whole[:, 2], atol=1e-9)
     assert np.max(np.abs(alone[:, :2] - whole[:, :2])) > 1e-4  # the two printers differ along the bed
+    rotary = load_robot(ROOT / "deltacal" / "models" / "bai2015.toml").geometry()
+    pasted = dataclasses.replace(calibration, holds=dataclasses.replace(calibration.holds, along_bed=rotary))
+    kinds = r"\[holds.along_bed\] is a rotary Delta's geometry, \[geometry\] a linear Delta printer's"
+    with pytest.raises(InputError, match=kinds):
+        pasted.check()
     fresh = identify_printer(run.nominal, run.data, workspace=Workspace(152.0, 379.0, 379.0))
     assert fresh.holds.along_bed is None  # not Klipper's own calibration: the whole fit everywhere
     path.write_text(path.read_text().replace("[holds.along_bed]", "[holds.along_bed_x]"))
