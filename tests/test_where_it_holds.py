@@ -275,6 +275,7 @@ def test_the_determined_values_keep_exactly_the_combinations_a_third_as_uncertai
     assert_allclose(determined_values(values, np.zeros_like(W), factor), 0.0, atol=0.0)  # none
 
 
+@pytest.mark.slow
 def test_along_the_bed_a_saved_calibration_follows_what_its_measurements_determine(tmp_path, run_a1):
     """Klipper's own saved run: along the bed the printer of what is determined; in height the whole fit.
 

@@ -197,16 +197,24 @@ def _framed(geometry: DeltaGeometry, holds: WhereItHolds, controller: CommandMod
 
     Along the bed from :attr:`WhereItHolds.along_bed <deltacal.holds.WhereItHolds.along_bed>` when
     the calibration has one (the combinations the measurements determine), in height from the
-    identified printer.
+    identified printer (:func:`printers_in_frame`).
+    """
+    printers = printers_in_frame(geometry, holds, controller)
+    commands = [_checked(g, controller, targets, min_margin, payload).commands for g in printers]
+    commands[0][:, :2] = commands[-1][:, :2]
+    return commands[0]
+
+
+def printers_in_frame(geometry: DeltaGeometry, holds: WhereItHolds,
+                      controller: CommandModel) -> list[DeltaGeometry]:
+    """The printers a correction follows, in the controller's frame: in height, then along the bed.
+
+    The identified printer (:func:`aligned_to_controller`), then, when the calibration has one,
+    :attr:`WhereItHolds.along_bed <deltacal.holds.WhereItHolds.along_bed>` (one printer: both).
     """
     radius = float(holds.radius[-1])
-    commands = _checked(aligned_to_controller(geometry, controller, radius), controller, targets, min_margin,
-                        payload).commands
-    if holds.along_bed is not None:
-        along = _checked(aligned_to_controller(holds.along_bed, controller, radius), controller, targets,
-                         min_margin, payload).commands
-        commands[:, :2] = along[:, :2]
-    return commands
+    return [aligned_to_controller(g, controller, radius)
+            for g in (geometry, holds.along_bed) if g is not None]
 
 
 def _checked(geometry: DeltaGeometry, controller: CommandModel, targets: np.ndarray, min_margin: float,

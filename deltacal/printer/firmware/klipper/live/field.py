@@ -38,7 +38,7 @@ from scipy.ndimage import distance_transform_edt, maximum_filter
 
 from .....calibration import Calibration
 from .....controller import CommandModel, corrected_targets
-from .....controller.targets import aligned_to_controller
+from .....controller.targets import printers_in_frame
 from .....exceptions import AssemblyError, GeometryError, UnreachableError
 from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....kinematics import exact
@@ -236,14 +236,12 @@ def _continuation(calibration: Calibration, controller: CommandModel, points: np
     The identified printer's exact inverse without its checks (a carriage a little above its
     endstop, a pose near a singularity) and the controller's forward model of those travels: used
     only to continue the field across the border of what the library corrects. The printer is the
-    one the library corrects for: with a σ grid, in the controller's frame (:func:`aligned_to_controller`),
-    along the bed the grid's ``along_bed`` printer when it has one.
+    one the library corrects for: with a σ grid, in the controller's frame, along the bed the grid's
+    ``along_bed`` printer when it has one (:func:`~deltacal.controller.targets.printers_in_frame`).
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
     holds = calibration.holds if isinstance(calibration, Calibration) else None
-    printers = [geometry] if holds is None else [
-        aligned_to_controller(g, controller, float(holds.radius[-1]))
-        for g in (geometry, holds.along_bed) if g is not None]
+    printers = [geometry] if holds is None else printers_in_frame(geometry, holds, controller)
     with np.errstate(invalid="ignore"):
         out = [controller.forward(exact.inverse(g, points, check=False), check=False) - points
                for g in printers]
