@@ -106,7 +106,7 @@ def test_geometry_edited_in_one_place_is_refused_by_report_and_export(fitted, tm
         assert "[geometry] and [nominal] disagree: key geometry.tool_mm" in capsys.readouterr().err
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_report_of_another_robot_is_refused(fitted, tmp_path, capsys):
     """Issue 21, item 13: --robot or --truth of another robot gave "actual error 5.9e5 µm", exit 0."""
     from deltacal.io import load_nominal, save_geometry
@@ -169,6 +169,7 @@ def test_what_an_earlier_file_lacks_reads_as_not_recorded(fitted, tmp_path):
         load_calibration(bad)
 
 
+@pytest.mark.long
 def test_the_report_takes_the_value_or_its_file(fitted, tmp_path):
     from deltacal.kinematics.workspace import default_workspace
     from deltacal.report import accuracy_map, write_report

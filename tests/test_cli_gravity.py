@@ -156,7 +156,7 @@ def test_a_negative_mass_is_refused_naming_the_key(tmp_path, capsys):
     assert len(err) == 1 and "key masses.plate_kg: a mass cannot be negative" in err[0]
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_report_shows_the_compliances_and_a_deflection_map(session):
     folder, _, _, cal = session
     out = folder / "report.html"

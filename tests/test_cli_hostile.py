@@ -261,7 +261,7 @@ def _deltacal(*argv, **kwargs) -> subprocess.CompletedProcess:
                           stderr=subprocess.PIPE, text=True, check=False, **kwargs)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_identify_into_a_closed_pipe_and_a_full_disk(files, tmp_path):
     out = tmp_path / "c.toml"
     argv = ["identify", NOMINAL, files["meas"], "--model", "complete", "-o", out]

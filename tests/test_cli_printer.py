@@ -121,6 +121,7 @@ def _identify(tmp_path, measured, probe=None, distance=None, options=(), cfg=Non
                  "--controller", str(cfg or default_cfg), "-o", str(tmp_path / "cal.toml"), *options])
 
 
+@pytest.mark.long
 def test_a_gross_probe_height_is_refused_by_its_line(tmp_path, measured, capsys):
     probe = measured[1].copy()
     probe[6, 2] += 1.0

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from numpy.testing import assert_allclose
 
 from deltacal.cli.main import main
@@ -24,6 +25,7 @@ def kossel_config_g(path: Path) -> Path:
     return path
 
 
+@pytest.mark.long
 def test_plan_simulate_identify_export_compensate_with_config_g(tmp_path, capsys):
     config = kossel_config_g(tmp_path / "config.g")
     assert (

@@ -308,7 +308,7 @@ def test_readings_of_another_assembly_are_refused(tmp_path):
     assert info.value.indices == [1, 2] and info.value.reason == UnreachableError.CHECK_FAILED
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("seed", [15, 14])
 def test_only_readings_of_the_assembly_the_robot_comes_in_are_written(tmp_path, seed):
     """Targets at the outer rim (radius 650-900 mm, z -250 to -370) on robots calibrated from 60 poses.
@@ -346,7 +346,7 @@ def test_only_readings_of_the_assembly_the_robot_comes_in_are_written(tmp_path, 
     assert len(written) >= 10
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_rim_readings_written_are_those_of_pinocchios_closed_loop_coming_from_the_workspace(tmp_path):
     """A fresh robot (seed 31): Pinocchio's inverse, followed in 2 mm steps from the workspace centre
     (each step started from the last assembly), gives the readings compensate writes at rim targets."""

@@ -231,7 +231,7 @@ def test_the_offsets_fit_recovers_encoder_offsets(bai):
     assert np.max(np.linalg.norm(reached - targets, axis=1)) < 1e-6
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_the_limbs_fit_matches_an_independent_fit_on_the_true_robot(bai, robot):
     """scipy's least squares of the spec controller's values, the truth solved by Pinocchio."""
     truth, mb = robot["truth"], robot["multibody"]
@@ -455,7 +455,7 @@ def test_compensate_controller_with_targets_in_the_tracker_frame(bai, robot, cap
     assert_allclose(commands, want.commands - truth.tool, atol=2e-9, rtol=0)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_the_report_shows_what_each_controller_route_leaves(files, robot, tmp_path):
     from deltacal.report import accuracy_map, controller_routes, write_report
 

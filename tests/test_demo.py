@@ -42,7 +42,7 @@ def test_demo_runs_from_any_folder_and_writes_results(demo_from_elsewhere):
     assert len(summary["validation"]) == 2 * (1 + 4 * 3)
 
 
-@pytest.mark.parametrize("seed", [2015, pytest.param(31, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("seed", [2015, pytest.param(31, marks=pytest.mark.long)])
 def test_demo_figures(seed):
     summary = demo_results(seed=seed).summary  # run_demo writes it, and its files (the test above)
     complete = _row(summary, "tool 200 mm", "complete", "exact")

@@ -148,7 +148,7 @@ def test_distance_statistics_in_blocks_equal_every_pair_at_once(bai):
     assert worst == pytest.approx(float(np.max(np.abs(r))), rel=1e-9)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_problem_too_large_is_refused_in_one_line(bai, tmp_path):
     """100,000 positions under a 3 GB address-space limit: refused up front, exit 1, one line, no file."""
     import resource

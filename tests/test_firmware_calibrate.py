@@ -90,7 +90,7 @@ def test_own_calibration_flattens_a_kit(printer, calibrate):
     assert after.flatness < 0.1 and after.max_3d < before.max_3d
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("firmware", [MARLIN, RRF_FIRMWARE], ids=lambda f: f.name)
 def test_firmware_routes_meet_the_criteria_on_fresh_printers(printer, firmware):
     """3 fresh kits (seeds 26100-26102, no other test's): the G-code route <= 0.05 mm and a tenth of

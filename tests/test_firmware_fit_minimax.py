@@ -141,7 +141,7 @@ def test_largest_step_solves_the_linear_minimax(seed):
 
     x0 = np.append(np.zeros(5), [np.max(np.linalg.norm(a, axis=1)), flatness, -flatness])
     solved = minimize(lambda x: x[5], x0, method="SLSQP", constraints=[{"type": "ineq", "fun": constraints}],
-                      options={"maxiter": 500, "ftol": 1e-14})
+                      options={"maxiter": 500, "ftol": 1e-12})
     assert solved.success
     assert largest <= solved.x[5] + 1e-6 < largest + 2e-6 < np.max(np.linalg.norm(a, axis=1))
 
@@ -184,7 +184,7 @@ def test_exported_values_no_worse_than_the_least_squares(fresh):
     assert least_mean <= squares_mean
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_exported_values_are_the_firmwares_best_on_the_identified_printer(fresh):
     """The independent optimiser (SLSQP from the exported values and the least squares, the same first
     layer's bounds) finds nothing more than 1 % (+ 0.1 µm) below the exported values."""
@@ -198,7 +198,7 @@ def test_exported_values_are_the_firmwares_best_on_the_identified_printer(fresh)
         assert least.max_3d <= 1.01 * best + 1e-4
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_kits_exported_values_within_a_quarter_of_the_firmwares_best_on_the_true_printer(fresh):
     """Issue 38's criterion on the typical kits (mean over the fresh kits): the exported values, judged on
     the true printer, <= 1.25 x the firmware's best there at the same first-layer flatness + 0.01 mm

@@ -358,7 +358,7 @@ def _compensated(case: Held, cal: Path, robot: Path, config: Path, folder: Path,
     assert_allclose(landed, intended[below], rtol=0, atol=1e-6)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("case", CASES, ids=_ids)
 def test_the_owners_route_from_import_to_a_corrected_program(case, tmp_path, capsys):
     robot = _imported(case, tmp_path, capsys)

@@ -158,7 +158,7 @@ KINDS = [
 
 @pytest.mark.parametrize("robot", ROBOTS)
 @pytest.mark.parametrize("kind", KINDS, ids=[k[0] for k in KINDS])
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_far_tracker_reaches_the_accuracy_of_measurements_in_the_base_frame(robot, kind, request):
     """Same accuracy (within 10 %) as the same measurements in {O}, on the mean over three robots.
 

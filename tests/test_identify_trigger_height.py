@@ -18,7 +18,8 @@ from deltacal.io import load_calibration
 REAL = Path(__file__).resolve().parent / "data" / "klipper" / "real"
 
 
-@pytest.mark.parametrize(("name", "trigger"), [("flsun-q5-razorcopter.cfg", "24.374"),
+@pytest.mark.parametrize(("name", "trigger"), [pytest.param("flsun-q5-razorcopter.cfg", "24.374",
+                                                            marks=pytest.mark.long),
                                                ("flsun-qqs-pro-susisstrolch.cfg", "22.0")])
 def test_an_imported_flsun_with_a_tall_probe_is_identified(tmp_path, capsys, name, trigger):
     folder = tmp_path / "imported"

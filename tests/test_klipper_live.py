@@ -539,6 +539,7 @@ def test_the_field_is_the_whole_correction_and_the_module_weights_it_as_the_offl
         correction_field(calibration, controller, volume, step=10.0, bound=0.0)
 
 
+@pytest.mark.long
 def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_correction():
     """The module's cut keeps each segment's chord within the tolerance of the applied correction.
 
@@ -860,7 +861,7 @@ def kossel_bed(tmp_path_factory):
     return _kossel(tmp_path_factory.mktemp("live_bed"), bed_only=True, bound=0.04)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
 def test_export_live_writes_the_module_and_its_section_and_says_the_sampling_error(printer, request):
     kossel = request.getfixturevalue(printer)
@@ -951,7 +952,7 @@ def _max(errors: np.ndarray) -> float:
     return float(np.max(np.linalg.norm(errors, axis=1)))
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
 def test_klipper_with_the_module_lands_the_nozzle_as_the_offline_route_does(printer, request, klipper):
     """Done when (issue 41): within 1.2x the offline route's 3-D max + 0.005 mm; the offline route's commands.
@@ -1032,7 +1033,7 @@ def _path_deviation(kossel, landed: Landed, points: np.ndarray) -> tuple[float, 
     return worst, line
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("printer", ["kossel", "kossel_bed"])
 def test_long_moves_stay_on_their_straight_line(printer, request, klipper):
     """Done when: the path within max(0.02, 1.2x the offline route's + 0.005 mm) of its intended path.
@@ -1070,7 +1071,7 @@ def _intended_points(points: np.ndarray, count: int = 400) -> np.ndarray:
     return (points[:-1] + t * (points[1:] - points[:-1])).reshape(-1, 3)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_arcs_are_corrected_as_klippers_gcode_arcs_cuts_them(kossel, klipper):
     """G2 reaches the module as ``[gcode_arcs]``'s 1 mm moves: the nozzle follows the arc."""
     centre, radius, z = np.array([10.0, -5.0]), 45.0, 0.3
@@ -1226,7 +1227,7 @@ def _example_delta_test(klipper: Path, folder: Path, name: str, config: str, com
     assert "All 1 test cases passed" in done.stderr
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_klippers_own_delta_bed_mesh_and_skew_cases_pass_with_the_module(klipper, tmp_path):
     """Klipper's delta.test on its example-delta.cfg; bed_mesh.test's commands and a skew case on it too.
 

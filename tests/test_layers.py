@@ -181,6 +181,7 @@ def layer(name: str) -> int:
     raise AssertionError(f"{name}: not in any layer; add it to LAYERS (and to the docs' layout)")
 
 
+@pytest.mark.long
 def test_every_import_points_down_the_layers():
     wrong = [
         f"{a} (layer {layer(a)}) imports {b} (layer {layer(b)})"

@@ -30,8 +30,8 @@ class _Selection:
 def fast_loop() -> _Selection:
     """The tests ``python -m pytest -m "not slow"`` runs and leaves out, collected only."""
     selection = _Selection()
-    code = pytest.main(["--collect-only", "-qq", "-p", "no:cacheprovider", "-m", "not slow", str(TESTS)],
-                       plugins=[selection])
+    code = pytest.main(["--collect-only", "-qq", "-p", "no:cacheprovider", "-n0", "-m", "not slow",
+                        str(TESTS)], plugins=[selection])
     assert code == pytest.ExitCode.OK, f"collection failed: {code!r}"
     return selection
 

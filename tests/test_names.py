@@ -165,7 +165,7 @@ def test_control_characters_in_files_are_refused_by_row_and_column_or_key(tmp_pa
     assert not out.exists()
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_unicode_stations_and_points_go_through_every_command(tmp_path, capsys):
     """simulate and identify wrote bare TOML keys: compensate, report and export then failed."""
     robot = tmp_path / "robot.toml"

@@ -93,7 +93,7 @@ def _well_built_fits(plan) -> list[tuple[float, float, float]]:
     return out
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_evidence_narrows_a_well_built_printers_error(plan):
     """Over four well-built printers the G-code route's mean 3-D max error is smaller with the evidence's
     scale than with the kit's tolerances as given, each scale below the kit's."""
@@ -107,6 +107,7 @@ def test_evidence_narrows_a_well_built_printers_error(plan):
     "issue 38's statistics (the noise factors estimated with the scale, its log-normal hyperprior about "
     "0.3) give these printers 0.38, 0.33, 0.178, 0.346 (their true errors are 0.1-0.2 of the kit's); the "
     "error still narrows (0.0211 mm against 0.0238 with the kit's tolerances)"))
+@pytest.mark.long
 def test_evidence_narrows_a_well_built_printers_tolerances(plan):
     """Each well-built printer's scale is below 0.3 (its true errors are 0.1-0.2 of the kit's tolerances,
     and the measurements see only part of them)."""

@@ -49,6 +49,7 @@ def _outliers(plan, probe, distances):
 
 
 @pytest.mark.parametrize("seed", [pytest.param(501, marks=pytest.mark.slow), 502])  # a kit, a well-built one
+@pytest.mark.long
 def test_one_gross_probe_height_or_distance_is_named(plan, seed):
     probe, distances, rng = _measured(plan, seed)
     row, pair = int(rng.integers(len(probe))), int(rng.integers(len(distances)))
@@ -76,7 +77,7 @@ def test_the_row_is_tested_about_the_fit_without_it(plan):
     assert np.max(np.abs(others)) < 4.5
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_gross_errors_are_found_on_fresh_printers_and_nothing_on_clean_ones(plan):
     missed, false_alarms = [], []
     for seed in range(600, 612):

@@ -129,7 +129,7 @@ def test_a_bad_tower_is_named(tmp_path, key, value, message):
     assert "\n" not in str(err.value) and str(path) in str(err.value)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_calibration_compares_its_step_distances_per_tower(tmp_path):
     printer = load_printer(robot_file(tmp_path / "p.toml", PER_TOWER))
     cfg = KLIPPER.save_config(tmp_path / "printer.cfg", KlipperDelta.from_printer(printer), complete=True)
@@ -164,7 +164,7 @@ def _identified(folder: Path, robot: Path, cfg: Path) -> Path:
     return out
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_the_commands_take_a_per_tower_printer(tmp_path):
     """plan -> simulate -> identify -> compensate, export, report and view on a per-tower robot file."""
     robot = robot_file(tmp_path / "p.toml", PER_TOWER)
@@ -201,7 +201,7 @@ def test_the_commands_take_a_per_tower_printer(tmp_path):
     assert "MeshCat.Viewer" in (tmp_path / "view.html").read_text(encoding="utf-8")
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_equal_towers_give_the_same_outputs_as_a_number(tmp_path):
     outputs = {}
     for name, values in (("number", {}), ("equal", EQUAL)):

@@ -270,7 +270,7 @@ def run_cli(files: dict[str, bytes], argv: list[str], output: str) -> None:
 MALFORMED = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @MALFORMED
 @given(st.data())
 def test_malformed_measurements_never_crash_nor_write(data):
@@ -281,7 +281,7 @@ def test_malformed_measurements_never_crash_nor_write(data):
             "out.toml")
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @MALFORMED
 @given(st.data())
 def test_malformed_robot_files_never_crash_nor_write(data):
@@ -292,7 +292,7 @@ def test_malformed_robot_files_never_crash_nor_write(data):
             "out.toml")
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @MALFORMED
 @given(st.data())
 def test_malformed_calibration_files_never_crash_nor_write(data):
@@ -303,7 +303,7 @@ def test_malformed_calibration_files_never_crash_nor_write(data):
             "joints.csv")
 
 
-@pytest.mark.slow
+@pytest.mark.long
 @MALFORMED
 @given(st.data())
 def test_malformed_targets_never_crash_nor_write(data):

@@ -73,6 +73,7 @@ def test_the_saved_runs_steps_are_klippers_own():
 
 
 @pytest.mark.parametrize("printer", [pytest.param("a", marks=pytest.mark.slow), "b"])
+@pytest.mark.long
 def test_the_identified_printer_predicts_the_other_runs_better_than_klippers_values(printer):
     script = load_script()
     runs = [script.read_run(path) for path in script.PRINTERS[printer]]

@@ -43,7 +43,7 @@ def setup(bai, tmp_path_factory):
     return nominal, truth, q, load_calibration(path), points
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_predicted_sigma_matches_the_spread_of_repeated_calibrations(setup, capsys):
     nominal, truth, q, calibration, points = setup
     predicted = predicted_tcp_sigma(calibration, points)

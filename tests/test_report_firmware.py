@@ -43,6 +43,7 @@ def printer(tmp_path_factory):
                                                      "--controller m503.txt")),
                                          ("rrf", ("RepRapFirmware", "--controller rrf", "config-override.g",
                                                   "--controller config.g"))])
+@pytest.mark.long
 def test_a_marlin_or_rrf_printers_report_fits_and_names_its_own_values(printer, name, words, capsys):
     folder, kossel, truth = printer
     out = folder / f"{name}.html"

@@ -284,6 +284,7 @@ def test_a_phone_sees_the_page_without_sideways_scrolling(simulated):
     assert 0 < info["scene"]["w"] <= 375
 
 
+@pytest.mark.long
 def test_a_free_instrument_frame_is_shown(tmp_path):
     poses, meas, cal, out = (tmp_path / n for n in ("poses.csv", "meas.csv", "cal.toml", "r.html"))
     assert main(["plan", ROBOT, "--strategy", "doptimal", "--count", "40", "-o", str(poses)]) == 0
@@ -304,7 +305,6 @@ def test_a_free_instrument_frame_is_shown(tmp_path):
     assert 'id="fig-residuals-index"' in text
 
 
-@pytest.mark.slow
 def test_bad_input_is_one_line(simulated, tmp_path, capsys):
     cal = simulated / "cal.toml"
     out = tmp_path / "r.html"
@@ -331,7 +331,7 @@ def test_bad_input_is_one_line(simulated, tmp_path, capsys):
     assert not out.exists()
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_printer_report_speaks_of_its_firmware_effector_and_nozzle(tmp_path):
     """A printer's report: the firmware's routes (the targets sent as they are: Klipper's model with the
     nominal values; its values fitted), the nozzle in the effector frame, and the 3-D view of towers

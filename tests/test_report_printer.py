@@ -40,6 +40,7 @@ def _report(folder: Path, *argv: str) -> int:
 
 
 @pytest.mark.parametrize("order", [("probe.csv", "distances.csv"), ("distances.csv", "probe.csv")])
+@pytest.mark.long
 def test_the_report_shows_each_printer_files_residuals(identified, capsys, order):
     folder, cfg = identified
     capsys.readouterr()
@@ -58,6 +59,7 @@ def test_the_report_shows_each_printer_files_residuals(identified, capsys, order
     assert "(89 measurements, probe height and distance residuals)" in text
 
 
+@pytest.mark.long
 def test_a_printers_probe_heights_alone(identified, capsys):
     folder, cfg = identified
     assert _report(folder, "--measurements", str(folder / "probe.csv"), "--controller", str(cfg)) == 0

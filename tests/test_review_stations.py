@@ -30,7 +30,7 @@ def two_stations(bai):
     return in_frames(meas, {"east": FAR, "west": OTHER})
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_labels_swapped_in_one_station_are_named(bai, two_stations):
     west = np.array(two_stations.station) == "west"
     swap = {"smr_centre": "smr_offset", "smr_offset": "smr_centre"}

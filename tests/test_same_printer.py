@@ -72,7 +72,7 @@ def test_another_printers_m503_is_refused(tmp_path):
         MARLIN.check_same_printer(MARLIN.nominal(PRINTER), MARLIN.read_config(other), "a", "b")
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_kit_printers_and_their_exported_values_are_not_refused():
     """10 simulated kit printers: their values, the nominal ones and the fitted ones (export's) agree."""
     nominal = {firmware.name: firmware.nominal(PRINTER) for firmware in (KLIPPER, MARLIN)}
@@ -169,7 +169,7 @@ def test_export_refuses_another_printers_configuration(calibrated, tmp_path, cap
     assert "M665 R is 134." in err and "but 107.5 mm in " in err and not (tmp_path / "m.gcode").exists()
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_the_same_printers_exported_values_are_not_refused(calibrated, tmp_path, capsys):
     """export's values of the calibration, given back to compensate (Marlin's) and to export (Klipper's)."""
     cal = calibrated / "cal.toml"
@@ -209,7 +209,7 @@ def test_a_robot_file_as_controller_is_named_a_robot_file(tmp_path, capsys, opti
     assert "outside any" not in err
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_a_short_caliper_is_said_short_with_one_that_works(tmp_path, capsys):
     cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
     assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", "10",
@@ -224,7 +224,7 @@ def test_a_short_caliper_is_said_short_with_one_that_works(tmp_path, capsys):
                  "-o", str(tmp_path / "o")]) == 0
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_without_distances_asked_the_object_plans_those_it_offers(tmp_path, capsys):
     cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
     assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--caliper", "80",

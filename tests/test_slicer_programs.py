@@ -34,6 +34,8 @@ CONFIG = DATA / "klipper" / "printer.cfg"
 PROGRAMS = sorted((DATA / "slicers").glob("*.gcode"))
 #: The programs that take a second or more (spiral lifts cut into many chords); the others stay fast.
 SLOW = ("bambustudio-1.9", "orcaslicer-2.1")
+#: Those of them over the suite's budget of a test (tests/budget.py): run by ``pytest --all``.
+LONG = ("bambustudio-1.9",)
 #: The true nozzle's distance from the program's points [mm]: exact compensation (1e-6 mm) and the
 #: output's 0.1 µm rounding leave 0.1-0.2 µm (measured); 1 µm allowed.
 POINT_TOLERANCE = 1e-3
@@ -204,7 +206,9 @@ def printer(tmp_path_factory):
 
 
 @pytest.mark.parametrize("program", [
-    pytest.param(p, id=p.stem, marks=[pytest.mark.slow] if p.stem in SLOW else []) for p in PROGRAMS])
+    pytest.param(p, id=p.stem,
+                 marks=[pytest.mark.long] if p.stem in LONG else [pytest.mark.slow] if p.stem in SLOW else [])
+    for p in PROGRAMS])
 def test_a_slicers_program_is_corrected_through_klipper(printer, program, tmp_path, capsys):
     truth, model, step, calibration, cfg = printer
     out = tmp_path / "corrected.gcode"

@@ -233,7 +233,7 @@ def test_view_command_reads_a_truth_file_and_rejects_bad_input(tmp_path, robots,
     assert "--exaggerate" in capsys.readouterr().err and not missing.exists()
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_view_command_serves_until_ctrl_c_and_stops_the_server(tmp_path):
     script = (
         "import sys\n"

@@ -340,6 +340,7 @@ def test_a_misfit_raises_the_noise_not_the_tolerances(run_a1):
     assert float(moved.hints[0].split()[5]) < 1.5 * float(result.hints[0].split()[5])
 
 
+@pytest.mark.long
 def test_a_poor_fit_is_refused_in_one_line_naming_the_causes(tmp_path, capsys):
     """A printer's saved run whose probe heights jump 0.6 mm after the third point: a bed that moved."""
     run = REAL / "flsun-v400-a-run1.cfg"
@@ -363,6 +364,7 @@ def test_a_poor_fit_is_refused_in_one_line_naming_the_causes(tmp_path, capsys):
     assert "poor fit accepted" in capsys.readouterr().out
 
 
+@pytest.mark.long
 def test_poor_fit_is_a_library_refusal_too(run_a1):
     run, _ = run_a1
     jump = np.r_[0.0, 0.0, 0.0, 0.6, 0.6, 0.6, 0.6]
@@ -374,6 +376,7 @@ def test_poor_fit_is_a_library_refusal_too(run_a1):
 
 
 # ------------------------------------------------------------------------------ the command line's words
+@pytest.mark.long
 def test_identify_says_where_it_holds_and_export_keeps_what_it_does_not_determine(tmp_path, capsys):
     run = REAL / "flsun-v400-a-run2.cfg"
     out, cal, exported = tmp_path / "v400", tmp_path / "cal.toml", tmp_path / "calibrated.cfg"
@@ -431,7 +434,7 @@ def test_compensate_says_where_it_corrected_and_refuses_when_asked(tmp_path, cap
 
 
 # ------------------------------------------------------------------------------------ the issue's "Done when"
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("printer", ["a", "b"])
 def test_one_printers_saved_runs_agree_where_they_correct(script, printer):
     """Each run identified alone, the same targets through the first run's printer.cfg (Done when)."""
@@ -490,6 +493,7 @@ def fresh(script, tmp_path_factory):
 
 @pytest.mark.parametrize("label, effect", [_done_when(label, effect, {}) for label in FRESH_SEEDS
                                            for effect in EFFECTS])
+@pytest.mark.long
 def test_klippers_data_alone_correct_no_worse_than_klippers_values(fresh, label, effect):
     """Simulated printers with only Klipper's saved data: never worse than its values, the part not moved.
 
@@ -506,6 +510,7 @@ def test_klippers_data_alone_correct_no_worse_than_klippers_values(fresh, label,
 
 @pytest.mark.parametrize("label, effect", [_done_when(label, effect, NOT_REACHED) for label in FRESH_SEEDS
                                            for effect in EFFECTS])
+@pytest.mark.long
 def test_klippers_data_alone_give_a_better_first_layer(fresh, label, effect):
     """The same printers: the first layer's height error at most 0.8 times Klipper's + 0.003 mm."""
     summary = fresh(label, effect)
