@@ -66,12 +66,18 @@ def _slsqp_best(printer, vector, columns, flatness, spread, starts):
         _, B0, _, _ = part_errors(printer, start, vector, STEP, GRID, LAYER, columns)
         scale = np.sqrt(np.mean(np.sum(B0**2, axis=1), axis=0))
 
-        def at(x, base=base, start=start, scale=scale):
-            values = base.copy()
-            values[columns] += x[:k] / scale
-            a, B, c, D = part_errors(printer, vector.with_values(start, values), vector, STEP, GRID, LAYER,
-                                     columns)
-            return a, B / scale, c, D / scale
+        last: dict[bytes, tuple] = {}  # SLSQP asks the constraints and their Jacobian at one x: once
+
+        def at(x, base=base, start=start, scale=scale, last=last):
+            key = np.asarray(x, dtype=float).tobytes()
+            if key not in last:
+                values = base.copy()
+                values[columns] += x[:k] / scale
+                model = vector.with_values(start, values)
+                a, B, c, D = part_errors(printer, model, vector, STEP, GRID, LAYER, columns)
+                last.clear()
+                last[key] = (a, B / scale, c, D / scale)
+            return last[key]
 
         def constraints(x):  # >= 0 where met [mm², mm]
             a, _, c, _ = at(x)
