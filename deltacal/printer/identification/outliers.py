@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...identification.outliers import data_snooping
+from ...identification.outliers import OUTLIER_THRESHOLD, data_snooping
 
 #: Fits without the suspects at most (the fixed point is reached in two or three).
 ROUNDS = 5
@@ -75,6 +75,11 @@ def seen_design(W: np.ndarray) -> np.ndarray:
 def find_outliers(fit: FitWithout, measurement: np.ndarray, kind: np.ndarray) -> Outliers:
     """The measurements that do not fit the others, found about the fit without them.
 
+    Each round fits without the measurements flagged so far, tests the others by data snooping and
+    keeps, of those flagged, only the ones that still stand out about that fit (:func:`stand_out`):
+    a row flagged at first only because a gross one dragged the fit is cleared, whatever the order
+    in which the snooping set them aside.
+
     Args:
         fit: The fit without some measurements (:data:`FitWithout`).
         measurement: The measurement of each row (0, 1, ...: a measurement's rows are tested together), (m,).
@@ -89,7 +94,9 @@ def find_outliers(fit: FitWithout, measurement: np.ndarray, kind: np.ndarray) ->
     for _ in range(ROUNDS):
         kept = ~np.isin(np.arange(count), flagged)
         r, W = fit(kept)
-        found = data_snooping(seen_design(W), r, measurement, kind)
+        design, rows = seen_design(W), kept[measurement]
+        new = data_snooping(design[rows], r[rows], measurement[rows], kind[rows])
+        found = np.union1d(stand_out(design, r, measurement, kind, flagged), new).astype(int)
         if np.array_equal(found, flagged):
             break
         flagged = found
@@ -97,3 +104,49 @@ def find_outliers(fit: FitWithout, measurement: np.ndarray, kind: np.ndarray) ->
         kept = ~np.isin(np.arange(count), flagged)
         r, _ = fit(kept)
     return Outliers(flagged, r, kept)
+
+
+def stand_out(design: np.ndarray, r: np.ndarray, measurement: np.ndarray, kind: np.ndarray,
+              suspects: np.ndarray) -> np.ndarray:
+    """Of the suspect measurements, those whose rows stand out from what the others predict.
+
+    Each suspect is tested on its own about the linear fit of the rows of no suspect: its prediction
+    error ``e = r_g - design_g x`` against its covariance ``I + design_g N⁺ design_gᵀ`` (N the
+    normal matrix of those rows), each row divided by its kind's robust spread there (at least 1),
+    at :data:`~deltacal.identification.outliers.OUTLIER_THRESHOLD` σ, as the snooping tests.
+
+    Args:
+        design: The snooping's design over every row (:func:`seen_design`), (m, rank).
+        r: The whitened residuals of every row, (m,).
+        measurement: The measurement of each row, (m,).
+        kind: The kind of each row, (m,).
+        suspects: The measurements to test, sorted.
+
+    Returns:
+        The suspects that stand out, sorted.
+    """
+    import scipy.stats  # as data_snooping: needed only here
+
+    if suspects.size == 0:
+        return suspects
+    clean = ~np.isin(measurement, suspects)
+    A = design[clean]
+    inverse = np.linalg.pinv(A.T @ A)
+    x = inverse @ (A.T @ r[clean])
+    e = r - design @ x
+    leverage = np.clip(np.einsum("ij,jk,ik->i", A, inverse, A), 0.0, 1.0 - 1e-12)
+    spread = np.ones(len(r))
+    for k in np.unique(kind):
+        standardised = np.abs(e[clean & (kind == k)]) / np.sqrt(1.0 - leverage[kind[clean] == k])
+        if standardised.size:
+            spread[kind == k] = max(1.0, 1.4826 * float(np.median(standardised)))
+    p_value = 2.0 * scipy.stats.norm.sf(OUTLIER_THRESHOLD)
+    out = []
+    for g in suspects:
+        rows = measurement == g
+        Dg, eg = design[rows], e[rows] / spread[rows]
+        covariance = np.eye(len(eg)) + Dg @ inverse @ Dg.T
+        statistic = float(eg @ np.linalg.solve(covariance, eg))
+        if statistic > float(scipy.stats.chi2.isf(p_value, len(eg))):
+            out.append(int(g))
+    return np.array(out, dtype=int)
