@@ -12,7 +12,7 @@ from deltacal.errormodels import get_model
 from deltacal.kinematics import exact
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
-from deltacal.printer.owner import printer_errors
+from deltacal.printer.owner import Estimate, PrinterErrors, TowerErrors, printer_errors
 
 MODELS = Path(__file__).resolve().parents[1] / "deltacal" / "models"
 MODEL = get_model("printer")
@@ -124,3 +124,17 @@ def test_the_owner_is_told_in_each_firmwares_words(nominal):
     assert f"tower Y: {said}" in texts["marlin"] and "M666 Y" in texts["marlin"]
     assert "printer.cfg" not in texts["marlin"] + texts["rrf"] and "M666" not in texts["klipper"]
     assert "rotation_distance" in texts["klipper"] and "M92 Z" in texts["rrf"]
+
+
+def test_a_quantity_within_its_sigma_is_not_determined_whatever_its_sign():
+    """Issue 46: "endstop -0.26 ± 2.60 mm (stops low)" from seven heights said a sign nothing measured."""
+    unknown = (Estimate(0.0, 1.0, False),) * 4
+    towers = tuple(TowerErrors(name, Estimate(-0.26, 2.60, True), Estimate(0.5, 0.1, True), *unknown)
+                   for name in "ABC")
+    lines = PrinterErrors(towers, Estimate(0.0, 1.0, False), 0.0).lines()
+    assert "endstop -0.26 ± 2.60 mm (not determined by these measurements)" in lines[0]
+    assert "stops" not in lines[0] and "travels long" in lines[0]  # 0.5 ± 0.1 %: determined
+    towers = tuple(TowerErrors(name, Estimate(-0.26, 0.03, True), Estimate(0.05, 0.1, True), *unknown)
+                   for name in "ABC")
+    line = PrinterErrors(towers, Estimate(0.0, 1.0, False), 0.0).lines()[0]
+    assert "(stops low)" in line and "travel +0.05 ± 0.10 % (not determined by these measurements)" in line

@@ -125,15 +125,23 @@ def _significant(e: Estimate) -> bool:
     return e.determined and abs(e.value) > 2.0 * e.sigma
 
 
+#: What the owner reads of a quantity whose σ is at least its value: its sign is not known.
+UNDETERMINED = "not determined by these measurements"
+
+
 def _high(e: Estimate) -> str:
     if not e.determined:
         return "unknown"
+    if abs(e.value) <= e.sigma:
+        return UNDETERMINED
     return "stops high" if e.value > 0 else "stops low"
 
 
 def _travel(e: Estimate) -> str:
     if not e.determined:
         return "unknown"
+    if abs(e.value) <= e.sigma:
+        return UNDETERMINED
     if e.value > 0:
         return "travels long: its step distance is short"
     return "travels short: its step distance is long"
