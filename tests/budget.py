@@ -51,14 +51,23 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.slow)
     if _runs_long(config):
         return
-    left = [item for item in items if item.get_closest_marker("long")]
+    named = [arg.replace("\\", "/").split("::", 1) for arg in config.args if "::" in arg]
+    left = [item for item in items if item.get_closest_marker("long") and not _named(item, named)]
     if left:
-        items[:] = [item for item in items if not item.get_closest_marker("long")]
+        out = set(map(id, left))
+        items[:] = [item for item in items if id(item) not in out]
         config.hook.pytest_deselected(items=left)
         config.stash[_LEFT] = len(left)
 
 
 _LEFT = pytest.StashKey[int]()
+
+
+def _named(item: pytest.Item, named: list[list[str]]) -> bool:
+    """Whether the command line names this test itself (``tests/test_x.py::test_y``): it runs, long or not."""
+    path, _, test = item.nodeid.partition("::")
+    return any(path.endswith(file.lstrip("./")) and (test == name or test.startswith(name + "["))
+               for file, name in named)
 
 
 def pytest_report_header(config: pytest.Config) -> str:
@@ -68,9 +77,14 @@ def pytest_report_header(config: pytest.Config) -> str:
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+    if _runs_long(config):
+        return
     left = config.stash.get(_LEFT, 0)
     if left:
         terminalreporter.write_line(f"{left} long tests left out (each over {BUDGET_S:g} s of CPU): "
+                                    "pytest --all runs them, as CI does")
+    elif getattr(config.option, "numprocesses", None):  # the workers collect: their count is theirs
+        terminalreporter.write_line(f"the long tests were left out (each over {BUDGET_S:g} s of CPU): "
                                     "pytest --all runs them, as CI does")
 
 
