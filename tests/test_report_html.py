@@ -233,7 +233,7 @@ def probe(report: Path, folder: Path, width: int, proxy: int | None = None, phon
 
 
 @needs_chromium
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.browser
 def test_chromium_renders_every_figure_and_the_scene_without_any_request(simulated):
     from PIL import Image
@@ -273,7 +273,7 @@ def test_chromium_renders_every_figure_and_the_scene_without_any_request(simulat
 
 
 @needs_chromium
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.browser
 def test_a_phone_sees_the_page_without_sideways_scrolling(simulated):
     info = probe(simulated / "report.html", simulated, 600, phone=True)

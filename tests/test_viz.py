@@ -297,7 +297,7 @@ def red_mask(image: np.ndarray) -> np.ndarray:
 
 
 @needs_chromium
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.browser
 def test_render_shows_the_robot_and_its_plate_apart_from_the_ghost(tmp_path, nominal, robots):
     nominal_geometry, true_geometry = robots
@@ -473,7 +473,7 @@ def test_view_command_shows_a_printer_file(tmp_path, capsys):
 
 
 @needs_chromium
-@pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.browser
 def test_render_shows_the_printer_and_its_effector_apart_from_the_ghost(tmp_path, printer):
     kossel, nominal_geometry, true_geometry = printer
