@@ -268,7 +268,7 @@ def test_moves_klipper_refuses_are_refused_whole_with_and_without_the_module(kos
     """With the module, each is refused in Klipper's words, at once, and no tower steps: as without it.
 
     Before, ``G1 X0 Y0 Z-20`` from Z10 was cut into segments and Klipper ran those above its
-    minimum (766 steps of each tower down, onto the bed), ``G1 X1000000000`` made 10^8 segments.
+    minimum (765-766 steps of each tower down, onto the bed), ``G1 X1000000000`` made 10^8 segments.
     """
     refusals, elapsed = {}, {}
     for name in ("live_config", "config"):
