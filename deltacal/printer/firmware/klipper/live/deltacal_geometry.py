@@ -16,7 +16,9 @@ from the sigma of the correction (interpolated trilinearly from the calibration'
 azimuth and height), the horizontal and the vertical part each weighted as deltacal's offline
 route weights them (1 where the sigma is at most half the bound, 0 from the bound on, a smooth step
 between; the horizontal part also only as far as it stands out of its sigma). A long move is cut into
-segments short enough that the nozzle stays on the straight line. Beyond the printer's reach the
+segments short enough that the nozzle stays on the straight line. A move Klipper's limits refuse
+(its program point, as Klipper's kinematics check it; or a corrected point of it) is refused whole,
+before any segment is made, in Klipper's words for the program point. Beyond the printer's reach the
 correction is 0 (the grid's values fall to 0 there). Klipper's position reports (``get_position``)
 are the program's coordinates: the command is inverted by fixed-point iteration, and a position
 outside the grid (Klipper asks for made-up ones while homing) is returned as it is; it never raises.
@@ -54,6 +56,11 @@ INVERSE_ITERATIONS = 50
 INVERSE_TOLERANCE = 1e-10
 #: A correction this many times its sigma is wholly applied (deltacal.holds.SIGNIFICANT).
 SIGNIFICANT = 2.0
+#: A move of the nozzle shorter than this is Klipper's extrusion alone, which its limits do not check [mm]
+#: (klippy/toolhead.py's Move).
+KLIPPER_LEAST_MOVE = 1e-9
+#: The segments a move is cut into at most (a move within Klipper's limits needs a few hundred at most).
+MOST_SEGMENTS = 10000
 
 
 def correction_weight(sigma, bound):
@@ -287,10 +294,13 @@ class CorrectionGrid:
 
         The chord of a segment of length s departs from the correction by s^2 K / 8 at most, K the
         bound of the correction's second derivative at the move's larger radius (a straight line's
-        radius is largest at one of its ends), over the layers of its heights.
+        radius is largest at one of its ends), over the layers of its heights. At most
+        :data:`MOST_SEGMENTS`; 1 for a move between points that are not numbers (its length is not).
         """
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if not length < math.inf:  # a point that is not one: Klipper's to refuse, never a list of segments
+            return 1
         free = self._free.get(tolerance)
         if free is None:  # the longest segment the largest bound allows: shorter moves are never cut
             largest = max(max(row) for row in self.curvature)
@@ -304,7 +314,7 @@ class CorrectionGrid:
         high = min(max(int((max(start[2], end[2]) - self.z0) * self.inverse_step) + 1, 0), last)
         bound = max(row[low:high + 1])
         longest = math.sqrt(8.0 * tolerance / bound) if bound > 0.0 else length
-        return max(1, int(math.ceil(length / longest)))
+        return min(max(1, int(math.ceil(length / longest))), MOST_SEGMENTS)
 
 
 class DeltacalGeometry:
@@ -315,7 +325,7 @@ class DeltacalGeometry:
         self.name = config.get_name()
         self.grid, self.values, self.volume = read_section(config)
         self.calibration = config.get("calibration")
-        self.tolerance = config.getfloat("split_tolerance", 0.01, above=0.0)
+        self.tolerance = read_float(config, "split_tolerance", above=0.0, default=0.01)
         self.error_text = config.get("sampling_error", "")
         self.enabled = True
         self.last_position = [0.0, 0.0, 0.0, 0.0]
@@ -350,7 +360,7 @@ class DeltacalGeometry:
         calibration = kinematics.get_calibration()
         status = kinematics.get_status(self.printer.get_reactor().monotonic())
         check_values(self.values, klipper_values(calibration), self.printer.config_error)
-        self.limits = Limits(calibration, status)
+        self.limits = Limits(calibration, status, getattr(kinematics, "home_position", None))
         check_volume(self.volume, self.limits, self.printer.config_error)
         self.kinematics = kinematics
 
@@ -364,12 +374,21 @@ class DeltacalGeometry:
         return list(position)
 
     def move(self, newpos, speed):
-        """Send a move, corrected and cut into segments so that the nozzle follows its straight line."""
+        """Send a move, corrected and cut into segments so that the nozzle follows its straight line.
+
+        A move Klipper's limits refuse is refused whole before any segment is made: its program's
+        point as Klipper refuses it (:meth:`Limits.refusal`), then its corrected points.
+        """
         if not self.enabled:
             self.next_transform.move(newpos, speed)
             self.last_position[:] = newpos
             return
-        start = self.last_position
+        start, limits = self.last_position, self.limits
+        checked = limits is not None and limits.moves_nozzle(start, newpos)
+        if checked:
+            refusal = limits.refusal(newpos, self.kinematics.get_status(None).get("homed_axes") == "xyz")
+            if refusal:
+                raise self.gcode.error(refusal)
         count = self.grid.segments(start, newpos, self.tolerance)
         if count == 1:
             commands = [list(newpos)]
@@ -378,24 +397,17 @@ class DeltacalGeometry:
                         for n in range(1, count)] + [list(newpos)]
         for command in commands:
             command[:3] = self.grid.command(command[0], command[1], command[2])
-        self._check_limits(newpos, commands)
+        if checked:
+            self._check_limits(newpos, commands)
         for command in commands:
             self.next_transform.move(command, speed)
         self.last_position[:] = newpos
 
     def _check_limits(self, newpos, commands):
-        """Refuse a move whose corrected points Klipper's limits refuse, as a whole, before any is sent.
-
-        Not before homing (Klipper refuses every move then) nor when the program's point itself
-        is out of range (Klipper's own error says so).
-        """
-        limits = self.limits
-        if limits is None:
-            return
+        """Refuse a move whose corrected points Klipper's limits refuse, as a whole, before any is sent."""
         for command in commands:
-            broken = limits.outside(command[0], command[1], command[2])
-            if broken and self.kinematics.get_status(None).get("homed_axes") == "xyz" \
-                    and not limits.outside(newpos[0], newpos[1], newpos[2]):
+            broken = self.limits.outside(command[0], command[1], command[2])
+            if broken:
                 raise self.gcode.error(
                     f"deltacal_geometry: the program's point X{newpos[0]:.4f} Y{newpos[1]:.4f} "
                     f"Z{newpos[2]:.4f}, corrected, is X{command[0]:.4f} Y{command[1]:.4f} Z{command[2]:.4f}: "
@@ -446,15 +458,60 @@ class DeltacalGeometry:
 
 
 class Limits:
-    """Klipper's delta limits on a move's end (its kinematics' ``check_move``), from its live values."""
+    """Klipper's delta limits on a move's end (its kinematics' ``check_move``), from its live values.
 
-    def __init__(self, calibration, status):
+    Args:
+        calibration: Klipper's ``kinematics.get_calibration()``.
+        status: Its ``kinematics.get_status()``.
+        home: Its home position (x, y, z), where a move down from above its top is let through, or
+            None (none such).
+    """
+
+    def __init__(self, calibration, status, home=None):
         self.max_xy = float(status["axis_maximum"][0])
         self.min_z = float(status["axis_minimum"][2])
         self.max_z = float(status["axis_maximum"][2])
         self.limit_z = float(status["cone_start_z"])
         self.radius = float(calibration.radius)
         self.arm = float(min(calibration.arms))
+        self.home = None if home is None else tuple(float(v) for v in home[:3])
+
+    @staticmethod
+    def moves_nozzle(start, end):
+        """Whether Klipper checks a move from ``start`` to ``end``: its nozzle moves (or is not a number)."""
+        length = math.sqrt(sum((e - s) ** 2 for s, e in zip(start[:3], end[:3])))  # noqa: B905 (Python 3.7+)
+        return not length < KLIPPER_LEAST_MOVE
+
+    def refusal(self, end, homed):
+        """Klipper's refusal of a move of the nozzle to ``end``, in its words, or "" (none).
+
+        As its kinematics' ``check_move`` and its toolhead's ``move_error`` say it: "Must home
+        first" before homing, "Move out of range" for an end its limits refuse (not the move down
+        from above its top at its home position), with the end's coordinates. An end that is not a
+        number is out of range (Klipper's comparisons would let it through); so is one far above the
+        top, where Klipper's taper has no radius (Klipper raises there).
+        """
+        x, y, z = end[0], end[1], end[2]
+        if not homed:
+            what = "Must home first"
+        elif not all(math.isfinite(v) for v in (x, y, z)) or self._refuses(x, y, z):
+            what = "Move out of range"
+        else:
+            return ""
+        extrusion = end[3] if len(end) > 3 else 0.0
+        return f"{what}: {x:.3f} {y:.3f} {z:.3f} [{extrusion:.3f}]"
+
+    def _refuses(self, x, y, z):
+        """Whether Klipper's limits refuse the end (x, y, z) of a move (its ``check_move``'s arithmetic)."""
+        limit_xy2 = self.max_xy * self.max_xy
+        if z > self.limit_z:
+            above = z - self.limit_z
+            allowed = self.radius - math.sqrt(max(self.arm * self.arm - (self.arm - above) ** 2, 0.0))
+            limit_xy2 = min(limit_xy2, allowed * allowed)
+        if x * x + y * y > limit_xy2 or z > self.max_z or z < self.min_z:
+            home = self.home
+            return home is None or (x, y) != home[:2] or z < self.min_z or z > home[2]
+        return False
 
     def outside(self, x, y, z):
         """The limit (x, y, z) breaks, in words with the key that admits it, or "" (none)."""
@@ -500,15 +557,16 @@ def read_section(config):
     if kind != FORMAT:
         raise config.error(f"deltacal_geometry: format {kind!r}: this module reads {FORMAT!r}; copy the "
                            "deltacal_geometry.py written with this section into klippy/extras/")
-    values = {key: config.getfloat(key) for key in VALUE_KEYS}
-    volume = {key: config.getfloat(key) for key in VOLUME_KEYS}
+    values = {key: read_float(config, key) for key in VALUE_KEYS}
+    volume = {key: read_float(config, key) for key in VOLUME_KEYS}
     origin = config.getfloatlist("grid_origin", count=3)
-    step = config.getfloat("grid_step", above=0.0)
+    finite(origin, "grid_origin", config.error)
+    step = read_float(config, "grid_step", above=0.0)
     shape = config.getintlist("grid_shape", count=3)
     curvature = read_curvature(config.get("split_curvature"), shape[2], config.error)
     if min(shape) < 4:
         raise config.error("deltacal_geometry: grid_shape needs 4 nodes or more along each axis")
-    unit = config.getfloat("correction_unit", above=0.0)
+    unit = read_float(config, "correction_unit", above=0.0)
     correction = decode_values(config.get("correction"), config.error)
     expected = 3 * shape[0] * shape[1] * shape[2]
     if len(correction) != expected:
@@ -524,7 +582,13 @@ def read_holds(config):
     Raises:
         config.error: naming the key of the first value missing or wrong.
     """
-    bound = config.getfloat("sigma_bound", above=0.0)
+    bound = read_float(config, "sigma_bound", above=0.0, infinite=True)
+    unit = read_float(config, "correction_unit", above=0.0)
+    if bound < unit:  # 0.5 bound may be 0: the weights would divide by it
+        raise config.error(f"deltacal_geometry: key sigma_bound: {bound!r} is below correction_unit "
+                           f"{unit!r}, the resolution of the correction: a bound the weights cannot use "
+                           f"(export again with --sigma-bound {unit!r} or more; inf: the whole correction "
+                           "everywhere)")
     radius_text = config.get("holds_radius", "")
     if not radius_text.strip():
         return None
@@ -534,6 +598,7 @@ def read_holds(config):
             nodes.append([float(v) for v in config.get(key).split(",")])
         except ValueError as exc:
             raise config.error(f"deltacal_geometry: key {key}: {exc}") from None
+        finite(nodes[-1], key, config.error)
     radius, azimuth, height = nodes
     for key, axis in (("holds_radius", radius), ("holds_height", height)):
         if len(axis) < 2 or any(b <= a for a, b in zip(axis, axis[1:])):  # noqa: B905 (Python 3.7+)
@@ -542,18 +607,50 @@ def read_holds(config):
         raise config.error("deltacal_geometry: key holds_azimuth: one value or more")
     sigma = decode_floats(config.get("holds_sigma"), config.error, "holds_sigma")
     expected = 2 * len(radius) * len(azimuth) * len(height)
-    if len(sigma) != expected or not all(v >= 0.0 for v in sigma):
+    if len(sigma) != expected or not all(0.0 <= v < math.inf for v in sigma):
         raise config.error(f"deltacal_geometry: key holds_sigma: {len(sigma)} values, expected {expected} "
-                           "non-negative ones (2 per node of holds_radius x holds_azimuth x holds_height)")
+                           "non-negative finite ones (2 per node of holds_radius x holds_azimuth x "
+                           "holds_height)")
     return SigmaGrid(radius, azimuth, height, sigma, bound)
 
 
+def read_float(config, key, above=None, default=None, infinite=False):
+    """The section's number under ``key``: Klipper's ``getfloat``, then refused if it is not finite.
+
+    Klipper's ``getfloat`` reads ``nan`` and ``inf`` and passes them through its bounds (every
+    comparison with NaN is false). ``infinite``: inf is a value (not -inf, not NaN). ``default``: the
+    value when the key is missing (None: it must be there).
+
+    Raises:
+        config.error: naming the key and the value.
+    """
+    if default is None:
+        value = config.getfloat(key, above=above)
+    else:
+        value = config.getfloat(key, default, above=above)
+    if not (math.isfinite(value) or (infinite and value == math.inf)):
+        what = "not a bound (a number of mm, or inf)" if infinite else "not a finite number"
+        raise config.error(f"deltacal_geometry: key {key}: {value!r} is {what} (the section is deltacal's: "
+                           "export it again)")
+    return value
+
+
+def finite(values, key, error):
+    """Refuse the section's numbers under ``key`` unless all are finite (``error``: the key, the value)."""
+    for value in values:
+        if not math.isfinite(value):
+            raise error(f"deltacal_geometry: key {key}: {value!r} is not a finite number (the section is "
+                        "deltacal's: export it again)")
+
+
 def read_curvature(text, layers, error):
-    """The bound of the correction's curvature: a line per ring, a value per z node, non-negative."""
+    """The bound of the correction's curvature: a line per ring, a value per z node, non-negative, finite."""
     try:
         rows = [[float(v) for v in line.split(",")] for line in text.split("\n") if line.strip()]
     except ValueError as exc:
         raise error(f"deltacal_geometry: key split_curvature: {exc}") from None
+    for row in rows:
+        finite(row, "split_curvature", error)
     if not rows or any(len(row) != layers or min(row) < 0.0 for row in rows):
         raise error(f"deltacal_geometry: key split_curvature: a line per ring of {layers} non-negative "
                     "values (one per z node of grid_shape)")

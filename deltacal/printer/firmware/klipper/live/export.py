@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .....calibration import Calibration
-from .....exceptions import InputError
+from .....exceptions import InputError, UsageError
 from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....io.atomic import atomic_write_text
 from ..config import load_klipper
@@ -96,8 +96,14 @@ def export_live(calibration: Calibration, config: str | Path, folder: str | Path
             offline route's ``--sigma-bound``; ``math.inf``: the whole correction everywhere).
 
     Raises:
+        UsageError: a bound below the correction's resolution (:data:`VALUE_UNIT_MM`: the weights
+            cannot use it).
         InputError: the configuration's first problem, or a calibration without its step distance.
     """
+    if not bound >= VALUE_UNIT_MM:  # half of it may round to 0: the module's weights divide by it
+        raise UsageError(f"--sigma-bound {float(bound)!r}: below {VALUE_UNIT_MM:g} mm, the resolution of "
+                         "the correction the section writes (its correction_unit), a bound the weights "
+                         f"cannot use; give {VALUE_UNIT_MM:g} or more (inf: the whole correction everywhere)")
     klipper = load_klipper(config)
     steps = calibration.geometry.step_distance
     if steps is None:
