@@ -12,11 +12,13 @@ values are checked to be of one printer (:func:`check_printer_values`).
 from __future__ import annotations
 
 import tomllib
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from ...controller.targets import CommandModel
+from ...controller_record import ControllerRecord, files_digest
 from ...exceptions import GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
@@ -107,6 +109,19 @@ class FirmwareConfig:
     def dialect(self) -> Dialect:
         """The firmware's reading of G-code with this configuration (its values not read again)."""
         return self.firmware.dialect(self.path, self.values)
+
+    def record(self) -> ControllerRecord:
+        """What a calibration identified with this configuration records of it (``[controller]``).
+
+        The firmware's name, the file as given, the sha256 of every file it read (itself first:
+        :meth:`~deltacal.printer.firmware.base.Firmware.config_files`) and its values by the
+        firmware's keys (:meth:`~deltacal.printer.firmware.base.Firmware.values_read`).
+        """
+        with warnings.catch_warnings():  # the configuration's warnings were said when it was read
+            warnings.simplefilter("ignore")
+            files = self.firmware.config_files(self.path)
+        return ControllerRecord(self.firmware.name, self.path, files_digest(files),
+                                self.firmware.values_read(self.values))
 
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
         """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""
