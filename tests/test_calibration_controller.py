@@ -65,3 +65,90 @@ def test_the_calibration_records_its_controller(calibrations, name):
     save_calibration(load_calibration(cal), again)
     assert again.read_text() == cal.read_text()
     assert tomllib.loads(cal.read_text())["controller"]["values"][key] == record.values[key]
+
+
+@pytest.mark.long  # a report: 2.2 s of CPU each
+@pytest.mark.parametrize("name", ["marlin", "rrf"])
+def test_report_speaks_the_recorded_firmware_without_controller(calibrations, name, tmp_path, capsys):
+    cal, _ = calibrations[name]
+    assert main(["report", str(cal), "-o", str(tmp_path / "r.html"), "--no-view"]) == 0
+    page = (tmp_path / "r.html").read_text()
+    text = re.sub(r"<[^>]+>", " ", page)
+    assert "printer.cfg" not in text and "stepper_a" not in text and "Klipper" not in text
+    assert "M666" in text
+
+
+def _refused(capsys, *words: str) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for word in words:
+        assert word in err, err
+    return err
+
+
+def test_another_firmwares_controller_is_refused(calibrations, tmp_path, capsys):
+    cal, _ = calibrations["klipper"]
+    _, m503 = calibrations["marlin"]
+    np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    out = tmp_path / "c.csv"
+    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(m503), "-o", str(out)]) == 1
+    _refused(capsys, "Klipper", "Marlin", str(cal))
+    assert not out.exists()
+    assert main(["report", str(cal), "--controller", str(m503), "-o", str(tmp_path / "r.html")]) == 1
+    _refused(capsys, "Klipper", "Marlin")
+    assert not (tmp_path / "r.html").exists()
+    assert main(["export", str(cal), "--controller", "marlin", "--keep-rotation-distance",
+                 "-o", str(tmp_path / "v.gcode")]) == 1
+    _refused(capsys, "Klipper", "Marlin")
+    assert not (tmp_path / "v.gcode").exists()
+    assert main(["report", str(cal), "--firmware", "rrf", "-o", str(tmp_path / "r.html")]) == 1
+    _refused(capsys, "Klipper", "RepRapFirmware")
+
+
+def test_changed_values_are_named(calibrations, tmp_path, capsys):
+    cal, m503 = calibrations["marlin"]
+    text = m503.read_text()
+    assert re.search(r"^M666 X0(\.0+)? ", text, re.M), text
+    changed = tmp_path / "m503.gcode"
+    changed.write_text(re.sub(r"^M666 X0(\.0+)? ", "M666 X-0.3 ", text, flags=re.M))
+    np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    for config, said in ((m503, False), (changed, True)):
+        out = tmp_path / f"c-{said}.csv"
+        assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(config),
+                     "-o", str(out)]) == 0
+        lines = [line for line in capsys.readouterr().out.splitlines() if "values changed" in line]
+        assert out.exists()
+        if said:
+            assert len(lines) == 1 and "M666.X 0 -> -0.3" in lines[0] and "measure it again" in lines[0], lines
+            assert "M666.Y" not in lines[0]
+        else:
+            assert lines == []
+
+
+def test_another_printers_values_are_refused_naming_the_key(calibrations, tmp_path, capsys):
+    cal, m503 = calibrations["marlin"]
+    text = m503.read_text()
+    far = tmp_path / "m503.gcode"
+    far.write_text(re.sub(r"^M665 (.*)\bL[0-9.]+", r"M665 \1L300", text, count=1, flags=re.M))
+    assert far.read_text() != text
+    np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    out = tmp_path / "c.csv"
+    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(far), "-o", str(out)]) == 1
+    _refused(capsys, "M665 L", "recorded controller", "different printers")
+    assert not out.exists()
+
+
+def test_an_older_calibration_loads_and_says_none_is_recorded(calibrations, tmp_path, capsys):
+    cal, cfg = calibrations["klipper"]
+    text = cal.read_text()
+    old = tmp_path / "old.toml"
+    old.write_text(text[:text.index("\n[controller]")] + "\n")
+    assert "[controller" not in old.read_text()
+    calibration = load_calibration(old)
+    assert calibration.controller is None
+    assert calibration.geometry.name == load_calibration(cal).geometry.name
+    np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    assert main(["compensate", str(old), str(tmp_path / "t.csv"), "--controller", str(cfg),
+                 "-o", str(tmp_path / "c.csv")]) == 0
+    out = capsys.readouterr().out
+    assert out.count("records no controller") == 1
