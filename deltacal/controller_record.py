@@ -35,7 +35,8 @@ class ControllerRecord:
     values: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "values", MappingProxyType({str(k): float(v) for k, v in self.values.items()}))
+        values = {str(k): float(v) for k, v in self.values.items()}
+        object.__setattr__(self, "values", MappingProxyType(values))
 
     def changes(self, values: Mapping[str, float]) -> list[tuple[str, float | None, float | None]]:
         """The keys whose value differs from ``values`` (another read of the firmware's configuration).

@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import re
-import shutil
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import MODELS, copy_object_plan
+
 from deltacal.cli.main import main
 from deltacal.io import load_calibration, save_calibration
 from deltacal.printer.files.robot_file import load_printer
@@ -29,16 +28,20 @@ KOSSEL = MODELS / "kossel.toml"
 
 @pytest.fixture(scope="module")
 def calibrations(tmp_path_factory, kossel_object_plan) -> dict[str, tuple[Path, Path]]:
-    """A Klipper, a Marlin and an RRF calibration of one simulated kossel (seed 46): firmware -> (cal, config)."""
+    """A Klipper, a Marlin and an RRF calibration of one simulated kossel (seed 46).
+
+    Returns: firmware -> (calibration, configuration)."""
     folder = tmp_path_factory.mktemp("calibration_controller")
     printer = load_printer(KOSSEL)
     configs = {"klipper": copy_object_plan(kossel_object_plan, folder),
                "marlin": MARLIN.save_config(folder / "m503.gcode", MARLIN.nominal(printer), complete=True),
-               "rrf": RRF_FIRMWARE.save_config(folder / "config.g", RRF_FIRMWARE.nominal(printer), complete=True)}
+               "rrf": RRF_FIRMWARE.save_config(folder / "config.g", RRF_FIRMWARE.nominal(printer),
+                                               complete=True)}
     plan = folder / "plan"
     out = {}
     for name, config in configs.items():
-        probe, distances, cal = (folder / f"{name}-{what}" for what in ("probe.csv", "distances.csv", "cal.toml"))
+        probe, distances, cal = (folder / f"{name}-{what}"
+                                 for what in ("probe.csv", "distances.csv", "cal.toml"))
         assert main(["simulate", str(KOSSEL), str(plan / "probe.csv"), str(plan / "distances.csv"),
                      "--controller", str(config), "--firmware", name, "--perturb", "46", "-o", str(probe),
                      "--distances-output", str(distances)]) == 0
@@ -91,7 +94,8 @@ def test_another_firmwares_controller_is_refused(calibrations, tmp_path, capsys)
     _, m503 = calibrations["marlin"]
     np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
     out = tmp_path / "c.csv"
-    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(m503), "-o", str(out)]) == 1
+    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(m503),
+                 "-o", str(out)]) == 1
     _refused(capsys, "Klipper", "Marlin", str(cal))
     assert not out.exists()
     assert main(["report", str(cal), "--controller", str(m503), "-o", str(tmp_path / "r.html")]) == 1
@@ -119,7 +123,8 @@ def test_changed_values_are_named(calibrations, tmp_path, capsys):
         lines = [line for line in capsys.readouterr().out.splitlines() if "values changed" in line]
         assert out.exists()
         if said:
-            assert len(lines) == 1 and "M666.X 0 -> -0.3" in lines[0] and "measure it again" in lines[0], lines
+            assert len(lines) == 1 and "M666.X 0 -> -0.3" in lines[0], lines
+            assert "measure it again" in lines[0] and "rods, probe, effector" in lines[0]
             assert "M666.Y" not in lines[0]
         else:
             assert lines == []
@@ -133,7 +138,8 @@ def test_another_printers_values_are_refused_naming_the_key(calibrations, tmp_pa
     assert far.read_text() != text
     np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
     out = tmp_path / "c.csv"
-    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(far), "-o", str(out)]) == 1
+    assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(far),
+                 "-o", str(out)]) == 1
     _refused(capsys, "M665 L", "recorded controller", "different printers")
     assert not out.exists()
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -58,7 +58,7 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
         return _program(request, report, kind)
     calibration = load_calibration(request.calibration)  # read and checked once
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller, said = None, ()
+    controller, said = None, cast(tuple[str, ...], ())
     if request.controller is not None:
         controller, _, said = _controller(request, calibration, kind)
     geometry, frames = calibration.geometry, calibration.instrument
@@ -144,8 +144,8 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
         filter_gcode(request.targets, request.output, correct, segment, start,
                      lambda fraction, _: report(fraction, "program"), home=controller.home,
                      dialect=dialect, limits=controller.limits, marker=marker)
-    return Done((*said, f"wrote the program corrected for the controller {request.controller} to {request.output} "
-                 f"(moves split every {segment:g} mm at most)",
+    return Done((*said, f"wrote the program corrected for the controller {request.controller} to "
+                 f"{request.output} (moves split every {segment:g} mm at most)",
                  *where_it_holds(calibration, request.sigma_bound)))
 
 

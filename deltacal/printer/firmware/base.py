@@ -175,7 +175,7 @@ ModelT = TypeVar("ModelT", bound=FirmwareModel)
 
 @dataclass(frozen=True)
 class ValueKey:
-    """Where a firmware's model holds a value its configuration sets, and in which unit the firmware writes it.
+    """Where a firmware's model holds a value its configuration sets, and the unit the firmware writes.
 
     Attributes:
         field: The model's attribute (``"position_endstop"``).

@@ -186,8 +186,9 @@ def recorded_firmware(calibration: Calibration, source: str | Path, firmware: Fi
         return None
     recorded = firmware_named(record.firmware)
     if recorded is None:
-        raise InputError(f"firmware {record.firmware!r} is not one deltacal knows ({'|'.join(firmware_names())})",
-                         str(source), "key controller.firmware")
+        known = "|".join(firmware_names())
+        raise InputError(f"firmware {record.firmware!r} is not one deltacal knows ({known})", str(source),
+                         "key controller.firmware")
     if firmware is not None and firmware is not recorded:
         what = f"{given if given is not None else 'the firmware given'} is {firmware.title}'s"
         raise InputError(f"identified with {recorded.title} ({record.source}), but {what}: a calibration "

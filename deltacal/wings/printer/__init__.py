@@ -105,7 +105,8 @@ class PrinterWing(Wing):
                              "with)")
         if request.controller is None:
             named = firmware_named(request.firmware) if request.firmware is not None else None
-            recorded = recorded_firmware(calibration, request.calibration, named, f"--firmware {request.firmware}")
+            recorded = recorded_firmware(calibration, request.calibration, named,
+                                         f"--firmware {request.firmware}")
             return (recorded or named or firmwares()[0]), None, ()
         config = read_firmware_config(request.controller, request.firmware)
         said = config.check_calibration(calibration, request.calibration)

@@ -70,7 +70,8 @@ class RotaryWing(Wing):
         firmware = firmware_named(str(name))
         return f"{firmware.title}'s values" if firmware is not None else "a firmware's values"
 
-    def report_firmware(self, request: ReportRequest, calibration: Calibration) -> tuple[None, None, tuple[()]]:
+    def report_firmware(self, request: ReportRequest,
+                        calibration: Calibration) -> tuple[None, None, tuple[()]]:
         """None: a rotary Delta's controller is a Cartesian one (``--firmware``, ``--controller`` refused)."""
         if request.controller is not None:
             raise UsageError("--controller applies to a printer's calibration (its measurements' firmware)")
