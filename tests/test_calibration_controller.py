@@ -19,7 +19,10 @@ from conftest import MODELS, copy_object_plan
 from deltacal.cli.main import main
 from deltacal.io import load_calibration, save_calibration
 from deltacal.printer.files.robot_file import load_printer
+from deltacal.printer.files.same_printer import ENDSTOP_MM
+from deltacal.printer.firmware.base import classical_values
 from deltacal.printer.firmware.config_file import read_firmware_config
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.marlin.firmware import MARLIN
 from deltacal.printer.firmware.rrf.firmware import RRF_FIRMWARE
 
@@ -130,17 +133,27 @@ def test_changed_values_are_named(calibrations, tmp_path, capsys):
             assert lines == []
 
 
-def test_another_printers_values_are_refused_naming_the_key(calibrations, tmp_path, capsys):
-    cal, m503 = calibrations["marlin"]
-    text = m503.read_text()
-    far = tmp_path / "m503.gcode"
-    far.write_text(re.sub(r"^M665 (.*)\bL[0-9.]+", r"M665 \1L300", text, count=1, flags=re.M))
-    assert far.read_text() != text
+def test_values_beyond_a_build_from_the_recorded_ones_are_refused_naming_the_key(calibrations, tmp_path,
+                                                                                  capsys):
+    # an endstop within the same-printer bound of the calibration's geometry (checked before, as ever)
+    # but beyond it from the value the calibration was identified with: refused by the record alone
+    cal, cfg = calibrations["klipper"]
+    recorded = load_calibration(cal).controller
+    assert recorded is not None
+    config = read_firmware_config(cfg)
+    geometry = classical_values(KLIPPER.start(load_calibration(cal).geometry))[2][0]
+    d = geometry - classical_values(config.values)[2][0]
+    assert abs(d) > 0.01  # the identified endstop moved: a window of |d| / 2 either side (0.027 mm)
+    value = recorded.values["stepper_a.position_endstop"] + np.sign(d) * (ENDSTOP_MM + abs(d) / 2.0)
+    far = tmp_path / "printer.cfg"
+    far.write_text(re.sub(r"^(\[stepper_a\][^\[]*?position_endstop:\s*)\S+", rf"\g<1>{value:.4f}",
+                          cfg.read_text(), count=1, flags=re.M))
+    assert read_firmware_config(far).values.position_endstop[0] == pytest.approx(value, abs=1e-4)
     np.savetxt(tmp_path / "t.csv", [[0.0, 0.0, 5.0]], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
     out = tmp_path / "c.csv"
     assert main(["compensate", str(cal), str(tmp_path / "t.csv"), "--controller", str(far),
                  "-o", str(out)]) == 1
-    _refused(capsys, "M665 L", "recorded controller", "different printers")
+    _refused(capsys, "position_endstop (tower A)", "recorded controller", "different printers")
     assert not out.exists()
 
 

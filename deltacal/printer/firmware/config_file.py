@@ -129,13 +129,13 @@ class FirmwareConfig:
     def check_calibration(self, calibration: Calibration, source: str | Path) -> tuple[str, ...]:
         """Refuse these values for a calibration of another firmware or printer; what to say of them.
 
-        Against the controller the calibration recorded (``[controller]``): another firmware is
+        First against the calibration's geometry (:meth:`check_printer`: another printer's values),
+        then against the controller the calibration recorded (``[controller]``): another firmware is
         refused (:func:`recorded_firmware`); the same values say nothing; values changed say one
         line naming each changed key (recorded -> now), unless one is beyond what a build could
         change (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer` of the recorded
         values and these: another printer, refused naming it). A calibration that records none (a
-        file written before it was recorded) says so. Then the values against the calibration's
-        geometry (:meth:`check_printer`).
+        file written before it was recorded) says so.
 
         Returns:
             The lines to say (none: the values it was identified with).
@@ -143,6 +143,7 @@ class FirmwareConfig:
         Raises:
             InputError: another firmware, or another printer, naming the key.
         """
+        self.check_printer(calibration.geometry, source)
         recorded_firmware(calibration, source, self.firmware, self.path)
         record = calibration.controller
         lines: tuple[str, ...] = ()
@@ -158,7 +159,6 @@ class FirmwareConfig:
                 lines = (f"{self.path}: values changed since {source} was identified with {record.source}: "
                          f"{changes_in_words(changes)}; if the printer itself changed (rods, probe, "
                          "effector), measure it again and identify",)
-        self.check_printer(calibration.geometry, source)
         return lines
 
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
