@@ -74,7 +74,8 @@ class PrinterWing(Wing):
             raise UsageError(f"--controller {request.controller}: {request.calibration} is a printer's "
                              "calibration; its firmware's values: --controller klipper")
         assert request.output is not None
-        recorded_firmware(calibration, request.calibration, firmware, f"--controller {firmware.name}")
+        if request.config is None:  # with one: checked against the geometry first, then the record
+            recorded_firmware(calibration, request.calibration, firmware, f"--controller {firmware.name}")
         if request.live:
             return _export_live(firmware, request, calibration)
         said: tuple[str, ...] = ()
