@@ -23,6 +23,7 @@ from typing import Literal, cast, get_args
 import numpy as np
 
 from .compensation import LinearCalibration
+from .controller_record import ControllerRecord
 from .errormodels import ErrorModel, get_model
 from .exceptions import InputError
 from .geometry import DeltaGeometry
@@ -160,6 +161,9 @@ class Calibration:
             printable volume (:class:`~deltacal.holds.WhereItHolds`), which ``compensate``, ``export``,
             the report and the live Klipper module read; None for a rotary Delta's, or a file written
             before it was known (corrected everywhere).
+        controller: The firmware configuration a printer's calibration was identified with
+            (:class:`~deltacal.controller_record.ControllerRecord`: the file's ``[controller]``); None for
+            a rotary Delta's, or a file written before it was recorded.
         source: The file it was read from ("" when built in memory).
     """
 
@@ -182,6 +186,7 @@ class Calibration:
     frames: dict[str, FrameRecord] = field(default_factory=dict)
     compliance_sigma: np.ndarray | None = None
     holds: WhereItHolds | None = None
+    controller: ControllerRecord | None = None
     source: str = ""
 
     @classmethod

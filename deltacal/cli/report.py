@@ -57,5 +57,6 @@ def add_parser(sub) -> None:
     p.add_argument("--firmware", choices=firmware_names(), default=None,
                    help="a printer's calibration: the firmware whose values the page fits and names, and "
                         f"whose settings --controller is ({'|'.join(firmware_names())}; default: "
-                        f"--controller's, told from its content, else {firmware_names()[0]})")
+                        "--controller's, told from its content, else the one the calibration was identified "
+                        f"with, else {firmware_names()[0]}; another than the calibration's is refused)")
     p.set_defaults(func=run)

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..calibration import BaseParameter, BaseUnit, Calibration, FrameRecord, kind_of
 from ..compensation import LinearCalibration
+from ..controller_record import ControllerRecord
 from ..errormodels import get_model
 from ..exceptions import InputError
 from ..holds import WhereItHolds
@@ -119,6 +120,8 @@ def calibration_to_dict(calibration: Calibration) -> dict:
                               "sigma_rad_per_nm": [float(v) for v in cal.compliance_sigma]}
     if cal.holds is not None:
         data["holds"] = holds_to_dict(cal.holds)
+    if cal.controller is not None:
+        data["controller"] = controller_to_dict(cal.controller)
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
@@ -178,6 +181,29 @@ def holds_from_dict(data: Mapping, source: str) -> WhereItHolds | None:
                             along_bed)
     except ValueError as exc:
         raise t.error("radius_mm", str(exc)) from None
+
+
+def controller_to_dict(record: ControllerRecord) -> dict:
+    """A calibration's ``[controller]`` table and its ``[controller.values]``."""
+    return {"firmware": record.firmware, "source": record.source, "digest": record.digest,
+            "values": dict(record.values)}
+
+
+def controller_from_dict(data: Mapping, source: str) -> ControllerRecord | None:
+    """The ``[controller]`` table of a calibration file, checked; None when it has none (an older file)."""
+    if "controller" not in data:
+        return None
+    t = TomlTable(data, source).table("controller")
+    assert t is not None
+    t.check_unknown(["firmware", "source", "digest", "values"])
+    values = t.table("values")
+    assert values is not None
+    raw = data["controller"]["values"]
+    digest = t.string("digest")
+    if len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        raise t.error("digest", f"must be a sha256 in 64 lower-case hex digits, got {digest!r}")
+    return ControllerRecord(t.string("firmware"), t.string("source"), digest,
+                            {str(key): values.number(str(key)) for key in raw})
 
 
 def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
@@ -268,7 +294,7 @@ def load_calibration(path: str | Path) -> Calibration:
         outlier_lines=_names(cal, "outlier_lines", int, "an array of line numbers"),
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
         frames=_frames(data, source), source=source, compliance_sigma=_compliance_sigma(data, source),
-        holds=holds_from_dict(data, source),
+        holds=holds_from_dict(data, source), controller=controller_from_dict(data, source),
     )
     calibration.check()
     return calibration

@@ -108,16 +108,17 @@ class Wing(ABC):
     def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:
         """``deltacal export --controller KIND``: the controller's values that fit best, written."""
 
-    def report_firmware(self, request: ReportRequest,
-                        calibration: Calibration) -> tuple[Firmware[Any] | None, FirmwareModel | None]:
+    def report_firmware(self, request: ReportRequest, calibration: Calibration
+                        ) -> tuple[Firmware[Any] | None, FirmwareModel | None, tuple[str, ...]]:
         """The firmware whose values a report fits (a printer's), or None (a rotary Delta's controller).
 
-        And the firmware's values the measurements were commanded with (``--controller``), or None.
+        And the firmware's values the measurements were commanded with (``--controller``), or None;
+        and what to say of them (values changed since the calibration: none by default).
 
         Raises:
             UsageError: an option of the other kind.
         """
-        return None, None
+        return None, None, ()
 
     def export_mjcf(self, request: ExportRequest, geometry: DeltaGeometry, stations: Sequence[str]) -> Done:
         """``deltacal export --mjcf``: the robot as an MJCF model, of either kind (:func:`write_mjcf`).
@@ -135,7 +136,7 @@ class Wing(ABC):
 
     def report(self, request: ReportRequest, calibration: Calibration) -> Done:
         """``deltacal report``: one self-contained HTML page of the calibration (:func:`write_report`)."""
-        firmware, controller = self.report_firmware(request, calibration)
+        firmware, controller, said = self.report_firmware(request, calibration)
         nominal = calibration.nominal
         truth = load_geometry(request.truth) if request.truth is not None else None
         robot = load_robot(request.robot) if request.robot is not None else None
@@ -153,7 +154,7 @@ class Wing(ABC):
                                view=not request.no_view, firmware=firmware, controller=controller)
         warn(summary.warnings)
         w = summary.worst_point
-        return Done((f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "
+        return Done((*said, f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "
                      f"({w[0]:.1f}, {w[1]:.1f}, {w[2]:.1f}) mm", f"wrote {request.output}"))
 
 

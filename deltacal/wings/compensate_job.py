@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -58,9 +58,9 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
         return _program(request, report, kind)
     calibration = load_calibration(request.calibration)  # read and checked once
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller = None
+    controller, said = None, cast(tuple[str, ...], ())
     if request.controller is not None:
-        controller = _controller(request, calibration.geometry, kind)[0]
+        controller, _, said = _controller(request, calibration, kind)
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(request.targets)
     linear = None if request.method == "exact" else _linear(calibration, str(request.calibration))
@@ -103,7 +103,7 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     what = ("joint readings" if controller is None
             else f"corrected targets for the controller {request.controller}")
     held = () if controller is None else where_it_holds(calibration, request.sigma_bound)
-    return Done((f"wrote {out.rows} {what} to {request.output}", *held))
+    return Done((*said, f"wrote {out.rows} {what} to {request.output}", *held))
 
 
 def _warn_rigid_route(request: CompensateRequest, compliance: np.ndarray) -> None:
@@ -126,7 +126,7 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
     segment = DEFAULT_SEGMENT_MM if request.segment_mm is None else request.segment_mm
     calibration = load_calibration(request.calibration)
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller, config = _controller(request, calibration.geometry, kind)
+    controller, config, said = _controller(request, calibration, kind)
     if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes
         raise UsageError(f"--controller {request.controller}: a controller interpolating in "
                          f"{controller.interpolation} space cannot be sent a corrected G-code program")
@@ -144,19 +144,22 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
         filter_gcode(request.targets, request.output, correct, segment, start,
                      lambda fraction, _: report(fraction, "program"), home=controller.home,
                      dialect=dialect, limits=controller.limits, marker=marker)
-    return Done((f"wrote the program corrected for the controller {request.controller} to {request.output} "
-                 f"(moves split every {segment:g} mm at most)",
+    return Done((*said, f"wrote the program corrected for the controller {request.controller} to "
+                 f"{request.output} (moves split every {segment:g} mm at most)",
                  *where_it_holds(calibration, request.sigma_bound)))
 
 
-def _controller(request: CompensateRequest, geometry: Any,
-                kind: Firmware[Any] | None) -> tuple[CommandModel, FirmwareConfig | None]:
+def _controller(request: CompensateRequest, calibration: Calibration,
+                kind: Firmware[Any] | None) -> tuple[CommandModel, FirmwareConfig | None, tuple[str, ...]]:
     """``--controller``'s model (and its firmware ``kind``'s configuration, read once, or None), checked.
 
-    Refused if not of the robot's kind (rotary, printer) or of another printer. A printer's readings
+    Refused if not of the robot's kind (rotary, printer), of another firmware than the calibration
+    recorded, or of another printer; what to say of its values against the recorded ones
+    (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.check_calibration`). A printer's readings
     count steps in its nominal step distance, the calibration's (a Klipper configuration's own
     ``rotation_distance`` may have been refitted per tower since).
     """
+    geometry = calibration.geometry
     assert request.controller is not None
     config = None if kind is None else FirmwareConfig.read(kind, request.controller)
     if config is None:
@@ -167,9 +170,10 @@ def _controller(request: CompensateRequest, geometry: Any,
     if chain != geometry.chain:
         raise UsageError(f"--controller {request.controller} is {chain.words.a_kind}'s, but the calibration "
                          f"{request.calibration} is of {geometry.chain.words.a_kind}")
+    said: tuple[str, ...] = ()
     if config is not None and geometry.chain.firmware:
-        config.check_printer(geometry, request.calibration)
-    return controller, config
+        said = config.check_calibration(calibration, request.calibration)
+    return controller, config, said
 
 
 def _to_base(request: CompensateRequest, frames: dict) -> Callable[[np.ndarray], np.ndarray] | None:

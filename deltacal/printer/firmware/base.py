@@ -41,7 +41,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar
@@ -172,6 +172,36 @@ class Measuring(Protocol):
 
 ModelT = TypeVar("ModelT", bound=FirmwareModel)
 
+
+@dataclass(frozen=True)
+class ValueKey:
+    """Where a firmware's model holds a value its configuration sets, and the unit the firmware writes.
+
+    Attributes:
+        field: The model's attribute (``"position_endstop"``).
+        index: The tower (0, 1, 2) or tilt axis of an array attribute, or None (a number).
+        unit: How the firmware writes the model's value: ``""`` as held, ``"deg"`` (held in rad),
+            ``"inverse"`` (steps per mm of a step distance held in mm), ``"percent"`` (a ratio held as one).
+    """
+
+    field: str
+    index: int | None = None
+    unit: str = ""
+
+    def read(self, model: object) -> float | None:
+        """The value in the firmware's unit, or None (the model holds none)."""
+        value = getattr(model, self.field)
+        if value is None:
+            return None
+        v = float(value if self.index is None else np.asarray(value)[self.index])
+        return (math.degrees(v) if self.unit == "deg" else 1.0 / v if self.unit == "inverse"
+                else 100.0 * v if self.unit == "percent" else v)
+
+    def held(self, value: float) -> float:
+        """A value in the firmware's unit as the model holds it (:meth:`read` undone)."""
+        return (math.radians(value) if self.unit == "deg" else 1.0 / value if self.unit == "inverse"
+                else value / 100.0 if self.unit == "percent" else value)
+
 #: The classical delta values every firmware holds, in Klipper's words (each firmware's fit knows its
 #: own values of each): a radius, each tower's angle, arm, endstop and step distance.
 CLASSICAL_NAMES = (
@@ -296,6 +326,9 @@ class Firmware(ABC, Generic[ModelT]):
     export_file: ClassVar[str]
     values_words: ClassVar[str]
     value_names: ClassVar[Mapping[str, str]] = MappingProxyType({})
+    #: Every value its configuration sets that its model holds, by the firmware's own key
+    #: (``"stepper_a.position_endstop"``, ``"M665.L"``): what a calibration records of it.
+    value_keys: ClassVar[Mapping[str, ValueKey]] = MappingProxyType({})
     export_needs_config: ClassVar[str] = ""
     exports_minimum_z: ClassVar[bool] = False
     live_files: ClassVar[tuple[str, ...]] = ()
@@ -388,6 +421,25 @@ class Firmware(ABC, Generic[ModelT]):
             clearance: The nozzle's height above the bed while it moves between points [mm], or
                 the configuration's :meth:`probe_travel` (its reason then in the header).
         """
+
+    def values_read(self, model: ModelT) -> dict[str, float]:
+        """Every value of :attr:`value_keys` the model holds, by the firmware's key, in its units."""
+        read = {key: where.read(model) for key, where in self.value_keys.items()}
+        return {key: value for key, value in read.items() if value is not None}
+
+    def with_values(self, model: ModelT, values: Mapping[str, float]) -> ModelT:
+        """``model`` with the values of :attr:`value_keys` set from ``values`` (those it holds)."""
+        changed: dict[str, object] = {}
+        for key, where in self.value_keys.items():
+            if key not in values:
+                continue
+            if where.index is None:
+                changed[where.field] = where.held(float(values[key]))
+            else:
+                array = np.array(changed.get(where.field, getattr(model, where.field)), dtype=float)
+                array[where.index] = where.held(float(values[key]))
+                changed[where.field] = array
+        return replace(model, **changed)  # type: ignore[type-var]
 
     def value_name(self, name: str) -> str:
         """A classical value's name (:data:`CLASSICAL_NAMES`) in the firmware's words (``value_names``)."""

@@ -12,16 +12,21 @@ values are checked to be of one printer (:func:`check_printer_values`).
 from __future__ import annotations
 
 import tomllib
+import warnings
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ...controller.targets import CommandModel
+from ...controller_record import ControllerRecord, changes_in_words, files_digest
 from ...exceptions import GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
 from . import check_config_firmware, config_firmware, firmware_named, firmwares
 from .base import Firmware, FirmwareModel
+
+if TYPE_CHECKING:
+    from ...calibration import Calibration
 
 
 def firmware_names() -> tuple[str, ...]:
@@ -108,9 +113,88 @@ class FirmwareConfig:
         """The firmware's reading of G-code with this configuration (its values not read again)."""
         return self.firmware.dialect(self.path, self.values)
 
+    def record(self) -> ControllerRecord:
+        """What a calibration identified with this configuration records of it (``[controller]``).
+
+        The firmware's name, the file as given, the sha256 of every file it read (itself first:
+        :meth:`~deltacal.printer.firmware.base.Firmware.config_files`) and its values by the
+        firmware's keys (:meth:`~deltacal.printer.firmware.base.Firmware.values_read`).
+        """
+        with warnings.catch_warnings():  # the configuration's warnings were said when it was read
+            warnings.simplefilter("ignore")
+            files = self.firmware.config_files(self.path)
+        return ControllerRecord(self.firmware.name, self.path, files_digest(files),
+                                self.firmware.values_read(self.values))
+
+    def check_calibration(self, calibration: Calibration, source: str | Path) -> tuple[str, ...]:
+        """Refuse these values for a calibration of another firmware or printer; what to say of them.
+
+        First against the calibration's geometry (:meth:`check_printer`: another printer's values),
+        then against the controller the calibration recorded (``[controller]``): another firmware is
+        refused (:func:`recorded_firmware`); the same values say nothing; values changed say one
+        line naming each changed key (recorded -> now), unless one is beyond what a build could
+        change (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer` of the recorded
+        values and these: another printer, refused naming it). A calibration that records none (a
+        file written before it was recorded) says so.
+
+        Returns:
+            The lines to say (none: the values it was identified with).
+
+        Raises:
+            InputError: another firmware, or another printer, naming the key.
+        """
+        self.check_printer(calibration.geometry, source)
+        recorded_firmware(calibration, source, self.firmware, self.path)
+        record = calibration.controller
+        lines: tuple[str, ...] = ()
+        if record is None:
+            lines = (f"{source} records no controller (written before calibrations recorded the one they "
+                     f"were identified with): {self.path}'s values are taken to be that one's",)
+        else:
+            changes = record.changes(self.firmware.values_read(self.values))
+            if changes:
+                recorded = self.firmware.with_values(self.values, record.values)
+                self.firmware.check_same_printer(recorded, self.values,
+                                                 f"{source}'s recorded controller {record.source}", self.path)
+                lines = (f"{self.path}: values changed since {source} was identified with {record.source}: "
+                         f"{changes_in_words(changes)}; if the printer itself changed (rods, probe, "
+                         "effector), measure it again and identify",)
+        return lines
+
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
         """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""
         check_printer_values(self.firmware, geometry, self.values, source, self.path)
+
+
+def recorded_firmware(calibration: Calibration, source: str | Path, firmware: Firmware[Any] | None = None,
+                      given: str | Path | None = None) -> Firmware[Any] | None:
+    """The firmware a printer's calibration was identified with (``[controller]``), or None (not recorded).
+
+    Args:
+        calibration: The calibration.
+        source: Its file, for the message.
+        firmware: The firmware a route is given (``--controller``'s, ``--firmware``), refused if
+            another; None: none given.
+        given: What named ``firmware`` (its configuration), for the message; by default its name.
+
+    Raises:
+        InputError: ``firmware`` is not the recorded one (naming both), or the recorded firmware is
+            not one deltacal knows.
+    """
+    record = calibration.controller
+    if record is None:
+        return None
+    recorded = firmware_named(record.firmware)
+    if recorded is None:
+        known = "|".join(firmware_names())
+        raise InputError(f"firmware {record.firmware!r} is not one deltacal knows ({known})", str(source),
+                         "key controller.firmware")
+    if firmware is not None and firmware is not recorded:
+        what = f"{given if given is not None else 'the firmware given'} is {firmware.title}'s"
+        raise InputError(f"identified with {recorded.title} ({record.source}), but {what}: a calibration "
+                         f"serves the firmware it was measured with; give {recorded.title}'s "
+                         f"({recorded.config_file})", str(source))
+    return recorded
 
 
 def read_firmware_config(path: str | Path, name: str | None = None) -> FirmwareConfig:

@@ -22,7 +22,7 @@ from ...kinematics.workspace import default_workspace
 from ...printer.files.robot_file import load_printer
 from ...printer.firmware import firmware_named, firmwares
 from ...printer.firmware.base import Firmware, FirmwareModel
-from ...printer.firmware.config_file import read_firmware_config, refuse_deltacal_file
+from ...printer.firmware.config_file import read_firmware_config, recorded_firmware, refuse_deltacal_file
 from ...printer.firmware.export import export_firmware_values
 from ...printer.robot import NominalLinearDelta
 from ...robots import load_robot
@@ -74,22 +74,31 @@ class PrinterWing(Wing):
             raise UsageError(f"--controller {request.controller}: {request.calibration} is a printer's "
                              "calibration; its firmware's values: --controller klipper")
         assert request.output is not None
+        if request.config is None:  # with one: checked against the geometry first, then the record
+            recorded_firmware(calibration, request.calibration, firmware, f"--controller {firmware.name}")
         if request.live:
             return _export_live(firmware, request, calibration)
+        said: tuple[str, ...] = ()
+        if request.config is not None:
+            refuse_deltacal_file(request.config, "--config")
+            said = read_firmware_config(request.config, firmware.name).check_calibration(calibration,
+                                                                                        request.calibration)
         workspace, where = printable_volume(request.robot, calibration.nominal)
         export = export_firmware_values(firmware, calibration, request.calibration, workspace, where,
                                         request.config, request.keep_rotation_distance, request.robot,
                                         request.sigma_bound)
         export.save(request.output, request.config)
         wrote = f"wrote the {firmware.title} values that best fit {request.calibration} to {request.output}"
-        return Done((wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
+        return Done((*said, wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
 
-    def report_firmware(self, request: ReportRequest,
-                        calibration: Calibration) -> tuple[Firmware[Any], FirmwareModel | None]:
-        """``--controller``'s firmware (its values read once, checked of this printer), or named, or Klipper.
+    def report_firmware(self, request: ReportRequest, calibration: Calibration
+                        ) -> tuple[Firmware[Any], FirmwareModel | None, tuple[str, ...]]:
+        """``--controller``'s firmware (its values read once, checked of this printer), or the recorded one.
 
-        A printer's measurements are of commanded positions: their residuals need the settings they
-        were made with (``--controller``).
+        Without ``--controller``: the firmware the calibration was identified with (``[controller]``),
+        else ``--firmware``'s, else Klipper; ``--controller`` or ``--firmware`` of another firmware
+        than the recorded one is refused. A printer's measurements are of commanded positions: their
+        residuals need the settings they were made with (``--controller``).
         """
         if request.measurements and request.controller is None:
             raise UsageError(f"{request.calibration}: a printer's measurements are of commanded positions: "
@@ -97,10 +106,12 @@ class PrinterWing(Wing):
                              "with)")
         if request.controller is None:
             named = firmware_named(request.firmware) if request.firmware is not None else None
-            return (named if named is not None else firmwares()[0]), None
+            recorded = recorded_firmware(calibration, request.calibration, named,
+                                         f"--firmware {request.firmware}")
+            return (recorded or named or firmwares()[0]), None, ()
         config = read_firmware_config(request.controller, request.firmware)
-        config.check_printer(calibration.geometry, request.calibration)
-        return config.firmware, config.values
+        said = config.check_calibration(calibration, request.calibration)
+        return config.firmware, config.values, said
 
 
 def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
@@ -108,9 +119,9 @@ def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: C
     assert request.config is not None and request.output is not None
     refuse_deltacal_file(request.config, "--config")  # its output folder checked by the job (wings.export)
     config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
-    config.check_printer(calibration.geometry, request.calibration)
-    return Done(firmware.export_live(calibration, request.config, request.output, str(request.calibration),
-                                     request.sigma_bound))
+    said = config.check_calibration(calibration, request.calibration)
+    return Done((*said, *firmware.export_live(calibration, request.config, request.output,
+                                              str(request.calibration), request.sigma_bound)))
 
 
 def printable_volume(robot: str | Path | None, nominal: DeltaGeometry) -> tuple[Workspace, str]:

@@ -10,7 +10,7 @@ its file and line before the fit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -79,7 +79,7 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     except PoorFitError as exc:
         raise IdentificationError(f"{paths[0]}: {exc}; nothing written (--accept-poor-fit keeps such a "
                                   "fit)") from None
-    save_calibration(result, request.output)
+    save_calibration(replace(Calibration.from_result(result), controller=config.record()), request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])

@@ -21,7 +21,7 @@ from ....geometry import DeltaGeometry, Workspace
 from ....holds import DEFAULT_BOUND
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import (
@@ -93,6 +93,16 @@ class Klipper(Firmware[KlipperDelta]):
         "step_distance_a": "[stepper_a] rotation_distance",
         "step_distance_b": "[stepper_b] rotation_distance",
         "step_distance_c": "[stepper_c] rotation_distance",
+    })
+    value_keys: ClassVar[Mapping[str, ValueKey]] = MappingProxyType({
+        "printer.delta_radius": ValueKey("delta_radius"),
+        "printer.print_radius": ValueKey("print_radius"),
+        "printer.minimum_z_position": ValueKey("minimum_z_position"),
+        **{f"stepper_{t}.{key}": ValueKey(field, k, unit)
+           for k, t in enumerate("abc")
+           for key, field, unit in (("angle", "angle", "deg"), ("arm_length", "arm_length", ""),
+                                    ("position_endstop", "position_endstop", ""),
+                                    ("step_distance", "step_distance", ""))},
     })
     export_needs_config: ClassVar[str] = (
         "--controller klipper: rotation_distance is the step distance times each tower's "

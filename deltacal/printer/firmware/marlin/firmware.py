@@ -20,7 +20,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from .calibrate import DEFAULT_POINTS, marlin_g33
@@ -75,6 +75,17 @@ class Marlin(Firmware[MarlinDelta]):
         "step_distance_a": "M92 X",
         "step_distance_b": "M92 Y",
         "step_distance_c": "M92 Z",
+    })
+
+    value_keys: ClassVar[Mapping[str, ValueKey]] = MappingProxyType({
+        "M665.R": ValueKey("radius"), "M665.L": ValueKey("rod"), "M665.H": ValueKey("height"),
+        "M665.S": ValueKey("segments_per_second"),
+        **{f"M665.{axis}": ValueKey("angle_trim", k) for k, axis in enumerate("XYZ")},
+        **{f"M665.{axis}": ValueKey("rod_trim", k) for k, axis in enumerate("ABC")},
+        **{f"M666.{axis}": ValueKey("endstop_adj", k) for k, axis in enumerate("XYZ")},
+        **{f"M92.{axis}": ValueKey("steps_per_mm", k) for k, axis in enumerate("XYZ")},
+        "M92.E": ValueKey("extruder_steps_per_mm"),
+        **{f"M851.{axis}": ValueKey("probe_offset", k) for k, axis in enumerate("XYZ")},
     })
 
     def is_config(self, path: str | Path) -> bool:

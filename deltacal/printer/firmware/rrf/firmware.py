@@ -20,7 +20,7 @@ from ....exceptions import InputWarning
 from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
 from ..owner_keys import OwnerKeys
 from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
@@ -83,6 +83,16 @@ class RRF(Firmware[RRFDelta]):
         "step_distance_a": "M92 X",
         "step_distance_b": "M92 Y",
         "step_distance_c": "M92 Z",
+    })
+
+    value_keys: ClassVar[Mapping[str, ValueKey]] = MappingProxyType({
+        "M665.R": ValueKey("radius"), "M665.H": ValueKey("homed_height"), "M665.B": ValueKey("print_radius"),
+        **{f"M665.L.{t}": ValueKey("diagonal", k) for k, t in enumerate("abc")},
+        **{f"M665.{axis}": ValueKey("angle_correction", k, "deg") for k, axis in enumerate("XYZ")},
+        **{f"M666.{axis}": ValueKey("endstop_adjustment", k) for k, axis in enumerate("XYZ")},
+        **{f"M666.{axis}": ValueKey("tilt", k, "percent") for k, axis in enumerate("AB")},
+        **{f"M92.{axis}": ValueKey("step_distance", k, "inverse") for k, axis in enumerate("XYZ")},
+        "M208.Z": ValueKey("z_min"),
     })
 
     def is_config(self, path: str | Path) -> bool:
