@@ -39,6 +39,7 @@ LAYERS = {
     "calibration": 36,
     "identification": 35,
     "holds": 34,  # where a printer's calibration holds: its σ grid, read by calibration and above
+    "controller_record": 34,  # the firmware configuration a printer's calibration was measured against
     "compensation": 33,
     "observations": 30,
     "identifiability": 30,
@@ -56,6 +57,9 @@ LAYERS = {
     "_moved": 0,
 }
 MAX_LINES = 700
+#: Files that are one file by necessity, and their bound: the live Klipper module is copied alone into
+#: klippy/extras/ (standard-library Python, nothing of deltacal's to import).
+ARTIFACT_LINES = {"deltacal.printer.firmware.klipper.live.deltacal_geometry": 800}
 #: Lines of code of a function at most, from its first statement after the docstring to its end.
 MAX_FUNCTION_LINES = 80
 
@@ -254,7 +258,7 @@ def test_no_import_cycle():
 
 def test_module_size():
     lines = {name: path.read_text(encoding="utf-8").count("\n") for name, path in modules().items()}
-    long = {name: n for name, n in lines.items() if n > MAX_LINES}
+    long = {name: n for name, n in lines.items() if n > ARTIFACT_LINES.get(name, MAX_LINES)}
     assert not long, f"modules over {MAX_LINES} lines: {long}; split them by concept"
 
 
