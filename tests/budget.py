@@ -22,6 +22,7 @@ import pytest
 #: A test's own CPU time at most, outside the ``long`` ones [s].
 BUDGET_S = 2.0
 _START = pytest.StashKey[tuple[float, float]]()
+_LEFT = pytest.StashKey[int]()
 #: CPU time spent so far setting up fixtures shared by several tests [s].
 _shared = [0.0]
 
@@ -44,23 +45,11 @@ def _runs_long(config: pytest.Config) -> bool:
     return bool(config.getoption("run_long")) or "long" in (config.getoption("markexpr") or "")
 
 
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    for item in items:
-        if item.get_closest_marker("long") and not item.get_closest_marker("slow"):
-            item.add_marker(pytest.mark.slow)
-    if _runs_long(config):
-        return
-    named = [arg.replace("\\", "/").split("::", 1) for arg in config.args if "::" in arg]
-    left = [item for item in items if item.get_closest_marker("long") and not _named(item, named)]
-    if left:
-        out = set(map(id, left))
-        items[:] = [item for item in items if id(item) not in out]
-        config.hook.pytest_deselected(items=left)
-        config.stash[_LEFT] = len(left)
-
-
-_LEFT = pytest.StashKey[int]()
+def pytest_configure(config: pytest.Config) -> None:
+    """Register the budget's hooks for the whole session: a conftest's hooks reach only the nodes under its
+    folder, and a session-scoped fixture is set up for the session (above ``tests/``)."""
+    if not config.pluginmanager.has_plugin("deltacal-budget"):
+        config.pluginmanager.register(Budget(), "deltacal-budget")
 
 
 def _named(item: pytest.Item, named: list[list[str]]) -> bool:
@@ -70,50 +59,64 @@ def _named(item: pytest.Item, named: list[list[str]]) -> bool:
                for file, name in named)
 
 
-def pytest_report_header(config: pytest.Config) -> str:
-    if _runs_long(config):
-        return "long tests: run (--all)"
-    return "long tests: left out (CI runs them: pytest --all)"
+class Budget:
+    """The budget's hooks (registered by :func:`pytest_configure`)."""
 
+    @pytest.hookimpl(tryfirst=True)
+    def pytest_collection_modifyitems(self, config: pytest.Config, items: list[pytest.Item]) -> None:
+        for item in items:
+            if item.get_closest_marker("long") and not item.get_closest_marker("slow"):
+                item.add_marker(pytest.mark.slow)
+        if _runs_long(config):
+            return
+        named = [arg.replace("\\", "/").split("::", 1) for arg in config.args if "::" in arg]
+        left = [item for item in items if item.get_closest_marker("long") and not _named(item, named)]
+        if left:
+            out = set(map(id, left))
+            items[:] = [item for item in items if id(item) not in out]
+            config.hook.pytest_deselected(items=left)
+            config.stash[_LEFT] = len(left)
 
-def pytest_terminal_summary(terminalreporter, exitstatus: int, config: pytest.Config) -> None:
-    if _runs_long(config):
-        return
-    left = config.stash.get(_LEFT, 0)
-    if left:
-        terminalreporter.write_line(f"{left} long tests left out (each over {BUDGET_S:g} s of CPU): "
-                                    "pytest --all runs them, as CI does")
-    elif getattr(config.option, "numprocesses", None):  # the workers collect: their count is theirs
-        terminalreporter.write_line(f"the long tests were left out (each over {BUDGET_S:g} s of CPU): "
-                                    "pytest --all runs them, as CI does")
+    def pytest_report_header(self, config: pytest.Config) -> str:
+        if _runs_long(config):
+            return "long tests: run (--all)"
+        return "long tests: left out (CI runs them: pytest --all)"
 
+    def pytest_terminal_summary(self, terminalreporter, exitstatus: int, config: pytest.Config) -> None:
+        if _runs_long(config):
+            return
+        left = config.stash.get(_LEFT, 0)
+        if left:
+            terminalreporter.write_line(f"{left} long tests left out (each over {BUDGET_S:g} s of CPU): "
+                                        "pytest --all runs them, as CI does")
+        elif getattr(config.option, "numprocesses", None):  # the workers collect: their count is theirs
+            terminalreporter.write_line(f"the long tests were left out (each over {BUDGET_S:g} s of CPU): "
+                                        "pytest --all runs them, as CI does")
 
-@pytest.hookimpl(hookwrapper=True)
-def pytest_fixture_setup(fixturedef, request):
-    start = cpu_seconds()
-    yield
-    if fixturedef.scope != "function":
-        _shared[0] += cpu_seconds() - start
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_fixture_setup(self, fixturedef, request):
+        start = cpu_seconds()
+        yield
+        if fixturedef.scope != "function":
+            _shared[0] += cpu_seconds() - start
 
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_setup(self, item: pytest.Item):
+        item.stash[_START] = (cpu_seconds(), _shared[0])
+        yield
 
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_setup(item: pytest.Item):
-    item.stash[_START] = (cpu_seconds(), _shared[0])
-    yield
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_makereport(item: pytest.Item, call):
-    outcome = yield
-    report = outcome.get_result()
-    if call.when != "call" or _START not in item.stash:
-        return
-    start, shared = item.stash[_START]
-    own = cpu_seconds() - start - (_shared[0] - shared)
-    item.user_properties.append(("cpu_s", round(own, 3)))  # kept by --junitxml (its teardown report)
-    budget = item.config.getoption("cpu_budget")
-    if budget and own > budget and report.passed and not item.get_closest_marker("long"):
-        report.outcome = "failed"
-        report.longrepr = (f"{item.nodeid}: {own:.2f} s of CPU, over the {budget:g} s budget of a test "
-                           "outside the long ones: make it cheaper, or mark it @pytest.mark.long "
-                           "(docs/testing.md)")
+    @pytest.hookimpl(hookwrapper=True)
+    def pytest_runtest_makereport(self, item: pytest.Item, call):
+        outcome = yield
+        report = outcome.get_result()
+        if call.when != "call" or _START not in item.stash:
+            return
+        start, shared = item.stash[_START]
+        own = cpu_seconds() - start - (_shared[0] - shared)
+        item.user_properties.append(("cpu_s", round(own, 3)))  # kept by --junitxml (its teardown report)
+        budget = item.config.getoption("cpu_budget")
+        if budget and own > budget and report.passed and not item.get_closest_marker("long"):
+            report.outcome = "failed"
+            report.longrepr = (f"{item.nodeid}: {own:.2f} s of CPU, over the {budget:g} s budget of a test "
+                               "outside the long ones: make it cheaper, or mark it @pytest.mark.long "
+                               "(docs/testing.md)")

@@ -10,15 +10,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from budget import (  # noqa: E402, F401 (the time budget's hooks: tests/budget.py)
-    pytest_addoption,
-    pytest_collection_modifyitems,
-    pytest_fixture_setup,
-    pytest_report_header,
-    pytest_runtest_makereport,
-    pytest_runtest_setup,
-    pytest_terminal_summary,
-)
+from budget import pytest_addoption, pytest_configure  # noqa: E402, F401 (the time budget: tests/budget.py)
 from hypothesis import settings  # noqa: E402
 
 from deltacal import NominalDelta  # noqa: E402
