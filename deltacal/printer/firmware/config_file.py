@@ -135,7 +135,7 @@ class FirmwareConfig:
         line naming each changed key (recorded -> now), unless one is beyond what a build could
         change (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer` of the recorded
         values and these: another printer, refused naming it). A calibration that records none (a
-        file written before it was recorded) says so.
+        file written before it was recorded) says so; a geometry file (the printer alone) records none.
 
         Returns:
             The lines to say (none: the values it was identified with).
@@ -147,7 +147,7 @@ class FirmwareConfig:
         recorded_firmware(calibration, source, self.firmware, self.path)
         record = calibration.controller
         lines: tuple[str, ...] = ()
-        if record is None:
+        if record is None and calibration.base:  # an identified calibration (a geometry file records none)
             lines = (f"{source} records no controller (written before calibrations recorded the one they "
                      f"were identified with): {self.path}'s values are taken to be that one's",)
         else:
