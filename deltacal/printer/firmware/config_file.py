@@ -147,7 +147,9 @@ class FirmwareConfig:
         recorded_firmware(calibration, source, self.firmware, self.path)
         record = calibration.controller
         lines: tuple[str, ...] = ()
-        if record is None and calibration.base:  # an identified calibration (a geometry file records none)
+        if record is None:
+            if not calibration.base:  # a geometry file: the printer alone, no controller to record
+                return ()
             lines = (f"{source} records no controller (written before calibrations recorded the one they "
                      f"were identified with): {self.path}'s values are taken to be that one's",)
         else:
