@@ -1,6 +1,9 @@
 import csv
+import importlib.util
 import os
 import shutil
+import subprocess
+import sys
 
 # small matrices: BLAS threads only contend (see deltacal/__init__.py); set before numpy loads
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -24,6 +27,8 @@ settings.register_profile("deltacal", derandomize=True, database=None)
 settings.load_profile("deltacal")
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The Python packages klippy needs (the ``test`` extra holds them).
+KLIPPY_PACKAGES = ("greenlet", "cffi", "jinja2", "markupsafe", "serial")
 MODELS = ROOT / "deltacal" / "models"
 
 
@@ -123,3 +128,27 @@ def complete_fit(nominal: NominalDelta, seed: int):
     pose = exact.forward(truth, q)
     position = pose.point(truth.tool) + rng.normal(0.0, 0.005, (len(q), 3))
     return identify(g0, Measurements(q, position, rotation_vector=pose.rotation_vector()), "complete")
+
+
+@pytest.fixture(scope="session")
+def klipper(tmp_path_factory) -> Path:
+    """The pinned Klipper (``KLIPPER_DIR``), copied, its C helper built, the live module installed."""
+    source = os.environ.get("KLIPPER_DIR")
+    if not source:
+        pytest.skip("KLIPPER_DIR is not set: the tests against the real Klipper need a copy of it "
+                    "(.ci/run sets it to ../shared/vendor/klipper)")
+    if not (Path(source) / "klippy" / "klippy.py").is_file():
+        pytest.skip(f"KLIPPER_DIR={source}: no klippy/klippy.py there")
+    missing = [name for name in KLIPPY_PACKAGES if importlib.util.find_spec(name) is None]
+    if missing:
+        pytest.skip(f"klippy needs {', '.join(missing)} (pip install '.[test]')")
+    if shutil.which("gcc") is None:
+        pytest.skip("no gcc: klippy builds its C helper on first start")
+    copy = tmp_path_factory.mktemp("klipper") / "klipper"
+    shutil.copytree(source, copy, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so", "*.o"))
+    subprocess.run([sys.executable, "-c", "import chelper; chelper.get_ffi()"], cwd=copy / "klippy",
+                   check=True, timeout=900, capture_output=True)
+    from deltacal.printer.firmware.klipper.live.export import module_text
+
+    (copy / "klippy" / "extras" / "deltacal_geometry.py").write_text(module_text(), encoding="utf-8")
+    return copy

@@ -14,12 +14,9 @@ from __future__ import annotations
 import ast
 import configparser
 import contextlib
-import importlib.util
 import io
 import math
-import os
 import re
-import shutil
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -67,8 +64,6 @@ from deltacal.printer.simulation import printed_distances, probe_heights, random
 KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
 PRINTER = load_printer(KOSSEL)
 STEP = PRINTER.step_distance
-#: The Python packages klippy needs (the ``test`` extra holds them).
-KLIPPY_PACKAGES = ("greenlet", "cffi", "jinja2", "markupsafe", "serial")
 #: The MCU's clock (dict/atmega2560.dict) [Hz], and the dwell that separates a program's points [s].
 CLOCK_HZ = 16_000_000
 DWELL_S = 0.25
@@ -608,28 +603,6 @@ def test_export_live_refusals(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ the real Klipper
-@pytest.fixture(scope="session")
-def klipper(tmp_path_factory) -> Path:
-    """The pinned Klipper (``KLIPPER_DIR``), copied, its C helper built, the live module installed."""
-    source = os.environ.get("KLIPPER_DIR")
-    if not source:
-        pytest.skip("KLIPPER_DIR is not set: the tests against the real Klipper need a copy of it "
-                    "(.ci/run sets it to ../shared/vendor/klipper)")
-    if not (Path(source) / "klippy" / "klippy.py").is_file():
-        pytest.skip(f"KLIPPER_DIR={source}: no klippy/klippy.py there")
-    missing = [name for name in KLIPPY_PACKAGES if importlib.util.find_spec(name) is None]
-    if missing:
-        pytest.skip(f"klippy needs {', '.join(missing)} (pip install '.[test]')")
-    if shutil.which("gcc") is None:
-        pytest.skip("no gcc: klippy builds its C helper on first start")
-    copy = tmp_path_factory.mktemp("klipper") / "klipper"
-    shutil.copytree(source, copy, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so", "*.o"))
-    subprocess.run([sys.executable, "-c", "import chelper; chelper.get_ffi()"], cwd=copy / "klippy",
-                   check=True, timeout=900, capture_output=True)
-    (copy / "klippy" / "extras" / "deltacal_geometry.py").write_text(module_text(), encoding="utf-8")
-    return copy
-
-
 #: What a printer.cfg of these tests holds besides the delta's values (pins of example-delta.cfg).
 CONFIG_REST = """[extruder]
 step_pin: PA4
@@ -691,15 +664,18 @@ class Run:
     serial: Path
 
 
-def run_klippy(klipper: Path, config: Path, program: str, name: str) -> Run:
-    """``klippy.py config -i program -o out.serial -d dict/atmega2560.dict -l log`` in config's folder."""
+def run_klippy(klipper: Path, config: Path, program: str, name: str, timeout: float = 600.0) -> Run:
+    """``klippy.py config -i program -o out.serial -d dict/atmega2560.dict -l log`` in config's folder.
+
+    A run over ``timeout`` seconds fails the test (a module that hangs).
+    """
     folder = config.parent
     gcode, serial, log = folder / f"{name}.gcode", folder / f"{name}.serial", folder / f"{name}.log"
     gcode.write_text(program, encoding="utf-8")
     log.unlink(missing_ok=True)
     done = subprocess.run([sys.executable, str(klipper / "klippy" / "klippy.py"), str(config), "-i",
                            str(gcode), "-o", str(serial), "-d", str(klipper / "dict" / "atmega2560.dict"),
-                           "-l", str(log)], cwd=folder, timeout=600, capture_output=True, text=True)
+                           "-l", str(log)], cwd=folder, timeout=timeout, capture_output=True, text=True)
     text = log.read_text(encoding="utf-8", errors="replace") if log.exists() else ""
     return Run(done.returncode, text, serial)
 

@@ -13,19 +13,15 @@ import base64
 import functools
 import math
 import re
-import subprocess
-import sys
 import time
 import zlib
 from array import array
-from pathlib import Path
 
 import numpy as np
 import pytest
 from test_klipper_live import (
     PRINTER,
     SECTION_FILE,
-    Run,
     _Config,
     _Error,
     _holds,
@@ -36,9 +32,9 @@ from test_klipper_live import (
     _Toolhead,
     _transform,
     decode_steps,
-    klipper,  # noqa: F401 (a fixture)
     kossel,  # noqa: F401 (a fixture)
     printer_cfg,
+    run_klippy,
 )
 
 from deltacal.cli import main
@@ -235,19 +231,6 @@ def test_export_live_refuses_a_sigma_bound_below_the_correction_unit(tmp_path, c
 
 
 # ------------------------------------------------------------------ the real Klipper
-def _run(copy: Path, config: Path, program: str, name: str, timeout: float = 60.0) -> Run:
-    """``run_klippy``'s batch run, within ``timeout`` seconds (a module that hangs fails the test)."""
-    folder = config.parent
-    gcode, serial, log = folder / f"{name}.gcode", folder / f"{name}.serial", folder / f"{name}.log"
-    gcode.write_text(program, encoding="utf-8")
-    log.unlink(missing_ok=True)
-    done = subprocess.run([sys.executable, str(copy / "klippy" / "klippy.py"), str(config), "-i",
-                           str(gcode), "-o", str(serial), "-d", str(copy / "dict" / "atmega2560.dict"),
-                           "-l", str(log)], cwd=folder, timeout=timeout, capture_output=True, text=True)
-    text = log.read_text(encoding="utf-8", errors="replace") if log.exists() else ""
-    return Run(done.returncode, text, serial)
-
-
 #: Moves Klipper refuses, before homing and after, each followed by the next (in batch mode Klipper
 #: goes on with the lines it has read after an error, then exits); the last line makes Klipper
 #: turn every move it accepted into steps.
@@ -264,7 +247,7 @@ SET_KINEMATIC_POSITION X=0 Y=0 Z=10
 
 
 @pytest.mark.slow
-def test_moves_klipper_refuses_are_refused_whole_with_and_without_the_module(kossel, klipper):  # noqa: F811
+def test_moves_klipper_refuses_are_refused_whole_with_and_without_the_module(kossel, klipper):  # noqa: F811 (kossel: the fixture imported)
     """With the module, each is refused in Klipper's words, at once, and no tower steps: as without it.
 
     Before, ``G1 X0 Y0 Z-20`` from Z10 was cut into segments and Klipper ran those above its
@@ -273,7 +256,7 @@ def test_moves_klipper_refuses_are_refused_whole_with_and_without_the_module(kos
     refusals, elapsed = {}, {}
     for name in ("live_config", "config"):
         began = time.monotonic()
-        run = _run(klipper, kossel[name], REFUSED, f"refused_{name}")
+        run = run_klippy(klipper, kossel[name], REFUSED, f"refused_{name}", timeout=60.0)
         elapsed[name] = time.monotonic() - began
         assert run.status != 0 and "Internal error" not in run.log, run.log[-3000:]
         assert run.log.count("SET_KINEMATIC_POSITION pos=0.000,0.000,10.000") == 2, run.log[-3000:]
@@ -289,7 +272,7 @@ def test_moves_klipper_refuses_are_refused_whole_with_and_without_the_module(kos
 
 
 @pytest.mark.slow
-def test_the_section_s_bad_numbers_are_refused_by_klipper_naming_the_key(kossel, klipper):  # noqa: F811
+def test_the_section_s_bad_numbers_are_refused_by_klipper_naming_the_key(kossel, klipper):  # noqa: F811 (kossel: the fixture imported)
     """A NaN sigma_bound (read as the infinite bound before) and one below the correction unit."""
     text = (kossel["out"] / SECTION_FILE).read_text(encoding="utf-8")
     for value, words in (("nan", "nan is not a bound"), ("5e-324", "5e-324 is below correction_unit 1e-06")):
@@ -298,7 +281,7 @@ def test_the_section_s_bad_numbers_are_refused_by_klipper_naming_the_key(kossel,
         (folder / SECTION_FILE).write_text(_with(text, "sigma_bound", value), encoding="utf-8")
         config = folder / "printer.cfg"
         config.write_text(printer_cfg(kossel["firmware"], f"\n[include {folder / SECTION_FILE}]\n"))
-        run = _run(klipper, config, "G28\n", "bound")
+        run = run_klippy(klipper, config, "G28\n", "bound", timeout=60.0)
         assert run.status != 0
         assert "Config error" in run.log and f"deltacal_geometry: key sigma_bound: {words}" in run.log, \
             run.log[-3000:]
