@@ -7,9 +7,9 @@ the console, travelling above the probe's trigger height:
 its ``probe.csv`` a ``trigger_height_mm`` of :data:`~deltacal.printer.firmware.probing.PAPER_MM` and the
 firmware's paper test said instead: :meth:`~deltacal.printer.firmware.base.Firmware.manual_heights`),
 ``DIR/distances.csv`` (the pairs of features to measure, the labels of their balls, ``distance_mm`` to
-fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view with the labels and the pairs in the order of distances.csv), and says what
-was planned: what the probe heights alone identify of the complete model and what the object's distances
-add.
+fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view with the labels and the pairs in the
+order of distances.csv), and says what was planned: what the probe heights alone identify of the
+complete model and what the object's distances add.
 """
 
 from __future__ import annotations

@@ -77,7 +77,8 @@ def klipper_manual_heights(config: KlipperConfig) -> str | None:
         return None
     sections = "], [".join(PROBE_SECTIONS)
     return (f"no probe section in {config.source} ([{sections}]): no probe.gcode; measure the heights by "
-            "hand (Klipper's paper test), at each point of probe.csv on the console: G28 once, then G1 X<x_mm> Y<y_mm> Z5, MANUAL_PROBE, TESTZ Z=-0.1 ... until a sheet of paper drags, "
+            "hand (Klipper's paper test), at each point of probe.csv on the console: G28 once, then "
+            "G1 X<x_mm> Y<y_mm> Z5, MANUAL_PROBE, TESTZ Z=-0.1 ... until a sheet of paper drags, "
             f"ACCEPT; Klipper answers 'Z position is Z': {MANUAL_TO_IDENTIFY}")
 
 
