@@ -88,7 +88,8 @@ def test_readme_printer_commands_run_on_the_printer_demos_files(tmp_path, monkey
     for command in commands:
         code = main(command[1:])
         if code and command[1] == "compensate":  # the README's note: set the value the refusal names
-            low = re.search(r"set \[printer\] minimum_z_position: ([-0-9.]+)", capsys.readouterr().err).group(1)
+            err = capsys.readouterr().err
+            low = re.search(r"set \[printer\] minimum_z_position: ([-0-9.]+)", err).group(1)
             cfg = (tmp_path / "printer.cfg").read_text()
             cfg = cfg.replace("[printer]\n", f"[printer]\nminimum_z_position: {low}\n")
             (tmp_path / "printer.cfg").write_text(cfg)
@@ -97,8 +98,8 @@ def test_readme_printer_commands_run_on_the_printer_demos_files(tmp_path, monkey
         if command[1] == "plan":  # the printer measured: its probe heights and distances filled in
             folder = command[command.index("-o") + 1]
             (tmp_path / "measured").mkdir()
-            assert main(["simulate", command[2], f"{folder}/probe.csv", f"{folder}/distances.csv", "--controller",
-                         "printer.cfg", "--perturb", "3", "-o", "measured/probe.csv",
+            assert main(["simulate", command[2], f"{folder}/probe.csv", f"{folder}/distances.csv",
+                         "--controller", "printer.cfg", "--perturb", "3", "-o", "measured/probe.csv",
                          "--distances-output", "measured/distances.csv"]) == 0
             for name in ("probe.csv", "distances.csv"):
                 os.replace(tmp_path / "measured" / name, tmp_path / folder / name)
