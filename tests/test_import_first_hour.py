@@ -139,9 +139,8 @@ def test_a_capture_without_m211_imports_a_workspace_plan_accepts(tmp_path, capsy
     assert 0.95 * reach < printer.workspace.radius < reach  # Marlin's default 140 held within it
     text = (out / "printer.toml").read_text()
     assert "Marlin's default soft endstops' radius (no M211 Min/Max in the capture) 140 mm, held to" in text
-    # the capture has no M851 either: plan --object refuses a probe program whose travel height nothing
-    # gives (issue 39 item 1, test_probe_travel.py); with the probe's offset added, it plans on the
-    # workspace import wrote
+    # the capture has no M851 either: plan --object writes no probe program for it (issue 47,
+    # test_no_probe.py); with the probe's offset added, it plans one on the workspace import wrote
     probed = tmp_path / "m503-probe.txt"
     probed.write_text(NO_M211.read_text() + "echo:  M851 Z-1.50 ; (mm)\n")
     assert main(["plan", str(out / "printer.toml"), "--object", "--controller", str(probed), "-o",

@@ -72,13 +72,16 @@ def test_klippers_own_horizontal_move_z_is_taken_when_above_the_z_offset(tmp_pat
     assert KLIPPER.probe_travel(kossel_printer_cfg(tmp_path / "nozzle.cfg")).height == PROBE_CLEARANCE
 
 
-def test_a_klipper_config_without_a_probe_is_refused(tmp_path, capsys):
+def test_a_klipper_config_without_a_probe_plans_no_probe_program(tmp_path, capsys):
+    """Issue 47 (was refused, issue 39): no probe section, no probe.gcode, the paper test said instead;
+    the travel height above a probe that is not there is still not known."""
     cfg = kossel_printer_cfg(tmp_path / "printer.cfg", probe_z_offset=None)
     out = tmp_path / "plan"
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "-o", str(out)]) == 1
-    err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and "printer.cfg: no probe section ([probe]" in err
-    assert "above the probe's trigger height" in err and not out.exists()
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(cfg), "--probe-grid", "3",
+                 "-o", str(out)]) == 0
+    assert "MANUAL_PROBE" in capsys.readouterr().out and not (out / "probe.gcode").exists()
+    with pytest.raises(InputError, match=r"printer.cfg: no probe section \(\[probe\]"):
+        KLIPPER.probe_travel(cfg)
 
 
 def _m503(tmp_path: Path, m851: str | None) -> Path:
@@ -99,12 +102,20 @@ def test_a_marlin_program_travels_above_m851s_19_mm_probe(tmp_path):
     assert "the probe triggers with the nozzle 19.32 mm above the bed (-M851 Z, line 15 of" in program
 
 
-def test_a_marlin_capture_without_m851_is_refused(tmp_path, capsys):
+def test_a_marlin_capture_without_m851_plans_no_probe_program(tmp_path, capsys):
+    """Issue 47 (was refused, issue 39): no M851 (no probe), no probe.gcode, the paper test said; an
+    M851 without Z (a capture cut short) is still refused by its key."""
     capture = _m503(tmp_path, None)
     out = tmp_path / "plan"
-    assert main(["plan", str(KOSSEL), "--object", "--controller", str(capture), "-o", str(out)]) == 1
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(capture), "--probe-grid", "3",
+                 "-o", str(out)]) == 0
+    assert "M114" in capsys.readouterr().out and not (out / "probe.gcode").exists()
+    capture = _m503(tmp_path, "M851 X0.00 Y0.00")
+    assert main(["plan", str(KOSSEL), "--object", "--controller", str(capture),
+                 "-o", str(tmp_path / "p2")]) == 1
     err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and "m503.txt: M851 Z: no M851 Z" in err and not out.exists()
+    assert len(err.strip().splitlines()) == 1 and "m503.txt: M851 Z: no M851 Z" in err
+    assert not (tmp_path / "p2").exists()
     with pytest.raises(InputError, match="capture M503's whole report"):
         MARLIN.probe_travel(capture)
 

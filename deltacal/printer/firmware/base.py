@@ -458,6 +458,19 @@ class Firmware(ABC, Generic[ModelT]):
         raise InputError(f"deltacal does not read {self.title}'s probe: the height to travel at between "
                          "probe points, above the probe's trigger height, is not known", str(path))
 
+    def manual_heights(self, path: str | Path) -> str | None:
+        """How to measure the probe heights by hand, in one line, when the configuration has no probe.
+
+        ``plan --object`` then writes no probe program (:meth:`probe_travel` is not known) and says
+        this line instead: the firmware's own way of a paper test at each point of probe.csv, the
+        answer to write in it and how to give it to ``identify`` (or to leave the heights out).
+
+        Returns:
+            The line, or None: the configuration has a probe (by default: the firmware's probe is
+            taken as there, :meth:`probe_travel` says otherwise).
+        """
+        return None
+
     def apply_note_for(self, source: str | Path | None) -> str:
         """How to put the values written for the configuration ``source`` into the printer, in one line.
 

@@ -29,6 +29,13 @@ TRAVEL_FEED = 3000.0
 LIFT_FEED = 600.0
 #: Least height above the trigger height of a firmware's own travel height for it to be taken [mm].
 MIN_TRAVEL_MARGIN = 2.0
+#: A sheet of printer paper: the nozzle's height above the bed when the paper test's sheet drags under
+#: it, the trigger height of heights measured by hand (``trigger_height_mm`` of plan's probe.csv) [mm].
+PAPER_MM = 0.1
+#: How heights measured by hand go to ``identify``, or are left out (the end of each firmware's line).
+MANUAL_TO_IDENTIFY = (f"write it in probe.csv's z_mm (trigger_height_mm {PAPER_MM:g}: the paper's thickness; "
+                      "set yours), then identify PRINTER.toml probe.csv distances.csv; or leave the heights "
+                      "out: identify PRINTER.toml distances.csv fits the distances alone")
 
 
 @dataclass(frozen=True)

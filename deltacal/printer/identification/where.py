@@ -45,6 +45,8 @@ def point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local:
         The point (N, 3) and its displacement per unit parameter (N, 3, n): the plate's sensitivity
         (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) with the point's lever.
     """
+    if not len(q):  # no readings (a printer identified without probe heights)
+        return np.zeros((0, 3)), np.zeros((0, 3, model.size))
     pose = exact.forward(geometry, q)
     S = model.sensitivity(geometry, q, pose)
     arm = pose.rotation @ local  # (N, 3)

@@ -33,15 +33,19 @@ from ...printer.identification.fit import (
     PrinterFitOptions,
     PrinterMeasurements,
     identify_printer,
+    measured_combinations,
     printer_outliers,
 )
 from ...printer.identification.outliers import Outliers
 from ...printer.identification.where import holds_in_words, values_in_words
 from ...printer.owner import measured_covariance, owner_lines, printer_errors
+from ...printer.printed.object import probe_grid
 from ...printer.robot import NominalLinearDelta
 from ..base import Done, check_files, warn
 from ..requests import IdentifyRequest
 
+#: Probe points across the bed of the heights that would add to the distances alone (Klipper's usual 7).
+HEIGHTS_GRID = 7
 #: Probe heights fewer than this are not checked for their spread (a few may agree by chance).
 MIN_HEIGHTS_SPREAD = 5
 
@@ -59,7 +63,7 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     firmware.check_same_printer(firmware.nominal(printer), values, str(request.nominal),
                                 str(request.controller))
     assert request.probe_offset is not None
-    files = _read(paths[0], paths[1:], values, printer, request.sigma_height, float(request.probe_offset[2]))
+    files = _read(paths, values, printer, request.sigma_height, float(request.probe_offset[2]))
     data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=request.probe_offset,
                                height_sigma=request.sigma_height, distance_sigma=request.sigma_distance,
                                trigger_height=files.trigger)
@@ -90,6 +94,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
             words = values_in_words(result.holds, lambda name: firmware.value_name(classical_name(name)))
             where += (f"firmware values: {words}",)
     owner = _owner_part(result, start, data, firmware, request)
+    if not data.probe.size:
+        owner = (*owner, _heights_would_add(start, data, values, printer))
     return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
 
 
@@ -107,6 +113,22 @@ def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmwar
             f"deltacal compensate {request.output} PART.gcode --controller {request.controller} corrects "
             "everything, where the calibration holds")
     return (*owner_lines(errors, keys, firmware.title), step)
+
+
+def _heights_would_add(start: DeltaGeometry, data: PrinterMeasurements, firmware: FirmwareModel,
+                       printer: NominalLinearDelta) -> str:
+    """What probe heights (:data:`HEIGHTS_GRID` across the bed) would add to the distances alone."""
+    assert printer.workspace is not None  # a printer's identification needs its printable cylinder
+    grid = probe_grid(printer.workspace.radius, HEIGHTS_GRID)
+    heights = replace(data, probe=firmware.inverse(grid, printer.step_distance),
+                      trigger_height=np.zeros(len(grid)))
+    alone, both = measured_combinations(start, data), measured_combinations(start, heights)
+    added = [name for name in both.base_names if name not in alone.base_names]
+    return (f"no probe heights: the {data.distance.size} distances alone determine {alone.rank} of the "
+            f"{len(alone.names)} complete-model combinations (the printer's shape); probe heights (plan's "
+            f"probe.csv, by hand: the paper test) would add {both.rank - alone.rank}: "
+            f"{', '.join(added) or 'none'} (where the bed lies under the nozzle: its height and tilt, "
+            "which the distances do not see)")
 
 
 @dataclass(frozen=True)
@@ -131,16 +153,20 @@ class _Files:
         return ": ".join(self.place(k))
 
 
-def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, printer: NominalLinearDelta,
-          height_sigma: float, probe_drop: float) -> _Files:
-    """Readings of the probe heights and of the printed pairs, and the distances measured."""
+def _read(paths: list[str], firmware: FirmwareModel, printer: NominalLinearDelta, height_sigma: float,
+          probe_drop: float) -> _Files:
+    """Readings of the probe heights (the first file, unless all are distances) and of the printed pairs."""
     step_distance = printer.step_distance
-    _check_order(probe_file, distance_files)
-    heights = read_probe_heights(probe_file)
-    _check_heights(heights.commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop,
-                   heights.heights)
-    probe = _readings(firmware, heights.commanded, step_distance, probe_file, heights.lines)
-    sources = [(probe_file, int(n)) for n in heights.lines]
+    probe_file = paths[0] if _heights_given(paths[0], paths[1:]) else None
+    distance_files = paths[1:] if probe_file is not None else paths
+    probe, commanded, trigger = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+    sources: list[tuple[str, int]] = []
+    if probe_file is not None:
+        heights = read_probe_heights(probe_file)
+        commanded, trigger = heights.commanded, heights.heights
+        _check_heights(commanded[:, 2], heights.lines, probe_file, height_sigma, probe_drop, trigger)
+        probe = _readings(firmware, commanded, step_distance, probe_file, heights.lines)
+        sources = [(probe_file, int(n)) for n in heights.lines]
     pairs, distance = [np.zeros((0, 2, 3))], [np.zeros(0)]
     for path in distance_files:
         printed = read_printed_distances(path)
@@ -149,21 +175,25 @@ def _read(probe_file: str, distance_files: list[str], firmware: FirmwareModel, p
         pairs.append(both.reshape(-1, 2, 3))
         distance.append(printed.distance)
         sources += [(path, int(n)) for n in printed.lines]
-    return _Files(probe, np.concatenate(pairs), np.concatenate(distance), heights.commanded[:, 2],
-                  heights.heights, sources)
+    return _Files(probe, np.concatenate(pairs), np.concatenate(distance), commanded[:, 2], trigger, sources)
 
 
-def _check_order(probe_file: str, distance_files: list[str]) -> None:
-    """Refuse probe heights and distances given in each other's place, in the order identify takes them."""
+def _heights_given(probe_file: str, distance_files: list[str]) -> bool:
+    """Whether the first file holds probe heights; False: every file holds distances (no probe heights).
+
+    Raises:
+        InputError: probe heights given after distances (the files swapped).
+    """
     probe_columns = _header(probe_file)
     if not set(PAIR_COLUMNS) <= probe_columns or set(PROBE_COLUMNS[:2]) <= probe_columns:
-        return
+        return True
     swapped = next((path for path in distance_files if set(PROBE_COLUMNS[:2]) <= _header(path)), None)
+    if swapped is None:
+        return False
     heights = ", ".join(PROBE_COLUMNS)
-    what = (f" and {swapped} probe heights ({heights}): the files look swapped" if swapped
-            else f", not probe heights ({heights})")
-    raise InputError(f"holds distances ({PAIR_COLUMNS[0]}..{PAIR_COLUMNS[-1]}, distance_mm){what}; identify "
-                     "takes PRINTER.toml PROBE.csv DISTANCES.csv, the probe heights first", probe_file,
+    raise InputError(f"holds distances ({PAIR_COLUMNS[0]}..{PAIR_COLUMNS[-1]}, distance_mm) and {swapped} "
+                     f"probe heights ({heights}): the files look swapped; identify takes PRINTER.toml "
+                     "PROBE.csv DISTANCES.csv, the probe heights first (or DISTANCES.csv alone)", probe_file,
                      "line 1")
 
 

@@ -3,16 +3,20 @@
 Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/probe.csv`` (the probe grid,
 ``z_mm`` to fill in), ``DIR/probe.gcode`` (the firmware's program that probes that grid, its results on
 the console, travelling above the probe's trigger height:
-:meth:`~deltacal.printer.firmware.base.Firmware.probe_travel`), ``DIR/distances.csv`` (the pairs of
-features to measure, the labels of their balls, ``distance_mm`` to fill in) and ``DIR/sheet.html`` (the
-measuring sheet: a top view with the labels and the pairs in the order of distances.csv), and says what
-was planned: what the probe heights alone identify of the complete model and what the object's distances
-add.
+:meth:`~deltacal.printer.firmware.base.Firmware.probe_travel`; a configuration without a probe gets none,
+its ``probe.csv`` a ``trigger_height_mm`` of :data:`~deltacal.printer.firmware.probing.PAPER_MM` and the
+firmware's paper test said instead: :meth:`~deltacal.printer.firmware.base.Firmware.manual_heights`),
+``DIR/distances.csv`` (the pairs of features to measure, the labels of their balls, ``distance_mm`` to
+fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view with the labels and the pairs in the
+order of distances.csv), and says what was planned: what the probe heights alone identify of the
+complete model and what the object's distances add.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+import numpy as np
 
 from ...io import write_stl
 from ...io.atomic import atomic_write_text
@@ -20,6 +24,7 @@ from ...io.paths import check_input, check_output_folder
 from ...printer.files.measurements import write_printed_distances, write_probe_heights
 from ...printer.firmware import config_files
 from ...printer.firmware.config_file import FirmwareConfig, told_firmware
+from ...printer.firmware.probing import PAPER_MM
 from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ...printer.printed.plan import ObjectPlan, plan_object
 from ...printer.printed.sheet import sheet_html
@@ -44,7 +49,8 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     config = FirmwareConfig.read(firmware, request.controller)
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
-    travel = firmware.probe_travel(request.controller)
+    manual = firmware.manual_heights(request.controller)  # no probe: its heights by hand, or none
+    travel = None if manual else firmware.probe_travel(request.controller)
     caliper = request.caliper or CALIPER_RANGE
     plan = plan_object(printer, config.values, count=request.distances,
                        probe_count=request.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -52,35 +58,40 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     if not folder.exists():
         folder.mkdir()
     write_stl(outputs[0], mesh)
-    write_probe_heights(outputs[1], plan.probe)
+    write_probe_heights(outputs[1], plan.probe,
+                        trigger_height=None if travel else np.full(len(plan.probe), PAPER_MM))
     names = plan.names
     write_printed_distances(outputs[2], plan.pair_positions,
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
-    atomic_write_text(outputs[3], firmware.probe_program(
-        plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
-        clearance=travel))
+    if travel is not None:
+        atomic_write_text(outputs[3], firmware.probe_program(
+            plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
+            clearance=travel))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))
-    lines = [_report(plan, printer, mesh, caliper)]
+    lines = [_report(plan, printer, mesh, caliper, travel is not None)]
     if request.distances is None and len(plan.pairs) < MAX_DISTANCES:
         lines.append(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances "
                      f"that can be measured together ({MAX_DISTANCES} with a longer one): planned the "
                      f"{len(plan.pairs)}")
-    lines.append(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes "
-                 f"them), {outputs[2]} ({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure "
-                 "them with)")
+    probed = f"{outputs[3]} probes them" if travel is not None else "heights by hand, below"
+    lines.append(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {probed}), {outputs[2]} "
+                 f"({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")
+    if manual:
+        lines.append(manual)
     return Done(tuple(lines))
 
 
-def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float) -> str:
+def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float, probe: bool) -> str:
     radius = float(abs(plan.probe[:, :2]).max())
+    how = ("run probe.gcode (it homes, then probes at each) and read its console back (deltacal import LOG), "
+           "or write the commanded z at which the probe triggered in probe.csv" if probe else
+           "no probe: the heights by hand (the paper test), or none (the last line)")
     heights = sorted({float(z) for z in plan.features[:, 2]})
     lengths = plan.lengths
     lines = [
-        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); run probe.gcode "
-        "(it homes, then probes at each) and read its console back (deltacal import LOG), or write the "
-        "commanded z at which the probe triggered in probe.csv",
+        f"probe grid: {len(plan.probe)} points (Klipper's round mesh, radius {radius:g} mm); {how}",
         f"object: {len(plan.features)} balls of {BALL_DIAMETER:g} mm on posts, centres at heights "
         f"{', '.join(f'{z:g}' for z in heights)} mm, each labelled 1 to {len(plan.features)} on a tile "
         "beside it; "

@@ -47,7 +47,7 @@ from .live.export import LIVE_FILES, export_live
 from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
-from .probing import klipper_probe_program, klipper_probe_travel
+from .probing import klipper_manual_heights, klipper_probe_program, klipper_probe_travel
 from .saved import read_saved_calibration
 
 if TYPE_CHECKING:
@@ -185,6 +185,10 @@ class Klipper(Firmware[KlipperDelta]):
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
         return klipper_probe_travel(read_klipper_config(path))
+
+    def manual_heights(self, path: str | Path) -> str | None:
+        """:func:`~.probing.klipper_manual_heights`: ``MANUAL_PROBE`` at each point, without a probe."""
+        return klipper_manual_heights(read_klipper_config(path))
 
     def config_files(self, path: str | Path) -> tuple[Path, ...]:
         """``printer.cfg`` and every file it includes (:attr:`~.config.KlipperConfig.files`).

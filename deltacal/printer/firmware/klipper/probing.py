@@ -22,7 +22,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
-from ..probing import ProbeTravel, probe_program, probe_travel
+from ..probing import MANUAL_TO_IDENTIFY, ProbeTravel, probe_program, probe_travel
 from .config import KlipperConfig
 from .log import PROBE_SECTIONS
 
@@ -63,6 +63,23 @@ def klipper_probe_travel(config: KlipperConfig) -> ProbeTravel:
                     f"[{name}] horizontal_move_z{default}", "Klipper refuses to probe with it"))
     origin = config.origin.get((section, "z_offset"), config.source)
     return probe_travel(trigger, f"[{section}] z_offset of {origin}", own)
+
+
+def klipper_manual_heights(config: KlipperConfig) -> str | None:
+    """Klipper's paper test at each point (``MANUAL_PROBE``, ``klippy/extras/manual_probe.py``), or None.
+
+    None when ``printer.cfg`` has a probe section. ``MANUAL_PROBE`` starts Klipper's helper where
+    the nozzle stands (``TESTZ`` moves it, ``ACCEPT`` answers ``Z position is Z``, the toolhead's
+    commanded z): one point at a time on the console, not from a file (the helper does not hold
+    the file's next lines back).
+    """
+    if any(name in config.sections for name in PROBE_SECTIONS):
+        return None
+    sections = "], [".join(PROBE_SECTIONS)
+    return (f"no probe section in {config.source} ([{sections}]): no probe.gcode; measure the heights by "
+            "hand (Klipper's paper test), at each point of probe.csv on the console: G28 once, then "
+            "G1 X<x_mm> Y<y_mm> Z5, MANUAL_PROBE, TESTZ Z=-0.1 ... until a sheet of paper drags, "
+            f"ACCEPT; Klipper answers 'Z position is Z': {MANUAL_TO_IDENTIFY}")
 
 
 def klipper_probe_program(points: np.ndarray, title: str = "",

@@ -29,7 +29,7 @@ from .fit import fit_marlin
 from .importer import import_marlin
 from .log import is_marlin_probe_log, read_marlin_probe_log
 from .model import MarlinController, MarlinDelta
-from .probing import marlin_probe_program, marlin_probe_travel
+from .probing import marlin_manual_heights, marlin_probe_program, marlin_probe_travel
 from .settings import APPLY_NOTE, is_marlin_settings, load_marlin, marlin_settings_text, read_marlin_settings
 from .values import marlin_from_geometry, marlin_from_printer
 
@@ -136,6 +136,10 @@ class Marlin(Firmware[MarlinDelta]):
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.marlin_probe_travel`: above ``-M851 Z`` of the ``M503`` capture."""
         return marlin_probe_travel(read_marlin_settings(path))
+
+    def manual_heights(self, path: str | Path) -> str | None:
+        """:func:`~.probing.marlin_manual_heights`: the paper test and ``M114``, without ``M851``."""
+        return marlin_manual_heights(read_marlin_settings(path))
 
     def is_probe_log(self, text: str) -> bool:
         """Marlin's ``Bed X:`` results, or G33's (:func:`~.log.is_marlin_probe_log`)."""

@@ -17,7 +17,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
-from ..probing import ProbeTravel, probe_program, probe_travel
+from ..probing import MANUAL_TO_IDENTIFY, ProbeTravel, probe_program, probe_travel
 from .settings import MarlinSettings
 
 #: How Marlin answers, after the count of points (the program's second line).
@@ -43,6 +43,23 @@ def marlin_probe_travel(settings: MarlinSettings) -> ProbeTravel:
                          "without it; capture M503's whole report", settings.source, "M851 Z")
     line = settings.lines[("M851", "Z")]
     return probe_travel(-settings.get("M851", "Z"), f"-M851 Z, line {line} of {settings.source}")
+
+
+def marlin_manual_heights(settings: MarlinSettings) -> str | None:
+    """The paper test at each point by Marlin's own moves, or None: ``M503`` reports a probe (``M851``).
+
+    A Marlin without a probe has no ``M851`` (``Marlin/src/gcode/config/M500-M504.cpp`` reports it
+    with ``HAS_PROBE_XY_OFFSET``); its ``G30`` needs a probe, and its ``PROBE_MANUALLY`` ``G29``
+    probes its own grid, not given points: the nozzle is moved above each point and lowered
+    until a sheet of paper drags (the LCD's Move Z, or ``G1 Z`` steps from a host), and ``M114``
+    reports its height.
+    """
+    if "M851" in settings.values:
+        return None
+    return (f"no M851 in {settings.source} (a printer without a probe; G30 needs one): no probe.gcode; "
+            "measure the heights by hand (the paper test), at each point of probe.csv: G28 once, then "
+            "G1 X<x_mm> Y<y_mm> Z5, lower the nozzle (the LCD's Move Z, or G1 Z in 0.05 mm steps) until a "
+            f"sheet of paper drags, M114; Marlin answers X:.. Y:.. Z:Z: {MANUAL_TO_IDENTIFY}")
 
 
 def marlin_probe_program(points: np.ndarray, title: str = "",
