@@ -76,7 +76,7 @@ def _shape_errors(truth, calibration, workspace) -> np.ndarray:
     return np.linalg.norm(errors - A @ motion, axis=1)
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_distances_alone_know_the_shape_as_well_as_with_the_heights(tmp_path, capsys):
     """plan (no probe) -> simulate -> identify with and without the heights, on the same true printer.
 

@@ -67,7 +67,7 @@ def _printer_commands() -> list[list[str]]:
     return [shlex.split(line, comments=True) for line in block.splitlines() if line.startswith("deltacal ")]
 
 
-@pytest.mark.slow
+@pytest.mark.long
 def test_readme_printer_commands_run_on_the_printer_demos_files(tmp_path, monkeypatch, capsys):
     """The README's printer commands, parsed from README.md, on the printer demo's printer.cfg (no probe)
     and its part.gcode: import, plan, (simulate in place of the printer, after plan), identify,

@@ -21,9 +21,10 @@ from ....geometry import DeltaGeometry, Workspace
 from ....holds import DEFAULT_BOUND
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
+from ..value_keys import ValueKey
 from .calibrate import (
     BASIC_TITLE,
     ENHANCED_TITLE,

@@ -20,9 +20,10 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
+from ..value_keys import ValueKey
 from .calibrate import DEFAULT_POINTS, marlin_g33
 from .dialect import marlin_dialect
 from .fit import fit_marlin

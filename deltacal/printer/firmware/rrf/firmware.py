@@ -20,8 +20,9 @@ from ....exceptions import InputWarning
 from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
-from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring, ValueKey
+from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..owner_keys import OwnerKeys
+from ..value_keys import ValueKey
 from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
 from .config import (
