@@ -338,6 +338,26 @@ class Calibration:
                     self.source,
                 )
 
+    def where_held(self) -> WhereItHolds | None:
+        """Where the calibration holds, for the routes that correct only there; None: corrected everywhere.
+
+        None for a robot whose identification does not say it (a rotary Delta's) and for a geometry
+        file (the robot alone, known exactly). A printer's calibration without its ``[holds]`` table
+        (written before it existed, or cut by hand) is refused: corrected everywhere it would carry
+        corrections its measurements do not determine, and ``--sigma-bound`` would mean nothing.
+
+        Raises:
+            InputError: a printer's calibration without where it holds (see docs/errors.md).
+        """
+        if self.holds is None and self.base and self.geometry.chain.says_where_it_holds:
+            raise InputError(
+                "no [holds] table: this printer's calibration does not say where it holds (the σ of its "
+                "corrections, which compensate --controller, export and export --live correct within "
+                "--sigma-bound), written before it was known or cut; identify the printer again (deltacal "
+                "identify PRINTER.toml PROBE.csv DISTANCES.csv --controller CONFIG -o CALIBRATION.toml)",
+                self.source, "key holds")
+        return self.holds
+
     def linear(self) -> LinearCalibration:
         """What the linear compensators (savoure, bai) need: nominal, model and deviation.
 
@@ -353,6 +373,15 @@ class Calibration:
         deviation, tool_move = self.deviation()
         return LinearCalibration(nominal=self.nominal.with_tool(self.nominal.tool + tool_move),
                                  model=self.model, deviation=deviation)
+
+
+def holds_of(calibration: Calibration | DeltaGeometry) -> WhereItHolds | None:
+    """Where a calibration (or a geometry: everywhere, None) holds, checked (:meth:`Calibration.where_held`).
+
+    Raises:
+        InputError: a printer's calibration without where it holds.
+    """
+    return calibration.where_held() if isinstance(calibration, Calibration) else None
 
 
 def _unit(kind: ParameterKind, unit: str) -> BaseUnit:

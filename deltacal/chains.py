@@ -121,6 +121,10 @@ class Chain(ABC):
     on_bed: ClassVar[bool]
     #: Its controller is a printer's firmware (Klipper's values), not a controller file fitted here.
     firmware: ClassVar[bool]
+    #: Its identification says where the calibration holds (the σ of its corrections over the volume, a
+    #: calibration file's ``[holds]``), which the routes that correct only there read: a calibration of
+    #: it without that is refused by them (:meth:`~deltacal.calibration.Calibration.where_held`).
+    says_where_it_holds: ClassVar[bool]
     #: Gravity statics (compliance, payload) are modelled for it.
     gravity_statics: ClassVar[bool]
     #: Savoure's and Bai's linear compensations (their error models) serve it.
@@ -232,6 +236,7 @@ class RevoluteChain(Chain):
     plate_below_balls = False
     on_bed = False
     firmware = False
+    says_where_it_holds = False
     gravity_statics = True
     linear_compensation = True
     drawn_scale = 1.0
@@ -311,6 +316,7 @@ class PrismaticChain(Chain):
     plate_below_balls = True
     on_bed = True
     firmware = True
+    says_where_it_holds = True
     gravity_statics = False
     linear_compensation = False
     drawn_scale = 375.0 / 600.0

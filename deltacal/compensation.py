@@ -31,6 +31,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from .arguments import geometry_of, points_array
 from .errormodels import ErrorModel, get_model
 from .errormodels.base import elementary_jacobian
 from .exceptions import AssemblyError, GeometryError, UnreachableError
@@ -157,7 +158,7 @@ def compensate_linear(
     if method not in LINEAR_METHODS:
         raise ValueError(f"method must be 'savoure' or 'bai', got {str(method)!r}")
     scheme = _SCHEMES[CompensationMethod(method)]
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    targets = points_array(targets, "targets")
     g = calibration.nominal
     virtual = VirtualDelta.from_geometry(g)
     x = targets - g.tool[None]
@@ -347,7 +348,7 @@ def compensate_exact(
     Raises:
         UnreachableError: naming the targets out of reach or too close to a singularity.
     """
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    targets = points_array(targets, "targets")
     q = exact.inverse(geometry, targets)
     _refuse_unsafe(geometry, targets, q, CompensationMethod.EXACT, min_margin)
     if np.any(geometry.compliance):
@@ -411,7 +412,7 @@ def _require_rotary(geometry: DeltaGeometry, method: CompensationMethod) -> None
 def _compensate_linearly(geometry: DeltaGeometry, linear: LinearCalibration, targets: np.ndarray,
                          method: CompensationMethod, min_margin: float) -> np.ndarray:
     _require_rotary(geometry, method)
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    targets = points_array(targets, "targets")
     q = compensate_linear(linear, targets, method)
     _refuse_unsafe(geometry, targets, q, method, min_margin)
     return q
@@ -467,8 +468,8 @@ def compensate(
     against the method.
 
     Args:
-        geometry: The identified geometry.
-        targets: Desired TCP positions in the base frame [mm], shape (N, 3).
+        geometry: The identified geometry (or a :class:`~deltacal.calibration.Calibration`: its geometry).
+        targets: Desired TCP positions in the base frame [mm], shape (N, 3) (or (3,): one target).
         method: ``"exact"``, ``"savoure"`` or ``"bai"`` (or the :class:`CompensationMethod`).
         linear: Nominal geometry, model and deviations (the linear methods' alone, and required by them).
         min_margin: Targets whose readings have a :func:`singularity_margin` below this
@@ -479,14 +480,16 @@ def compensate(
         Readings to command [rad; a printer's: carriage travels, mm], shape (N, 3).
 
     Raises:
-        ValueError: an unknown method, or an argument the method does not take (``linear`` with
+        ValueError: an unknown method, an argument the method does not take (``linear`` with
             the exact method, a payload with a linear one) or lacks (a linear method without
-            ``linear``).
+            ``linear``), or targets of another shape (:func:`~deltacal.arguments.points_array`).
+        TypeError: a geometry that is neither a geometry nor holds one.
         UnreachableError: naming the targets out of reach or too close to a singularity.
         GeometryError: a linear method asked of a printer (a prismatic chain).
     """
+    geometry = geometry_of(geometry)
     method = _checked_method(geometry, method, linear, payload)
-    return _COMPENSATORS[method](geometry, targets, linear, min_margin, payload)
+    return _COMPENSATORS[method](geometry, points_array(targets, "targets"), linear, min_margin, payload)
 
 
 def screen(
@@ -513,8 +516,9 @@ def screen(
         UnreachableError: as :func:`compensate` would, its indices among ``targets``.
         ValueError, GeometryError: arguments :func:`compensate` refuses, whatever the targets.
     """
+    geometry = geometry_of(geometry)
     method = _checked_method(geometry, method, linear, 0.0)
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    targets = points_array(targets, "targets")
     virtual = VirtualDelta.from_geometry(geometry)
     x = targets - geometry.tool[None]
     q = virtual.inverse(x, check=False)

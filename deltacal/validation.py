@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arguments import geometry_of, points_array
 from .geometry import DeltaGeometry, NominalDelta
 from .planning import PoseSet, circle, poses_from_reference, require_workspace
 from .simulation import ForwardKinematics, compliant_forward
@@ -155,7 +156,7 @@ def validate(
     """Accuracy of the true robot commanded with readings q towards targets.
 
     Args:
-        truth: The true robot (its ``tool`` is the TCP).
+        truth: The true robot (its ``tool`` is the TCP; a calibration: its geometry).
         q: Commanded readings [rad], shape (N, 3) (e.g. from compensation).
         targets: Desired TCP positions [mm], shape (N, 3), home pose first.
         forward: Forward kinematics of the true robot (default: the Pinocchio model).
@@ -165,6 +166,16 @@ def validate(
 
     Raises:
         AssemblyError: readings at which the true robot cannot be assembled.
+        ValueError: readings or targets not of shape (N, 3) (or (3,): one), not as many of each, or
+            a home index out of them.
+        TypeError: a truth that is neither a geometry nor holds one (a calibration's).
     """
-    pose = compliant_forward(truth, np.atleast_2d(np.asarray(q, dtype=float)), payload, forward)
+    truth = geometry_of(truth, "truth")
+    q, targets = points_array(q, "q", "reading"), points_array(targets, "targets")
+    if len(q) != len(targets):
+        raise ValueError(f"q and targets must have a row per pose each: {len(q)} readings for {len(targets)} "
+                         "targets")
+    if not 0 <= home < len(targets):
+        raise ValueError(f"home must be the index of a target (0 to {len(targets) - 1}), got {home}")
+    pose = compliant_forward(truth, q, payload, forward)
     return metrics_from_positions(pose.point(truth.tool), targets, home)

@@ -45,6 +45,7 @@ LAYERS = {
     "identifiability": 30,
     "errormodels": 25,
     "kinematics": 20,
+    "arguments": 12,  # the Python API's points and geometry arguments, checked: over the geometry
     "geometry": 10,
     "chains": 10,
     "rotations": 10,

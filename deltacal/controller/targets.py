@@ -18,7 +18,8 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..arguments import points_array
+from ..calibration import Calibration, holds_of
 from ..compensation import compensate
 from ..exceptions import GeometryError, UnreachableError
 from ..geometry import DeltaGeometry
@@ -100,14 +101,14 @@ def corrected_targets(
     the vertical part each by its own σ): the correction where its σ is at most half the bound (and,
     along the bed, the correction at least twice its σ), the controller's own command where its σ is
     above the bound (or, along the bed, the correction within its σ of zero), blended smoothly
-    between. A geometry, or a calibration
-    without that knowledge (a rotary Delta's), is corrected everywhere.
+    between. A geometry, or a rotary Delta's calibration, is corrected everywhere; a printer's
+    calibration that does not say where it holds (a file without ``[holds]``) is refused.
 
     Args:
         calibration: The calibration (or the identified geometry itself).
         controller: The controller's model (a rotary :class:`~deltacal.controller.Controller`, or
             a printer's firmware, :class:`~deltacal.printer.firmware.klipper.model.KlipperController`).
-        targets: Desired TCP positions in the base frame {O} [mm], (N, 3).
+        targets: Desired TCP positions in the base frame {O} [mm], (N, 3) (or (3,): one target).
         min_margin: Singularity margin required of both the real robot (as
             :func:`~deltacal.compensation.compensate`) and the controller's model at the readings.
         payload: Mass at the TCP [kg]: with compliant actuators the loaded TCP reaches the targets
@@ -120,6 +121,9 @@ def corrected_targets(
         The commands [mm] and readings [rad; a printer's, mm], each (N, 3).
 
     Raises:
+        ValueError: targets of another shape (:func:`~deltacal.arguments.points_array`).
+        InputError: a printer's calibration that does not say where it holds (no ``[holds]``:
+            :meth:`~deltacal.calibration.Calibration.where_held`).
         GeometryError: the controller is not of the robot's kind (a rotary Delta's for a printer).
         UnreachableError: naming the targets by index: out of the real robot's reach or near its
             singularities (compensate's reasons), or not commandable through the controller's
@@ -157,13 +161,16 @@ def weighted_targets(
     refuse: bool = False,
 ) -> WeightedTargets:
     """:func:`corrected_targets` with the weight of each command's correction (see there)."""
+    if not isinstance(calibration, Calibration | DeltaGeometry):  # a result's σ grid would go unread
+        raise TypeError(f"calibration must be a Calibration or a DeltaGeometry; got "
+                        f"{type(calibration).__name__}")
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
-    holds = calibration.holds if isinstance(calibration, Calibration) else None
+    holds = holds_of(calibration)  # a printer's calibration without it refused
     virtual = controller.virtual
     if virtual.chain != geometry.chain:
         raise GeometryError(f"the controller {controller.name or ''!r} runs a {virtual.chain.name} Delta's "
                             f"model, the robot {geometry.name or ''!r} is a {geometry.chain.name} one")
-    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    targets = points_array(targets, "targets")
     everywhere = np.ones((targets.shape[0], 2))
     if holds is None:
         return WeightedTargets(*_checked(geometry, controller, targets, min_margin, payload), everywhere)

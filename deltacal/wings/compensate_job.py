@@ -57,6 +57,8 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     if request.program:
         return _program(request, report, kind)
     calibration = load_calibration(request.calibration)  # read and checked once
+    if request.controller is not None:
+        calibration.where_held()  # a printer's correction for a controller reads it: refused without
     _warn_rigid_route(request, calibration.geometry.compliance)
     controller, said = None, cast(tuple[str, ...], ())
     if request.controller is not None:
@@ -125,6 +127,7 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
     assert request.controller is not None
     segment = DEFAULT_SEGMENT_MM if request.segment_mm is None else request.segment_mm
     calibration = load_calibration(request.calibration)
+    calibration.where_held()  # each move's correction reads it: refused without
     _warn_rigid_route(request, calibration.geometry.compliance)
     controller, config, said = _controller(request, calibration, kind)
     if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes

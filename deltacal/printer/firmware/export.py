@@ -143,8 +143,10 @@ def export_start(firmware: Firmware[Any], calibration: Calibration, source: str 
     Raises:
         UsageError: a deltacal file as ``config``, or no ``config`` where the firmware needs it.
         InputError: a file's first problem (named by its line or key), a configuration of another
-            printer, or a calibration that holds nowhere within ``sigma_bound``.
+            printer, a calibration that holds nowhere within ``sigma_bound``, or a printer's
+            calibration that does not say where it holds (no ``[holds]``).
     """
+    holds = calibration.where_held()  # a printer's calibration without it refused
     if config is not None:
         refuse_deltacal_file(config, "--config")
         check_config_firmware(config, firmware)
@@ -160,15 +162,13 @@ def export_start(firmware: Firmware[Any], calibration: Calibration, source: str 
         start = values if values is not None else firmware.start(replace(nominal, step_distance=step))
     except GeometryError as exc:
         raise InputError(str(exc), str(source), "key nominal") from None
-    if calibration.holds is not None:
-        held = calibration.holds.held_volume(workspace, sigma_bound)
+    if holds is not None:
+        held = holds.held_volume(workspace, sigma_bound)
         if held is None:
             raise InputError(f"the calibration holds nowhere within σ {sigma_bound:g} mm (--sigma-bound): "
-                             f"{holds_in_words(calibration.holds, sigma_bound)}; no value to export",
-                             str(source))
+                             f"{holds_in_words(holds, sigma_bound)}; no value to export", str(source))
         workspace, where = held, f"{where}, where the calibration holds (σ within {sigma_bound:g} mm)"
-    return ExportStart(geometry, nominal, values, step, start, workspace, where,
-                       undetermined_values(calibration.holds))
+    return ExportStart(geometry, nominal, values, step, start, workspace, where, undetermined_values(holds))
 
 
 @contextmanager

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import distance_transform_edt, maximum_filter
 
-from .....calibration import Calibration
+from .....calibration import Calibration, holds_of
 from .....controller import CommandModel, corrected_targets
 from .....controller.targets import printers_in_frame
 from .....exceptions import AssemblyError, GeometryError, UnreachableError
@@ -240,7 +240,7 @@ def _continuation(calibration: Calibration, controller: CommandModel, points: np
     ``along_bed`` printer when it has one (:func:`~deltacal.controller.targets.printers_in_frame`).
     """
     geometry = calibration.geometry if isinstance(calibration, Calibration) else calibration
-    holds = calibration.holds if isinstance(calibration, Calibration) else None
+    holds = holds_of(calibration)
     printers = [geometry] if holds is None else printers_in_frame(geometry, holds, controller)
     with np.errstate(invalid="ignore"):
         out = [controller.forward(exact.inverse(g, points, check=False), check=False) - points
@@ -264,7 +264,9 @@ def correction_field(calibration: Calibration, controller: CommandModel, volume:
 
     Raises:
         GeometryError: a spacing that is not a positive length, or a bound that is not positive.
+        InputError: a printer's calibration that does not say where it holds (no ``[holds]``).
     """
+    holds = holds_of(calibration)  # before anything is computed
     if not (np.isfinite(step) and step > 0.0):
         raise GeometryError(f"the grid's spacing must be a positive length, got {step!r}")
     if not bound > 0.0:
@@ -286,7 +288,6 @@ def correction_field(calibration: Calibration, controller: CommandModel, volume:
     apart = distance_transform_edt(~known.reshape(shape)) if np.any(known) else np.full(shape, np.inf)
     held = _ramp(beyond.reshape(shape)) * _ramp(apart)
     refused = int(np.sum(asked & ~known & (beyond <= TRUST_NODES)))
-    holds = calibration.holds if isinstance(calibration, Calibration) else None
     return CorrectionField(np.array([xy[0], xy[0], z[0]]), float(step), continued * held[..., None], volume,
                            refused, int(np.sum(asked)), holds, float(bound))
 
