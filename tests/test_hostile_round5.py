@@ -185,3 +185,15 @@ def test_corrected_targets_names_the_targets_shape(shape):
     shown = re.escape(str(shape))
     with pytest.raises(ValueError, match=rf"^targets must have shape \(N, 3\).* got shape {shown}$"):
         corrected_targets(BAI, Controller.from_geometry(BAI), np.zeros(shape))
+
+
+# ------------------------------------------------------------- 7. what else a hostile look found
+def test_compensate_of_a_printer_calibration_without_controller_says_to_give_it(printer, tmp_path, capsys):
+    """Before: "values must be finite and below 9,007 to be written exactly to 12 decimals" (carriage
+    travels in mm written as degrees), exit 1."""
+    out = tmp_path / "joints.csv"
+    targets = printer["folder"] / "targets.csv"
+    assert main(["compensate", str(printer["held"]), str(targets), "-o", str(out)]) == 2
+    err = _one_line(capsys)
+    assert f"{printer['held']} is a printer's calibration: give --controller" in err, err
+    assert not out.exists()

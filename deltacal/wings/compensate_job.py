@@ -59,6 +59,11 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     calibration = load_calibration(request.calibration)  # read and checked once
     if request.controller is not None:
         calibration.where_held()  # a printer's correction for a controller reads it: refused without
+    elif calibration.geometry.chain.firmware:
+        raise UsageError(f"{request.calibration} is a printer's calibration: give --controller, its "
+                         "firmware's settings (printer.cfg, an M503 capture or config.g), to write the "
+                         "corrected targets its commands go through (a joints file holds a rotary Delta's "
+                         "readings, in degrees)")
     _warn_rigid_route(request, calibration.geometry.compliance)
     controller, said = None, cast(tuple[str, ...], ())
     if request.controller is not None:
