@@ -9,12 +9,20 @@ before the change.
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from pathlib import Path
 
+import pytest
+
 from deltacal.cli import main
+from deltacal.controller_record import ControllerRecord
+from deltacal.exceptions import UsageError
+from deltacal.io import load_calibration
 from deltacal.io.geometry_file import save_geometry
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware import config_firmware, firmwares, input_firmware
+from deltacal.wings.printer import PrinterWing
+from deltacal.wings.requests import ReportRequest
 
 DATA = Path(__file__).resolve().parent / "data"
 #: Duet3D's Mini Kossel config.g with "; Delta Settings" and "; endstop adjustments" comments (its header).
@@ -96,3 +104,69 @@ def test_comments_never_make_a_file_marlins(tmp_path):
                       "M666 X0 Y0 Z0 ; Steps per unit: M503\n"
                       "; M851 Z-4.8\n;M211 S1\n")
     assert [f.name for f in firmwares() if f.is_config(config)] == ["rrf"]
+
+
+# ------------------------------------------------------------------ item 4: refusals that name a file
+KOSSEL = Path(__file__).resolve().parents[1] / "deltacal" / "models" / "kossel.toml"
+
+
+@pytest.fixture
+def printer_calibration(tmp_path) -> Path:
+    """A printer's calibration: the nominal kossel's geometry (no controller recorded)."""
+    path = tmp_path / "cal.toml"
+    save_geometry(load_printer(KOSSEL).geometry(), path)
+    return path
+
+
+def test_report_without_controller_names_the_measurements(printer_calibration, tmp_path, capsys):
+    """Before: "cal.toml: ... give --controller printer.cfg|config.g|M503.txt": no measurements file named."""
+    probe, distances = tmp_path / "probe.csv", tmp_path / "distances.csv"
+    probe.write_text("x_mm,y_mm,z_mm\n0,0,0.1\n")
+    distances.write_text("ball1,ball2,distance_mm\na,b,10\n")
+    assert main(["report", str(printer_calibration), "-o", str(tmp_path / "r.html"), "--measurements",
+                 str(probe), str(distances)]) == 2
+    err = one_line_error(capsys)
+    assert (f": {probe}, {distances}: a printer's measurements are of commanded positions: give --controller "
+            "printer.cfg|config.g|m503.txt (the firmware's settings they were made with, for their residuals)"
+            ) in err
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_report_without_controller_names_the_recorded_settings(printer_calibration, tmp_path):
+    """A calibration that records Marlin's m503.txt: that file is the one to give, and why."""
+    record = ControllerRecord("marlin", "/home/owner/m503.txt", "0" * 64, {"M665.L": 250.0})
+    calibration = replace(load_calibration(printer_calibration), controller=record)
+    probe = tmp_path / "probe.csv"
+    request = ReportRequest(printer_calibration, tmp_path / "r.html", measurements=probe)
+    with pytest.raises(UsageError) as refused:
+        PrinterWing().report_firmware(request, calibration)
+    assert str(refused.value) == (
+        f"{probe}: a printer's measurements are of commanded positions: give --controller m503.txt (the "
+        f"firmware's settings they were made with, for their residuals: {printer_calibration} was identified "
+        "with Marlin's /home/owner/m503.txt)")
+
+
+def test_identify_and_simulate_without_controller_name_their_files(tmp_path, capsys):
+    probe = tmp_path / "probe.csv"
+    probe.write_text("x_mm,y_mm,z_mm\n0,0,0.1\n")
+    assert main(["identify", str(KOSSEL), str(probe), "-o", str(tmp_path / "c.toml")]) == 2
+    err = one_line_error(capsys)  # before: "kossel.toml: ... give --controller printer.cfg|config.g (...)"
+    assert f"{probe}: a printer's measurements are of commanded positions" in err
+    assert "give --controller printer.cfg|config.g|m503.txt (" in err
+    assert main(["simulate", str(KOSSEL), str(probe), "--perturb", "1", "-o", str(tmp_path / "s.csv")]) == 2
+    err = one_line_error(capsys)  # before: "kossel.toml: ... --controller printer.cfg (the Klipper ...)"
+    assert f"{probe}: a printer's templates are of commanded positions" in err
+    assert "give --controller printer.cfg|config.g|m503.txt (" in err and "Klipper" not in err
+
+
+def test_plan_and_export_refusals_name_the_file_and_every_firmware(printer_calibration, tmp_path, capsys):
+    assert main(["plan", str(KOSSEL), "--object", "-o", str(tmp_path / "p")]) == 2
+    err = one_line_error(capsys)  # before: "--object needs --controller printer.cfg: ...", no file
+    assert f"{KOSSEL}: --object needs --controller printer.cfg|config.g|m503.txt" in err
+    assert main(["plan", str(KOSSEL), "-o", str(tmp_path / "p")]) == 2
+    assert "use --object --controller printer.cfg|config.g|m503.txt -o DIR" in one_line_error(capsys)
+    assert main(["export", str(printer_calibration), "--controller", "offsets", "-o",
+                 str(tmp_path / "e")]) == 2
+    err = one_line_error(capsys)  # before: "... its firmware's values: --controller klipper"
+    assert f"{printer_calibration} is a printer's calibration" in err
+    assert err.rstrip().endswith("--controller klipper|rrf|marlin")
