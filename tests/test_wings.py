@@ -56,7 +56,7 @@ def test_a_robot_file_is_parsed_once(monkeypatch):
 @pytest.mark.parametrize("make, message", [
     (lambda: PlanRequest(ROBOT, "o", object=True, model="complete"),
      "--model applies to pose planning, not to --object"),
-    (lambda: PlanRequest(ROBOT, "o", object=True), "--object needs --controller printer.cfg"),
+    (lambda: PlanRequest(ROBOT, "o", object=True), f"{ROBOT}: --object needs --controller printer.cfg"),
     (lambda: PlanRequest(ROBOT, "o", probe_grid=5), "--probe-grid applies to --object"),
     (lambda: PlanRequest(ROBOT, "o", strategy="doptimal", n=4), "--n and --epsilon apply to --strategy bai"),
     (lambda: ExportRequest("c.toml", controller="klipper"), "--controller klipper needs -o CALIBRATED.cfg"),

@@ -29,7 +29,7 @@ from ..identification import FitOptions
 from ..identification.options import Frame, Pairs
 from ..observations import SIGMA_ANGLE_DEG, SIGMA_POSITION
 from ..printer.firmware import firmware_named, firmwares
-from ..printer.firmware.config_file import firmware_names
+from ..printer.firmware.config_file import firmware_names, settings_files, settings_needed
 from ..printer.simulation import TOLERANCE_CLASSES
 
 Path_ = str | Path
@@ -132,9 +132,8 @@ class IdentifyRequest:
     def printer_model(self) -> str:
         """A printer's identification: its options checked, its error model (default ``printer``)."""
         if self.controller is None:
-            raise UsageError(f"{self.nominal}: a printer's measurements are of commanded positions: give "
-                             "--controller printer.cfg|config.g (the firmware configuration they were made "
-                             "with)")
+            raise settings_needed(self.measurements, "measurements", "the firmware's settings they were made "
+                                  "with, which turn them into the printer's readings")
         model = self.model or "printer"
         if model not in PRINTER_MODEL_NAMES:
             raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODEL_NAMES)}")
@@ -218,8 +217,8 @@ class SimulateRequest:
             raise UsageError(f"{_option(given[0])} applies to a rotary Delta's simulation, not to a "
                              "printer's")
         if self.controller is None:
-            raise UsageError(f"{self.nominal}: a printer's measurements are of commanded positions: give "
-                             "--controller printer.cfg (the Klipper configuration they are made with)")
+            raise settings_needed(self.poses, "templates", "the firmware's settings the simulated printer "
+                                  "runs")
         if len(self.poses) > 2:
             raise UsageError(f"a printer's templates are PROBE.csv and at most one DISTANCES.csv, got "
                              f"{len(self.poses)} files")
@@ -270,8 +269,8 @@ class PlanRequest:
             if given:
                 raise UsageError(f"{_option(given[0])} applies to pose planning, not to --object")
             if self.controller is None:
-                raise UsageError("--object needs --controller printer.cfg: the firmware the object is "
-                                 "printed with")
+                raise UsageError(f"{self.nominal}: --object needs --controller {settings_files()}: the "
+                                 "firmware's settings the object is printed with")
             return
         given = [name for name in OBJECT_OPTIONS if getattr(self, name) is not None]
         if given:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import tomllib
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,6 +33,33 @@ if TYPE_CHECKING:
 def firmware_names() -> tuple[str, ...]:
     """The names ``--firmware`` takes (and ``export --controller``), in the firmwares' order."""
     return tuple(firmware.name for firmware in firmwares())
+
+
+def settings_files() -> str:
+    """What a printer's ``--controller`` takes: each firmware's usual file (``printer.cfg|config.g|...``)."""
+    return "|".join(firmware.config_file for firmware in firmwares())
+
+
+def settings_needed(files: Sequence[str | Path], kind: str, why: str, calibration: Calibration | None = None,
+                    source: str | Path = "") -> UsageError:
+    """The refusal of a printer's files given without ``--controller``: naming them, why, what to give.
+
+    Args:
+        files: The files of commanded positions (measurements, templates).
+        kind: What they are (``"measurements"``).
+        why: What the firmware's settings are to them (``"the settings they were made with"``).
+        calibration: The printer's calibration: its recorded configuration (``[controller]``) is the
+            one to give; None, or none recorded: any firmware's usual file.
+        source: The calibration's file, for the message.
+    """
+    record = calibration.controller if calibration is not None else None
+    recorded = firmware_named(record.firmware) if record is not None else None
+    names = ", ".join(str(f) for f in files)
+    head = f"{names}: a printer's {kind} are of commanded positions: give --controller"
+    if record is None or recorded is None:
+        return UsageError(f"{head} {settings_files()} ({why})")
+    return UsageError(f"{head} {recorded.config_file} ({why}: {source} was identified with "
+                      f"{recorded.title}'s {record.source})")
 
 
 def told_firmware(path: str | Path, name: str | None) -> Firmware[Any]:

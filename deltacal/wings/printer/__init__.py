@@ -22,7 +22,14 @@ from ...kinematics.workspace import default_workspace
 from ...printer.files.robot_file import load_printer
 from ...printer.firmware import firmware_named, firmwares
 from ...printer.firmware.base import Firmware, FirmwareModel
-from ...printer.firmware.config_file import read_firmware_config, recorded_firmware, refuse_deltacal_file
+from ...printer.firmware.config_file import (
+    firmware_names,
+    read_firmware_config,
+    recorded_firmware,
+    refuse_deltacal_file,
+    settings_files,
+    settings_needed,
+)
 from ...printer.firmware.export import export_firmware_values
 from ...printer.robot import NominalLinearDelta
 from ...robots import load_robot
@@ -53,7 +60,7 @@ class PrinterWing(Wing):
         """The printed object (:func:`.plan.plan_printed_object`); a printer's plan is ``--object``."""
         if not request.object:
             raise UsageError(f"{request.nominal}: a printer's plan is the object it prints and measures: use "
-                             "--object --controller printer.cfg -o DIR")
+                             f"--object --controller {settings_files()} -o DIR")
         return plan_printed_object(request, self._robot(request.nominal, robot))
 
     def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
@@ -72,7 +79,7 @@ class PrinterWing(Wing):
         firmware = firmware_named(str(request.controller))
         if firmware is None or request.controller in FIT_KINDS:
             raise UsageError(f"--controller {request.controller}: {request.calibration} is a printer's "
-                             "calibration; its firmware's values: --controller klipper")
+                             f"calibration; its firmware's values: --controller {'|'.join(firmware_names())}")
         assert request.output is not None
         if request.config is None:  # with one: checked against the geometry first, then the record
             recorded_firmware(calibration, request.calibration, firmware, f"--controller {firmware.name}")
@@ -101,9 +108,8 @@ class PrinterWing(Wing):
         residuals need the settings they were made with (``--controller``).
         """
         if request.measurements and request.controller is None:
-            raise UsageError(f"{request.calibration}: a printer's measurements are of commanded positions: "
-                             "give --controller printer.cfg|config.g|M503.txt (the settings they were made "
-                             "with)")
+            raise settings_needed(request.measurements, "measurements", "the firmware's settings they were "
+                                  "made with, for their residuals", calibration, request.calibration)
         if request.controller is None:
             named = firmware_named(request.firmware) if request.firmware is not None else None
             recorded = recorded_firmware(calibration, request.calibration, named,

@@ -45,6 +45,7 @@ from ..bounds import (
     TRIM_ANGLE,
     Bound,
 )
+from ..content import HEAD, file_commands, is_marlin_capture
 from .model import DEFAULT_SEGMENTS_PER_SECOND, MarlinDelta, SoftEndstops
 
 #: A host's and Marlin's prefixes of a console line.
@@ -52,11 +53,6 @@ _PREFIX = re.compile(r"^\s*(?:(?:Recv|Send):\s*)?(?:echo:\s*)*", re.IGNORECASE)
 #: A word of a report: a letter and what follows it up to white space (M503 separates its words).
 _WORD = re.compile(r"([A-Za-z])(\S*)")
 _LIMITS = re.compile(r"Min:\s*(?P<min>.*?)\s*Max:\s*(?P<max>.*)$", re.IGNORECASE)
-#: What tells an ``M503`` capture from other G-code: Marlin's ``echo:`` prefix or a report heading.
-_MARK = re.compile(r"^\s*(?:Recv:\s*)?echo:"
-                   r"|;\s*(?:Delta (?:config|settings)|Endstop adjustment|Steps per unit)"
-                   r"|^\s*M503\b|\bM851\b|\bM211\b", re.IGNORECASE | re.MULTILINE)
-_DELTA = re.compile(r"^\s*(?:Recv:\s*)?(?:echo:\s*)*M665\s", re.IGNORECASE | re.MULTILINE)
 #: What a Marlin ``Configuration.h`` holds: its version, or a delta's compiled geometry.
 _CONFIGURATION_H = re.compile(r"^[ \t]*#define[ \t]+(?:CONFIGURATION_H_VERSION|DELTA_DIAGONAL_ROD|"
                               r"DELTA_RADIUS|DELTA_PRINTABLE_RADIUS)\b", re.MULTILINE)
@@ -118,18 +114,19 @@ class MarlinSettings:
 def is_marlin_settings(path: str | Path) -> bool:
     """Whether a file is Marlin's: an ``M503`` capture, or a ``Configuration.h``.
 
-    A capture has an ``M665`` line and Marlin's ``echo:`` or its headings; a ``Configuration.h`` is
-    refused when read (:data:`CONFIGURATION_H_REFUSED`).
+    A capture is told by the commands it runs, never by its comments
+    (:func:`~..content.is_marlin_capture`: ``M665`` with Marlin's ``echo:`` lines or its report's
+    commands); a ``Configuration.h`` by its ``#define`` lines, and refused when read
+    (:data:`CONFIGURATION_H_REFUSED`).
     """
     if input_problem(path) is not None:
         return False  # the reader of the file taken instead names the problem
     try:
         with open(path, encoding="utf-8", errors="replace") as f:
-            head = f.read(1 << 18)
+            head = f.read(HEAD)
     except OSError:
         return False
-    return (_DELTA.search(head) is not None and _MARK.search(head) is not None) or \
-        _CONFIGURATION_H.search(head) is not None
+    return is_marlin_capture(file_commands(head)) or _CONFIGURATION_H.search(head) is not None
 
 
 def read_marlin_settings(path: str | Path) -> MarlinSettings:

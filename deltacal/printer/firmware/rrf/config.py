@@ -43,7 +43,6 @@ import numpy as np
 
 from ....exceptions import GeometryError, InputError, InputWarning
 from ....io.atomic import atomic_write_text
-from ....io.inputs import input_problem
 from ..bounds import (
     ADJUSTMENT,
     LENGTH,
@@ -54,6 +53,7 @@ from ..bounds import (
     TILT_PERCENT,
     TRIM_ANGLE,
 )
+from ..content import is_rrf_commands, read_commands
 from ..probe_log import ProbeOffsets
 from .meta import Blocks, Variables, substitute
 from .model import (
@@ -98,8 +98,6 @@ _COMMAND = re.compile(r"^\s*(?:N\d+\s*)?([GMT])(\d+)(?:\.\d+)?(?![0-9.])", re.IG
 _PARAM = re.compile(r"([A-Za-z])\s*((?:\"[^\"]*\"|\{[^}]*\}?|(?<=[0-9.])[eE][-+]?(?=\d)|[^A-Za-z\"{])*)")
 #: ``M98``'s file: ``P"name"``, or (RRF 1.x/2.x) ``Pname`` up to white space.
 _FILE_NAME = re.compile(r"[Pp]\s*(?:\"([^\"]*)\"|([^\s\"]+))")
-#: An M665 or M666 line recognises a file as RRF's (beside M669, the kinematics).
-_DELTA_LINE = re.compile(r"^\s*(?:N\d+\s*)?M66[59]\b", re.IGNORECASE | re.MULTILINE)
 
 
 @dataclass
@@ -189,15 +187,15 @@ def parse_line(text: str, source: str, number: int) -> RRFLine | None:
 
 
 def is_rrf_config(path: str | Path) -> bool:
-    """Whether a file is a RepRapFirmware configuration: a ``*.g`` file that sets M665 or M669."""
-    if Path(path).suffix.lower() != ".g" or input_problem(path) is not None:
+    """Whether a file is a RepRapFirmware configuration: a ``*.g`` file that runs M665 or M669.
+
+    Told by the commands it runs, never by its comments, and no Marlin ``M503`` capture
+    (:func:`~..content.is_rrf_commands`).
+    """
+    if Path(path).suffix.lower() != ".g":
         return False
-    try:
-        with open(path, encoding="utf-8", errors="replace") as f:
-            head = f.read(1 << 20)
-    except OSError:
-        return False
-    return _DELTA_LINE.search(head) is not None
+    commands = read_commands(path)
+    return commands is not None and is_rrf_commands(path, commands)
 
 
 @dataclass

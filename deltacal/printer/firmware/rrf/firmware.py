@@ -97,7 +97,7 @@ class RRF(Firmware[RRFDelta]):
     })
 
     def is_config(self, path: str | Path) -> bool:
-        """A ``*.g`` file that sets ``M665`` or ``M669`` (:func:`~.config.is_rrf_config`)."""
+        """A ``*.g`` running ``M665`` or ``M669``, not Marlin's (:func:`~.config.is_rrf_config`)."""
         return is_rrf_config(path)
 
     def read_config(self, path: str | Path) -> RRFDelta:
