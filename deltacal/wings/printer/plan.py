@@ -45,6 +45,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
     travel = firmware.probe_travel(request.controller)
+    live = firmware.live_correction(request.controller)  # turned off while the program probes
     caliper = request.caliper or CALIPER_RANGE
     plan = plan_object(printer, config.values, count=request.distances,
                        probe_count=request.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -58,7 +59,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
     atomic_write_text(outputs[3], firmware.probe_program(
         plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
-        clearance=travel))
+        clearance=travel, live=live))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))
@@ -67,6 +68,8 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
         lines.append(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances "
                      f"that can be measured together ({MAX_DISTANCES} with a longer one): planned the "
                      f"{len(plan.pairs)}")
+    if live is not None:
+        lines.append(live.plan_note(outputs[3].name))
     lines.append(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {outputs[3]} probes "
                  f"them), {outputs[2]} ({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure "
                  "them with)")
