@@ -70,6 +70,10 @@ def add_parser(sub) -> None:
                    help="a printer: the firmware's settings the measurements were made with (Klipper's "
                         "printer.cfg, Marlin's M503 capture, RepRapFirmware's config.g)")
     add_firmware_argument(p)
+    p.add_argument("--live-correction-off", action="store_true",
+                   help="a printer whose --controller printer.cfg includes deltacal's live correction "
+                        "(export --live): the measurements were made with it off (DELTACAL_GEOMETRY "
+                        "ENABLE=0 before probing and printing; without this, identify refuses them)")
     p.add_argument("--probe-offset", type=probe_offset,
                    default=np.zeros(3), metavar="X,Y,Z",
                    help="a printer: the probe's trigger point from the nozzle, in the effector frame [mm] "

@@ -52,6 +52,9 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     # the firmware whose configuration --controller is (told once), or None; no output over a file it reads
     kind = None if request.controller is None else controller_firmware(request.controller, request.firmware)
     read = () if kind is None else config_files(str(request.controller), kind)
+    live = None if kind is None else kind.live_correction(str(request.controller))
+    if live is not None:  # a printer that corrects every move itself: corrected offline, twice
+        raise live.refuse_compensate()
     check_output(request.output, [*inputs, *read])
     report: Progress = progress or (lambda fraction, detail: None)
     if request.program:

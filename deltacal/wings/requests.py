@@ -90,6 +90,7 @@ class IdentifyRequest:
     sigma_height: float = 0.01
     sigma_distance: float = 0.02
     tolerance_scale: float | None = None
+    live_correction_off: bool = False
 
     def __post_init__(self) -> None:
         given = self.measurements
@@ -108,6 +109,8 @@ class IdentifyRequest:
             raise UsageError(f"--{flag} applies to a printer's measurements (of commanded positions)")
         if self.tolerance_scale is not None:
             raise UsageError("--tolerance-scale applies to a printer's measurements")
+        if self.live_correction_off:
+            raise UsageError("--live-correction-off applies to a printer's measurements")
         if self.rotary_model not in MODEL_NAMES:
             raise UsageError(f"--model {self.model}: a rotary Delta's models are {', '.join(MODEL_NAMES)}")
         if self.pairs is not None and not self.distances:

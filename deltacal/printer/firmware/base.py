@@ -55,6 +55,8 @@ from ...geometry import DeltaGeometry, Workspace
 from ...holds import DEFAULT_BOUND, WhereItHolds
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
+from .bed import bed_grid
+from .live_correction import LiveCorrection
 from .owner_keys import OwnerKeys
 from .probe_log import ProbeLog
 from .probing import PROBE_CLEARANCE, ProbeTravel
@@ -66,30 +68,8 @@ if TYPE_CHECKING:
     from ..robot import NominalLinearDelta
 
 
-
-#: Spacing of the bed's points :meth:`Firmware.admit_bed` corrects [mm].
-BED_GRID_MM = 5.0
 #: Margin below the lowest corrected bed point of the lowest Z admitted [mm].
 BED_MARGIN_MM = 0.01
-
-
-def bed_grid(radius: float, spacing: float = BED_GRID_MM) -> np.ndarray:
-    """Points on the bed (z = 0) over a disk: the centre and rings every ``spacing``, the last at ``radius``.
-
-    Args:
-        radius: The disk's radius [mm].
-        spacing: Between rings and between a ring's points, at most [mm].
-
-    Returns:
-        The points [mm], (N, 3).
-    """
-    rings = max(1, math.ceil(radius / spacing))
-    points = [np.zeros((1, 3))]
-    for r in np.linspace(radius / rings, radius, rings):
-        n = max(6, math.ceil(2.0 * math.pi * r / spacing))
-        t = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
-        points.append(np.column_stack([r * np.cos(t), r * np.sin(t), np.zeros(n)]))
-    return np.concatenate(points)
 
 
 class FirmwareModel(Protocol):
@@ -380,7 +360,8 @@ class Firmware(ABC, Generic[ModelT]):
 
     @abstractmethod
     def probe_program(self, points: np.ndarray, title: str = "",
-                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                      live: LiveCorrection | None = None) -> str:
         """A program that homes, then probes the bed at each point in order, each result on the console.
 
         The nozzle is moved above each point at ``clearance`` and the firmware's probing command
@@ -392,7 +373,17 @@ class Firmware(ABC, Generic[ModelT]):
             title: A first comment line (what the points are).
             clearance: The nozzle's height above the bed while it moves between points [mm], or
                 the configuration's :meth:`probe_travel` (its reason then in the header).
+            live: The configuration's :meth:`live_correction`: turned off first, on again last.
         """
+
+    def live_correction(self, path: str | Path) -> LiveCorrection | None:
+        """Where the configuration ``path`` includes deltacal's live correction, or None (it does not).
+
+        A firmware that runs deltacal's correction on every move itself (Klipper's ``export --live``
+        module) is measured with it off and never sent a program corrected offline
+        (:mod:`.live_correction`). By default None: the firmware has no such module.
+        """
+        return None
 
     def values_read(self, model: ModelT) -> dict[str, float]:
         """Every value of :attr:`value_keys` the model holds, by the firmware's key, in its units."""
@@ -494,7 +485,7 @@ class Firmware(ABC, Generic[ModelT]):
 
         Where the true bed (z = 0 of an identified printer) is lower than the firmware's model puts
         it, a corrected first layer is commanded below the firmware's z = 0. The bed's disk of
-        ``radius`` (rings and points every :data:`BED_GRID_MM`) is corrected through the firmware as
+        ``radius`` (rings and points every :data:`~.bed.BED_GRID_MM`) is corrected through the firmware as
         ``compensate`` corrects it (:func:`~deltacal.controller.corrected_targets`: where a calibration
         holds within ``bound``, in the controller's frame); the lowest Z commanded, less
         :data:`BED_MARGIN_MM`, rounded down to 0.01 mm, becomes the lowest Z accepted when it is below

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .live_correction import LiveCorrection
+
 #: Height of the nozzle above the bed while a probe program moves between points, the margin above the
 #: probe's trigger height of :func:`probe_travel` [mm] (Klipper's ``horizontal_move_z`` default).
 PROBE_CLEARANCE = 5.0
@@ -88,7 +90,8 @@ def probe_travel(trigger: float, trigger_key: str, own: Sequence[tuple[float, st
 
 def probe_program(points: np.ndarray, answers: str, notes: Sequence[str],
                   probe: Callable[[float, float], Sequence[str]], title: str = "",
-                  clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                  clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                  live: LiveCorrection | None = None) -> str:
     """The program that homes (``G28``) and runs the firmware's probe line(s) above each point in order.
 
     Args:
@@ -100,6 +103,8 @@ def probe_program(points: np.ndarray, answers: str, notes: Sequence[str],
         title: A first comment line.
         clearance: The nozzle's height while it moves between points [mm], above 0; a
             :class:`ProbeTravel` (the configuration's) says where it comes from in the header.
+        live: The configuration's live correction, or None: its ``off`` command is the program's first
+            (the probe measures the printer itself, not the corrected one), its ``on`` the last.
 
     Returns:
         The program's text (one command a line, ``;`` comments).
@@ -119,9 +124,12 @@ def probe_program(points: np.ndarray, answers: str, notes: Sequence[str],
     lines = [f"; {title}" if title else "; deltacal: probe the bed",
              f"; {len(xy)} points, in the order of probe.csv; {answers}",
              *(f"; {note}" for note in notes),
+             *([] if live is None else [f"{live.off} ; deltacal's live correction off while probing"]),
              "G28 ; home", "G90 ; absolute positions", f"G1 Z{z} F{LIFT_FEED:.0f}"]
     for k, (x, y) in enumerate(xy, start=1):
         lines += [f"; point {k} of {len(xy)}", f"G1 X{x:.3f} Y{y:.3f} Z{z} F{TRAVEL_FEED:.0f}",
                   *probe(float(x), float(y)), f"G1 Z{z} F{LIFT_FEED:.0f}"]
+    if live is not None:
+        lines.append(f"{live.on} ; deltacal's live correction on again")
     lines.append("; done")
     return "\n".join(lines) + "\n"

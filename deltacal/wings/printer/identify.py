@@ -58,6 +58,10 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     check_files([request.nominal, request.controller, *paths], request.output)
     config = read_firmware_config(request.controller, request.firmware)
     firmware, values = config.firmware, config.values
+    live = firmware.live_correction(request.controller)
+    if live is not None and not request.live_correction_off:  # measured through it: the corrected printer
+        raise live.refuse_identify()
+    off = () if live is None else (live.taken_off(),)
     check_step_distance(printer.step_distance, values.step_distance, request.nominal, request.controller,
                         firmware.step_distance_keys)
     firmware.check_same_printer(firmware.nominal(printer), values, str(request.nominal),
@@ -96,7 +100,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     owner = _owner_part(result, start, data, firmware, request)
     if not data.probe.size:
         owner = (*owner, _heights_would_add(start, data, values, printer))
-    return Done((*owner, *where, "\nThe engineer's part:", result.report(), f"\nwrote {request.output}"))
+    return Done((*off, *owner, *where, "\nThe engineer's part:", result.report(),
+                 f"\nwrote {request.output}"))
 
 
 def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmware, request: IdentifyRequest

@@ -51,6 +51,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
                                 str(request.controller))
     manual = firmware.manual_heights(request.controller)  # no probe: its heights by hand, or none
     travel = None if manual else firmware.probe_travel(request.controller)
+    live = firmware.live_correction(request.controller)  # turned off while the heights are measured
     caliper = request.caliper or CALIPER_RANGE
     plan = plan_object(printer, config.values, count=request.distances,
                        probe_count=request.probe_grid or MAX_PROBE_GRID, caliper=caliper)
@@ -66,7 +67,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     if travel is not None:
         atomic_write_text(outputs[3], firmware.probe_program(
             plan.probe, title=f"deltacal plan --object: the probe grid of {printer.name} ({outputs[1].name})",
-            clearance=travel))
+            clearance=travel, live=live))
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))
@@ -75,6 +76,8 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
         lines.append(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances "
                      f"that can be measured together ({MAX_DISTANCES} with a longer one): planned the "
                      f"{len(plan.pairs)}")
+    if live is not None:
+        lines.append(live.plan_note(outputs[3].name) if travel is not None else live.manual_note())
     probed = f"{outputs[3]} probes them" if travel is not None else "heights by hand, below"
     lines.append(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {probed}), {outputs[2]} "
                  f"({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")

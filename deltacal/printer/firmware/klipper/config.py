@@ -20,6 +20,11 @@ Unlike Klipper, an include file that does not exist (a configuration copied off 
 without its ``mainsail.cfg``, ``macros.cfg``, or a dangling link) is skipped, all of them named in
 one warning; a key the delta kinematics need and cannot find then names them as where it may be.
 
+deltacal's own live correction (``export --live``: ``[include deltacal_geometry.cfg]``, its
+``[deltacal_geometry]`` section) is found where Klipper would load it: the section in a file read,
+or an include of that file's name that does not exist here (copied off the printer without it):
+:attr:`KlipperConfig.live`, the routes' to ask.
+
 Only ``[printer]``, ``[stepper_a]`` .. ``[stepper_c]`` and ``[delta_calibrate]`` are interpreted
 (:mod:`.model` gives each value's meaning, :mod:`.saved` the saved measurements'); every other
 section is left alone. Errors are one line naming the file, section,
@@ -56,6 +61,12 @@ AUTOSAVE_HEADER = ("\n" + AUTOSAVE_MARK + "\n#*# DO NOT EDIT THIS BLOCK OR BELOW
 STEPPERS = ("stepper_a", "stepper_b", "stepper_c")
 #: The sections deltacal reads (a duplicate key in another section is Klipper's business alone).
 READ_SECTIONS = ("printer", *STEPPERS, "delta_calibrate")
+#: The section of deltacal's live correction (Klipper loads ``klippy/extras/deltacal_geometry.py`` for it),
+#: the file ``export --live`` writes it in, and the commands that turn the correction off and on.
+LIVE_SECTION = "deltacal_geometry"
+LIVE_SECTION_FILE = f"{LIVE_SECTION}.cfg"
+LIVE_OFF = "DELTACAL_GEOMETRY ENABLE=0"
+LIVE_ON = "DELTACAL_GEOMETRY ENABLE=1"
 #: Klipper's probe sections, each with ``x_offset``, ``y_offset`` (default 0) and ``z_offset``.
 PROBE_SECTIONS = ("probe", "bltouch", "smart_effector", "load_cell_probe")
 #: What each value deltacal reads can be (:mod:`..bounds`), by section (``stepper`` for the three
@@ -88,6 +99,9 @@ class KlipperConfig:
         origin: (section, option) -> the file its value came from.
         missing: The include files that do not exist: (the including file, its line, the path).
         files: Every file read, in order (the main file first, then its includes).
+        live: Where the configuration includes deltacal's live correction (:data:`LIVE_SECTION`), in
+            its words (``[deltacal_geometry] from deltacal_geometry.cfg``, or the include of a
+            :data:`LIVE_SECTION_FILE` that does not exist here, by its line), or "" (it does not).
     """
 
     source: str
@@ -95,6 +109,7 @@ class KlipperConfig:
     origin: dict[tuple[str, str], str] = field(default_factory=dict)
     missing: list[tuple[str, int, str]] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
+    live: str = ""
 
     def missing_hint(self) -> str:
         """Where a value not found may be: `` (it may be in the missing include X, Y)``, or ""."""
@@ -181,6 +196,7 @@ def read_klipper_config(path: str | Path) -> KlipperConfig:
             config.sections.setdefault(section, {}).update(options)
             for option in options:
                 config.origin[(section, option)] = f"{source} (SAVE_CONFIG block)"
+        config.live = config.live or saved.live
     if config.missing:
         base = os.path.dirname(source)
         where = ", ".join(f"{os.path.relpath(path, base)} (line {line}"
@@ -312,6 +328,9 @@ def _include(filename: str, spec: str, config: KlipperConfig, visited: set[str],
         problem = input_problem(name)
         if problem == NOT_FOUND:  # absent, or a link to nothing
             config.missing.append((filename, number, name))
+            if os.path.basename(name) == LIVE_SECTION_FILE and not config.live:
+                config.live = (f"[include {spec}] at line {number} of {filename}: not found here, taken "
+                               "as the section's file by its name")
             continue
         if problem is not None:
             raise InputError(f"[include {spec}]: {name}: {problem}", filename, f"line {number}")
@@ -355,6 +374,8 @@ def _parse_unit(buffer: list[str], start: int, filename: str, config: KlipperCon
         raise InputError(f"not an option ('key: value') nor a [section]: {line.strip()!r}", filename,
                          f"line {start + lineno - 1}") from None
     for section in parser.sections():
+        if section == LIVE_SECTION and not config.live:
+            config.live = f"[{LIVE_SECTION}] from {filename}"
         options = config.sections.setdefault(section, {})
         for option, value in parser.items(section):
             options[option] = value

@@ -22,6 +22,7 @@ from ....holds import DEFAULT_BOUND
 from ....towers import per_tower
 from ...files.importer import OUTPUT_FILES, PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..live_correction import LiveCorrection
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from ..value_keys import ValueKey
@@ -35,6 +36,9 @@ from .calibrate import (
 )
 from .config import (
     APPLY_NOTE,
+    LIVE_OFF,
+    LIVE_ON,
+    LIVE_SECTION_FILE,
     KlipperConfig,
     is_klipper_config,
     is_klipper_config_name,
@@ -179,9 +183,10 @@ class Klipper(Firmware[KlipperDelta]):
         return not read_saved_calibration(read_klipper_config(path)).empty
 
     def probe_program(self, points: np.ndarray, title: str = "",
-                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                      live: LiveCorrection | None = None) -> str:
         """:func:`~.probing.klipper_probe_program` (``G28``, then ``PROBE`` above each point)."""
-        return klipper_probe_program(points, title, clearance)
+        return klipper_probe_program(points, title, clearance, live)
 
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.klipper_probe_travel`: above the probe's ``z_offset`` of ``printer.cfg``."""
@@ -190,6 +195,19 @@ class Klipper(Firmware[KlipperDelta]):
     def manual_heights(self, path: str | Path) -> str | None:
         """:func:`~.probing.klipper_manual_heights`: ``MANUAL_PROBE`` at each point, without a probe."""
         return klipper_manual_heights(read_klipper_config(path))
+
+    def live_correction(self, path: str | Path) -> LiveCorrection | None:
+        """Where ``printer.cfg`` includes ``export --live``'s section (:attr:`~.config.KlipperConfig.live`).
+
+        Missing includes are not warned of here: the reading of the configuration warns once.
+        """
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            where = read_klipper_config(path).live
+        if not where:
+            return None
+        remove = f"remove the [include {LIVE_SECTION_FILE}]"
+        return LiveCorrection(str(path), where, LIVE_OFF, LIVE_ON, remove)
 
     def config_files(self, path: str | Path) -> tuple[Path, ...]:
         """``printer.cfg`` and every file it includes (:attr:`~.config.KlipperConfig.files`).

@@ -22,6 +22,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
+from ..live_correction import LiveCorrection
 from ..probing import MANUAL_TO_IDENTIFY, ProbeTravel, probe_program, probe_travel
 from .config import KlipperConfig
 from .log import PROBE_SECTIONS
@@ -83,9 +84,10 @@ def klipper_manual_heights(config: KlipperConfig) -> str | None:
 
 
 def klipper_probe_program(points: np.ndarray, title: str = "",
-                          clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                          clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                          live: LiveCorrection | None = None) -> str:
     """The program that homes (``G28``) and runs ``PROBE`` above each point in order.
 
     :func:`~..probing.probe_program` with Klipper's words (its arguments, values and errors).
     """
-    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)
+    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance, live)

@@ -21,6 +21,7 @@ from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ...files.importer import PrinterImport
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..live_correction import LiveCorrection
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
 from ..value_keys import ValueKey
@@ -130,9 +131,10 @@ class Marlin(Firmware[MarlinDelta]):
         return {f"{self.title} G33 (P{DEFAULT_POINTS})": result.values}
 
     def probe_program(self, points: np.ndarray, title: str = "",
-                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                      live: LiveCorrection | None = None) -> str:
         """:func:`~.probing.marlin_probe_program` (``G28``, then ``G30`` with the nozzle above each point)."""
-        return marlin_probe_program(points, title, clearance)
+        return marlin_probe_program(points, title, clearance, live)
 
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.marlin_probe_travel`: above ``-M851 Z`` of the ``M503`` capture."""

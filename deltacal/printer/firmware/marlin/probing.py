@@ -17,6 +17,7 @@ import numpy as np
 
 from ....exceptions import InputError
 from ..base import PROBE_CLEARANCE
+from ..live_correction import LiveCorrection
 from ..probing import MANUAL_TO_IDENTIFY, ProbeTravel, probe_program, probe_travel
 from .settings import MarlinSettings
 
@@ -63,9 +64,10 @@ def marlin_manual_heights(settings: MarlinSettings) -> str | None:
 
 
 def marlin_probe_program(points: np.ndarray, title: str = "",
-                         clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                         clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                         live: LiveCorrection | None = None) -> str:
     """The program that homes (``G28``) and runs ``G30`` with the nozzle above each point in order.
 
     :func:`~..probing.probe_program` with Marlin's words (its arguments, values and errors).
     """
-    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)
+    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance, live)

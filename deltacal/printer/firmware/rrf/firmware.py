@@ -21,6 +21,7 @@ from ....gcode.dialect import Dialect
 from ....geometry import DeltaGeometry, Workspace
 from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
+from ..live_correction import LiveCorrection
 from ..owner_keys import OwnerKeys
 from ..value_keys import ValueKey
 from .apply import rrf_apply_note, rrf_config_files
@@ -168,9 +169,10 @@ class RRF(Firmware[RRFDelta]):
                 for s in (DEFAULT_FACTORS, TILT_FACTORS)}
 
     def probe_program(self, points: np.ndarray, title: str = "",
-                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                      live: LiveCorrection | None = None) -> str:
         """:func:`~.probing.rrf_probe_program` (``G28``, then an echo and ``G30 S-1`` above each point)."""
-        return rrf_probe_program(points, title, clearance)
+        return rrf_probe_program(points, title, clearance, live)
 
     def probe_travel(self, path: str | Path) -> ProbeTravel:
         """:func:`~.probing.rrf_probe_travel`: ``G31 Z`` + ``M558 H`` of ``config.g`` (``M501`` followed).

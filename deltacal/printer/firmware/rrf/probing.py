@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..base import PROBE_CLEARANCE
+from ..live_correction import LiveCorrection
 from ..probing import ProbeTravel, probe_program, probe_travel
 from .config import DEFAULT_TRIGGER_HEIGHT, RRFSettings
 
@@ -58,9 +59,10 @@ def rrf_probe_travel(settings: RRFSettings) -> ProbeTravel:
 
 
 def rrf_probe_program(points: np.ndarray, title: str = "",
-                      clearance: float | ProbeTravel = PROBE_CLEARANCE) -> str:
+                      clearance: float | ProbeTravel = PROBE_CLEARANCE,
+                      live: LiveCorrection | None = None) -> str:
     """The program that homes (``G28``), then echoes each point and runs ``G30 S-1`` above it, in order.
 
     :func:`~..probing.probe_program` with RepRapFirmware's words (its arguments, values and errors).
     """
-    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance)
+    return probe_program(points, ANSWERS, NOTES, probe_lines, title, clearance, live)

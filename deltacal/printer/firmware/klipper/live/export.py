@@ -26,7 +26,7 @@ from .....calibration import Calibration
 from .....exceptions import InputError, UsageError
 from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....io.atomic import atomic_write_text
-from ..config import load_klipper
+from ..config import LIVE_OFF, LIVE_SECTION, LIVE_SECTION_FILE, load_klipper
 from ..model import KlipperController, KlipperDelta
 from .deltacal_geometry import FORMAT, TOWERS
 from .field import (
@@ -42,9 +42,9 @@ from .field import (
 )
 
 #: The module's file: copied into ``klippy/extras/``.
-MODULE_FILE = "deltacal_geometry.py"
+MODULE_FILE = f"{LIVE_SECTION}.py"
 #: The section's file: ``[include]``d in ``printer.cfg``.
-SECTION_FILE = "deltacal_geometry.cfg"
+SECTION_FILE = LIVE_SECTION_FILE
 #: The files ``export --live`` writes, in its output folder.
 LIVE_FILES = (MODULE_FILE, SECTION_FILE)
 #: How far a long move's nozzle may leave its straight line [mm]: below a step (0.0125 mm on most
@@ -56,8 +56,7 @@ VALUE_UNIT_MM = 1e-6
 LINE_CHARS = 76
 #: How to install it, as the export says and the section's header repeats.
 INSTALL_NOTE = ("copy deltacal_geometry.py into klippy/extras/, add [include deltacal_geometry.cfg] to "
-                "printer.cfg and restart Klipper; DELTACAL_GEOMETRY reports it, DELTACAL_GEOMETRY ENABLE=0 "
-                "turns it off")
+                f"printer.cfg and restart Klipper; DELTACAL_GEOMETRY reports it, {LIVE_OFF} turns it off")
 
 
 @dataclass(frozen=True)
