@@ -130,7 +130,7 @@ def test_a_row_flagged_only_by_the_drag_of_a_gross_one_is_cleared():
     assert stand_out(design, r, measurement, kind, np.array([], dtype=int)).tolist() == []
 
     def fit(kept):  # a linear "fit": the residuals and regressor (3 x the design: all seen) do not change
-        return r, 3.0 * design
+        return r, 3.0 * design, np.zeros(5)
 
     found = find_outliers(fit, measurement, kind)
     assert found.indices.tolist() == [7] and found.kept.tolist() == [m != 7 for m in range(60)]

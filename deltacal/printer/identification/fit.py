@@ -575,13 +575,13 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
     error_model = get_model(model) if isinstance(model, str) else model
     given = options.tolerances or Tolerances.printer_kit()
 
-    def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)
         scale, noise, _ = _tolerance_scale(start, subset, error_model, given, options)
         factor = error_model.prior_factor(scaled_tolerances(given, scale), start, options.calibrated_start)
-        geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[1]
+        total, geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[:2]
         r, W, _ = residuals_and_regressor(geometry, error_model, data)
-        return r, W @ factor
+        return r, W @ factor, solve_triangular(factor, total, lower=True)
 
     _, _, kind = residuals_and_regressor(start, error_model, data)
     return find_outliers(fit, measurement_of_rows(data), kind)

@@ -48,6 +48,8 @@ from ..requests import IdentifyRequest
 HEIGHTS_GRID = 7
 #: Probe heights fewer than this are not checked for their spread (a few may agree by chance).
 MIN_HEIGHTS_SPREAD = 5
+#: Measurements named at most in one clause of a refusal.
+MAX_NAMED = 3
 
 
 def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) -> Done:
@@ -78,6 +80,7 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
                                 calibrated_start=firmware.calibrated_from_saved(request.controller))
     start = printer.geometry()
     _check_assembled(start, data, files, printer.name)
+    found = None
     if not request.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
@@ -85,8 +88,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     try:
         result = identify_printer(start, data, model, options=options)
     except PoorFitError as exc:
-        raise IdentificationError(f"{paths[0]}: {exc}; nothing written (--accept-poor-fit keeps such a "
-                                  "fit)") from None
+        raise IdentificationError(f"{_dominant(exc.result, data, files)}: {exc}{_single(found, files)}; "
+                                  "nothing written (--accept-poor-fit keeps such a fit)") from None
     save_calibration(replace(Calibration.from_result(result), controller=config.record()), request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
@@ -284,5 +287,43 @@ def _outlier_error(found: Outliers, data: PrinterMeasurements, files: _Files) ->
     more = f"; {found.indices.size} measurements in all, also {others}" if found.indices.size > 1 else ""
     return InputError(f"{column} = {value:g} mm does not fit the other measurements: they give "
                       f"{expected:.6g} mm ({abs(value - expected):.3g} mm, {abs(r):.0f} σ of a {what} off: "
-                      f"a typo?); correct or delete the row, or keep it with --accept-poor-fit{more}",
+                      "a typo, a misread caliper?); measure it again and correct the row, or delete the row "
+                      f"to identify without it, or keep it with --accept-poor-fit{more}",
                       files.sources[k][0], f"{files.place(k)[1]}, column {column}")
+
+
+def _dominant(result, data: PrinterMeasurements, files: _Files) -> str:
+    """The file whose rows hold the most of a fit's misfit (χ² in units of each row's σ), and its share."""
+    residual = np.asarray(result.residual_after, dtype=float)
+    N, M = data.probe.shape[0], data.distance.shape[0]
+    sigma = np.r_[np.full(N, data.height_sigma), np.full(M, data.distance_sigma)]
+    if residual.size != N + M:
+        return files.sources[0][0]
+    share: dict[str, float] = {}
+    for k, (source, _) in enumerate(files.sources):
+        share[source] = share.get(source, 0.0) + float((residual[k] / sigma[k]) ** 2)
+    total = sum(share.values())
+    name = max(share, key=lambda path: (share[path], -list(share).index(path)))  # the first on equal shares
+    return f"{name} (its rows hold {100.0 * share[name] / total:.0f} % of the misfit)" if total > 0 else name
+
+
+def _single(found: Outliers | None, files: _Files) -> str:
+    """What one measurement's error would explain of a poor fit, in clauses ("" when nothing).
+
+    Several measurements any one of which, left out, leaves the others at their noise (the others
+    cannot tell which); measurements whose own error the others would not see.
+    """
+    if found is None:
+        return ""
+    out = ""
+    if found.undecided.size:
+        where = "; ".join(files.where(int(k)) for k in found.undecided[:MAX_NAMED])
+        more = f" and {found.undecided.size - MAX_NAMED} more" if found.undecided.size > MAX_NAMED else ""
+        out += (f"; or one of {where}{more} is off: without any one of them the others fit, and they cannot "
+                "tell which (measure those again)")
+    if found.unseen.size:
+        where = "; ".join(files.where(int(k)) for k in found.unseen[:MAX_NAMED])
+        more = f" and {found.unseen.size - MAX_NAMED} more" if found.unseen.size > MAX_NAMED else ""
+        out += (f"; the other measurements would not see an error in {where}{more} alone (nothing checks "
+                "it: measure it with care)")
+    return out
