@@ -146,7 +146,7 @@ def test_a_mistyped_distance_is_refused_by_its_line(tmp_path, measured, capsys):
     err = capsys.readouterr().err
     assert "d.csv: line 9 (data row 8), column distance_mm: distance_mm = " in err
     off = float(err.split("mm (")[1].split(" mm,")[0])  # what the reading is off by, about the others' fit
-    assert abs(off - 2.0) < 0.1 and "σ of a distance off: a typo?" in err
+    assert abs(off - 2.0) < 0.1 and "σ of a distance off: a typo, a misread caliper?" in err
 
 
 @pytest.mark.parametrize(("change", "expected"), [
