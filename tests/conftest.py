@@ -1,3 +1,4 @@
+import contextlib
 import csv
 import importlib.util
 import os
@@ -152,3 +153,30 @@ def klipper(tmp_path_factory) -> Path:
 
     (copy / "klippy" / "extras" / "deltacal_geometry.py").write_text(module_text(), encoding="utf-8")
     return copy
+
+
+#: Modules the library imports inside the functions that need them.
+IMPORTED_WHERE_NEEDED = ("scipy.stats", "scipy.optimize", "scipy.spatial.transform", "trimesh",
+                         "trimesh.creation", "matplotlib.pyplot", "meshcat", "meshcat.geometry",
+                         "meshcat.animation")
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _imported_once():
+    """What the library imports where it is needed (scipy.stats, scipy.optimize, trimesh, matplotlib,
+    meshcat, the command line's subcommands), imported once for the session: a module's import is no
+    test's own time (tests/budget.py charges a shared fixture's time to none)."""
+    import importlib
+    import warnings
+
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)  # as the library does before pyplot (deltacal.report.figures)
+    with warnings.catch_warnings():  # meshcat's own imports warn (pyzmq's deprecated event loop)
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for name in IMPORTED_WHERE_NEEDED:
+            with contextlib.suppress(ImportError):
+                importlib.import_module(name)
+    from deltacal.cli.main import build_parser
+
+    build_parser()  # imports every subcommand's module
