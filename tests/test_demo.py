@@ -7,6 +7,7 @@ import sys
 import pytest
 from conftest import ROOT
 
+from deltacal.cli import main
 from deltacal.demo import demo_results, markdown_table
 
 
@@ -42,9 +43,21 @@ def test_demo_runs_from_any_folder_and_writes_results(demo_from_elsewhere):
     assert len(summary["validation"]) == 2 * (1 + 4 * 3)
 
 
-@pytest.mark.parametrize("seed", [2015, pytest.param(31, marks=pytest.mark.long)])
-def test_demo_figures(seed):
-    summary = demo_results(seed=seed).summary  # run_demo writes it, and its files (the test above)
+def test_a_seed_that_is_not_a_number_is_refused_in_one_line(capsys, tmp_path):
+    assert main(["demo", "--seed", "abc", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--seed" in err and "'abc'" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("seed", [pytest.param(2015, marks=pytest.mark.slow),
+                                  pytest.param(31, marks=pytest.mark.long)])
+def test_demo_figures(seed, request):
+    if seed == 2015:  # the command's own run (the test above): its demo.json, the demo computed once
+        out, _ = request.getfixturevalue("demo_from_elsewhere")
+        summary = json.loads((out / "demo.json").read_text())
+    else:
+        summary = demo_results(seed=seed).summary  # run_demo writes it, and its files
     complete = _row(summary, "tool 200 mm", "complete", "exact")
     classical = _row(summary, "tool 200 mm", "classical", "exact")
     before = _row(summary, "tool 200 mm", "uncalibrated", "-")
