@@ -93,6 +93,24 @@ def copy_object_plan(planned: Path, folder: Path, plan: str = "plan") -> Path:
     return folder / "printer.cfg"
 
 
+@pytest.fixture(scope="session")
+def kossel_identified(tmp_path_factory, kossel_object_plan) -> Path:
+    """The Kossel of :func:`kossel_object_plan` simulated (``--perturb 5``) and identified through its
+    printer.cfg: a folder with printer.cfg, obj/ (the plan), probe.csv, d.csv and cal.toml, made once for
+    the session. A test file copies it (``shutil.copytree(..., dirs_exist_ok=True)``) before writing."""
+    from deltacal.cli import main
+
+    folder = tmp_path_factory.mktemp("kossel_identified")
+    cfg = copy_object_plan(kossel_object_plan, folder, "obj")
+    plan, kossel = folder / "obj", MODELS / "kossel.toml"
+    assert main(["simulate", str(kossel), str(plan / "probe.csv"), str(plan / "distances.csv"),
+                 "--controller", str(cfg), "--perturb", "5", "-o", str(folder / "probe.csv"),
+                 "--distances-output", str(folder / "d.csv")]) == 0
+    assert main(["identify", str(kossel), str(folder / "probe.csv"), str(folder / "d.csv"),
+                 "--controller", str(cfg), "-o", str(folder / "cal.toml")]) == 0
+    return folder
+
+
 def workspace_points(nominal: NominalDelta, n: int, rng: np.random.Generator) -> np.ndarray:
     """Random points in the workspace cylinder [mm]."""
     ws = nominal.workspace

@@ -7,11 +7,12 @@ exported values are not refused.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import MODELS, copy_object_plan, kossel_printer_cfg
+from conftest import MODELS, kossel_printer_cfg
 
 from deltacal.cli import main
 from deltacal.exceptions import InputError
@@ -118,16 +119,10 @@ def test_simulate_and_plan_refuse_another_printers_configuration(tmp_path, capsy
 
 
 @pytest.fixture(scope="module")
-def calibrated(tmp_path_factory, kossel_object_plan):
+def calibrated(tmp_path_factory, kossel_identified):
     """A Kossel identified through its printer.cfg (plan --object, simulate, identify; seed 5)."""
     folder = tmp_path_factory.mktemp("same_printer")
-    cfg = copy_object_plan(kossel_object_plan, folder, "obj")
-    plan = folder / "obj"
-    assert main(["simulate", str(KOSSEL), str(plan / "probe.csv"), str(plan / "distances.csv"),
-                 "--controller", str(cfg), "--perturb", "5", "-o", str(folder / "probe.csv"),
-                 "--distances-output", str(folder / "d.csv")]) == 0
-    assert main(["identify", str(KOSSEL), str(folder / "probe.csv"), str(folder / "d.csv"),
-                 "--controller", str(cfg), "-o", str(folder / "cal.toml")]) == 0
+    shutil.copytree(kossel_identified, folder, dirs_exist_ok=True)
     targets = folder / "targets.csv"
     targets.write_text("x_mm,y_mm,z_mm\n0,0,0.2\n40,-30,10\n")
     program = folder / "part.gcode"
