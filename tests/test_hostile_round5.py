@@ -23,7 +23,7 @@ from deltacal.cli import main
 from deltacal.controller import Controller, corrected_targets, weighted_targets
 from deltacal.errormodels import get_model
 from deltacal.exceptions import InputError
-from deltacal.io import load_calibration
+from deltacal.io import load_calibration, load_nominal, save_geometry
 from deltacal.printer.firmware.klipper.config import load_klipper
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.live.field import LiveVolume, correction_field
@@ -193,3 +193,16 @@ def test_compensate_of_a_printer_calibration_without_controller_says_to_give_it(
     err = _one_line(capsys)
     assert f"{printer['held']} is a printer's calibration: give --controller" in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("option", [["--refuse-unheld"], ["--sigma-bound", "0.2"]])
+def test_the_holds_options_without_a_controller_are_refused(tmp_path, capsys, option):
+    """Before: a rotary Delta's joints were written, the option ignored without a word."""
+    rotary, targets, out = tmp_path / "r.toml", tmp_path / "t.csv", tmp_path / "j.csv"
+    save_geometry(load_nominal(MODELS / "bai2015.toml").geometry(), rotary)
+    targets.write_text("x_mm,y_mm,z_mm\n0,0,-900\n")
+    assert main(["compensate", str(rotary), str(targets), "-o", str(out), *option]) == 2
+    err = _one_line(capsys)
+    assert f"{' '.join(option)} applies with --controller" in err, err
+    assert not out.exists()
+    assert main(["compensate", str(rotary), str(targets), "-o", str(out)]) == 0  # without it: the joints

@@ -406,6 +406,10 @@ class CompensateRequest:
                              "positive")
         if self.firmware is not None and self.controller is None:
             raise UsageError("--firmware applies with --controller (the firmware's configuration)")
+        if self.controller is None and (self.refuse_unheld or self.sigma_bound != DEFAULT_BOUND):
+            option = "--refuse-unheld" if self.refuse_unheld else f"--sigma-bound {self.sigma_bound:g}"
+            raise UsageError(f"{option} applies with --controller: it bounds a printer's corrections of its "
+                             "firmware's commands, where its calibration holds")
         _check_firmware(self.firmware)
         if self.method not in METHODS:
             raise UsageError(f"--method {self.method}: one of {', '.join(METHODS)}")
