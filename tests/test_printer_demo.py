@@ -16,6 +16,7 @@ from deltacal.io import load_calibration
 from deltacal.printer.demo import ROWS, SEED, printer_table
 from deltacal.printer.files.measurements import read_printed_distances, read_probe_heights
 from deltacal.printer.firmware.klipper.config import load_klipper
+from deltacal.printer.firmware.klipper.firmware import KLIPPER
 
 FILES = ("printer.cfg", "object.stl", "probe.csv", "distances.csv", "probe_measured.csv",
          "distances_measured.csv", "printer_calibration.toml", "printer_calibrated.cfg", "part.gcode",
@@ -50,7 +51,13 @@ def test_printer_demo_writes_the_whole_path(demo):
     # what a user hands over reads back: the measurements, the calibration, both configurations
     assert len(read_probe_heights(out / "probe_measured.csv").commanded) == summary["probe_points"] == 49
     assert len(read_printed_distances(out / "distances_measured.csv").distance) == summary["distances"] == 40
-    assert load_calibration(out / "printer_calibration.toml").geometry.joint == "prismatic"
+    calibration = load_calibration(out / "printer_calibration.toml")
+    assert calibration.geometry.joint == "prismatic"
+    # it records the configuration it was measured through, as identify's does (issue 46)
+    assert calibration.controller is not None and calibration.controller.firmware == "klipper"
+    assert calibration.controller.values["stepper_a.position_endstop"] == pytest.approx(
+        load_klipper(out / "printer.cfg").position_endstop[0])
+    assert calibration.controller.changes(KLIPPER.values_read(load_klipper(out / "printer.cfg"))) == []
     nominal = load_klipper(out / "printer.cfg")
     assert (out / "printer_calibrated.cfg").read_text().count("position_endstop:") == 3
     assert nominal.delta_radius == pytest.approx(134.4)

@@ -28,10 +28,12 @@ from __future__ import annotations
 import json
 import re
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from ..calibration import Calibration
 from ..controller import corrected_targets
 from ..gcode import DEFAULT_SEGMENT_MM, filter_gcode, marker_line
 from ..io import atomic_write_text, load_calibration, save_calibration, write_stl
@@ -50,6 +52,7 @@ from .comparison import (
 from .files.measurements import write_printed_distances, write_probe_heights
 from .files.robot_file import load_printer
 from .firmware.base import Firmware, FirmwareModel
+from .firmware.config_file import FirmwareConfig
 from .firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
 from .firmware.klipper.firmware import KLIPPER
 from .printed.plan import plan_object
@@ -138,7 +141,14 @@ def _admit_bed(run: PrinterRun, cfg: Path) -> FirmwareModel:
                              notes=[f"{firmware.minimum_z_key} admits "
                                     f"the bed corrected by deltacal over radius {WORKSPACE.radius:g} mm "
                                     "(part_corrected.gcode)"])
+        _record(firmware, cfg, cfg.parent / "printer_calibration.toml")  # the configuration as it stays
     return firmware.read_config(cfg)
+
+
+def _record(firmware: Firmware, cfg: Path, path: Path) -> None:
+    """The calibration at ``path`` recording ``cfg`` as its controller (identify's ``[controller]``)."""
+    record = FirmwareConfig.read(firmware, cfg).record()
+    save_calibration(replace(load_calibration(path), controller=record), path)
 
 
 def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: bool = False,
@@ -170,7 +180,10 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
     run = run_printer(printer, plan, seed, tolerances, tilt, (FIRST_LAYER_WEIGHT,), firmware_type=firmware)
     write_probe_heights(out_dir / "probe_measured.csv", run.probe[:, :2], run.probe[:, 2])
     write_printed_distances(out_dir / "distances_measured.csv", plan.pair_positions, run.distances)
-    save_calibration(run.result, out_dir / "printer_calibration.toml")
+    # what identify records: the configuration the measurements were made through (compensate compares it)
+    record = FirmwareConfig.read(firmware, cfg).record()
+    save_calibration(replace(Calibration.from_result(run.result), controller=record),
+                     out_dir / "printer_calibration.toml")
     own = [name for name in run.configs if name not in (UNCALIBRATED, exported_name(FIRST_LAYER_WEIGHT))]
     progress(f"true printer (seed {seed}, typical kit) measured and identified: variance factor "
              f"{run.result.variance_factor:.2f} (printer_calibration.toml); "
