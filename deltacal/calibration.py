@@ -32,6 +32,7 @@ from .identification.columns import COMPLIANCE, COMPLIANCE_NAMES, FRAME, GEOMETR
 from .identification.frames import InstrumentFrame, axes_motion
 from .identification.options import Method
 from .identification.result import IdentificationResult, ResidualStats
+from .measured_record import MeasuredRecord
 from .towers import written_per_tower
 
 #: The unit of a base parameter's value and σ: a length, an angle or an actuator's compliance.
@@ -164,6 +165,10 @@ class Calibration:
         controller: The firmware configuration a printer's calibration was identified with
             (:class:`~deltacal.controller_record.ControllerRecord`: the file's ``[controller]``); None for
             a rotary Delta's, or a file written before it was recorded.
+        measured: What a printer's calibration was identified from, and how
+            (:class:`~deltacal.measured_record.MeasuredRecord`: the file's ``[measured]``), to identify it
+            again against another controller's values; None for a rotary Delta's, or a file written
+            before it was recorded.
         source: The file it was read from ("" when built in memory).
     """
 
@@ -187,6 +192,7 @@ class Calibration:
     compliance_sigma: np.ndarray | None = None
     holds: WhereItHolds | None = None
     controller: ControllerRecord | None = None
+    measured: MeasuredRecord | None = None
     source: str = ""
 
     @classmethod

@@ -46,6 +46,7 @@ from deltacal.io.atomic import atomic_write_text
 from deltacal.printer.comparison import CLASSES, DISTANCE_SIGMA, PROBE_RADIUS, PROBE_SIGMA
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.base import undetermined_values
+from deltacal.printer.firmware.config_file import FirmwareConfig
 from deltacal.printer.firmware.fitting import printable_grid
 from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper
@@ -53,7 +54,8 @@ from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
 from deltacal.printer.firmware.klipper.importer import import_klipper
 from deltacal.printer.firmware.klipper.model import KlipperDelta
-from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer
+from deltacal.printer.identification.anchor import measured_record
+from deltacal.printer.identification.fit import PrinterFitOptions, PrinterMeasurements, identify_printer
 from deltacal.printer.robot import in_plane_motion, less_bed_motion
 from deltacal.printer.simulation import nozzle_positions, probe_heights, random_true_printer
 
@@ -131,21 +133,34 @@ def read_real_run(path: Path) -> RealRun:
     return RealRun(path.stem, path, printer.geometry(), step, data)
 
 
-def calibrate(nominal: DeltaGeometry, data: PrinterMeasurements) -> tuple[Calibration, dict]:
-    """``identify``'s calibration of the measurements, and its fit's figures."""
-    result = identify_printer(nominal, data, "printer", calibrated_start=True)  # a saved DELTA_CALIBRATE
-    return Calibration.from_result(result), {"s0_squared": float(result.variance_factor),
-                                             "hints": list(result.hints), "warnings": list(result.warnings)}
+def calibrate(nominal: DeltaGeometry, data: PrinterMeasurements, config: Path | None = None
+              ) -> tuple[Calibration, dict]:
+    """``identify``'s calibration of the measurements (through ``config``, recorded), and its figures."""
+    options = PrinterFitOptions(calibrated_start=True)  # a saved DELTA_CALIBRATE
+    result = identify_printer(nominal, data, "printer", options=options)
+    calibration = Calibration.from_result(result)
+    if config is not None:  # what identify records: the controller, the measurements
+        calibration = replace(calibration, controller=FirmwareConfig.read(KLIPPER, config).record(),
+                              measured=measured_record(data, options, result.tolerance_scale))
+    return calibration, {"s0_squared": float(result.variance_factor),
+                         "hints": list(result.hints), "warnings": list(result.warnings)}
 
 
-def real_printer(paths: list[Path]) -> dict:
-    """Each run identified alone, the same targets compensated through the first run's printer.cfg."""
+def real_printer(paths: list[Path], anchored: bool = True) -> dict:
+    """Each run identified alone, the same targets compensated through the first run's printer.cfg.
+
+    ``anchored``: each run's calibration re-anchored to that printer.cfg's values, as ``compensate``
+    does (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.anchor`); else as identified.
+    """
     runs = [read_real_run(p) for p in paths]
-    controller = KLIPPER.controller(load_klipper(paths[0]), runs[0].step)
+    config = FirmwareConfig.read(KLIPPER, paths[0])
+    controller = KLIPPER.controller(config.values, runs[0].step)
     layers = {z: disc(REAL_RADIUS, z) for z in REAL_HEIGHTS}
     commands, weights, fits = [], [], []
     for run in runs:
-        calibration, fit = calibrate(run.nominal, run.data)
+        calibration, fit = calibrate(run.nominal, run.data, run.path)
+        if anchored:  # as compensate does through the first run's printer.cfg: re-anchored to its values
+            calibration, _ = config.anchor(calibration, run.name)
         per_layer = {z: commands_of(calibration, controller, t) for z, t in layers.items()}
         offset = bed_offset(calibration, controller, layers[0.2])
         move, turn = first_layer_motion(layers[0.2], per_layer[0.2][0] - layers[0.2])
@@ -236,12 +251,18 @@ class SimulatedRun:
     data: PrinterMeasurements
 
 
-def simulate(seed: int, label: str, effect: str, folder: Path) -> SimulatedRun:
-    """A seeded printer of a class, measured and calibrated by Klipper, saved, imported (the module's)."""
+def simulate(seed: int, label: str, effect: str, folder: Path, again: int = 0) -> SimulatedRun:
+    """A seeded printer of a class, measured and calibrated by Klipper, saved, imported (the module's).
+
+    ``again``: the same printer measured and calibrated again (its owner re-ran Klipper's
+    calibration: fresh noise, the ``again``-th time; 0: the first).
+    """
     printer = load_printer(KOSSEL)
     tolerances, tilt = CLASSES[label]
     rng = np.random.default_rng(seed)
     truth = random_true_printer(printer, rng, tolerances, tilt).geometry
+    if again:
+        rng = np.random.default_rng([seed, again])
     nominal = replace(KlipperDelta.from_printer(printer), print_radius=PROBE_RADIUS)  # as its owner sets it
     step = np.asarray(printer.step_distance, dtype=float) * np.ones(3)
     xy = probe_points(PROBE_RADIUS)
@@ -261,7 +282,7 @@ def simulate(seed: int, label: str, effect: str, folder: Path) -> SimulatedRun:
     text = saved_config(klipper_config_text(nominal, complete=True), klipper, nominal.steps(probe),
                         np.full(len(probe), Z_OFFSET), nominal.steps(pairs.reshape(-1, 3)).reshape(-1, 2, 3),
                         distances)
-    config = folder / f"printer-{seed}-{effect.replace(' ', '-')}.cfg"
+    config = folder / f"printer-{seed}-{effect.replace(' ', '-')}{f'-again{again}' if again else ''}.cfg"
     config.write_text(text)
     run = read_real_run(config)
     return SimulatedRun(truth, effect, step, load_klipper(config), config, run.nominal, run.data)

@@ -40,6 +40,7 @@ LAYERS = {
     "identification": 35,
     "holds": 34,  # where a printer's calibration holds: its σ grid, read by calibration and above
     "controller_record": 34,  # the firmware configuration a printer's calibration was measured against
+    "measured_record": 34,  # what a printer's calibration was identified from, to re-anchor it
     "compensation": 33,
     "observations": 30,
     "identifiability": 30,

@@ -92,6 +92,7 @@ class IdentificationResult:
         columns: The record (name, kind, unit) of each parameter of ``base.names``, in order.
         holds: Where a printer's calibration holds: the σ of its nozzle correction over the
             printable volume (:class:`~deltacal.holds.WhereItHolds`), or None (a rotary Delta's).
+        tolerance_scale: The factor a printer's fit took its build tolerances by (nan: not a printer's).
     """
 
     model: str
@@ -120,6 +121,7 @@ class IdentificationResult:
     confounded: tuple[str, ...] = ()
     columns: tuple[Column, ...] = ()
     holds: WhereItHolds | None = None
+    tolerance_scale: float = float("nan")
 
     def __post_init__(self) -> None:
         if len(self.columns) != len(self.base.names):

@@ -25,6 +25,7 @@ from ..holds import WhereItHolds
 from ..identification import IdentificationResult, ResidualStats
 from ..identification.frames import InstrumentFrame
 from ..identification.options import Method
+from ..measured_record import MeasuredRecord
 from .atomic import atomic_write_text
 from .geometry_file import (
     CALIBRATION_FORMAT,
@@ -122,6 +123,8 @@ def calibration_to_dict(calibration: Calibration) -> dict:
         data["holds"] = holds_to_dict(cal.holds)
     if cal.controller is not None:
         data["controller"] = controller_to_dict(cal.controller)
+    if cal.measured is not None:
+        data["measured"] = measured_to_dict(cal.measured)
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
@@ -204,6 +207,55 @@ def controller_from_dict(data: Mapping, source: str) -> ControllerRecord | None:
         raise t.error("digest", f"must be a sha256 in 64 lower-case hex digits, got {digest!r}")
     return ControllerRecord(t.string("firmware"), t.string("source"), digest,
                             {str(key): values.number(str(key)) for key in raw})
+
+
+#: ``[measured]`` keys: the readings and distances, the σ given, the fit's choices.
+MEASURED_KEYS = ("probe_readings_mm", "trigger_height_mm", "pair_readings_mm", "distance_mm",
+                 "probe_offset_mm",
+                 "height_sigma_mm", "distance_sigma_mm", "tolerance_scale", "calibrated_start", "method",
+                 "workspace_mm")
+
+
+def measured_to_dict(record: MeasuredRecord) -> dict:
+    """A calibration's ``[measured]`` table (each pair's readings as one row of 6)."""
+    out = {"probe_readings_mm": record.probe.tolist(), "trigger_height_mm": record.trigger_height.tolist(),
+           "pair_readings_mm": record.pairs.reshape(-1, 6).tolist(), "distance_mm": record.distance.tolist(),
+           "probe_offset_mm": record.probe_offset.tolist(), "height_sigma_mm": float(record.height_sigma),
+           "distance_sigma_mm": float(record.distance_sigma),
+           "tolerance_scale": float(record.tolerance_scale),
+           "calibrated_start": bool(record.calibrated_start), "method": record.method}
+    if record.workspace is not None:
+        out["workspace_mm"] = list(record.workspace)
+    return out
+
+
+def measured_from_dict(data: Mapping, source: str) -> MeasuredRecord | None:
+    """The ``[measured]`` table of a calibration file, checked; None when it has none (an older file)."""
+    if "measured" not in data:
+        return None
+    t = TomlTable(data, source).table("measured")
+    assert t is not None
+    t.check_unknown(MEASURED_KEYS)
+
+    def rows(key: str, width: int) -> np.ndarray:
+        raw = t.raw(key)
+        return t.array_value(key, raw, (len(raw) if isinstance(raw, list) else -1, width))
+
+    probe, pairs = rows("probe_readings_mm", 3), rows("pair_readings_mm", 6)
+    trigger, distance = t.vector("trigger_height_mm", (len(probe),)), t.vector("distance_mm", (len(pairs),))
+    flag = t.raw("calibrated_start")
+    if not isinstance(flag, bool):
+        raise t.error("calibrated_start", f"must be true or false, got {shown_value(flag)}")
+    workspace = tuple(t.vector("workspace_mm", (3,)).tolist()) if t.has("workspace_mm") else None
+    try:
+        return MeasuredRecord(probe, trigger, pairs.reshape(-1, 2, 3), distance,
+                              t.vector("probe_offset_mm", (3,)),
+                              t.number("height_sigma_mm", positive=True),
+                              t.number("distance_sigma_mm", positive=True),
+                              t.number("tolerance_scale", positive=True), flag, t.string("method"),
+                              cast(tuple[float, float, float] | None, workspace))
+    except ValueError as exc:
+        raise t.error("method", str(exc)) from None
 
 
 def load_instrument(path: str | Path) -> dict[str, InstrumentFrame]:
@@ -295,6 +347,7 @@ def load_calibration(path: str | Path) -> Calibration:
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
         frames=_frames(data, source), source=source, compliance_sigma=_compliance_sigma(data, source),
         holds=holds_from_dict(data, source), controller=controller_from_dict(data, source),
+        measured=measured_from_dict(data, source),
     )
     calibration.check()
     return calibration

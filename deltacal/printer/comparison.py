@@ -134,6 +134,7 @@ class PrinterRun:
         configs: The firmware's values of each method by name (uncalibrated, its own calibrations,
             exported, best possible).
         firmware_type: The firmware (its object: Klipper, Marlin, RepRapFirmware).
+        data: The measurements identified, at the readings the firmware commanded (None: not kept).
     """
 
     truth: TruePrinter
@@ -144,6 +145,7 @@ class PrinterRun:
     result: IdentificationResult
     configs: dict[str, FirmwareModel] = field(default_factory=dict)
     firmware_type: Firmware = KLIPPER
+    data: PrinterMeasurements | None = None
 
 
 def plan_measurements(firmware: FirmwareModel, step_distance: np.ndarray | float, plan: ObjectPlan,
@@ -218,7 +220,7 @@ def run_printer(printer: NominalLinearDelta, plan: ObjectPlan, seed: int, tolera
         layer = nozzle_errors(truth, configs[exported_name(w)], step, first_layer(WORKSPACE))[:, 2]
         configs[best_name(w)] = firmware_type.fit(truth, firmware, step, WORKSPACE, first_layer_weight=w,
                                                   minimax=True, flatness=float(np.max(np.abs(layer)))).values
-    return PrinterRun(made, firmware, step, probe, distances, result, configs, firmware_type)
+    return PrinterRun(made, firmware, step, probe, distances, result, configs, firmware_type, data)
 
 
 def gcode_commands(run: PrinterRun, targets: np.ndarray) -> np.ndarray:

@@ -55,6 +55,8 @@ from .firmware.base import Firmware, FirmwareModel
 from .firmware.config_file import FirmwareConfig
 from .firmware.fitting import EXPORT_FIRST_LAYER_WEIGHT, nozzle_errors
 from .firmware.klipper.firmware import KLIPPER
+from .identification.anchor import measured_record
+from .identification.fit import PrinterFitOptions
 from .printed.plan import plan_object
 from .robot import less_bed_motion
 from .simulation import nozzle_positions
@@ -182,7 +184,9 @@ def run_printer_demo(out_dir: Path = Path("results"), seed: int = SEED, quick: b
     write_printed_distances(out_dir / "distances_measured.csv", plan.pair_positions, run.distances)
     # what identify records: the configuration the measurements were made through (compensate compares it)
     record = FirmwareConfig.read(firmware, cfg).record()
-    save_calibration(replace(Calibration.from_result(run.result), controller=record),
+    measured = None if run.data is None else measured_record(run.data, PrinterFitOptions(),
+                                                             run.result.tolerance_scale)
+    save_calibration(replace(Calibration.from_result(run.result), controller=record, measured=measured),
                      out_dir / "printer_calibration.toml")
     own = [name for name in run.configs if name not in (UNCALIBRATED, exported_name(FIRST_LAYER_WEIGHT))]
     progress(f"true printer (seed {seed}, typical kit) measured and identified: variance factor "

@@ -109,16 +109,17 @@ class Wing(ABC):
         """``deltacal export --controller KIND``: the controller's values that fit best, written."""
 
     def report_firmware(self, request: ReportRequest, calibration: Calibration
-                        ) -> tuple[Firmware[Any] | None, FirmwareModel | None, tuple[str, ...]]:
+                        ) -> tuple[Firmware[Any] | None, FirmwareModel | None, tuple[str, ...], Calibration]:
         """The firmware whose values a report fits (a printer's), or None (a rotary Delta's controller).
 
         And the firmware's values the measurements were commanded with (``--controller``), or None;
-        and what to say of them (values changed since the calibration: none by default).
+        what to say of them (values changed since the calibration: none by default); and the
+        calibration to report (re-anchored to changed values: a printer's).
 
         Raises:
             UsageError: an option of the other kind.
         """
-        return None, None, ()
+        return None, None, (), calibration
 
     def export_mjcf(self, request: ExportRequest, geometry: DeltaGeometry, stations: Sequence[str]) -> Done:
         """``deltacal export --mjcf``: the robot as an MJCF model, of either kind (:func:`write_mjcf`).
@@ -136,7 +137,7 @@ class Wing(ABC):
 
     def report(self, request: ReportRequest, calibration: Calibration) -> Done:
         """``deltacal report``: one self-contained HTML page of the calibration (:func:`write_report`)."""
-        firmware, controller, said = self.report_firmware(request, calibration)
+        firmware, controller, said, calibration = self.report_firmware(request, calibration)
         nominal = calibration.nominal
         truth = load_geometry(request.truth) if request.truth is not None else None
         robot = load_robot(request.robot) if request.robot is not None else None

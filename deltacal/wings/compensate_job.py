@@ -70,7 +70,7 @@ def compensate_targets(request: CompensateRequest, progress: Progress | None = N
     _warn_rigid_route(request, calibration.geometry.compliance)
     controller, said = None, cast(tuple[str, ...], ())
     if request.controller is not None:
-        controller, _, said = _controller(request, calibration, kind)
+        controller, _, said, calibration = _controller(request, calibration, kind)
     geometry, frames = calibration.geometry, calibration.instrument
     targets_file = TargetFile(request.targets)
     linear = None if request.method == "exact" else _linear(calibration, str(request.calibration))
@@ -137,7 +137,7 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
     calibration = load_calibration(request.calibration)
     calibration.where_held()  # each move's correction reads it: refused without
     _warn_rigid_route(request, calibration.geometry.compliance)
-    controller, config, said = _controller(request, calibration, kind)
+    controller, config, said, calibration = _controller(request, calibration, kind)
     if controller.interpolation != "cartesian":  # what splitting moves into corrected segments assumes
         raise UsageError(f"--controller {request.controller}: a controller interpolating in "
                          f"{controller.interpolation} space cannot be sent a corrected G-code program")
@@ -160,13 +160,14 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
                  *where_it_holds(calibration, request.sigma_bound)))
 
 
-def _controller(request: CompensateRequest, calibration: Calibration,
-                kind: Firmware[Any] | None) -> tuple[CommandModel, FirmwareConfig | None, tuple[str, ...]]:
+def _controller(request: CompensateRequest, calibration: Calibration, kind: Firmware[Any] | None
+                ) -> tuple[CommandModel, FirmwareConfig | None, tuple[str, ...], Calibration]:
     """``--controller``'s model (and its firmware ``kind``'s configuration, read once, or None), checked.
 
     Refused if not of the robot's kind (rotary, printer), of another firmware than the calibration
-    recorded, or of another printer; what to say of its values against the recorded ones
-    (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.check_calibration`). A printer's readings
+    recorded, or of another printer; what to say of its values against the recorded ones, and the
+    calibration re-anchored to them where they changed
+    (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.anchor`). A printer's readings
     count steps in its nominal step distance, the calibration's (a Klipper configuration's own
     ``rotation_distance`` may have been refitted per tower since).
     """
@@ -183,8 +184,8 @@ def _controller(request: CompensateRequest, calibration: Calibration,
                          f"{request.calibration} is of {geometry.chain.words.a_kind}")
     said: tuple[str, ...] = ()
     if config is not None and geometry.chain.firmware:
-        said = config.check_calibration(calibration, request.calibration)
-    return controller, config, said
+        calibration, said = config.anchor(calibration, request.calibration)
+    return controller, config, said, calibration
 
 
 def _to_base(request: CompensateRequest, frames: dict) -> Callable[[np.ndarray], np.ndarray] | None:

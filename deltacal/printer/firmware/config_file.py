@@ -23,6 +23,7 @@ from ...controller_record import ControllerRecord, changes_in_words, files_diges
 from ...exceptions import GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
+from ..identification.anchor import controller_shift, reanchored
 from . import check_config_firmware, config_firmware, firmware_named, firmwares
 from .base import Firmware, FirmwareModel
 
@@ -154,19 +155,23 @@ class FirmwareConfig:
         return ControllerRecord(self.firmware.name, self.path, files_digest(files),
                                 self.firmware.values_read(self.values))
 
-    def check_calibration(self, calibration: Calibration, source: str | Path) -> tuple[str, ...]:
-        """Refuse these values for a calibration of another firmware or printer; what to say of them.
+    def anchor(self, calibration: Calibration, source: str | Path) -> tuple[Calibration, tuple[str, ...]]:
+        """The calibration as these values command it, and what to say; another firmware or printer refused.
 
         First against the calibration's geometry (:meth:`check_printer`: another printer's values),
         then against the controller the calibration recorded (``[controller]``): another firmware is
-        refused (:func:`recorded_firmware`); the same values say nothing; values changed say one
-        line naming each changed key (recorded -> now), unless one is beyond what a build could
-        change (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer` of the recorded
-        values and these: another printer, refused naming it). A calibration that records none (a
-        file written before it was recorded) says so; a geometry file (the printer alone) records none.
+        refused (:func:`recorded_firmware`); the same values: the calibration as it is, nothing said;
+        values changed: re-anchored (:mod:`~deltacal.printer.identification.anchor`: its measurements
+        identified again with the start moved as the values moved it), said in one line naming each
+        changed key (recorded -> now), unless one is beyond what a build could change
+        (:meth:`~deltacal.printer.firmware.base.Firmware.check_same_printer` of the recorded values
+        and these: another printer, refused naming it). A calibration that records no controller (a
+        file written before it was recorded) is taken as it is, said; a geometry file (the printer
+        alone) records none and says nothing. One that records no measurements cannot be
+        re-anchored: taken as identified, said.
 
         Returns:
-            The lines to say (none: the values it was identified with).
+            The calibration to use and the lines to say (none: the values it was identified with).
 
         Raises:
             InputError: another firmware, or another printer, naming the key.
@@ -174,22 +179,32 @@ class FirmwareConfig:
         self.check_printer(calibration.geometry, source)
         recorded_firmware(calibration, source, self.firmware, self.path)
         record = calibration.controller
-        lines: tuple[str, ...] = ()
         if record is None:
             if not calibration.base:  # a geometry file: the printer alone, no controller to record
-                return ()
-            lines = (f"{source} records no controller (written before calibrations recorded the one they "
-                     f"were identified with): {self.path}'s values are taken to be that one's",)
-        else:
-            changes = record.changes(self.firmware.values_read(self.values))
-            if changes:
-                recorded = self.firmware.with_values(self.values, record.values)
-                self.firmware.check_same_printer(recorded, self.values,
-                                                 f"{source}'s recorded controller {record.source}", self.path)
-                lines = (f"{self.path}: values changed since {source} was identified with {record.source}: "
-                         f"{changes_in_words(changes)}; if the printer itself changed (rods, probe, "
-                         "effector), measure it again and identify",)
-        return lines
+                return calibration, ()
+            return calibration, (f"{source} records no controller (written before calibrations recorded "
+                                 f"the one they were identified with): {self.path}'s values are taken to "
+                                 "be that one's",)
+        changes = record.changes(self.firmware.values_read(self.values))
+        if not changes:
+            return calibration, ()
+        recorded = self.firmware.with_values(self.values, record.values)
+        self.firmware.check_same_printer(recorded, self.values,
+                                         f"{source}'s recorded controller {record.source}", self.path)
+        said = f"{self.path}: values changed since {source} was identified with {record.source}: " \
+               f"{changes_in_words(changes)}; "
+        if calibration.measured is None:
+            return calibration, (said + f"{source} records no measurements to re-anchor with (written before "
+                                 f"they were recorded): its correction is taken as identified, relative to "
+                                 f"{record.source}'s values; identify again to follow {self.path}",)
+        step = calibration.geometry.step_distance
+        assert step is not None  # a printer's calibration counts its readings in its step distance
+        old, now = self.firmware.controller(recorded, step), self.firmware.controller(self.values, step)
+        shift = controller_shift(calibration, lambda q: old.forward(q, check=False),
+                                 lambda q: now.forward(q, check=False))
+        return reanchored(calibration, shift), (
+            said + f"re-anchored: what its measurements determine is kept, the rest follows {self.path}; if "
+            "the printer itself changed (rods, probe, effector), measure it again and identify",)
 
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
         """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""

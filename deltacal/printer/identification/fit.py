@@ -358,6 +358,7 @@ def identify_printer(
                       values=firmware_determination(geometry, error_model, cov, build, volume),
                       along_bed=error_model.apply(start, determined_values(total, W, factor))
                       if options.calibrated_start else None),
+        tolerance_scale=float(scale),
     )
     poor = "" if flagged.indices.size else poor_fit(variance_factor, at_limit)  # outliers: said as such
     if poor and not options.accept_poor_fit:

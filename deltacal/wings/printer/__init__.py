@@ -88,8 +88,8 @@ class PrinterWing(Wing):
         said: tuple[str, ...] = ()
         if request.config is not None:
             refuse_deltacal_file(request.config, "--config")
-            said = read_firmware_config(request.config, firmware.name).check_calibration(calibration,
-                                                                                        request.calibration)
+            calibration, said = read_firmware_config(request.config, firmware.name).anchor(calibration,
+                                                                                          request.calibration)
         workspace, where = printable_volume(request.robot, calibration.nominal)
         export = export_firmware_values(firmware, calibration, request.calibration, workspace, where,
                                         request.config, request.keep_rotation_distance, request.robot,
@@ -99,8 +99,11 @@ class PrinterWing(Wing):
         return Done((*said, wrote, *export.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
 
     def report_firmware(self, request: ReportRequest, calibration: Calibration
-                        ) -> tuple[Firmware[Any], FirmwareModel | None, tuple[str, ...]]:
+                        ) -> tuple[Firmware[Any], FirmwareModel | None, tuple[str, ...], Calibration]:
         """``--controller``'s firmware (its values read once, checked of this printer), or the recorded one.
+
+        With ``--controller``, the calibration re-anchored to its values where they changed
+        (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.anchor`).
 
         Without ``--controller``: the firmware the calibration was identified with (``[controller]``),
         else ``--firmware``'s, else Klipper; ``--controller`` or ``--firmware`` of another firmware
@@ -114,10 +117,10 @@ class PrinterWing(Wing):
             named = firmware_named(request.firmware) if request.firmware is not None else None
             recorded = recorded_firmware(calibration, request.calibration, named,
                                          f"--firmware {request.firmware}")
-            return (recorded or named or firmwares()[0]), None, ()
+            return (recorded or named or firmwares()[0]), None, (), calibration
         config = read_firmware_config(request.controller, request.firmware)
-        said = config.check_calibration(calibration, request.calibration)
-        return config.firmware, config.values, said
+        calibration, said = config.anchor(calibration, request.calibration)
+        return config.firmware, config.values, said, calibration
 
 
 def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
@@ -125,7 +128,7 @@ def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: C
     assert request.config is not None and request.output is not None
     refuse_deltacal_file(request.config, "--config")  # its output folder checked by the job (wings.export)
     config = read_firmware_config(request.config, firmware.name)  # another firmware's refused, naming it
-    said = config.check_calibration(calibration, request.calibration)
+    calibration, said = config.anchor(calibration, request.calibration)
     return Done((*said, *firmware.export_live(calibration, request.config, request.output,
                                               str(request.calibration), request.sigma_bound)))
 

@@ -29,6 +29,7 @@ from ...printer.files.measurements import (
 from ...printer.files.same_printer import ENDSTOP_MM, check_step_distance
 from ...printer.firmware.base import FirmwareModel, classical_name
 from ...printer.firmware.config_file import read_firmware_config
+from ...printer.identification.anchor import measured_record
 from ...printer.identification.fit import (
     PrinterFitOptions,
     PrinterMeasurements,
@@ -90,7 +91,8 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     except PoorFitError as exc:
         raise IdentificationError(f"{_dominant(exc.result, data, files)}: {exc}{_single(found, files)}; "
                                   "nothing written (--accept-poor-fit keeps such a fit)") from None
-    save_calibration(replace(Calibration.from_result(result), controller=config.record()), request.output)
+    save_calibration(replace(Calibration.from_result(result), controller=config.record(),
+                             measured=measured_record(data, options, result.tolerance_scale)), request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
               "remove it and identify again" for k in result.outliers])

@@ -71,14 +71,14 @@ class RotaryWing(Wing):
         return f"{firmware.title}'s values" if firmware is not None else "a firmware's values"
 
     def report_firmware(self, request: ReportRequest,
-                        calibration: Calibration) -> tuple[None, None, tuple[()]]:
+                        calibration: Calibration) -> tuple[None, None, tuple[()], Calibration]:
         """None: a rotary Delta's controller is a Cartesian one (``--firmware``, ``--controller`` refused)."""
         if request.controller is not None:
             raise UsageError("--controller applies to a printer's calibration (its measurements' firmware)")
         if request.firmware is not None:
             raise UsageError(f"--firmware applies to a printer's calibration; {request.calibration} is a "
                              "rotary Delta's")
-        return None, None, ()
+        return None, None, (), calibration
 
 
 #: The rotary Delta's wing.

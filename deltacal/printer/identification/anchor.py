@@ -1,0 +1,144 @@
+"""A printer's calibration re-anchored to another controller: what the measurements determine is kept.
+
+A printer's fit (:func:`~.fit.identify_printer`) is the most probable geometry under a prior centred
+on the printer its controller described (the start: the firmware's values it was identified with):
+along the combinations of parameters the measurements determine the estimate is theirs, along the
+others it stays near the prior's centre, and ``[holds.along_bed]`` is the start moved along the
+determined ones only. When the controller's values change (its owner ran the firmware's own
+calibration again, or edited a value), the centre moves: by Δm in the model's parameters, the move
+from the printer the recorded controller describes to the one the controller now given describes
+(:func:`controller_shift`, each the least-prior-norm parameters whose nozzle lands where that
+controller's forward model puts it). The calibration is then the same measurements
+(:class:`~deltacal.measured_record.MeasuredRecord`, the file's ``[measured]``) identified again with
+the start moved by Δm, the fit's own choices kept (the tolerances' scale, the method, the
+firmware-calibrated start): exact, where a linear update ``Σ Σ₀⁻¹ Δm`` leaves a tenth of a 1.5 mm
+rod change (0.08 mm on a Kossel) and would leave millimetres of a firmware's 7 mm arm change.
+Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ...calibration import Calibration
+from ...geometry import Tolerances, Workspace
+from ...holds import bed_points
+from ...measured_record import MeasuredRecord
+from .errormodels import PrinterModel
+from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
+from .where import point_rows, readings_at
+
+#: Gauss-Newton steps of :func:`controller_parameters` at most, and the step [prior units] that ends them.
+SHIFT_ITERATIONS = 8
+SHIFT_TOLERANCE = 1e-10
+#: Relative singular value below which a combination of parameters moves no nozzle (least prior norm).
+SHIFT_RCOND = 1e-9
+#: Heights of the layers the controllers are compared on, as fractions of the measured volume's.
+SHIFT_LAYERS = (0.0, 0.5, 1.0)
+
+
+def measured_record(data: PrinterMeasurements, options: PrinterFitOptions, tolerance_scale: float
+                    ) -> MeasuredRecord | None:
+    """What a calibration keeps of its measurements and fit (None: an instrument's positions, not kept)."""
+    if data.positions.size:
+        return None
+    ws = options.workspace
+    return MeasuredRecord(data.probe, data.trigger_height, data.pairs, data.distance, data.probe_offset,
+                          data.height_sigma, data.distance_sigma, tolerance_scale, options.calibrated_start,
+                          options.method, None if ws is None else (ws.radius, ws.height, ws.top_z))
+
+
+def measurements_of(record: MeasuredRecord) -> PrinterMeasurements:
+    """The measurements a record keeps, as the fit takes them."""
+    return PrinterMeasurements(record.probe, record.pairs, record.distance, probe_offset=record.probe_offset,
+                               height_sigma=record.height_sigma, distance_sigma=record.distance_sigma,
+                               trigger_height=record.trigger_height)
+
+
+def comparison_points(calibration: Calibration) -> np.ndarray:
+    """Where two controllers of a calibration are compared: the first layer's points at three heights [mm]."""
+    holds = calibration.where_held()
+    assert holds is not None  # where_held refuses a printer's calibration without [holds]
+    radius, top = float(holds.radius[-1]), float(max(holds.measured_top, holds.height[1]))
+    layer = bed_points(radius)
+    return np.concatenate([layer + [0.0, 0.0, f * top] for f in SHIFT_LAYERS])
+
+
+def controller_parameters(calibration: Calibration, forward: Callable[[np.ndarray], np.ndarray],
+                          points: np.ndarray) -> np.ndarray:
+    """The model's parameters whose nozzle lands where the controller's forward puts it (least prior norm).
+
+    At the readings that put the nominal printer's nozzle on ``points``, the parameters m (from the
+    calibration's nominal, the model's order) minimise ``|nozzle(m, q) − forward(q)|``: Gauss-Newton
+    with least-norm steps in the units of the fit's prior (what no nozzle sees stays at its centre).
+
+    Args:
+        calibration: A printer's calibration that recorded its measurements (``measured``).
+        forward: The controller's forward model: readings [mm] (N, 3) -> nozzle positions (N, 3).
+        points: Where to compare (:func:`comparison_points`) [mm], (N, 3).
+    """
+    model, nominal = calibration.model, calibration.nominal
+    q = readings_at(nominal, points)
+    q = q[np.all(np.isfinite(q), axis=1)]
+    target = forward(q)
+    L = _prior_factor(calibration)
+    m = np.zeros(model.size)
+    for _ in range(SHIFT_ITERATIONS):
+        geometry = model.apply(nominal, m)
+        point, S = point_rows(geometry, model, q, geometry.tool)
+        u = np.linalg.lstsq(S.reshape(-1, model.size) @ L, (target - point).reshape(-1), rcond=SHIFT_RCOND)[0]
+        m = m + L @ u
+        if np.max(np.abs(u)) < SHIFT_TOLERANCE:
+            break
+    return m
+
+
+def controller_shift(calibration: Calibration, recorded: Callable[[np.ndarray], np.ndarray],
+                     now: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """Δm: the move, in the model's parameters, from the recorded controller's printer to the one now given.
+
+    Args:
+        calibration: A printer's calibration that recorded its measurements.
+        recorded: The forward model of the controller it was identified with (readings -> nozzle).
+        now: The forward model of the controller now given.
+    """
+    points = comparison_points(calibration)
+    return controller_parameters(calibration, now, points) - controller_parameters(calibration, recorded,
+                                                                                     points)
+
+
+def reanchored(calibration: Calibration, shift: np.ndarray) -> Calibration:
+    """The calibration's measurements identified again with the start moved by ``shift`` (Δm).
+
+    The fit's choices are the record's (the tolerances' scale as taken, the method, the start
+    calibrated by the firmware); a poor fit is kept (it was judged when identified). The result
+    keeps the calibration's records (controller, measurements) and its source.
+
+    Raises:
+        ValueError: a calibration without its measurements (written before they were recorded).
+    """
+    record = calibration.measured
+    if record is None:
+        raise ValueError("the calibration records no measurements: it cannot be re-anchored")
+    ws = record.workspace
+    start = calibration.model.apply(calibration.nominal, np.asarray(shift, dtype=float))
+    options = PrinterFitOptions(method="linear" if record.method == "linear" else "iterated",
+                                tolerances=Tolerances.printer_kit(), tolerance_scale=record.tolerance_scale,
+                                workspace=None if ws is None else Workspace(*ws), accept_poor_fit=True,
+                                calibrated_start=False)
+    result = identify_printer(start, measurements_of(record), calibration.model, options=options)
+    return replace(Calibration.from_result(result), controller=calibration.controller, measured=record,
+                   source=calibration.source)
+
+
+def _prior_factor(calibration: Calibration) -> np.ndarray:
+    """The fit's prior factor at the calibration's nominal (the record's scale and start)."""
+    record = calibration.measured
+    model = calibration.model
+    if record is None or not isinstance(model, PrinterModel):
+        raise ValueError("re-anchoring needs a printer's calibration that recorded its measurements")
+    used = scaled_tolerances(Tolerances.printer_kit(), record.tolerance_scale)
+    return model.prior_factor(used, calibration.nominal, record.calibrated_start)
