@@ -75,7 +75,8 @@ def test_the_moved_endstop_is_found_and_nothing_else_is_significant(moved, capsy
 
 @pytest.mark.long
 @pytest.mark.xfail(strict=True, reason="each calibration's endstop σ (0.08 mm) is its prior's, shared by "
-                   "both: in quadrature 0.12 mm, a 0.2 mm move is not 3 σ (issue 46 item 6, left to the lead)")
+                   "both: in quadrature 0.12 mm, a 0.2 mm move is not 3 σ (issue 46 item 6, left to "
+                   "the lead)")
 def test_the_moved_endstop_is_significant(moved):
     changes = {c.what: c for c in compare_calibrations(load_calibration(moved / "cal.toml"),
                                                        load_calibration(moved / "new.toml"))}
