@@ -12,6 +12,7 @@ Commands (files in mm and deg; see docs/conventions.md for formats):
 * ``deltacal simulate NOMINAL POSES (--perturb SEED | --truth TRUE) -o MEAS``
 * ``deltacal view NOMINAL [...] [--html OUT]``
 * ``deltacal report CAL -o REPORT.html [--measurements MEAS] [--truth TRUE] [--tool X,Y,Z]``
+* ``deltacal compare OLD.toml NEW.toml [-o COMPARE.html]``
 
 Errors in the user's input print one line on stderr naming the file, line,
 column or key and value, and exit with status 1 (bad data) or 2 (bad usage:
@@ -45,7 +46,8 @@ from ..exceptions import DeltacalError, UsageError
 #: The subcommands' modules, in the order ``--help`` lists them. They (and numpy, and the
 #: library under them) are imported when the parser is built, not with this module, so that
 #: ``deltacal --version`` answers at once; :mod:`.common` likewise, where it is used.
-SUBCOMMANDS = ("demo", "import_", "identify", "compensate", "report", "export", "plan", "simulate", "view")
+SUBCOMMANDS = ("demo", "import_", "identify", "compensate", "report", "compare", "export", "plan", "simulate",
+               "view")
 
 
 def build_parser() -> argparse.ArgumentParser:

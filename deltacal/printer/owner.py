@@ -180,26 +180,12 @@ def printer_errors(calibration: Calibration, tolerances: Tolerances | None = Non
     Raises:
         ValueError: the calibration is not of the complete printer model.
     """
-    model = PrinterModel()
-    index = {p.name: k for k, p in enumerate(calibration.base)}
-    missing = [n for n in model.names if n not in index]
-    if missing:
-        raise ValueError(f"a printer's errors need every parameter of the 'printer' model; {missing[0]} is "
-                         f"not in the calibration (model {calibration.model.name!r})")
-    order = [index[n] for n in model.names]
-    robot = calibration.robot_index
-    where = {k: j for j, k in enumerate(robot)}
-    cov_all = calibration.covariance()
-    cov = cov_all[np.ix_([where[k] for k in order], [where[k] for k in order])]
-    value = np.array([calibration.base[k].value for k in order])
-    prior = model.prior_sigma(tolerances or Tolerances.printer_kit())
-    rows, units = _quantity_rows(calibration, model)
-    values = rows @ value
-    sigma = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", rows, cov, rows), 0.0))
+    quantities = owner_quantities(calibration, tolerances)
+    rows, units, values, before = quantities.rows, quantities.units, quantities.values, quantities.before
+    sigma = np.sqrt(np.maximum(np.diag(quantities.covariance), 0.0))
     known = sigma
     if reference is not None:
         known = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", rows, reference, rows), 0.0))
-    before = np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows))
     est = [Estimate(float(v * u), float(s * u), bool(k < DETERMINED_FRACTION * b))
            for v, s, k, b, u in zip(values, sigma, known, before, units, strict=True)]
     towers = tuple(TowerErrors(names[i], *est[6 * i:6 * i + 6]) for i in range(3))
@@ -214,6 +200,52 @@ def printer_errors(calibration: Calibration, tolerances: Tolerances | None = Non
                    bool(tilt_known < DETERMINED_FRACTION * tilt_before))
     low = float(np.degrees(np.arctan2(-high[1], -high[0])) % 360.0)
     return PrinterErrors(towers, bed, low)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class OwnerQuantities:
+    """The owner's quantities of a calibration as linear combinations of its 54 parameters.
+
+    Rows 6i..6i+5: tower i's endstop, travel, own lean outwards, own lean sideways, rods' mean, rods'
+    difference; rows 18, 19: the bed's rotation vector (x, y). In the model's units (mm, rad; the
+    travel in %): ``units`` turns each into the owner's (mm, deg, %).
+
+    Attributes:
+        rows: (20, 54) the linear map from the parameters (the model's order) to the quantities.
+        units: (20,) each quantity's factor to the owner's unit.
+        values: (20,) each quantity's value, the model's units.
+        covariance: (20, 20) their covariance from the calibration's, the model's units.
+        before: (20,) each one's σ before any measurement (the build tolerances).
+    """
+
+    rows: np.ndarray
+    units: np.ndarray
+    values: np.ndarray
+    covariance: np.ndarray
+    before: np.ndarray
+
+
+def owner_quantities(calibration: Calibration, tolerances: Tolerances | None = None) -> OwnerQuantities:
+    """The owner's quantities of a calibration of the complete model, their covariance and prior σ.
+
+    Raises:
+        ValueError: the calibration is not of the complete printer model.
+    """
+    model = PrinterModel()
+    index = {p.name: k for k, p in enumerate(calibration.base)}
+    missing = [n for n in model.names if n not in index]
+    if missing:
+        raise ValueError(f"a printer's errors need every parameter of the 'printer' model; {missing[0]} is "
+                         f"not in the calibration (model {calibration.model.name!r})")
+    order = [index[n] for n in model.names]
+    where = {k: j for j, k in enumerate(calibration.robot_index)}
+    picked = [where[k] for k in order]
+    cov = calibration.covariance()[np.ix_(picked, picked)]
+    value = np.array([calibration.base[k].value for k in order])
+    prior = model.prior_sigma(tolerances or Tolerances.printer_kit())
+    rows, units = _quantity_rows(calibration, model)
+    return OwnerQuantities(rows, units, rows @ value, rows @ cov @ rows.T,
+                           np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows)))
 
 
 def _quantity_rows(calibration: Calibration, model: PrinterModel) -> tuple[np.ndarray, np.ndarray]:

@@ -29,8 +29,10 @@ from ..printer.firmware import config_files, firmware_named
 from .base import Done, Robot, Wing, check_files
 from .compensate_job import Progress, compensate_targets
 from .printer import PRINTER, PrinterWing
+from .printer.compare import compare_printer_calibrations
 from .printer.importing import import_found as import_found_printer
 from .requests import (
+    CompareRequest,
     CompensateRequest,
     ExportRequest,
     IdentifyRequest,
@@ -131,6 +133,12 @@ def report(request: ReportRequest) -> Done:
     return wing_for(calibration.geometry.chain).report(request, calibration)
 
 
+def compare(request: CompareRequest) -> Done:
+    """``deltacal compare OLD NEW``: what changed in a printer between two of its calibrations."""
+    check_files((request.old, request.new), request.output)
+    return compare_printer_calibrations(request)
+
+
 def import_found(request: ImportRequest) -> Done:
     """``deltacal import``: a printer as its firmware's configuration finds it, or a log's probe results."""
     return import_found_printer(request)
@@ -145,6 +153,7 @@ __all__ = [
     "PRINTER",
     "ROTARY",
     "WINGS",
+    "CompareRequest",
     "CompensateRequest",
     "Done",
     "ExportRequest",
@@ -156,6 +165,7 @@ __all__ = [
     "RotaryWing",
     "SimulateRequest",
     "Wing",
+    "compare",
     "compensate",
     "export",
     "identify",

@@ -481,6 +481,18 @@ class ReportRequest:
 
 
 @dataclass(frozen=True, eq=False)
+class CompareRequest:
+    """``deltacal compare OLD.toml NEW.toml [-o compare.html]``: what changed in a printer, two calibrations.
+
+    ``output``: an HTML page of the changes (None: the lines alone).
+    """
+
+    old: Path_
+    new: Path_
+    output: Path_ | None = None
+
+
+@dataclass(frozen=True, eq=False)
 class ImportRequest:
     """``deltacal import INPUT -o OUTPUT``: a printer as its configuration finds it, or a log's probe results.
 

@@ -1,0 +1,160 @@
+"""What changed in a printer between two of its calibrations, in its owner's words, each with its σ.
+
+Each owner's quantity (:mod:`.owner`: a tower's endstop, travel, own leans and rods; the bed's slope)
+is read from both calibrations through the same linear map of their 54 parameters
+(:func:`~.owner.owner_quantities`). The change is NEW's value minus OLD's; the two calibrations are
+independent measurements, so its σ is both σ combined in quadrature, each from its calibration's
+covariance. A change is **significant** when both calibrations measure the quantity (:mod:`.owner`'s
+rule: σ below half its build tolerance) and ``|change| > 3 σ`` (:data:`SIGNIFICANT_SIGMAS`): by chance
+alone, one quantity of the 20 crosses it about once in 19 comparisons of an unchanged printer.
+
+Both calibrations' parameters are deviations from the firmware values they were identified through:
+the changes mean what they say only when both were identified through the same values.
+:func:`old_against_new_controller` is where OLD is brought to NEW's controller; today it refuses
+when the two recorded controllers' values differ (naming the changed keys).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration import Calibration
+from ..controller_record import changes_in_words
+from ..exceptions import InputError
+from ..geometry import Tolerances
+from .firmware.base import Firmware
+from .firmware.config_file import check_printer_values, recorded_firmware
+from .owner import DETERMINED_FRACTION, TOWERS, owner_quantities
+
+#: A change is significant when it exceeds this many of its σ (and both calibrations measure it).
+SIGNIFICANT_SIGMAS = 3.0
+
+#: Each tower's quantities, in :func:`~.owner.owner_quantities`'s order: (name, unit, digits).
+_TOWER_QUANTITIES = (("endstop", "mm", 2), ("travel", "%", 3), ("lean outwards", "deg", 3),
+                     ("lean sideways", "deg", 3), ("rods", "mm", 2), ("rods' difference", "mm", 2))
+
+
+@dataclass(frozen=True)
+class Change:
+    """One owner's quantity in two calibrations, and its change.
+
+    Attributes:
+        what: The quantity in the owner's words (``tower B's endstop``).
+        unit: Its unit (mm, deg, %).
+        old: Its value in the older calibration.
+        new: Its value in the newer one.
+        sigma: The σ of ``new - old``: both calibrations' σ in quadrature.
+        measured: Whether both calibrations measure it (σ below half its build tolerance in each).
+        digits: Decimals to show.
+    """
+
+    what: str
+    unit: str
+    old: float
+    new: float
+    sigma: float
+    measured: bool
+    digits: int = 2
+
+    @property
+    def change(self) -> float:
+        """``new - old``, in :attr:`unit`."""
+        return self.new - self.old
+
+    @property
+    def significant(self) -> bool:
+        """Both measured and ``|change| > 3 σ`` (:data:`SIGNIFICANT_SIGMAS`)."""
+        return self.measured and abs(self.change) > SIGNIFICANT_SIGMAS * self.sigma
+
+    def words(self) -> str:
+        """``tower B's endstop moved +0.21 ± 0.03 mm: significant``."""
+        d = self.digits
+        moved = f"{self.what} moved {self.change:+.{d}f} ± {self.sigma:.{d}f} {self.unit}"
+        if not self.measured:
+            return f"{moved}: not measured by both calibrations"
+        return f"{moved}: {'significant' if self.significant else 'not significant'}"
+
+
+def compare_calibrations(old: Calibration, new: Calibration, tolerances: Tolerances | None = None,
+                         names: Sequence[str] = TOWERS) -> list[Change]:
+    """Each owner's quantity's change from ``old`` to ``new``, two calibrations against one controller.
+
+    Args:
+        old: The older calibration (complete ``printer`` model), already against ``new``'s controller
+            (:func:`old_against_new_controller`).
+        new: The newer one.
+        tolerances: The build tolerances that say what is measured (default: a kit's).
+        names: The towers' names in the firmware's words.
+
+    Returns:
+        Per tower its endstop, travel, leans outwards and sideways, rods' mean and difference; then
+        the bed's slope rising towards +x and towards +y [deg].
+
+    Raises:
+        ValueError: a calibration not of the complete printer model.
+    """
+    a, b = owner_quantities(old, tolerances), owner_quantities(new, tolerances)
+    # the bed's rotation vector β (rows 18, 19): its height at p is p·(z × β) = −β_y x + β_x y
+    slope = np.eye(20)
+    slope[18, 18:20], slope[19, 18:20] = (0.0, -1.0), (1.0, 0.0)
+    labels = [(f"tower {names[i]}'s {what}", unit, digits) for i in range(3)
+              for what, unit, digits in _TOWER_QUANTITIES]
+    labels += [(f"the bed's slope rising towards +{axis}", "deg", 3) for axis in "xy"]
+    out = []
+    for k, (what, unit, digits) in enumerate(labels):
+        u, row = a.units[k], slope[k]
+        values = [float(row @ q.values) * u for q in (a, b)]
+        sigmas = [float(np.sqrt(max(row @ q.covariance @ row, 0.0))) * u for q in (a, b)]
+        before = float(np.sqrt(row**2 @ a.before**2)) * u
+        measured = all(s < DETERMINED_FRACTION * before for s in sigmas)
+        out.append(Change(what, unit, values[0], values[1], float(np.hypot(*sigmas)), measured, digits))
+    return out
+
+
+def old_against_new_controller(
+    old: Calibration, new: Calibration, old_source: str | Path, new_source: str | Path,
+) -> tuple[Calibration, Firmware[Any] | None, tuple[str, ...]]:
+    """OLD brought to NEW's controller (re-anchoring's place); the firmware both serve; what to say.
+
+    Refuses two calibrations of different firmwares (naming both) or printers (a value beyond its build
+    tolerance, naming the key). Today, values changed between the two recorded controllers are refused
+    too, naming the changed keys: re-anchoring OLD to NEW's values is needed first. A calibration that
+    records no controller (written before they were recorded) is taken to be against the other's, said.
+
+    Returns:
+        OLD against NEW's controller, the firmware (None: neither records one) and the lines to say.
+
+    Raises:
+        InputError: as above, one line.
+    """
+    firmware = recorded_firmware(new, new_source)
+    theirs = recorded_firmware(old, old_source)
+    if firmware is not None and theirs is not None and theirs is not firmware:
+        assert old.controller is not None and new.controller is not None
+        raise InputError(f"identified with {theirs.title} ({old.controller.source}) but {new_source} with "
+                         f"{firmware.title} ({new.controller.source}): two calibrations compare only "
+                         "through one firmware", str(old_source))
+    firmware = firmware or theirs
+    if firmware is not None:
+        check_printer_values(firmware, old.geometry, firmware.start(new.geometry), old_source,
+                             f"{new_source}'s geometry")
+    said = tuple(f"{source} records no controller (written before calibrations recorded the one they were "
+                 "identified with): taken to be the other's" for source, cal in ((old_source, old),
+                                                                               (new_source, new))
+                 if cal.controller is None)
+    if old.controller is not None and new.controller is not None:
+        changes = old.controller.changes(new.controller.values)
+        if changes:
+            raise InputError(f"its controller's values differ from {new_source}'s ({old.controller.source} "
+                             f"-> {new.controller.source}: {changes_in_words(changes)}): comparing needs "
+                             f"{old_source} re-anchored to {new_source}'s controller, which deltacal does "
+                             "not do yet; identify both through the same configuration", str(old_source))
+    return old, firmware, said
+
+
+__all__ = ["SIGNIFICANT_SIGMAS", "Change", "compare_calibrations", "old_against_new_controller"]
