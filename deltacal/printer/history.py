@@ -3,15 +3,20 @@
 Each owner's quantity (:mod:`.owner`: a tower's endstop, travel, own leans and rods; the bed's slope)
 is read from both calibrations through the same linear map of their 54 parameters
 (:func:`~.owner.owner_quantities`). The change is NEW's value minus OLD's; the two calibrations are
-independent measurements, so its σ is both σ combined in quadrature, each from its calibration's
-covariance. A change is **significant** when both calibrations measure the quantity (:mod:`.owner`'s
-rule: σ below half its build tolerance) and ``|change| > 3 σ`` (:data:`SIGNIFICANT_SIGMAS`): by chance
+independent measurements of one printer under one prior (OLD re-anchored to NEW's controller), so
+what the prior leaves unknown is the same in both and cancels in the change: its σ is both
+calibrations' noise parts (:attr:`~.owner.OwnerQuantities.noise`: ``Σ − Σ Σ₀⁻¹ Σ``) in quadrature
+(their whole σ, prior's part included, when a calibration records no measurements). With the whole
+σ, a 0.2 mm endstop move on a simulated Kossel read +0.20 ± 0.12 mm, though four noise seeds of
+the same printer scatter its endstop by 0.03 mm. A change is **significant** when both calibrations
+measure the quantity (:mod:`.owner`'s rule: σ below half its build tolerance) and
+``|change| > 3 σ`` (:data:`SIGNIFICANT_SIGMAS`): by chance
 alone, one quantity of the 20 crosses it about once in 19 comparisons of an unchanged printer.
 
 Both calibrations' parameters are deviations from the firmware values they were identified through:
-the changes mean what they say only when both were identified through the same values.
-:func:`old_against_new_controller` is where OLD is brought to NEW's controller; today it refuses
-when the two recorded controllers' values differ (naming the changed keys).
+the changes mean what they say only against the same values. :func:`old_against_new_controller`
+brings OLD to NEW's controller: re-anchored (:func:`~.firmware.config_file.reanchored_to`) when
+the two recorded controllers' values differ.
 """
 
 from __future__ import annotations
@@ -26,9 +31,10 @@ import numpy as np
 from ..calibration import Calibration
 from ..controller_record import changes_in_words
 from ..exceptions import InputError
-from ..geometry import Tolerances
+from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
 from .firmware.config_file import check_printer_values, recorded_firmware
+from .identification.anchor import nominal_shift, reanchored
 from .owner import DETERMINED_FRACTION, TOWERS, owner_quantities
 
 #: A change is significant when it exceeds this many of its σ (and both calibrations measure it).
@@ -48,7 +54,7 @@ class Change:
         unit: Its unit (mm, deg, %).
         old: Its value in the older calibration.
         new: Its value in the newer one.
-        sigma: The σ of ``new - old``: both calibrations' σ in quadrature.
+        sigma: The σ of ``new - old``: both calibrations' noise parts in quadrature.
         measured: Whether both calibrations measure it (σ below half its build tolerance in each).
         digits: Decimals to show.
     """
@@ -110,9 +116,10 @@ def compare_calibrations(old: Calibration, new: Calibration, tolerances: Toleran
         u, row = a.units[k], slope[k]
         values = [float(row @ q.values) * u for q in (a, b)]
         sigmas = [float(np.sqrt(max(row @ q.covariance @ row, 0.0))) * u for q in (a, b)]
+        noise = [float(np.sqrt(max(row @ q.noise @ row, 0.0))) * u for q in (a, b)]
         before = float(np.sqrt(row**2 @ a.before**2)) * u
         measured = all(s < DETERMINED_FRACTION * before for s in sigmas)
-        out.append(Change(what, unit, values[0], values[1], float(np.hypot(*sigmas)), measured, digits))
+        out.append(Change(what, unit, values[0], values[1], float(np.hypot(*noise)), measured, digits))
     return out
 
 
@@ -122,9 +129,12 @@ def old_against_new_controller(
     """OLD brought to NEW's controller (re-anchoring's place); the firmware both serve; what to say.
 
     Refuses two calibrations of different firmwares (naming both) or printers (a value beyond its build
-    tolerance, naming the key). Today, values changed between the two recorded controllers are refused
-    too, naming the changed keys: re-anchoring OLD to NEW's values is needed first. A calibration that
-    records no controller (written before they were recorded) is taken to be against the other's, said.
+    tolerance, naming the key). Each fit's prior is centred on the nominal printer it was identified
+    from (its robot file): two different ones, OLD re-anchored to NEW's (said, with the controller
+    values that differ; refused when OLD records no measurements to re-anchor with); the same, compared
+    as identified (the readings are the printer's own whatever the controller values; said if they
+    differ). A calibration that records no controller (written before they were recorded) is taken to
+    be against the other's, said.
 
     Returns:
         OLD against NEW's controller, the firmware (None: neither records one) and the lines to say.
@@ -147,14 +157,37 @@ def old_against_new_controller(
                  "identified with): taken to be the other's" for source, cal in ((old_source, old),
                                                                                (new_source, new))
                  if cal.controller is None)
-    if old.controller is not None and new.controller is not None:
-        changes = old.controller.changes(new.controller.values)
-        if changes:
-            raise InputError(f"its controller's values differ from {new_source}'s ({old.controller.source} "
-                             f"-> {new.controller.source}: {changes_in_words(changes)}): comparing needs "
-                             f"{old_source} re-anchored to {new_source}'s controller, which deltacal does "
-                             "not do yet; identify both through the same configuration", str(old_source))
+    if not _same_nominal(old.nominal, new.nominal):  # each fit's prior is centred on its nominal printer
+        changes = [] if old.controller is None or new.controller is None else \
+            old.controller.changes(new.controller.values)
+        keys = f": {changes_in_words(changes)}" if changes else ""
+        if old.measured is None:
+            raise InputError(f"identified from another nominal printer than {new_source} (its controller "
+                             f"values{keys or ' the same'}) and it records no measurements to re-anchor "
+                             "with (written before they were recorded): identify both from the same robot "
+                             "file",
+                             str(old_source))
+        old = reanchored(old, nominal_shift(old, new.nominal))
+        said += (f"{old_source} re-anchored to {new_source}'s nominal printer (the robot file it was "
+                 f"identified from{'; controller values ' + keys[2:] if keys else ''}): what its "
+                 "measurements determine is kept, the rest follows the newer values",)
+    elif old.controller is not None and new.controller is not None and old.controller.changes(
+            new.controller.values):
+        said += (f"both identified from the same nominal printer, through controller values that differ "
+                 f"({changes_in_words(old.controller.changes(new.controller.values))}): each fit's "
+                 "readings are the printer's own, compared as identified",)
     return old, firmware, said
+
+
+def _same_nominal(a: DeltaGeometry, b: DeltaGeometry) -> bool:
+    """Two nominal printers alike in every number (the same robot file)."""
+    return all(np.array_equal(np.asarray(getattr(a, name), dtype=float),
+                              np.asarray(getattr(b, name), dtype=float)) for name in NOMINAL_FIELDS)
+
+
+#: The fields of a nominal printer that place its nozzle.
+NOMINAL_FIELDS = ("axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball", "rod_length",
+                  "tool", "step_distance")
 
 
 __all__ = ["SIGNIFICANT_SIGMAS", "Change", "compare_calibrations", "old_against_new_controller"]

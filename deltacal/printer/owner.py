@@ -34,6 +34,7 @@ from ..calibration import Calibration
 from ..geometry import DeltaGeometry, Tolerances
 from ..identification.solver import solve_wls
 from .firmware.owner_keys import OwnerKeys
+from .identification.anchor import prior_factor_of
 from .identification.errormodels import SCALE_TRAVEL_MM, PrinterModel
 from .identification.fit import PrinterMeasurements, residuals_and_regressor
 
@@ -216,6 +217,10 @@ class OwnerQuantities:
         values: (20,) each quantity's value, the model's units.
         covariance: (20, 20) their covariance from the calibration's, the model's units.
         before: (20,) each one's σ before any measurement (the build tolerances).
+        noise: (20, 20) the part of ``covariance`` the measurements' noise makes (the rest is the
+            prior's, which two calibrations of one printer share): from ``Σ − Σ Σ₀⁻¹ Σ`` (Σ₀ the
+            fit's prior, :func:`~.identification.anchor.prior_factor_of`) when the calibration records
+            its measurements; else ``covariance``.
     """
 
     rows: np.ndarray
@@ -223,6 +228,7 @@ class OwnerQuantities:
     values: np.ndarray
     covariance: np.ndarray
     before: np.ndarray
+    noise: np.ndarray
 
 
 def owner_quantities(calibration: Calibration, tolerances: Tolerances | None = None) -> OwnerQuantities:
@@ -244,8 +250,13 @@ def owner_quantities(calibration: Calibration, tolerances: Tolerances | None = N
     value = np.array([calibration.base[k].value for k in order])
     prior = model.prior_sigma(tolerances or Tolerances.printer_kit())
     rows, units = _quantity_rows(calibration, model)
+    noise = cov
+    if calibration.measured is not None:  # Σ − Σ Σ₀⁻¹ Σ: what the measurements' noise leaves
+        L = prior_factor_of(calibration)  # the model's order, as cov
+        half = np.linalg.solve(L, cov)
+        noise = cov - half.T @ half
     return OwnerQuantities(rows, units, rows @ value, rows @ cov @ rows.T,
-                           np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows)))
+                           np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows)), rows @ noise @ rows.T)
 
 
 def _quantity_rows(calibration: Calibration, model: PrinterModel) -> tuple[np.ndarray, np.ndarray]:

@@ -197,18 +197,31 @@ class FirmwareConfig:
             return calibration, (said + f"{source} records no measurements to re-anchor with (written before "
                                  f"they were recorded): its correction is taken as identified, relative to "
                                  f"{record.source}'s values; identify again to follow {self.path}",)
-        step = calibration.geometry.step_distance
-        assert step is not None  # a printer's calibration counts its readings in its step distance
-        old, now = self.firmware.controller(recorded, step), self.firmware.controller(self.values, step)
-        shift = controller_shift(calibration, lambda q: old.forward(q, check=False),
-                                 lambda q: now.forward(q, check=False))
-        return reanchored(calibration, shift), (
+        return reanchored_to(self.firmware, calibration, self.values), (
             said + f"re-anchored: what its measurements determine is kept, the rest follows {self.path}; if "
             "the printer itself changed (rods, probe, effector), measure it again and identify",)
 
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
         """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""
         check_printer_values(self.firmware, geometry, self.values, source, self.path)
+
+
+def reanchored_to(firmware: Firmware[Any], calibration: Calibration, now: FirmwareModel) -> Calibration:
+    """The calibration re-anchored from the values it recorded (``[controller]``) to ``now``'s.
+
+    Each set of values as the firmware's controller (its forward model, readings counted in the
+    calibration's step distance), their move in the model's parameters
+    (:func:`~deltacal.printer.identification.anchor.controller_shift`), the measurements identified
+    again from the start moved by it (:func:`~deltacal.printer.identification.anchor.reanchored`).
+    """
+    assert calibration.controller is not None and calibration.measured is not None
+    recorded = firmware.with_values(now, calibration.controller.values)
+    step = calibration.geometry.step_distance
+    assert step is not None  # a printer's calibration counts its readings in its step distance
+    old, new = firmware.controller(recorded, step), firmware.controller(now, step)
+    shift = controller_shift(calibration, lambda q: old.forward(q, check=False),
+                             lambda q: new.forward(q, check=False))
+    return reanchored(calibration, shift)
 
 
 def recorded_firmware(calibration: Calibration, source: str | Path, firmware: Firmware[Any] | None = None,

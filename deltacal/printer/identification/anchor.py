@@ -10,9 +10,9 @@ from the printer the recorded controller describes to the one the controller now
 (:func:`controller_shift`, each the least-prior-norm parameters whose nozzle lands where that
 controller's forward model puts it). The calibration is then the same measurements
 (:class:`~deltacal.measured_record.MeasuredRecord`, the file's ``[measured]``) identified again with
-the start moved by Δm, the fit's own choices kept (the tolerances' scale, the method, the
-firmware-calibrated start): exact, where a linear update ``Σ Σ₀⁻¹ Δm`` leaves a tenth of a 1.5 mm
-rod change (0.08 mm on a Kossel) and would leave millimetres of a firmware's 7 mm arm change.
+the start moved by Δm, the fit's own choices kept (the tolerances' scale, the method;
+:func:`reanchored`): exact, where a linear update ``Σ Σ₀⁻¹ Δm`` left 0.08 mm of a 1.5 mm rod
+change on a Kossel (a tenth: the fit is not linear over millimetres).
 Units: mm and rad.
 """
 
@@ -24,8 +24,9 @@ from dataclasses import replace
 import numpy as np
 
 from ...calibration import Calibration
-from ...geometry import Tolerances, Workspace
+from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...holds import bed_points
+from ...kinematics import exact
 from ...measured_record import MeasuredRecord
 from .errormodels import PrinterModel
 from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
@@ -84,7 +85,7 @@ def controller_parameters(calibration: Calibration, forward: Callable[[np.ndarra
     q = readings_at(nominal, points)
     q = q[np.all(np.isfinite(q), axis=1)]
     target = forward(q)
-    L = _prior_factor(calibration)
+    L = prior_factor_of(calibration)
     m = np.zeros(model.size)
     for _ in range(SHIFT_ITERATIONS):
         geometry = model.apply(nominal, m)
@@ -110,12 +111,30 @@ def controller_shift(calibration: Calibration, recorded: Callable[[np.ndarray], 
                                                                                      points)
 
 
+def nominal_shift(calibration: Calibration, nominal: DeltaGeometry) -> np.ndarray:
+    """Δm from the calibration's nominal printer (its prior's centre) to another nominal printer.
+
+    What makes two calibrations of one printer comparable: each fit's prior is centred on its
+    nominal (the robot file identify was given); moved by this, the calibration's is the other's.
+    """
+    def nozzle(geometry: DeltaGeometry) -> Callable[[np.ndarray], np.ndarray]:
+        return lambda q: exact.forward(geometry, q).point(geometry.tool)
+
+    points = comparison_points(calibration)
+    return (controller_parameters(calibration, nozzle(nominal), points)
+            - controller_parameters(calibration, nozzle(calibration.nominal), points))
+
+
 def reanchored(calibration: Calibration, shift: np.ndarray) -> Calibration:
     """The calibration's measurements identified again with the start moved by ``shift`` (Δm).
 
-    The fit's choices are the record's (the tolerances' scale as taken, the method, the start
-    calibrated by the firmware); a poor fit is kept (it was judged when identified). The result
-    keeps the calibration's records (controller, measurements) and its source.
+    The fit's choices are the record's (the tolerances' scale as taken, the method), but for the
+    start: the values now given were not fitted to these measurements, so the firmware's own values
+    take the build tolerances' prior about them, not the wide one of a start the firmware calibrated
+    from the same data (on 3 simulated kits re-calibrated by Klipper, the wide one left the
+    corrected commands 0.008 mm worse than the new values' own at z 50-100 mm; this, better than
+    them). A poor fit is kept (it was judged when identified). The result keeps the calibration's
+    controller record and source; its measurements' record says the start was not calibrated.
 
     Raises:
         ValueError: a calibration without its measurements (written before they were recorded).
@@ -130,12 +149,13 @@ def reanchored(calibration: Calibration, shift: np.ndarray) -> Calibration:
                                 workspace=None if ws is None else Workspace(*ws), accept_poor_fit=True,
                                 calibrated_start=False)
     result = identify_printer(start, measurements_of(record), calibration.model, options=options)
-    return replace(Calibration.from_result(result), controller=calibration.controller, measured=record,
-                   source=calibration.source)
+    # its start is now the values given, which were not fitted to these measurements
+    return replace(Calibration.from_result(result), controller=calibration.controller,
+                   measured=replace(record, calibrated_start=False), source=calibration.source)
 
 
-def _prior_factor(calibration: Calibration) -> np.ndarray:
-    """The fit's prior factor at the calibration's nominal (the record's scale and start)."""
+def prior_factor_of(calibration: Calibration) -> np.ndarray:
+    """L with ``Σ₀ = L Lᵀ``: the fit's prior at the calibration's nominal (its record's scale, start)."""
     record = calibration.measured
     model = calibration.model
     if record is None or not isinstance(model, PrinterModel):
