@@ -3,6 +3,7 @@ sheet and a probe.csv for heights by hand, no probe program, and says the firmwa
 ``identify`` takes the distances alone and says what heights would add."""
 
 import csv
+import re
 import shutil
 
 import numpy as np
@@ -157,3 +158,55 @@ def test_the_whole_route_without_a_probe_is_as_accurate_as_with_one(tmp_path, ca
     assert abs(np.sqrt(np.mean(manual**2)) - np.sqrt(np.mean(probed**2))) < 0.002
     assert np.max(probed) < 1.0 and np.median(probed) < 0.05  # the route corrects (not alike in error)
     assert said_manual == said_probe, (said_manual, said_probe)  # export's figures, as printed
+
+
+RRF_MINIKOSSEL = ROOT / "tests" / "data" / "rrf" / "duet3d-minikossel" / "config.g"
+
+
+def _rrf_config(folder, probe_type: str):
+    """The real Duet Mini Kossel config.g (its comments as found), its M558 P4 (a switch) ``probe_type``."""
+    folder.mkdir()
+    text = RRF_MINIKOSSEL.read_text()
+    assert text.count("\nM558 P4 ") == 1
+    (folder / "config.g").write_text(text.replace("\nM558 P4 ", f"\nM558 {probe_type} "))
+    return folder / "config.g"
+
+
+@pytest.mark.parametrize("probe_type", ["P0", "P4"])
+def test_rrf_m558_p0_is_manual_probing_by_its_g30(tmp_path, capsys, probe_type):
+    """RRF's M558 P0 (no probe): plan keeps probe.gcode (at each G30 S-1 RRF asks the user to jog Z and
+    answers 'Stopped at height Z mm', the nozzle's height), probe.csv's trigger height is the paper's and
+    the console imported through config.g takes the paper's 0.1 mm, not G31 Z (4.80 here). Before: M558 P
+    was not read; the console's heights took G31 Z's 4.8 mm (the bed 4.7 mm off) and probe.csv had none.
+    With P4 (its switch) nothing changes."""
+    config = _rrf_config(tmp_path / "sys", probe_type)
+    manual = probe_type == "P0"
+    assert main(["import", str(config), "-o", str(tmp_path / "printer")]) == 0
+    robot, obj = str(tmp_path / "printer" / "printer.toml"), tmp_path / "obj"
+    capsys.readouterr()
+    through = ["--controller", str(config)]
+    assert main(["plan", robot, "--object", *through, "--probe-grid", "3", "-o", str(obj)]) == 0
+    out = capsys.readouterr().out
+    program = (obj / "probe.gcode").read_text()
+    assert program.count("\nG30 S-1\n") == 5
+    travel = re.search(r"travels at Z(\S+) between points: (.*?) \+ M558 H8 \(line 51 of ", program)
+    assert travel is not None
+    assert travel.groups() == (("8.100", "the paper's 0.1") if manual else ("12.800", "G31 Z"))
+    header = (obj / "probe.csv").read_text().splitlines()[0]
+    assert header == ("x_mm,y_mm,z_mm,trigger_height_mm" if manual else "x_mm,y_mm,z_mm")
+    assert out.count("identify PRINTER.toml distances.csv fits the distances alone") == int(manual)
+    assert ("M558 P0 in " in out and "Adjust height until the nozzle just touches the bed" in out) == manual
+    # the printer run: RRF's console, each point echoed, then its answer (%.3f), read back through config.g
+    assert main(["simulate", robot, str(obj / "probe.csv"), "--controller", str(config), "--perturb", "7",
+                 "-o", str(tmp_path / "filled.csv")]) == 0
+    filled = np.loadtxt(tmp_path / "filled.csv", delimiter=",", skiprows=1, usecols=(0, 1, 2), ndmin=2)
+    console = [f'echo "probe at {x:.3f},{y:.3f}"\nprobe at {x:.3f},{y:.3f}\nStopped at height {z:.3f} mm\n'
+               for x, y, z in filled]
+    (tmp_path / "console.txt").write_text("".join(console))
+    capsys.readouterr()
+    assert main(["import", str(tmp_path / "console.txt"), "--config", str(config), "-o",
+                 str(tmp_path / "probe.csv")]) == 0
+    with open(tmp_path / "probe.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [float(row["trigger_height_mm"]) for row in rows] == [PAPER_MM if manual else 4.8] * 5
+    assert ("the paper test: M558 P0 of" in capsys.readouterr().out) == manual
