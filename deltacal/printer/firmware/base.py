@@ -284,6 +284,10 @@ class Firmware(ABC, Generic[ModelT]):
     export_needs_config: ClassVar[str] = ""
     exports_minimum_z: ClassVar[bool] = False
     live_files: ClassVar[tuple[str, ...]] = ()
+    #: Whether the firmware's probe program, run on a printer without a probe, asks for each height by
+    #: hand and answers it as a probe's (RRF's ``G30`` with ``M558 P0``): ``plan --object`` then writes
+    #: it beside :meth:`manual_heights`'s line.
+    probes_by_hand: ClassVar[bool] = False
 
     @abstractmethod
     def is_config(self, path: str | Path) -> bool:
@@ -424,9 +428,10 @@ class Firmware(ABC, Generic[ModelT]):
     def manual_heights(self, path: str | Path) -> str | None:
         """How to measure the probe heights by hand, in one line, when the configuration has no probe.
 
-        ``plan --object`` then writes no probe program (:meth:`probe_travel` is not known) and says
-        this line instead: the firmware's own way of a paper test at each point of probe.csv, the
-        answer to write in it and how to give it to ``identify`` (or to leave the heights out).
+        ``plan --object`` then writes no probe program (:meth:`probe_travel` is not known; unless
+        :attr:`probes_by_hand`) and says this line instead: the firmware's own way of a paper test
+        at each point of probe.csv, the answer to write in it and how to give it to ``identify`` (or
+        to leave the heights out).
 
         Returns:
             The line, or None: the configuration has a probe (by default: the firmware's probe is

@@ -5,7 +5,9 @@ Writes ``DIR/object.stl`` (the object, in the printer's coordinates), ``DIR/prob
 the console, travelling above the probe's trigger height:
 :meth:`~deltacal.printer.firmware.base.Firmware.probe_travel`; a configuration without a probe gets none,
 its ``probe.csv`` a ``trigger_height_mm`` of :data:`~deltacal.printer.firmware.probing.PAPER_MM` and the
-firmware's paper test said instead: :meth:`~deltacal.printer.firmware.base.Firmware.manual_heights`),
+firmware's paper test said instead: :meth:`~deltacal.printer.firmware.base.Firmware.manual_heights`;
+RepRapFirmware's ``M558 P0`` keeps the program, whose ``G30`` asks for each height by hand:
+:attr:`~deltacal.printer.firmware.base.Firmware.probes_by_hand`),
 ``DIR/distances.csv`` (the pairs of features to measure, the labels of their balls, ``distance_mm`` to
 fill in) and ``DIR/sheet.html`` (the measuring sheet: a top view with the labels and the pairs in the
 order of distances.csv), and says what was planned: what the probe heights alone identify of the
@@ -50,7 +52,8 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
     manual = firmware.manual_heights(request.controller)  # no probe: its heights by hand, or none
-    travel = None if manual else firmware.probe_travel(request.controller)
+    # RRF's G30 with M558 P0 asks for each height by hand: its program kept
+    travel = firmware.probe_travel(request.controller) if not manual or firmware.probes_by_hand else None
     live = firmware.live_correction(request.controller)  # turned off while the heights are measured
     caliper = request.caliper or CALIPER_RANGE
     plan = plan_object(printer, config.values, count=request.distances,
@@ -60,7 +63,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
         folder.mkdir()
     write_stl(outputs[0], mesh)
     write_probe_heights(outputs[1], plan.probe,
-                        trigger_height=None if travel else np.full(len(plan.probe), PAPER_MM))
+                        trigger_height=None if not manual else np.full(len(plan.probe), PAPER_MM))
     names = plan.names
     write_printed_distances(outputs[2], plan.pair_positions,
                             balls=[(names[i], names[j]) for i, j in plan.pairs.tolist()])
@@ -71,14 +74,15 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     assert printer.workspace is not None  # plan_object refused a printer without one
     atomic_write_text(outputs[4], sheet_html(plan, printer.workspace.radius, f"{printer.name}: the printed "
                                              "object's distances", printer.tower_azimuth))
-    lines = [_report(plan, printer, mesh, caliper, travel is not None)]
+    lines = [_report(plan, printer, mesh, caliper, not manual)]
     if request.distances is None and len(plan.pairs) < MAX_DISTANCES:
         lines.append(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances "
                      f"that can be measured together ({MAX_DISTANCES} with a longer one): planned the "
                      f"{len(plan.pairs)}")
     if live is not None:
         lines.append(live.plan_note(outputs[3].name) if travel is not None else live.manual_note())
-    probed = f"{outputs[3]} probes them" if travel is not None else "heights by hand, below"
+    probed = ("heights by hand, below" if travel is None else f"{outputs[3]} asks for each by hand, below"
+              if manual else f"{outputs[3]} probes them")
     lines.append(f"wrote {outputs[0]}, {outputs[1]} ({len(plan.probe)} probe points; {probed}), {outputs[2]} "
                  f"({len(plan.pairs)} distances) and {outputs[4]} (the sheet to measure them with)")
     if manual:

@@ -19,6 +19,7 @@ a quoted string, ``(...)`` is a comment, parameter letters are read in any case,
   and its trigger height (``ZProbe::HandleG31``; RRF's defaults X0 Y0 Z0.7), for the probe's
   results (:func:`rrf_probe_offsets`); ``M558 H`` of the same probe: its dive height above the
   trigger height (``H5``, or ``H5:2`` in RRF 3.5.1; default 5), for the probe program's travel;
+  ``M558 P0`` of that probe: no probe, RRF's manual probing (:func:`rrf_manual_probe`);
 * ``M579`` (axis scaling, ``GCodes::ToolOffsetTransform``) and ``M556 S X Y Z`` (axis skew,
   ``Move::AxisTransform``) move the nozzle off RRF's delta model: deltacal does not model them, so
   a value other than the identity (scale 1, skew 0) is refused naming its line.
@@ -365,13 +366,46 @@ def _apply(line: RRFLine, settings: RRFSettings) -> None:
         settings.set(line, "S", [line.number("S")])
     elif line.code == "M669" and "K" in p:
         settings.set(line, "K", [line.number("K")])
-    elif line.code == "M558" and "H" in p and p.get("K", "0").strip() in ("0", ""):
-        try:
-            settings.set(line, "H", line.numbers("H", 2))
-        except InputError:  # an expression: refused only where the dive height is needed (the probe program)
-            settings.set(line, "H", [math.nan])
+    elif line.code == "M558" and p.get("K", "0").strip() in ("0", ""):
+        _apply_m558(line, settings)
     elif line.code == "M579" or (line.code == "M556" and "S" in p):
         _refuse_unread(line)
+
+
+def _apply_m558(line: RRFLine, settings: RRFSettings) -> None:
+    """``M558 P H`` of the first Z probe: its type (0: none, RRF's manual probing) and its dive height.
+
+    A value RRF computes (an expression) is kept as NaN: refused only where it is needed (the
+    probe program's travel; whether the probe is manual).
+    """
+    for key, count in (("P", 1), ("H", 2)):
+        if key in line.params:
+            try:
+                settings.set(line, key, line.numbers(key, count))
+            except InputError:
+                settings.set(line, key, [math.nan])
+
+
+def rrf_manual_probe(settings: RRFSettings) -> RRFLine | None:
+    """The ``M558 P0`` line that leaves the first Z probe manual (``ZProbeType::none``), or None.
+
+    With it, ``G30`` asks the user to jog the nozzle down to the bed (``GCodes::DoManualBedProbe``,
+    "Adjust height until the nozzle just touches the bed, then press OK") and ``G30 S-1`` answers
+    ``Stopped at height Z mm``, Z the nozzle's height the user left it at (``probingAtPoint4``):
+    the height of the paper test, not less ``G31 Z``. A configuration without ``M558`` is read as
+    having a probe (RRF's defaults), as before.
+
+    Raises:
+        InputError: an ``M558 P`` that is not a number (an expression RRF computes), naming its line.
+    """
+    probe_type = settings.values.get("M558 P")
+    if probe_type is None:
+        return None
+    if not np.isfinite(probe_type[0]):
+        raise settings.error("M558 P", "the probe's type is not a number deltacal reads (an expression RRF "
+                                       "computes?): whether the printer probes by hand (P0) is not known; "
+                                       "write the number")
+    return settings.where["M558 P"] if probe_type[0] == 0 else None
 
 
 def _refuse_unread(line: RRFLine) -> None:

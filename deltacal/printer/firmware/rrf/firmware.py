@@ -23,6 +23,7 @@ from ....towers import per_tower
 from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..live_correction import LiveCorrection
 from ..owner_keys import OwnerKeys
+from ..probing import PAPER_MM
 from ..value_keys import ValueKey
 from .apply import rrf_apply_note, rrf_config_files
 from .calibrate import BED_MARGIN, DEFAULT_FACTORS, TILT_FACTORS, rrf_g32
@@ -32,6 +33,7 @@ from .config import (
     load_rrf,
     read_rrf_settings,
     rrf_config_text,
+    rrf_manual_probe,
     rrf_probe_offsets,
 )
 from .dialect import rrf_dialect
@@ -40,7 +42,7 @@ from .homing import homed_position
 from .importer import import_rrf
 from .log import is_rrf_probe_log, read_rrf_probe_log
 from .model import RRFController, RRFDelta
-from .probing import rrf_probe_program, rrf_probe_travel
+from .probing import rrf_manual_heights, rrf_probe_program, rrf_probe_travel
 
 if TYPE_CHECKING:
     from ...files.importer import PrinterImport
@@ -71,6 +73,7 @@ class RRF(Firmware[RRFDelta]):
     owner_keys: ClassVar[OwnerKeys] = OWNER_KEYS
     export_file: ClassVar[str] = "CALIBRATED.g"
     values_words: ClassVar[str] = "M665 and M666 lines for config-override.g, M92 for config.g"
+    probes_by_hand: ClassVar[bool] = True  # G30 S-1 with M558 P0: RRF asks the user to jog Z
     value_names: ClassVar[Mapping[str, str]] = MappingProxyType({
         "delta_radius": "M665 R",
         "angle_a": "M665 X",
@@ -184,6 +187,12 @@ class RRF(Firmware[RRFDelta]):
             warnings.simplefilter("ignore", InputWarning)
             return rrf_probe_travel(read_rrf_settings(path))
 
+    def manual_heights(self, path: str | Path) -> str | None:
+        """:func:`~.probing.rrf_manual_heights`: with ``M558 P0``, RRF's manual probing by probe.gcode."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return rrf_manual_heights(read_rrf_settings(path))
+
     def config_files(self, path: str | Path) -> tuple[Path, ...]:
         """:func:`~.apply.rrf_config_files`: ``config.g``, the files it runs and ``homedelta.g``."""
         return rrf_config_files(path)
@@ -216,14 +225,23 @@ class RRF(Firmware[RRFDelta]):
 
     def read_probe_log(self, path: str | Path, config: str | Path | None = None,
                        text: str | None = None) -> ProbeLog:
-        """:func:`~.log.read_rrf_probe_log`, the trigger height ``G31 Z`` of ``config.g`` if given."""
+        """:func:`~.log.read_rrf_probe_log`, the trigger height ``G31 Z`` of ``config.g`` if given.
+
+        With ``M558 P0`` (RRF's manual probing) the trigger height is the paper's,
+        :data:`~..probing.PAPER_MM`: RRF answers the height the user left the nozzle at.
+        """
         if config is None:
             return read_rrf_probe_log(path, text)
         settings = read_rrf_settings(config)
-        log = read_rrf_probe_log(path, text, rrf_probe_offsets(settings))
-        given = "G31 Z" in settings.values
-        return replace(log, trigger_source=f"G31 Z of {config}" if given else
-                       f"RepRapFirmware's default trigger height: no G31 Z in {config}")
+        manual = rrf_manual_probe(settings)
+        offsets = rrf_probe_offsets(settings)
+        if manual is not None:  # the user's height at each G30 S-1: the paper's, not G31 Z
+            offsets = replace(offsets, z=PAPER_MM)
+        log = read_rrf_probe_log(path, text, offsets)
+        given = f"G31 Z of {config}" if "G31 Z" in settings.values else \
+            f"RepRapFirmware's default trigger height: no G31 Z in {config}"
+        return replace(log, trigger_source=given if manual is None else
+                       f"the paper test: M558 P0 of {config}, line {manual.line}, RRF's manual probing")
 
     def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
