@@ -22,7 +22,7 @@ the two recorded controllers' values differ.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +34,7 @@ from ..exceptions import InputError
 from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
 from .firmware.config_file import check_printer_values, recorded_firmware
-from .identification.anchor import nominal_shift, reanchored
+from .identification.anchor import reanchored
 from .owner import DETERMINED_FRACTION, TOWERS, owner_quantities
 
 #: A change is significant when it exceeds this many of its σ (and both calibrations measure it).
@@ -125,19 +125,25 @@ def compare_calibrations(old: Calibration, new: Calibration, tolerances: Toleran
 
 def old_against_new_controller(
     old: Calibration, new: Calibration, old_source: str | Path, new_source: str | Path,
-) -> tuple[Calibration, Firmware[Any] | None, tuple[str, ...]]:
-    """OLD brought to NEW's controller (re-anchoring's place); the firmware both serve; what to say.
+) -> tuple[Calibration, Calibration, Firmware[Any] | None, tuple[str, ...]]:
+    """Both calibrations under one prior, NEW's: each fit's measurements kept; the firmware; what to say.
 
     Refuses two calibrations of different firmwares (naming both) or printers (a value beyond its build
     tolerance, naming the key). Each fit's prior is centred on the nominal printer it was identified
-    from (its robot file): two different ones, OLD re-anchored to NEW's (said, with the controller
-    values that differ; refused when OLD records no measurements to re-anchor with); the same, compared
-    as identified (the readings are the printer's own whatever the controller values; said if they
-    differ). A calibration that records no controller (written before they were recorded) is taken to
-    be against the other's, said.
+    from (its robot file: the controller values it was imported from) and scaled by the factor its
+    evidence chose: a change of a quantity the measurements do not wholly determine would otherwise
+    be the two priors' difference. When the nominals or the scales differ, both are identified again
+    (:func:`~.identification.anchor.reanchored`) from NEW's nominal with one scale, the geometric
+    mean of the two (each data set's evidence weighing alike); said, with the controller values that
+    differ. On a simulated Kossel whose tower B endstop moved 0.2 mm and whose printer.cfg was
+    re-calibrated between them (tower A's arm 1 mm longer), OLD re-anchored with its own scale (0.57)
+    against NEW's (1.17) read tower A's endstop moved -0.21 ± 0.07 mm; under one prior -0.02 ± 0.06
+    and tower B's +0.20 ± 0.05. Refused when a calibration that must be identified again records no
+    measurements. A calibration that records no controller (written before they were recorded) is
+    taken to be against the other's, said.
 
     Returns:
-        OLD against NEW's controller, the firmware (None: neither records one) and the lines to say.
+        OLD and NEW under one prior, the firmware (None: neither records one) and the lines to say.
 
     Raises:
         InputError: as above, one line.
@@ -157,26 +163,28 @@ def old_against_new_controller(
                  "identified with): taken to be the other's" for source, cal in ((old_source, old),
                                                                                (new_source, new))
                  if cal.controller is None)
-    if not _same_nominal(old.nominal, new.nominal):  # each fit's prior is centred on its nominal printer
-        changes = [] if old.controller is None or new.controller is None else \
-            old.controller.changes(new.controller.values)
-        keys = f": {changes_in_words(changes)}" if changes else ""
-        if old.measured is None:
-            raise InputError(f"identified from another nominal printer than {new_source} (its controller "
-                             f"values{keys or ' the same'}) and it records no measurements to re-anchor "
-                             "with (written before they were recorded): identify both from the same robot "
-                             "file",
-                             str(old_source))
-        old = reanchored(old, nominal_shift(old, new.nominal))
-        said += (f"{old_source} re-anchored to {new_source}'s nominal printer (the robot file it was "
-                 f"identified from{'; controller values ' + keys[2:] if keys else ''}): what its "
-                 "measurements determine is kept, the rest follows the newer values",)
-    elif old.controller is not None and new.controller is not None and old.controller.changes(
-            new.controller.values):
-        said += (f"both identified from the same nominal printer, through controller values that differ "
-                 f"({changes_in_words(old.controller.changes(new.controller.values))}): each fit's "
-                 "readings are the printer's own, compared as identified",)
-    return old, firmware, said
+    changes = [] if old.controller is None or new.controller is None else \
+        old.controller.changes(new.controller.values)
+    keys = f"controller values {changes_in_words(changes)}" if changes else "the same controller values"
+    scales = [None if c.measured is None else c.measured.tolerance_scale for c in (old, new)]
+    if _same_nominal(old.nominal, new.nominal) and scales[0] == scales[1]:
+        if changes:  # the readings are the printer's own, whatever the values that commanded them
+            said += (f"both identified from the same nominal printer under one prior, through {keys}: "
+                     "compared as identified",)
+        return old, new, firmware, said
+    for cal, source in ((old, old_source), (new, new_source)):
+        if cal.measured is None:
+            raise InputError(f"{old_source} and {new_source} were identified under different priors (another "
+                             f"robot file or tolerances' scale; {keys}) and this one records no measurements "
+                             "to identify again under one (written before they were recorded): identify both "
+                             "from the same robot file", str(source))
+    assert old.measured is not None and new.measured is not None
+    scale = float(np.sqrt(old.measured.tolerance_scale * new.measured.tolerance_scale))
+    old, new = (reanchored(replace(c, measured=replace(c.measured, tolerance_scale=scale)), new.nominal)
+                for c in (old, new) if c.measured is not None)
+    said += (f"both identified again under one prior ({new_source}'s robot file, the build tolerances scaled "
+             f"by {scale:.3g}; {keys}): what the measurements determine is kept",)
+    return old, new, firmware, said
 
 
 def _same_nominal(a: DeltaGeometry, b: DeltaGeometry) -> bool:

@@ -26,7 +26,6 @@ import numpy as np
 from ...calibration import Calibration
 from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...holds import bed_points
-from ...kinematics import exact
 from ...measured_record import MeasuredRecord
 from .errormodels import PrinterModel
 from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
@@ -111,39 +110,34 @@ def controller_shift(calibration: Calibration, recorded: Callable[[np.ndarray], 
                                                                                      points)
 
 
-def nominal_shift(calibration: Calibration, nominal: DeltaGeometry) -> np.ndarray:
-    """Δm from the calibration's nominal printer (its prior's centre) to another nominal printer.
+def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> Calibration:
+    """The calibration's measurements identified again from another start: the prior's centre moved.
 
-    What makes two calibrations of one printer comparable: each fit's prior is centred on its
-    nominal (the robot file identify was given); moved by this, the calibration's is the other's.
-    """
-    def nozzle(geometry: DeltaGeometry) -> Callable[[np.ndarray], np.ndarray]:
-        return lambda q: exact.forward(geometry, q).point(geometry.tool)
-
-    points = comparison_points(calibration)
-    return (controller_parameters(calibration, nozzle(nominal), points)
-            - controller_parameters(calibration, nozzle(calibration.nominal), points))
-
-
-def reanchored(calibration: Calibration, shift: np.ndarray) -> Calibration:
-    """The calibration's measurements identified again with the start moved by ``shift`` (Δm).
+    Args:
+        calibration: A printer's calibration that recorded its measurements (``measured``).
+        start: The new start: a nominal printer (another robot file's, of the same step distance), or
+            Δm, the move of the calibration's nominal in the model's parameters (:func:`controller_shift`).
 
     The fit's choices are the record's (the tolerances' scale as taken, the method), but for the
-    start: the values now given were not fitted to these measurements, so the firmware's own values
-    take the build tolerances' prior about them, not the wide one of a start the firmware calibrated
-    from the same data (on 3 simulated kits re-calibrated by Klipper, the wide one left the
-    corrected commands 0.008 mm worse than the new values' own at z 50-100 mm; this, better than
-    them). A poor fit is kept (it was judged when identified). The result keeps the calibration's
-    controller record and source; its measurements' record says the start was not calibrated.
+    start: values that were not fitted to these measurements take the build tolerances' prior about
+    them, not the wide one of a start the firmware calibrated from the same data (on 3 simulated kits
+    re-calibrated by Klipper, the wide one left the corrected commands 0.008 mm worse than the new
+    values' own at z 50-100 mm; this, better than them). A poor fit is kept (it was judged when
+    identified). The result keeps the calibration's controller record and source; its measurements'
+    record says the start was not calibrated.
 
     Raises:
-        ValueError: a calibration without its measurements (written before they were recorded).
+        ValueError: a calibration without its measurements (written before they were recorded), or a
+            start of another step distance.
     """
     record = calibration.measured
     if record is None:
         raise ValueError("the calibration records no measurements: it cannot be re-anchored")
     ws = record.workspace
-    start = calibration.model.apply(calibration.nominal, np.asarray(shift, dtype=float))
+    if not isinstance(start, DeltaGeometry):
+        start = calibration.model.apply(calibration.nominal, np.asarray(start, dtype=float))
+    elif not np.array_equal(np.asarray(start.step_distance), np.asarray(calibration.nominal.step_distance)):
+        raise ValueError("a start of another step distance than the calibration's readings count in")
     options = PrinterFitOptions(method="linear" if record.method == "linear" else "iterated",
                                 tolerances=Tolerances.printer_kit(), tolerance_scale=record.tolerance_scale,
                                 workspace=None if ws is None else Workspace(*ws), accept_poor_fit=True,

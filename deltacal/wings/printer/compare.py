@@ -1,9 +1,10 @@
 """``deltacal compare``: what changed in a printer between two of its calibrations, in its owner's words.
 
 Both files are checked as a printer's calibrations of the complete model; OLD is brought to NEW's
-controller (:func:`~deltacal.printer.history.old_against_new_controller`: today, refused when the
-recorded values differ), the changes computed (:func:`~deltacal.printer.history.compare_calibrations`)
-and said one per line, with the HTML page (:mod:`deltacal.report.history`) when asked.
+controller (:func:`~deltacal.printer.history.old_against_new_controller`: both identified again under
+one prior when their robot files or tolerances' scales differ), the changes computed
+(:func:`~deltacal.printer.history.compare_calibrations`) and said one per line, with the HTML page
+(:mod:`deltacal.report.history`) when asked.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ def printer_calibration(path: str | Path) -> Calibration:
 def compare_printer_calibrations(request: CompareRequest) -> Done:
     """``deltacal compare OLD NEW [-o PAGE]``: the changes in the owner's words, the page written."""
     old, new = printer_calibration(request.old), printer_calibration(request.new)
-    old, firmware, said = old_against_new_controller(old, new, request.old, request.new)
+    old, new, firmware, said = old_against_new_controller(old, new, request.old, request.new)
     firmware = firmware or firmwares()[0]
     changes = compare_calibrations(old, new, names=firmware.owner_keys.towers)
     if request.output is not None:
