@@ -48,7 +48,12 @@ from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.base import undetermined_values
 from deltacal.printer.firmware.config_file import FirmwareConfig
 from deltacal.printer.firmware.fitting import printable_grid
-from deltacal.printer.firmware.klipper.calibrate import klipper_enhanced, object_pairs, probe_points
+from deltacal.printer.firmware.klipper.calibrate import (
+    klipper_basic,
+    klipper_enhanced,
+    object_pairs,
+    probe_points,
+)
 from deltacal.printer.firmware.klipper.config import klipper_config_text, load_klipper
 from deltacal.printer.firmware.klipper.firmware import KLIPPER
 from deltacal.printer.firmware.klipper.fit import EXPORT_FIRST_LAYER_WEIGHT
@@ -251,11 +256,13 @@ class SimulatedRun:
     data: PrinterMeasurements
 
 
-def simulate(seed: int, label: str, effect: str, folder: Path, again: int = 0) -> SimulatedRun:
+def simulate(seed: int, label: str, effect: str, folder: Path, again: int = 0,
+             distances_too: bool = True) -> SimulatedRun:
     """A seeded printer of a class, measured and calibrated by Klipper, saved, imported (the module's).
 
     ``again``: the same printer measured and calibrated again (its owner re-ran Klipper's
-    calibration: fresh noise, the ``again``-th time; 0: the first).
+    calibration: fresh noise, the ``again``-th time; 0: the first). ``distances_too``: False, its 7
+    heights alone and Klipper's basic calibration (``DELTA_CALIBRATE`` without ``DELTA_ANALYZE``).
     """
     printer = load_printer(KOSSEL)
     tolerances, tilt = CLASSES[label]
@@ -274,15 +281,19 @@ def simulate(seed: int, label: str, effect: str, folder: Path, again: int = 0) -
     probe = probe_heights(truth, nominal, step, xy, PROBE_SIGMA, rng, trigger_height=trigger)
     pairs = object_pairs()
     ends = [nozzle_positions(truth, nominal, step, pairs[:, k:k + 3]) for k in (0, 3)]
-    distances = np.linalg.norm(ends[1] - ends[0], axis=1) + rng.normal(0.0, DISTANCE_SIGMA, len(pairs))
+    measured = np.linalg.norm(ends[1] - ends[0], axis=1) + rng.normal(0.0, DISTANCE_SIGMA, len(pairs))
     if effect == "object small":
-        distances = distances * (1.0 - OBJECT_SHRINK)
-    distances = np.round(distances, 3)  # a caliper's reading
-    klipper = klipper_enhanced(nominal, probe, pairs, distances, Z_OFFSET)
+        measured = measured * (1.0 - OBJECT_SHRINK)
+    measured = np.round(measured, 3)  # a caliper's reading
+    if distances_too:
+        klipper = klipper_enhanced(nominal, probe, pairs, measured, Z_OFFSET)
+    else:
+        klipper, pairs, measured = klipper_basic(nominal, probe, Z_OFFSET), pairs[:0], measured[:0]
     text = saved_config(klipper_config_text(nominal, complete=True), klipper, nominal.steps(probe),
                         np.full(len(probe), Z_OFFSET), nominal.steps(pairs.reshape(-1, 3)).reshape(-1, 2, 3),
-                        distances)
-    config = folder / f"printer-{seed}-{effect.replace(' ', '-')}{f'-again{again}' if again else ''}.cfg"
+                        measured)
+    config = folder / (f"printer-{seed}-{effect.replace(' ', '-')}{f'-again{again}' if again else ''}"
+                       f"{'' if distances_too else '-heights'}.cfg")
     config.write_text(text)
     run = read_real_run(config)
     return SimulatedRun(truth, effect, step, load_klipper(config), config, run.nominal, run.data)

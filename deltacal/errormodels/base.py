@@ -47,6 +47,7 @@ central finite differences through :func:`deltacal.kinematics.exact.forward`.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -336,7 +337,7 @@ class ErrorModel(ABC):
         raise NotImplementedError(f"the {self.name!r} error model states no prior from tolerances")
 
     def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
-                     calibrated: bool = False) -> np.ndarray:
+                     calibrated: bool | Sequence[str] = False) -> np.ndarray:
         """P, the prior covariance's factor ``Σ = P Pᵀ`` (n, n): by default ``diag(prior_sigma)``.
 
         A model whose parameters share a common mode (a printer's bed) states it here.
@@ -345,7 +346,8 @@ class ErrorModel(ABC):
             tolerances: The build tolerances.
             geometry: The geometry the parameters deviate from.
             calibrated: Whether that geometry's controller values were calibrated from the very
-                measurements being fitted (a printer's saved ``DELTA_CALIBRATE``).
+                measurements being fitted (a printer's saved ``DELTA_CALIBRATE``), or the names of
+                the values that were.
         """
         return np.diag(self.prior_sigma(tolerances))
 

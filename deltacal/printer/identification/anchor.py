@@ -27,7 +27,7 @@ from ...calibration import Calibration
 from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...holds import bed_points
 from ...measured_record import MeasuredRecord
-from .errormodels import PrinterModel
+from .errormodels import PrinterModel, calibrated_values
 from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
 from .where import point_rows, readings_at
 
@@ -155,4 +155,5 @@ def prior_factor_of(calibration: Calibration) -> np.ndarray:
     if record is None or not isinstance(model, PrinterModel):
         raise ValueError("re-anchoring needs a printer's calibration that recorded its measurements")
     used = scaled_tolerances(Tolerances.printer_kit(), record.tolerance_scale)
-    return model.prior_factor(used, calibration.nominal, record.calibrated_start)
+    return model.prior_factor(used, calibration.nominal, calibrated_values(record.calibrated_start,
+                                                                           record.distance.size))

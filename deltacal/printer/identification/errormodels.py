@@ -25,6 +25,8 @@ firmware calibration can reach; the rest of the complete model is what it leaves
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ...chains import PRISMATIC
@@ -129,7 +131,7 @@ class PrinterModel(ErrorModel):
         return np.array([sigma[kind] for kind in self._kinds])
 
     def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
-                     calibrated: bool = False) -> np.ndarray:
+                     calibrated: bool | Sequence[str] = False) -> np.ndarray:
         """P with ``Σ = P Pᵀ``: the build tolerances, the bed's place and the firmware's calibrated values.
 
         Where the bed sits is free (:data:`BED_TILT`, :data:`BED_HEIGHT`), but a bed tilted moves the
@@ -141,12 +143,16 @@ class PrinterModel(ErrorModel):
         calibration fits (:data:`FIRMWARE_VALUES`, :func:`firmware_modes`) take wide priors
         (:data:`FIRMWARE_FREE`): a prior centred on them along their own directions would tell the
         evidence only that the data agree with it (the tolerances' scale would collapse).
+        ``calibrated``: True for all of them, or the names of those the firmware fitted
+        (:func:`calibrated_values`: Klipper's basic calibration leaves the arms as configured).
         """
         diagonal = self._sigma(tolerances, 0.0, 0.0)
         modes = bed_modes(self, geometry) * np.array([BED_TILT, BED_TILT, BED_HEIGHT])
         cov = np.diag(diagonal**2) + modes @ modes.T
-        if calibrated:
-            firmware = firmware_modes(self, geometry) * np.array(FIRMWARE_FREE)
+        names = FIRMWARE_VALUES if calibrated is True else tuple(calibrated or ())
+        if names:
+            kept = [FIRMWARE_VALUES.index(n) for n in names]
+            firmware = firmware_modes(self, geometry)[:, kept] * np.array(FIRMWARE_FREE)[kept]
             cov = cov + firmware @ firmware.T
         return np.linalg.cholesky(cov)
 
@@ -236,6 +242,21 @@ def bed_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
 FIRMWARE_VALUES = ("delta_radius", "angle_a", "angle_b", "arm_length_a", "arm_length_b", "arm_length_c",
                    "endstop_a", "endstop_b", "endstop_c")
 FIRMWARE_FREE = (1.0, 0.005, 0.005, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
+#: What a firmware's calibration from probe heights alone fits (Klipper's basic ``DELTA_CALIBRATE``:
+#: ``coordinate_descent_params`` without the arms, which only ``DELTA_ANALYZE``'s distances add).
+HEIGHTS_VALUES = ("delta_radius", "angle_a", "angle_b", "endstop_a", "endstop_b", "endstop_c")
+
+
+def calibrated_values(calibrated: bool, distances: int) -> tuple[str, ...]:
+    """The firmware values a start ``calibrated`` from measurements with ``distances`` distances fitted.
+
+    None when not calibrated; with distances, :data:`FIRMWARE_VALUES` (Klipper's extended calibration);
+    from heights alone, :data:`HEIGHTS_VALUES`: the arms keep their build tolerance's prior (7 heights
+    cannot tell 9 wide values apart: the endstops' σ was ±2.6 mm, the bed's height known nowhere).
+    """
+    if not calibrated:
+        return ()
+    return FIRMWARE_VALUES if distances else HEIGHTS_VALUES
 
 
 def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:

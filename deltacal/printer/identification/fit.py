@@ -48,6 +48,7 @@ from ...kinematics import exact
 from ...observations import rigid_alignment
 from ...options import with_overrides
 from ...rotations import skew
+from .errormodels import calibrated_values
 from .evidence import SCALE_RANGE, evidence_scales
 from .outliers import Outliers, find_outliers
 from .where import firmware_determination, point_rows, where_it_holds
@@ -315,7 +316,8 @@ def identify_printer(
     given = options.tolerances or Tolerances.printer_kit()
     scale, noise, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
-    factor = error_model.prior_factor(used, start, options.calibrated_start)  # the prior's Σ: factor factorᵀ
+    calibrated = calibrated_values(options.calibrated_start, data.distance.size)
+    factor = error_model.prior_factor(used, start, calibrated)  # the prior's Σ: factor factorᵀ
     taken = with_noise(data, noise)  # the measurements' σ: the given times each kind's s0
     measured = measured_combinations(start, taken, error_model, used)
     r0, _, kind = residuals_and_regressor(start, error_model, data)
@@ -499,12 +501,13 @@ def _tolerance_scale(start: DeltaGeometry, data: PrinterMeasurements, error_mode
     """
     asked = options.tolerance_scale != "evidence"
     start_scale = float(options.tolerance_scale) if asked else 1.0
-    factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start, options.calibrated_start)
+    calibrated = calibrated_values(options.calibrated_start, data.distance.size)
+    factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start, calibrated)
     total, _, r, W, _ = _map_fit(start, data, error_model, factor, options.method)
     _, _, kind = residuals_and_regressor(start, error_model, data)
     y = r + W @ total  # the measurements about the estimate, in its linearisation
     def factor_of(s: float) -> np.ndarray:
-        return error_model.prior_factor(scaled_tolerances(given, s), start, options.calibrated_start)
+        return error_model.prior_factor(scaled_tolerances(given, s), start, calibrated)
 
     scale, rows = evidence_scales(y, W, factor_of, kind, (start_scale, start_scale) if asked else SCALE_RANGE)
     noise = np.ones(3)
@@ -579,7 +582,8 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
     def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)
         scale, noise, _ = _tolerance_scale(start, subset, error_model, given, options)
-        factor = error_model.prior_factor(scaled_tolerances(given, scale), start, options.calibrated_start)
+        factor = error_model.prior_factor(scaled_tolerances(given, scale), start,
+                                          calibrated_values(options.calibrated_start, data.distance.size))
         total, geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[:2]
         r, W, _ = residuals_and_regressor(geometry, error_model, data)
         return r, W @ factor, solve_triangular(factor, total, lower=True)
