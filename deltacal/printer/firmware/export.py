@@ -110,6 +110,9 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
         InputError: a file's first problem, a target out of the firmware's reach, no convergence, a
             calibration that holds nowhere within ``sigma_bound``.
     """
+    unchanged = _nothing_to_change(firmware, calibration, source, workspace, config, sigma_bound)
+    if unchanged is not None:
+        return unchanged
     begun = export_start(firmware, calibration, source, workspace, where, config, hold_step_distance,
                          sigma_bound)
     workspace = begun.workspace
@@ -130,6 +133,85 @@ def export_firmware_values(firmware: Firmware[Any], calibration: Calibration, so
                      "--controller)")
     return FirmwareExport(firmware, values, tuple(lines),
                           f"{firmware.title} delta values fitted by deltacal to {source}")
+
+
+#: A firmware's values fit the measurements when their RMS residual is within this many σ given.
+FITS_SIGMAS = 2.0
+
+
+@dataclass(frozen=True)
+class MeasuredResiduals:
+    """What a firmware's values leave of a calibration's measurements (``[measured]``) [mm].
+
+    Attributes:
+        heights: Each probe height's residual: the firmware's nozzle height at the trigger's readings
+            (the probe's offset added) less the trigger height, (N,).
+        distances: Each distance's: the firmware's distance between its two ends less the measured, (M,).
+        height_sigma: The σ given of a height.
+        distance_sigma: The σ given of a distance.
+    """
+
+    heights: np.ndarray
+    distances: np.ndarray
+    height_sigma: float
+    distance_sigma: float
+
+    @property
+    def fits(self) -> bool:
+        """Each kind's RMS within :data:`FITS_SIGMAS` of its σ (the values already fit the measurements)."""
+        kinds = ((self.heights, self.height_sigma), (self.distances, self.distance_sigma))
+        return all(r.size == 0 or float(np.sqrt(np.mean(r**2))) <= FITS_SIGMAS * s for r, s in kinds)
+
+    def words(self) -> str:
+        """``7 heights: RMS 0.006, max 0.011 mm (σ 0.01)`` and the same of the distances."""
+        out = []
+        for r, what, s in ((self.heights, "heights", self.height_sigma),
+                           (self.distances, "distances", self.distance_sigma)):
+            if r.size:
+                out.append(f"{r.size} {what}: RMS {np.sqrt(np.mean(r**2)):.4f}, max "
+                           f"{np.max(np.abs(r)):.4f} mm (σ {s:g})")
+        return "; ".join(out)
+
+
+def measured_residuals(firmware: Firmware[Any], values: FirmwareModel,
+                       calibration: Calibration) -> MeasuredResiduals | None:
+    """The residuals of the calibration's recorded measurements through the firmware's values (None: none)."""
+    record, step = calibration.measured, calibration.geometry.step_distance
+    if record is None or step is None:
+        return None
+    controller = firmware.controller(values, step)
+    heights = (controller.forward(record.probe, check=False)[:, 2] + record.probe_offset[2]
+               - record.trigger_height)
+    ends = controller.forward(record.pairs.reshape(-1, 3), check=False).reshape(-1, 2, 3)
+    distances = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) - record.distance
+    return MeasuredResiduals(heights, distances, record.height_sigma, record.distance_sigma)
+
+
+def _nothing_to_change(firmware: Firmware[Any], calibration: Calibration, source: str | Path,
+                       workspace: Workspace, config: str | Path | None,
+                       sigma_bound: float) -> FirmwareExport | None:
+    """The configuration's values unchanged where the calibration holds nowhere and they fit its measurements.
+
+    Bed-level heights alone determine the first layer's height, not the nozzle along the bed nor above
+    it: the calibration holds nowhere (its 3-D σ), yet a firmware calibrated from the same heights
+    (Klipper's saved ``DELTA_CALIBRATE``) already fits what they determine. Its values then are the
+    answer (written unchanged, the residuals said); None otherwise (the fit, or its refusal, follows).
+    """
+    holds = calibration.where_held()
+    if holds is None or config is None or holds.held_volume(workspace, sigma_bound) is not None:
+        return None
+    refuse_deltacal_file(config, "--config")
+    check_config_firmware(config, firmware)
+    values = firmware.read_config(config)
+    residuals = measured_residuals(firmware, values, calibration)
+    if residuals is None or not residuals.fits:
+        return None
+    lines = (f"nothing to change: {config}'s values already fit {source}'s measurements "
+             f"({residuals.words()}: within {FITS_SIGMAS:g} σ), and the calibration holds nowhere else "
+             f"within σ {sigma_bound:g} mm ({holds_in_words(holds, sigma_bound)}); its values are written "
+             "unchanged",)
+    return FirmwareExport(firmware, values, lines, f"{firmware.title} delta values of {config}, unchanged: "
+                          f"they already fit {source}'s measurements")
 
 
 def export_start(firmware: Firmware[Any], calibration: Calibration, source: str | Path, workspace: Workspace,
