@@ -13,10 +13,10 @@ measure the quantity (:mod:`.owner`'s rule: σ below half its build tolerance) a
 ``|change| > 3 σ`` (:data:`SIGNIFICANT_SIGMAS`): by chance
 alone, one quantity of the 20 crosses it about once in 19 comparisons of an unchanged printer.
 
-Both calibrations' parameters are deviations from the firmware values they were identified through:
-the changes mean what they say only against the same values. :func:`old_against_new_controller`
-brings OLD to NEW's controller: re-anchored (:func:`~.firmware.config_file.reanchored_to`) when
-the two recorded controllers' values differ.
+Both calibrations' parameters are deviations from the nominal printer they were identified from,
+under priors scaled by each one's evidence: the changes mean what they say only under one prior.
+:func:`old_against_new_controller` identifies both again under NEW's
+(:func:`~.identification.anchor.reanchored`) when their robot files or scales differ.
 """
 
 from __future__ import annotations

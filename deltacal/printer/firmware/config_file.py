@@ -18,12 +18,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from ...controller.targets import CommandModel
 from ...controller_record import ControllerRecord, changes_in_words, files_digest
 from ...exceptions import GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
-from ..identification.anchor import controller_shift, reanchored
+from ..identification.anchor import controller_shift, reanchored, same_commands
 from . import check_config_firmware, config_firmware, firmware_named, firmwares
 from .base import Firmware, FirmwareModel
 
@@ -197,7 +199,11 @@ class FirmwareConfig:
             return calibration, (said + f"{source} records no measurements to re-anchor with (written before "
                                  f"they were recorded): its correction is taken as identified, relative to "
                                  f"{record.source}'s values; identify again to follow {self.path}",)
-        return reanchored_to(self.firmware, calibration, self.values), (
+        moved = reanchored_to(self.firmware, calibration, self.values)
+        if moved is None:
+            return calibration, (said + "they move no nozzle (limits only): the calibration is used as "
+                                 "identified",)
+        return moved, (
             said + f"re-anchored: what its measurements determine is kept, the rest follows {self.path}; if "
             "the printer itself changed (rods, probe, effector), measure it again and identify",)
 
@@ -206,22 +212,31 @@ class FirmwareConfig:
         check_printer_values(self.firmware, geometry, self.values, source, self.path)
 
 
-def reanchored_to(firmware: Firmware[Any], calibration: Calibration, now: FirmwareModel) -> Calibration:
+def reanchored_to(firmware: Firmware[Any], calibration: Calibration,
+                  now: FirmwareModel) -> Calibration | None:
     """The calibration re-anchored from the values it recorded (``[controller]``) to ``now``'s.
 
     Each set of values as the firmware's controller (its forward model, readings counted in the
     calibration's step distance), their move in the model's parameters
     (:func:`~deltacal.printer.identification.anchor.controller_shift`), the measurements identified
     again from the start moved by it (:func:`~deltacal.printer.identification.anchor.reanchored`).
+    None when the two command alike (the values changed are limits: ``M208 Z``, a print radius).
     """
     assert calibration.controller is not None and calibration.measured is not None
     recorded = firmware.with_values(now, calibration.controller.values)
     step = calibration.geometry.step_distance
     assert step is not None  # a printer's calibration counts its readings in its step distance
     old, new = firmware.controller(recorded, step), firmware.controller(now, step)
-    shift = controller_shift(calibration, lambda q: old.forward(q, check=False),
-                             lambda q: new.forward(q, check=False))
-    return reanchored(calibration, shift)
+
+    def before(q: np.ndarray) -> np.ndarray:
+        return old.forward(q, check=False)
+
+    def after(q: np.ndarray) -> np.ndarray:
+        return new.forward(q, check=False)
+
+    if same_commands(calibration, before, after):
+        return None
+    return reanchored(calibration, controller_shift(calibration, before, after))
 
 
 def recorded_firmware(calibration: Calibration, source: str | Path, firmware: Firmware[Any] | None = None,

@@ -24,6 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...calibration import Calibration
+from ...exceptions import AssemblyError
 from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...holds import bed_points
 from ...measured_record import MeasuredRecord
@@ -32,10 +33,12 @@ from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scale
 from .where import point_rows, readings_at
 
 #: Gauss-Newton steps of :func:`controller_parameters` at most, and the step [prior units] that ends them.
-SHIFT_ITERATIONS = 8
-SHIFT_TOLERANCE = 1e-10
-#: Relative singular value below which a combination of parameters moves no nozzle (least prior norm).
-SHIFT_RCOND = 1e-9
+SHIFT_ITERATIONS = 12
+SHIFT_TOLERANCE = 1e-9
+#: The σ a controller's nozzle is matched with in :func:`controller_parameters` [mm].
+SHIFT_SIGMA = 1e-4
+#: Halvings of a step that leaves a reading unassembled, at most.
+SHIFT_HALVINGS = 30
 #: Heights of the layers the controllers are compared on, as fractions of the measured volume's.
 SHIFT_LAYERS = (0.0, 0.5, 1.0)
 
@@ -69,11 +72,14 @@ def comparison_points(calibration: Calibration) -> np.ndarray:
 
 def controller_parameters(calibration: Calibration, forward: Callable[[np.ndarray], np.ndarray],
                           points: np.ndarray) -> np.ndarray:
-    """The model's parameters whose nozzle lands where the controller's forward puts it (least prior norm).
+    """The model's parameters whose nozzle lands where the controller's forward puts it (prior's centre else).
 
     At the readings that put the nominal printer's nozzle on ``points``, the parameters m (from the
-    calibration's nominal, the model's order) minimise ``|nozzle(m, q) − forward(q)|``: Gauss-Newton
-    with least-norm steps in the units of the fit's prior (what no nozzle sees stays at its centre).
+    calibration's nominal, the model's order) minimise ``|nozzle(m, q) − forward(q)|² / σ² + |L⁻¹ m|²``
+    with σ = :data:`SHIFT_SIGMA` (a tenth of a micrometre) and ``L Lᵀ`` the fit's prior: the nozzle
+    matched, and what no nozzle sees left at the prior's centre (a least-norm step alone took
+    combinations the nozzle barely sees by metres on a Duet Kossel, and diverged). Gauss-Newton,
+    a step that leaves a reading unassembled halved.
 
     Args:
         calibration: A printer's calibration that recorded its measurements (``measured``).
@@ -85,15 +91,39 @@ def controller_parameters(calibration: Calibration, forward: Callable[[np.ndarra
     q = q[np.all(np.isfinite(q), axis=1)]
     target = forward(q)
     L = prior_factor_of(calibration)
-    m = np.zeros(model.size)
+    n = model.size
+    m = np.zeros(n)
+    point, S = point_rows(nominal, model, q, nominal.tool)
     for _ in range(SHIFT_ITERATIONS):
-        geometry = model.apply(nominal, m)
-        point, S = point_rows(geometry, model, q, geometry.tool)
-        u = np.linalg.lstsq(S.reshape(-1, model.size) @ L, (target - point).reshape(-1), rcond=SHIFT_RCOND)[0]
-        m = m + L @ u
-        if np.max(np.abs(u)) < SHIFT_TOLERANCE:
+        A = np.vstack([S.reshape(-1, n) @ L / SHIFT_SIGMA, np.eye(n)])
+        b = np.concatenate([(target - point).reshape(-1) / SHIFT_SIGMA, -np.linalg.solve(L, m)])
+        step = L @ np.linalg.lstsq(A, b, rcond=None)[0]
+        for _ in range(SHIFT_HALVINGS):
+            try:
+                geometry = model.apply(nominal, m + step)
+                point, S = point_rows(geometry, model, q, geometry.tool)
+                break
+            except AssemblyError:
+                step = 0.5 * step
+        else:
+            raise ValueError("the controller's printer could not be matched (a step left the readings "
+                             "unassembled)")
+        m = m + step
+        if np.max(np.abs(np.linalg.solve(L, step))) < SHIFT_TOLERANCE:
             break
     return m
+
+
+#: Two controllers whose nozzles agree this closely at every compared reading command the same [mm].
+SAME_NOZZLE = 1e-9
+
+
+def same_commands(calibration: Calibration, recorded: Callable[[np.ndarray], np.ndarray],
+                  now: Callable[[np.ndarray], np.ndarray]) -> bool:
+    """Whether two controllers' forward models put the nozzle alike (values changed: limits only)."""
+    q = readings_at(calibration.nominal, comparison_points(calibration))
+    q = q[np.all(np.isfinite(q), axis=1)]
+    return bool(np.max(np.abs(now(q) - recorded(q)), initial=0.0) <= SAME_NOZZLE)
 
 
 def controller_shift(calibration: Calibration, recorded: Callable[[np.ndarray], np.ndarray],
@@ -118,13 +148,15 @@ def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> C
         start: The new start: a nominal printer (another robot file's, of the same step distance), or
             Δm, the move of the calibration's nominal in the model's parameters (:func:`controller_shift`).
 
-    The fit's choices are the record's (the tolerances' scale as taken, the method), but for the
-    start: values that were not fitted to these measurements take the build tolerances' prior about
-    them, not the wide one of a start the firmware calibrated from the same data (on 3 simulated kits
-    re-calibrated by Klipper, the wide one left the corrected commands 0.008 mm worse than the new
-    values' own at z 50-100 mm; this, better than them). A poor fit is kept (it was judged when
-    identified). The result keeps the calibration's controller record and source; its measurements'
-    record says the start was not calibrated.
+    The fit's choices are the record's (the tolerances' scale as taken, the method, a start the
+    firmware calibrated from the same data): only the prior's centre moves, never its width, so a
+    small change of the values moves the calibration a little. (Tried and not kept: taking the
+    build tolerances' prior about values not fitted to these measurements. On three simulated kits
+    re-calibrated by Klipper it helped at z 25-100 mm, 0.008 mm, but the real V400 A's runs,
+    each re-anchored to the first run's printer.cfg while the first kept its wide prior, then
+    disagreed by 0.20 mm at z 10 against 0.07: the width jumped with any change of the values.)
+    A poor fit is kept (it was judged when identified). The result keeps the calibration's records
+    and source.
 
     Raises:
         ValueError: a calibration without its measurements (written before they were recorded), or a
@@ -141,11 +173,10 @@ def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> C
     options = PrinterFitOptions(method="linear" if record.method == "linear" else "iterated",
                                 tolerances=Tolerances.printer_kit(), tolerance_scale=record.tolerance_scale,
                                 workspace=None if ws is None else Workspace(*ws), accept_poor_fit=True,
-                                calibrated_start=False)
+                                calibrated_start=record.calibrated_start)
     result = identify_printer(start, measurements_of(record), calibration.model, options=options)
-    # its start is now the values given, which were not fitted to these measurements
-    return replace(Calibration.from_result(result), controller=calibration.controller,
-                   measured=replace(record, calibrated_start=False), source=calibration.source)
+    return replace(Calibration.from_result(result), controller=calibration.controller, measured=record,
+                   source=calibration.source)
 
 
 def prior_factor_of(calibration: Calibration) -> np.ndarray:
