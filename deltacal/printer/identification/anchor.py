@@ -7,11 +7,11 @@ others it stays near the prior's centre, and ``[holds.along_bed]`` is the start 
 determined ones only. When the controller's values change (its owner ran the firmware's own
 calibration again, or edited a value), the centre moves: by Δm in the model's parameters, the move
 from the printer the recorded controller describes to the one the controller now given describes
-(:func:`controller_shift`, each the least-prior-norm parameters whose nozzle lands where that
-controller's forward model puts it). The calibration is then the same measurements
+(:func:`controller_shift`, each the parameter set whose nozzle lands where that controller's
+forward model puts it, near the prior's centre). The calibration is then the same measurements
 (:class:`~deltacal.measured_record.MeasuredRecord`, the file's ``[measured]``) identified again with
-the start moved by Δm, the fit's own choices kept (the tolerances' scale, the method;
-:func:`reanchored`): exact, where a linear update ``Σ Σ₀⁻¹ Δm`` left 0.08 mm of a 1.5 mm rod
+the start moved by Δm, the fit's own choices kept (the tolerances' scale, the method, the prior's
+width; :func:`reanchored`): exact, where a linear update ``Σ Σ₀⁻¹ Δm`` left 0.08 mm of a 1.5 mm rod
 change on a Kossel (a tenth: the fit is not linear over millimetres).
 Units: mm and rad.
 """
