@@ -179,7 +179,22 @@ def test_the_weights_are_continuous_one_where_the_correction_holds_and_zero_beyo
     assert correction_weight(np.array([np.nan, np.inf]), 0.05).tolist() == [0.0, 0.0]
     size = np.linspace(0.0, 0.1, 1001)
     s = significance_weight(size, np.full(size.size, 0.02))
-    assert np.all(s[size <= 0.02] == 0.0) and np.all(s[size >= 0.04] == 1.0) and np.all(np.diff(s) >= 0.0)
+    assert np.all(s[size <= 0.02] == 0.0) and np.all(np.diff(s) >= 0.0) and np.all(s < 1.0)
+    # beyond twice its σ, what stands out of 1.5 σ is applied
+    assert_allclose((s * size)[size >= 0.04], size[size >= 0.04] - 0.03, rtol=0.0, atol=1e-12)
+
+
+def test_the_applied_correction_never_grows_faster_than_the_correction():
+    """Issue 46: the part of a correction applied along the bed, significance_weight(c, σ) |c|, has a
+    slope in |c| between 0 and 1 and a continuous one (its second difference bounded): a correction
+    growing across the bed past its σ is eased in, not switched on (the smooth step from 1 to 2 σ
+    applied 2 σ over σ: a slope of 2.75)."""
+    sigma = 0.02
+    size = np.linspace(0.0, 0.2, 200001)
+    applied = significance_weight(size, np.full(size.size, sigma)) * size
+    slope = np.diff(applied) / np.diff(size)
+    assert np.all(slope >= -1e-9) and np.max(slope) <= 1.0 + 1e-6
+    assert np.max(np.abs(np.diff(slope))) < 1e-3  # no kink: the slope changes by a step's share only
 
 
 def test_the_grid_reads_back_from_a_calibration_file(tmp_path, run_a1):
