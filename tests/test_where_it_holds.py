@@ -531,3 +531,25 @@ def test_klippers_data_alone_give_a_better_first_layer(fresh, label, effect):
     summary = fresh(label, effect)
     first = summary["klipper"]["first_layer_height_error_mm"]
     assert summary["corrected"]["first_layer_height_error_mm"] <= 0.8 * first + 0.003, (summary, first)
+
+
+#: Issue 46: fresh printers whose corrected commands, through a re-calibrated printer.cfg, stepped within
+#: a layer (local error 0.019 / 0.020 / 0.014 mm above the printer.cfg's own with the smooth step of the
+#: correction's significance between 1 and 2 σ).
+LOCAL_CASES = (("typical kit", 38600, "object small"), ("well built", 38700, "object small"),
+               ("well built", 38701, "plain"))
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("label, seed, effect", LOCAL_CASES, ids=[f"{c[0]}-{c[2]}" for c in LOCAL_CASES])
+def test_corrections_add_no_step_within_a_layer(script, tmp_path, label, seed, effect):
+    """The local error (the change of the true 3-D error between targets 10 mm apart in a layer) of the
+    corrected commands at most the printer.cfg's own + 0.01 mm at every layer from the first to z 100,
+    through the printer.cfg it was identified with and through a re-calibrated one (issue 46)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        found = script.local_study(seed, label, effect, tmp_path)
+    for route in ("own", "recalibrated"):
+        figures = found[route]
+        for z, own in figures["klipper"].items():
+            assert figures["corrected"][z] <= own + 0.01, (route, z, figures["corrected"][z], own)
