@@ -50,7 +50,7 @@ FIRST_LAYER = 0.2
 #: A firmware's value is determined by the measurements when its σ after them is at most this share of
 #: its σ from the build tolerances alone (:meth:`WhereItHolds.determined`).
 DETERMINED = 1.0 / 3.0
-#: A correction this many times its σ is wholly applied (:func:`significance_weight`).
+#: From this many times its σ a correction along the bed is applied less 1.5 σ (:func:`significance_weight`).
 SIGNIFICANT = 2.0
 #: The σ a node the printer cannot reach is given [mm]: no correction there, and the interpolation stays
 #: finite (continuous) next to it.
