@@ -50,7 +50,7 @@ FIRST_LAYER = 0.2
 #: A firmware's value is determined by the measurements when its σ after them is at most this share of
 #: its σ from the build tolerances alone (:meth:`WhereItHolds.determined`).
 DETERMINED = 1.0 / 3.0
-#: A correction this many times its σ is wholly applied (:func:`significance_weight`).
+#: From this many times its σ a correction along the bed is applied less 1.5 σ (:func:`significance_weight`).
 SIGNIFICANT = 2.0
 #: The σ a node the printer cannot reach is given [mm]: no correction there, and the interpolation stays
 #: finite (continuous) next to it.
@@ -98,15 +98,22 @@ def correction_weight(sigma: np.ndarray, bound: float) -> np.ndarray:
 
 
 def significance_weight(size: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """How much of a correction of this size and σ is applied: 0 up to its σ, 1 from :data:`SIGNIFICANT` σ.
+    """How much of a correction of this size and σ is applied: 0 up to its σ, then what stands out of it.
 
     A correction no larger than its own σ is not determined by the measurements (zero is as
-    probable), and applying it trades the controller's error for the correction's: the smooth step
-    of :func:`correction_weight` between 1 and :data:`SIGNIFICANT` σ.
+    probable), and applying it trades the controller's error for the correction's. Beyond its σ the
+    part applied is what stands out of it, eased in: the applied size is ``σ f(size / σ)``, ``f(u)``
+    0 up to 1, ``(u − 1)² / (2 (S − 1))`` up to S = :data:`SIGNIFICANT`, then ``u − (1 + S) / 2``:
+    continuous with its slope, and never growing faster than the correction itself (slope at most
+    1), so that a correction that grows across the bed is not switched on within a few mm (a step
+    in the printed layer). The weight is ``f(u) / u``.
     """
     sigma = np.maximum(np.asarray(sigma, dtype=float), 1e-12)
-    t = np.clip((np.asarray(size, dtype=float) / sigma - 1.0) / (SIGNIFICANT - 1.0), 0.0, 1.0)
-    return t * t * (3.0 - 2.0 * t)
+    u = np.asarray(size, dtype=float) / sigma
+    width = SIGNIFICANT - 1.0
+    eased = np.where(u < SIGNIFICANT, np.clip(u - 1.0, 0.0, None) ** 2 / (2.0 * width), u - 1.0 - 0.5 * width)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(u > 1.0, eased / np.where(u > 1.0, u, 1.0), 0.0)
 
 
 @dataclass(frozen=True)

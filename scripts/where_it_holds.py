@@ -338,6 +338,78 @@ def simulated_printer(seed: int, label: str, effect: str, folder: Path) -> dict:
             "exported": judged(run.truth, run, layers, own, exported)}
 
 
+#: Heights of the local error's layers [mm] (issue 46): the first layer, then up through where the σ
+#: crosses the bound.
+LOCAL_HEIGHTS = (0.2, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 25.0, 35.0, 50.0, 75.0, 100.0)
+#: The spacing of the local error's grid points [mm].
+LOCAL_SPACING = 10.0
+
+
+def lattice(radius: float, z: float, spacing: float = LOCAL_SPACING) -> tuple[np.ndarray, np.ndarray]:
+    """A square lattice of targets within ``radius`` at height z [mm], and its neighbour pairs (M, 2)."""
+    k = int(radius // spacing)
+    i, j = np.meshgrid(np.arange(-k, k + 1), np.arange(-k, k + 1), indexing="ij")
+    inside = np.hypot(i, j) * spacing <= radius
+    index = -np.ones(i.shape, dtype=int)
+    index[inside] = np.arange(int(np.sum(inside)))
+    pairs = [np.column_stack([index[:-1][inside[:-1] & inside[1:]], index[1:][inside[:-1] & inside[1:]]]),
+             np.column_stack([index[:, :-1][inside[:, :-1] & inside[:, 1:]],
+                              index[:, 1:][inside[:, :-1] & inside[:, 1:]]])]
+    targets = np.column_stack([spacing * i[inside], spacing * j[inside], np.full(int(np.sum(inside)), z)])
+    return targets, np.concatenate(pairs)
+
+
+def local_error(truth: DeltaGeometry, values: KlipperDelta, step: np.ndarray, targets: np.ndarray,
+                commands: np.ndarray, pairs: np.ndarray) -> float:
+    """The largest change of the true 3-D nozzle error between neighbouring targets [mm]."""
+    errors = nozzle_positions(truth, values, step, commands) - targets
+    return float(np.max(np.linalg.norm(errors[pairs[:, 0]] - errors[pairs[:, 1]], axis=1)))
+
+
+def local_errors(run: SimulatedRun, calibration: Calibration, values: KlipperDelta,
+                 heights: tuple[float, ...] = LOCAL_HEIGHTS, radius: float = SIM_RADIUS) -> dict:
+    """Per layer: the local errors of the printer.cfg's own and the corrected commands (issue 46) [mm].
+
+    Also the largest change of a correction's weight between neighbours (``weight_step``).
+    """
+    controller = KLIPPER.controller(values, run.step)
+    out: dict = {"klipper": {}, "corrected": {}, "weight_step": {}}
+    for z in heights:
+        targets, pairs = lattice(radius, z)
+        commands, weights = commands_of(calibration, controller, targets)
+        out["klipper"][str(z)] = local_error(run.truth, values, run.step, targets, targets, pairs)
+        out["corrected"][str(z)] = local_error(run.truth, values, run.step, targets, commands, pairs)
+        out["weight_step"][str(z)] = float(np.max(np.abs(weights[pairs[:, 0]] - weights[pairs[:, 1]])))
+    return out
+
+
+def recalibrated(run: SimulatedRun, seed: int) -> KlipperDelta:
+    """Klipper's values of the same printer calibrated again (fresh probe noise and a reprinted object)."""
+    rng = np.random.default_rng(seed)
+    xy = probe_points(PROBE_RADIUS)
+    trigger = np.full(len(xy), Z_OFFSET)
+    if run.effect == "probe bias":
+        trigger = trigger + probe_bias(xy)
+    if run.effect == "bed bowl":
+        trigger = trigger + bowl(xy)
+    nominal = replace(run.klipper, print_radius=PROBE_RADIUS)
+    probe = probe_heights(run.truth, nominal, run.step, xy, PROBE_SIGMA, rng, trigger_height=trigger)
+    pairs = object_pairs()
+    ends = [nozzle_positions(run.truth, nominal, run.step, pairs[:, k:k + 3]) for k in (0, 3)]
+    distances = np.round(np.linalg.norm(ends[1] - ends[0], axis=1)
+                         + rng.normal(0.0, DISTANCE_SIGMA, len(pairs)), 3)
+    values = klipper_enhanced(nominal, probe, pairs, distances, Z_OFFSET)
+    return replace(values, print_radius=run.klipper.print_radius)
+
+
+def local_study(seed: int, label: str, effect: str, folder: Path) -> dict:
+    """One simulated printer's local errors through its own printer.cfg and through a re-calibrated one."""
+    run = simulate(seed, label, effect, folder)
+    calibration, _ = calibrate(run.nominal, run.data)
+    return {"seed": seed, "effect": effect, "own": local_errors(run, calibration, run.klipper),
+            "recalibrated": local_errors(run, calibration, recalibrated(run, seed + 500))}
+
+
 def summary(rows: list[dict]) -> dict:
     """Mean over printers of each method's figures."""
     out: dict = {}

@@ -98,11 +98,12 @@ def corrected_targets(
     put in the controller's frame (:func:`aligned_to_controller`: no correction moves the part along
     the bed or turns it), then each command is the controller's own (the target) plus the
     correction times its weight (:meth:`~deltacal.holds.WhereItHolds.weights`, the horizontal and
-    the vertical part each by its own σ): the correction where its σ is at most half the bound (and,
-    along the bed, the correction at least twice its σ), the controller's own command where its σ is
-    above the bound (or, along the bed, the correction within its σ of zero), blended smoothly
-    between. A geometry, or a rotary Delta's calibration, is corrected everywhere; a printer's
-    calibration that does not say where it holds (a file without ``[holds]``) is refused.
+    the vertical part each by its own σ): the correction where its σ is at most half the bound (along
+    the bed, what of it stands out of its σ, eased in: :func:`~deltacal.holds.significance_weight`),
+    the controller's own command where its σ is above the bound (or, along the bed, the correction
+    within its σ of zero), blended smoothly between. A geometry, or a rotary Delta's calibration, is
+    corrected everywhere; a printer's calibration that does not say where it holds (a file without
+    ``[holds]``) is refused.
 
     Args:
         calibration: The calibration (or the identified geometry itself).

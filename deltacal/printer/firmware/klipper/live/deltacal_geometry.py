@@ -77,10 +77,15 @@ def correction_weight(sigma, bound):
 def significance_weight(size, sigma):
     """How much of a correction of this size and sigma is applied (deltacal.holds.significance_weight).
 
-    0 up to its sigma, 1 from SIGNIFICANT times it, the smooth step ``3t^2 - 2t^3`` between.
+    0 up to its sigma; then the applied size is sigma f(u), u = size / sigma, f = (u - 1)^2 / (2 (S - 1))
+    up to S = SIGNIFICANT, u - (1 + S) / 2 beyond: the weight f(u) / u.
     """
-    t = min(max((size / max(sigma, 1e-12) - 1.0) / (SIGNIFICANT - 1.0), 0.0), 1.0)
-    return t * t * (3.0 - 2.0 * t)
+    u = size / max(sigma, 1e-12)
+    if not u > 1.0:
+        return 0.0
+    width = SIGNIFICANT - 1.0
+    eased = (u - 1.0) ** 2 / (2.0 * width) if u < SIGNIFICANT else u - 1.0 - 0.5 * width
+    return eased / u
 
 
 def _cell(nodes, value):
