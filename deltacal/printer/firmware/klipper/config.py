@@ -78,6 +78,8 @@ BOUNDS: dict[tuple[str, str], Bound] = {
     ("stepper", "rotation_distance"): LENGTH, ("stepper", "step_distance"): STEP_DISTANCE,
     ("stepper", "microsteps"): MICROSTEPS, ("stepper", "full_steps_per_rotation"): FULL_STEPS,
     ("delta_calibrate", "radius"): LENGTH, ("probe", "x_offset"): PROBE_OFFSET,
+    ("printer", "shoulder_radius"): LENGTH, ("printer", "shoulder_height"): LENGTH,
+    ("stepper", "upper_arm_length"): LENGTH, ("stepper", "lower_arm_length"): LENGTH,
     ("probe", "y_offset"): PROBE_OFFSET, ("probe", "z_offset"): PROBE_OFFSET,
 }
 
