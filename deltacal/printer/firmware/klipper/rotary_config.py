@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import GeometryError, InputError, UnreachableError
-from .config import STEPPERS, KlipperConfig, _gear_ratio
+from .config import STEPPERS, KlipperConfig, gear_ratio
 from .model import DEFAULT_FULL_STEPS
 from .rotary_model import ROTARY_ANGLES_DEG, KlipperRotaryDelta
 
@@ -93,4 +93,4 @@ def _arm_step(config: KlipperConfig, stepper: str) -> float:
                          above=0.0)
     if full % 4:
         raise config.error(stepper, "full_steps_per_rotation", f"value {int(full)} must be a multiple of 4")
-    return 2.0 * math.pi / (full * microsteps * _gear_ratio(config, stepper))
+    return 2.0 * math.pi / (full * microsteps * gear_ratio(config, stepper))
