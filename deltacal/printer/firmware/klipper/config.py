@@ -78,6 +78,8 @@ BOUNDS: dict[tuple[str, str], Bound] = {
     ("stepper", "rotation_distance"): LENGTH, ("stepper", "step_distance"): STEP_DISTANCE,
     ("stepper", "microsteps"): MICROSTEPS, ("stepper", "full_steps_per_rotation"): FULL_STEPS,
     ("delta_calibrate", "radius"): LENGTH, ("probe", "x_offset"): PROBE_OFFSET,
+    ("printer", "shoulder_radius"): LENGTH, ("printer", "shoulder_height"): LENGTH,
+    ("stepper", "upper_arm_length"): LENGTH, ("stepper", "lower_arm_length"): LENGTH,
     ("probe", "y_offset"): PROBE_OFFSET, ("probe", "z_offset"): PROBE_OFFSET,
 }
 
@@ -461,10 +463,10 @@ def _step_distance(config: KlipperConfig, stepper: str) -> float:
                          above=0.0)
     if full % 4:
         raise config.error(stepper, "full_steps_per_rotation", f"value {int(full)} must be a multiple of 4")
-    return rotation / (full * microsteps * _gear_ratio(config, stepper))
+    return rotation / (full * microsteps * gear_ratio(config, stepper))
 
 
-def _gear_ratio(config: KlipperConfig, stepper: str) -> float:
+def gear_ratio(config: KlipperConfig, stepper: str) -> float:
     """The product of ``gear_ratio``'s ``a:b`` pairs (comma separated), 1 without one."""
     if not config.has(stepper, "gear_ratio"):
         return 1.0
@@ -500,7 +502,7 @@ def _rotation_factor(config: KlipperConfig | None, stepper: str) -> tuple[float,
     microsteps = config.number(stepper, "microsteps", integer=True, above=0.0)
     full = config.number(stepper, "full_steps_per_rotation", float(DEFAULT_FULL_STEPS), integer=True,
                          above=0.0)
-    return full * microsteps * _gear_ratio(config, stepper), False
+    return full * microsteps * gear_ratio(config, stepper), False
 
 
 def klipper_config_text(klipper: KlipperDelta, source_config: str | Path | KlipperConfig | None = None,

@@ -53,6 +53,8 @@ from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_manual_heights, klipper_probe_program, klipper_probe_travel
+from .rotary_config import is_rotary_config
+from .rotary_importer import import_rotary, write_rotary_import
 from .saved import read_saved_calibration
 
 if TYPE_CHECKING:
@@ -251,7 +253,15 @@ class Klipper(Firmware[KlipperDelta]):
 
     def import_config(self, path: str | Path, folder: str | Path, effector_radius: float | None = None,
                       rod_spacing: float | None = None, nozzle_drop: float | None = None) -> PrinterImport:
-        """:func:`~.importer.import_klipper` written by :func:`~.importer.write_import`."""
+        """:func:`~.importer.import_klipper` written by :func:`~.importer.write_import`.
+
+        A ``kinematics: rotary_delta`` configuration: :func:`~.rotary_importer.import_rotary` (a
+        rotary robot file).
+        """
+        config = read_klipper_config(path)
+        if is_rotary_config(config):
+            rotary = import_rotary(config, effector_radius, rod_spacing, nozzle_drop)
+            return write_rotary_import(rotary, path, folder)
         imported = import_klipper(path, effector_radius, rod_spacing, nozzle_drop)
         written = write_import(imported, folder)
         saved = imported.saved
