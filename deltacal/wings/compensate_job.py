@@ -35,11 +35,19 @@ from ..io.controller_file import load_controller_file
 from ..io.paths import check_output
 from ..printer.firmware import config_files
 from ..printer.firmware.base import Firmware
-from ..printer.firmware.config_file import FirmwareConfig, controller_firmware
+from ..printer.firmware.config_file import (
+    FirmwareConfig,
+    RotaryFirmwareConfig,
+    controller_firmware,
+    settings_read,
+)
 from ..printer.identification.where import holds_in_words
 from .base import Done, check_files, warn
 from .requests import CompensateRequest
 from .workers import Job, Refused, shared_values, solved_in_order
+
+#: A firmware's configuration read once: a linear Delta printer's or a rotary one's.
+Settings = FirmwareConfig | RotaryFirmwareConfig
 
 #: ``progress(fraction, detail)``: how far the job is (0..1), and what it is at.
 Progress = Callable[[float, str], None]
@@ -161,7 +169,7 @@ def _program(request: CompensateRequest, report: Progress, kind: Firmware[Any] |
 
 
 def _controller(request: CompensateRequest, calibration: Calibration, kind: Firmware[Any] | None
-                ) -> tuple[CommandModel, FirmwareConfig | None, tuple[str, ...], Calibration]:
+                ) -> tuple[CommandModel, Settings | None, tuple[str, ...], Calibration]:
     """``--controller``'s model (and its firmware ``kind``'s configuration, read once, or None), checked.
 
     Refused if not of the robot's kind (rotary, printer), of another firmware than the calibration
@@ -173,7 +181,7 @@ def _controller(request: CompensateRequest, calibration: Calibration, kind: Firm
     """
     geometry = calibration.geometry
     assert request.controller is not None
-    config = None if kind is None else FirmwareConfig.read(kind, request.controller)
+    config = None if kind is None else settings_read(kind, request.controller)
     if config is None:
         controller: CommandModel = load_controller_file(request.controller)
     else:
@@ -183,7 +191,7 @@ def _controller(request: CompensateRequest, calibration: Calibration, kind: Firm
         raise UsageError(f"--controller {request.controller} is {chain.words.a_kind}'s, but the calibration "
                          f"{request.calibration} is of {geometry.chain.words.a_kind}")
     said: tuple[str, ...] = ()
-    if config is not None and geometry.chain.firmware:
+    if config is not None:  # a printer's calibration re-anchored; a rotary one's put in the firmware's frame
         calibration, said = config.anchor(calibration, request.calibration)
     return controller, config, said, calibration
 

@@ -56,6 +56,7 @@ from ...holds import DEFAULT_BOUND, WhereItHolds
 from ...io.atomic import atomic_write_text
 from ..files.same_printer import ENDSTOP_MM, LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
 from .bed import bed_grid
+from .controller import RotaryFirmwareController
 from .live_correction import LiveCorrection
 from .owner_keys import OwnerKeys
 from .probe_log import ProbeLog
@@ -379,6 +380,17 @@ class Firmware(ABC, Generic[ModelT]):
                 the configuration's :meth:`probe_travel` (its reason then in the header).
             live: The configuration's :meth:`live_correction`: turned off first, on again last.
         """
+
+    def rotary_controller(self, path: str | Path) -> RotaryFirmwareController | None:
+        """The firmware as the controller of the rotary Delta printer whose configuration ``path`` is.
+
+        None when ``path`` configures a linear Delta (:meth:`read_config` reads it), and for a firmware
+        that runs no rotary Delta (the default).
+
+        Raises:
+            InputError: a rotary configuration's first problem.
+        """
+        return None
 
     def live_correction(self, path: str | Path) -> LiveCorrection | None:
         """Where the configuration ``path`` includes deltacal's live correction, or None (it does not).

@@ -27,7 +27,7 @@ from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
 from ..identification.anchor import controller_shift, reanchored, same_commands
 from . import check_config_firmware, config_firmware, firmware_named, firmwares
-from .base import Firmware, FirmwareModel
+from .base import Firmware, FirmwareModel, RotaryFirmwareController
 
 if TYPE_CHECKING:
     from ...calibration import Calibration
@@ -210,6 +210,57 @@ class FirmwareConfig:
     def check_printer(self, geometry: DeltaGeometry, source: str | Path) -> None:
         """Refuse these values if of another printer than ``geometry`` (:func:`check_printer_values`)."""
         check_printer_values(self.firmware, geometry, self.values, source, self.path)
+
+
+@dataclass(frozen=True)
+class RotaryFirmwareConfig:
+    """A firmware's configuration of a rotary Delta printer, read once: its controller and reading of G-code.
+
+    Attributes:
+        firmware: The firmware whose settings the file is.
+        rotary: Its model of the printer as the controller of the arms' readings
+            (:meth:`~deltacal.printer.firmware.base.Firmware.rotary_controller`).
+        path: The file.
+    """
+
+    firmware: Firmware[Any]
+    rotary: RotaryFirmwareController
+    path: str
+
+    def controller(self, step_distance: Any = None) -> CommandModel:
+        """The firmware as the controller of the arms' readings [rad] (``step_distance`` unused: angles)."""
+        return self.rotary
+
+    def dialect(self) -> Dialect:
+        """The firmware's reading of G-code with this configuration (its home the rotary model's)."""
+        return self.firmware.dialect(self.path, self.rotary.firmware)
+
+    def anchor(self, calibration: Calibration, source: str | Path) -> tuple[Calibration, tuple[str, ...]]:
+        """A rotary robot's calibration moved into the firmware's frame (the bed's), and what to say.
+
+        Its geometry and its nominal robot both move up by the firmware's bed height below {O}, the
+        nominal robot's nozzle drop placing the bed (a geometry file: its own), so that targets and
+        commands are the firmware's coordinates, as G-code gives them.
+        """
+        nominal = calibration.nominal
+        lift = self.rotary.bed_height(nominal)
+        moved = replace(calibration, geometry=self.rotary.in_bed_frame(calibration.geometry, nominal),
+                        nominal=self.rotary.in_bed_frame(nominal))
+        return moved, (f"{self.path}: targets and commands in {self.firmware.title}'s frame: its bed (z = 0) "
+                       f"at z = {-lift:g} mm in {source}'s frame (shoulder height + nozzle drop "
+                       f"{-float(nominal.tool[2]):g} mm)",)
+
+
+def settings_read(firmware: Firmware[Any], path: str | Path) -> FirmwareConfig | RotaryFirmwareConfig:
+    """``path`` read as ``firmware``'s configuration (told already): a rotary or a linear Delta printer's.
+
+    Raises:
+        InputError: the configuration's first problem.
+    """
+    rotary = firmware.rotary_controller(path)
+    if rotary is not None:
+        return RotaryFirmwareConfig(firmware, rotary, str(path))
+    return FirmwareConfig.read(firmware, path)
 
 
 def reanchored_to(firmware: Firmware[Any], calibration: Calibration,

@@ -7,7 +7,8 @@ firmware's model serves :func:`~deltacal.controller.corrected_targets` and the G
 rotary :class:`~deltacal.controller.Controller` does: its targets are the nozzle's (no tool), its
 home is where a homing leaves the nozzle (every carriage at its endstop, in its model), its limits
 are its model's. Each firmware's controller (Klipper's, Marlin's, RepRapFirmware's) is this class
-over its own model. Units: mm.
+over its own model; a firmware's model of a rotary Delta printer is a :class:`RotaryFirmwareController`
+(its readings the arms' angles, its frame the bed's). Units: mm.
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from typing import Generic, Protocol, TypeVar
 
 import numpy as np
 
+from ...controller.targets import CommandModel
+from ...geometry import DeltaGeometry
 from ...kinematics.closed_form import VirtualDelta
 from ...towers import per_tower
 
@@ -108,3 +111,21 @@ class FirmwareController(Generic[ModelT]):
     def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
         """The nozzle position the firmware's model puts at readings [mm], (N, 3) -> (N, 3) [mm]."""
         return self.firmware.forward(readings, self.step_distance, check)
+
+
+class RotaryFirmwareController(CommandModel, Protocol):
+    """A firmware's model of a rotary Delta printer as the controller of its readings (arm angles, rad).
+
+    Its frame is the firmware's (the bed's); a rotary robot's geometry, in its base frame {O}, is
+    moved into it by :meth:`in_bed_frame`.
+    """
+
+    @property
+    def firmware(self) -> object: ...  # noqa: D102
+
+    def in_bed_frame(self, geometry: DeltaGeometry,
+                     nozzle_drop_of: DeltaGeometry | None = None) -> DeltaGeometry:
+        """The robot moved from its {O} into the firmware's frame (the bed's)."""
+
+    def bed_height(self, geometry: DeltaGeometry) -> float:
+        """How far the firmware's bed is below the robot's {O} [mm]."""

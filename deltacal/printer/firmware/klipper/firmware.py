@@ -53,8 +53,10 @@ from .log import is_console, is_probe_log, probe_offsets, read_probe_log
 from .macros import read_macros, with_moving_commands
 from .model import KlipperController, KlipperDelta
 from .probing import klipper_manual_heights, klipper_probe_program, klipper_probe_travel
-from .rotary_config import is_rotary_config
+from .rotary_config import is_rotary_config, rotary_from_config
+from .rotary_controller import KlipperRotaryController
 from .rotary_importer import import_rotary, write_rotary_import
+from .rotary_model import KlipperRotaryDelta
 from .saved import read_saved_calibration
 
 if TYPE_CHECKING:
@@ -198,6 +200,16 @@ class Klipper(Firmware[KlipperDelta]):
         """:func:`~.probing.klipper_manual_heights`: ``MANUAL_PROBE`` at each point, without a probe."""
         return klipper_manual_heights(read_klipper_config(path))
 
+    def rotary_controller(self, path: str | Path) -> KlipperRotaryController | None:
+        """A ``kinematics: rotary_delta`` configuration: :class:`~.rotary_controller.KlipperRotaryController`.
+
+        None for any other kinematics (:meth:`read_config` reads a linear Delta's).
+        """
+        config = read_klipper_config(path)
+        if not is_rotary_config(config):
+            return None
+        return KlipperRotaryController(rotary_from_config(config))
+
     def live_correction(self, path: str | Path) -> LiveCorrection | None:
         """Where ``printer.cfg`` includes ``export --live``'s section (:attr:`~.config.KlipperConfig.live`).
 
@@ -220,7 +232,7 @@ class Klipper(Firmware[KlipperDelta]):
             warnings.simplefilter("ignore", InputWarning)
             return tuple(Path(name) for name in read_klipper_config(path).files)
 
-    def dialect(self, path: str | Path, model: KlipperDelta | None = None) -> Dialect:
+    def dialect(self, path: str | Path, model: KlipperDelta | KlipperRotaryDelta | None = None) -> Dialect:
         """Klipper's reading of G-code with ``printer.cfg``.
 
         G91 makes E relative too, and G90 leaves M83's E relative (``gcode_move.py``: E is an
@@ -228,10 +240,11 @@ class Klipper(Firmware[KlipperDelta]):
         leaves every carriage at its endstop; the macros are ``printer.cfg``'s
         (:func:`~.macros.read_macros`), and a program's own probing or bed mesh command
         (``BED_MESH_CALIBRATE``, ``PROBE`` ...) leaves the position unknown as in a macro
-        (:func:`~.macros.with_moving_commands`). A line's command is its first word, after any
-        whitespace (``str.strip``) and a line number (:data:`KLIPPER_LINES`).
+        (:func:`~.macros.with_moving_commands`). A rotary_delta configuration's ``model``
+        (:class:`~.rotary_model.KlipperRotaryDelta`) is read alike, its home its own. A line's command is
+        its first word, after any whitespace (``str.strip``) and a line number (:data:`KLIPPER_LINES`).
         """
-        home = (load_klipper(path) if model is None else model).positions(np.zeros((1, 3)))[0]
+        home = (load_klipper(path) if model is None else model).home_position
         return Dialect(self.title, g91_moves_e=True, arc_p=ArcP.IGNORED, home=tuple(home.tolist()),
                        macros=with_moving_commands(read_macros(read_klipper_config(path))),
                        lines=KLIPPER_LINES)

@@ -253,17 +253,8 @@ class KlipperDelta:
         Returns:
             The codes, (N,) integers.
         """
-        commands = np.atleast_2d(np.asarray(commands, dtype=float))
-        x, y, z = commands.T
-        xy2 = x**2 + y**2
-        max_xy2 = self.max_radius**2
-        limit_xy2 = np.where(z > self.limit_z, np.minimum(max_xy2, (self.max_z - z) ** 2), max_xy2)
-        home = self.home_position
-        homing = (x == home[0]) & (y == home[1]) & (z >= self.minimum_z_position) & (z <= home[2])
-        codes = np.select([z < self.minimum_z_position, z > self.max_z, xy2 > max_xy2, xy2 > limit_xy2],
-                          [BELOW_MIN_Z, ABOVE_MAX_Z, BEYOND_RADIUS, BEYOND_TAPER], 0)
-        codes[homing & (codes != BELOW_MIN_Z)] = 0
-        return codes
+        return move_check(commands, self.minimum_z_position, self.max_z, self.max_radius, self.limit_z,
+                          self.home_position)
 
     def refusal(self, commands: np.ndarray) -> str:
         """What Klipper refuses of commands outside its limits, and the key and value that admit them.
@@ -287,7 +278,7 @@ class KlipperDelta:
         x, y, z = commands[0]
         radius = math.hypot(x, y)
         if code == BELOW_MIN_Z:
-            need = _step_below(float(np.min(commands[:, 2])))
+            need = step_below(float(np.min(commands[:, 2])))
             return (f"corrected Z {z:.4f} mm is below minimum_z_position {self.minimum_z_position:g}{of}: "
                     f"set [printer] minimum_z_position: {need:.2f}")
         if code == ABOVE_MAX_Z:
@@ -295,7 +286,7 @@ class KlipperDelta:
                     "(Klipper's top): no key admits it (position_endstop is the printer's height): lower the "
                     "program's moves")
         if code == BEYOND_RADIUS:
-            need = -_step_below(-float(np.max(np.hypot(commands[:, 0], commands[:, 1]))))
+            need = -step_below(-float(np.max(np.hypot(commands[:, 0], commands[:, 1]))))
             if need <= self.reach_radius:
                 now = f"{self.print_radius:g}" if self.print_radius is not None else \
                     f"{self.delta_radius:g} (delta_radius, the default)"
@@ -308,7 +299,36 @@ class KlipperDelta:
                 "admits it: lower the move or bring it nearer the centre")
 
 
-def _step_below(value: float) -> float:
+def move_check(commands: np.ndarray, minimum_z: float, max_z: float, max_radius: float, limit_z: float,
+               home: np.ndarray) -> np.ndarray:
+    """Klipper's ``check_move`` of a homed Delta (linear or rotary), vectorised: the code each command breaks.
+
+    :data:`BELOW_MIN_Z`, :data:`ABOVE_MAX_Z`, :data:`BEYOND_RADIUS` (``max_radius``), :data:`BEYOND_TAPER`
+    (above ``limit_z`` the radius at most ``max_z − Z``): the first that applies, in that order, 0 none;
+    a move that ends at the ``home`` position's X, Y exactly, between ``minimum_z`` and the home's Z,
+    is a homing move and passes (``delta.py``, ``rotary_delta.py``).
+
+    Args:
+        commands: Nozzle commands [mm], (N, 3).
+        minimum_z: ``minimum_z_position`` [mm].
+        max_z: The top: the lowest ``position_endstop`` [mm].
+        max_radius: The build radius [mm].
+        limit_z: The height above which the radius tapers [mm].
+        home: Where homing leaves the nozzle [mm], (3,).
+    """
+    commands = np.atleast_2d(np.asarray(commands, dtype=float))
+    x, y, z = commands.T
+    xy2 = x**2 + y**2
+    max_xy2 = max_radius**2
+    limit_xy2 = np.where(z > limit_z, np.minimum(max_xy2, (max_z - z) ** 2), max_xy2)
+    homing = (x == home[0]) & (y == home[1]) & (z >= minimum_z) & (z <= home[2])
+    codes = np.select([z < minimum_z, z > max_z, xy2 > max_xy2, xy2 > limit_xy2],
+                      [BELOW_MIN_Z, ABOVE_MAX_Z, BEYOND_RADIUS, BEYOND_TAPER], 0)
+    codes[homing & (codes != BELOW_MIN_Z)] = 0
+    return codes
+
+
+def step_below(value: float) -> float:
     """The multiple of :data:`LIMIT_STEP_MM` at or below ``value``, as its 2-decimal text reads back."""
     need = math.floor(value / LIMIT_STEP_MM) * LIMIT_STEP_MM
     while float(f"{need:.2f}") > value:

@@ -45,13 +45,15 @@ Units: mm; angles of the dataclass in rad.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
 
 from ....exceptions import AssemblyError, GeometryError, UnreachableError
 from ....geometry import DeltaGeometry, radial_vectors, tangent_vectors
+from ....kinematics.closed_form import VirtualDelta
+from .model import ABOVE_MAX_Z, BELOW_MIN_Z, BEYOND_RADIUS, move_check, step_below
 
 #: Klipper's arm angles when a ``[stepper_*]`` gives none [deg] (steppers A, B, C).
 ROTARY_ANGLES_DEG = (30.0, 150.0, 270.0)
@@ -213,6 +215,71 @@ class KlipperRotaryDelta:
         """Z above which Klipper tapers the radius: ``min(elbow height at the endstop − l_i)`` [mm]."""
         elbows = self.elbows(self.endstop_angles)[0]
         return float(np.min(elbows[:, 2] - self.lower_arm))
+
+    def outside(self, commands: np.ndarray) -> np.ndarray:
+        """Which limit each command (a move's end, as Klipper reads it) breaks: 0 none, else a code.
+
+        ``RotaryDeltaKinematics.check_move`` of a homed printer: the codes of
+        :func:`~.model.move_check` with :attr:`max_radius` and :attr:`limit_z`.
+        """
+        return move_check(commands, self.minimum_z_position, self.max_z, self.max_radius, self.limit_z,
+                          self.home_position)
+
+    def refusal(self, commands: np.ndarray) -> str:
+        """What Klipper refuses of commands outside its limits, and the key and value that admit them.
+
+        Names the first command's limit (and then each other limit broken).
+
+        Args:
+            commands: Commands :meth:`outside` refuses [mm], (N, 3), the first the one to name.
+        """
+        commands = np.atleast_2d(np.asarray(commands, dtype=float))
+        codes = self.outside(commands)
+        parts = [self._refusal(int(code), commands[codes == code])
+                 for code in dict.fromkeys(codes[codes != 0].tolist())]
+        return "; also ".join(parts) if parts else "inside Klipper's limits"
+
+    def _refusal(self, code: int, commands: np.ndarray) -> str:
+        """One limit's refusal: the first command, the limit, what admits them all."""
+        of = f" of {self.name}" if self.name else ""
+        x, y, z = commands[0]
+        radius = math.hypot(x, y)
+        if code == BELOW_MIN_Z:
+            need = step_below(float(np.min(commands[:, 2])))
+            return (f"corrected Z {z:.4f} mm is below minimum_z_position {self.minimum_z_position:g}{of}: "
+                    f"set [printer] minimum_z_position: {need:.2f}")
+        if code == ABOVE_MAX_Z:
+            return (f"corrected Z {z:.4f} mm is above {self.max_z:g}, the lowest position_endstop{of} "
+                    "(Klipper's top): no key admits it: lower the program's moves")
+        if code == BEYOND_RADIUS:
+            return (f"corrected point's radius {radius:.4f} mm is beyond {self.max_radius:.2f} mm, Klipper's "
+                    f"rotary max_xy{of} (the arms' reach: min(shoulder_radius + upper_arm_length, "
+                    "lower_arm_length - shoulder_radius)): no key admits it: keep the program within it")
+        return (f"corrected point at radius {radius:.4f} mm, Z {z:.4f} mm is beyond Klipper's radius taper "
+                f"near the top{of} (radius at most {self.max_z:g} - Z above Z {self.limit_z:.2f}): no key "
+                "admits it: lower the move or bring it nearer the centre")
+
+    # ---------------------------------------------------- as a controller
+    @cached_property
+    def virtual(self) -> VirtualDelta:
+        """Klipper's model as a revolute :class:`VirtualDelta` in its own frame (the bed's), readings q = −θ.
+
+        Shoulder axes through ``ρ r_i + H z`` along ``t_i``, elbows at ``L_i`` on the arms, a point
+        effector (the nozzle) on rods ``l_i``: :meth:`geometry` with no effector and no nozzle drop,
+        moved up by ``H``.
+        """
+        virtual = VirtualDelta.from_geometry(self.geometry(0.0, 1.0, 0.0))
+        axis = np.array(virtual.axis_point)
+        axis[:, 2] += self.shoulder_height
+        return replace(virtual, axis_point=axis)
+
+    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """Deltacal's readings ``q = −θ`` Klipper commands for nozzle targets in its frame [rad], (N, 3)."""
+        return self.readings(self.shoulder_angles(targets, check))
+
+    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
+        """Klipper's nozzle positions at deltacal's readings ``q = −θ`` [mm], (N, 3) (its trilateration)."""
+        return self.positions(self.readings(readings), check)
 
     # ----------------------------------------------------- deltacal's terms
     def base_height(self, nozzle_drop: float) -> float:

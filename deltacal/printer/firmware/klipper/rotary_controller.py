@@ -1,0 +1,90 @@
+"""Klipper's rotary Delta (``kinematics: rotary_delta``) as the controller of a rotary Delta's readings.
+
+Klipper takes the nozzle's coordinates in its frame (the bed's: what G-code holds) and commands each
+arm the angle θ_i of its inverse kinematics (:meth:`~.rotary_model.KlipperRotaryDelta.shoulder_angles`,
+``kin_rotary_delta.c``); deltacal's reading of that arm is ``q = −θ`` (:mod:`.rotary_model`).
+:class:`KlipperRotaryController` pairs the two so that Klipper serves
+:func:`~deltacal.controller.corrected_targets` and the G-code route as a rotary
+:class:`~deltacal.controller.Controller` does: forward and inverse in deltacal's readings [rad], its
+virtual model the revolute chain of Klipper's values (a point effector: no tool), its home where
+homing leaves the nozzle, its limits Klipper's move checks.
+
+Its frame is Klipper's, not a rotary robot's base frame {O} (the shoulders' centre): a rotary
+robot's geometry is put in it by :meth:`KlipperRotaryController.in_bed_frame`, moved up by
+``shoulder_height`` + the robot's nozzle drop (the bed at ``z = −(H + h)`` in {O}, as ``deltacal
+import`` writes the robot file). Units: mm and rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from ....geometry import DeltaGeometry
+from ....kinematics.closed_form import VirtualDelta
+from .rotary_model import KlipperRotaryDelta
+
+
+@dataclass(frozen=True, eq=False)
+class KlipperRotaryController:
+    """Klipper's rotary_delta model as a :class:`~deltacal.controller.targets.CommandModel`.
+
+    Attributes:
+        firmware: Klipper's model, from its configuration.
+    """
+
+    firmware: KlipperRotaryDelta
+
+    #: Klipper plans a move as a straight line in its Cartesian frame and maps each step through its model.
+    interpolation = "cartesian"
+
+    @property
+    def name(self) -> str:
+        """The configuration's name."""
+        return self.firmware.name
+
+    @property
+    def tool(self) -> np.ndarray:
+        """Klipper's targets are the nozzle's: no tool on its point effector [mm], (3,)."""
+        return np.zeros(3)
+
+    @property
+    def virtual(self) -> VirtualDelta:
+        """Klipper's model as a revolute :class:`VirtualDelta` in its frame, readings ``q = −θ``."""
+        return self.firmware.virtual
+
+    @cached_property
+    def home(self) -> np.ndarray:
+        """Where homing leaves the nozzle: every arm at its endstop angle [mm], (3,)."""
+        return self.firmware.home_position
+
+    @property
+    def limits(self) -> KlipperRotaryDelta:
+        """Klipper's limits on its commands (``outside``, ``refusal``)."""
+        return self.firmware
+
+    def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
+        """The readings ``q = −θ`` Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [rad]."""
+        return self.firmware.inverse(targets, check)
+
+    def forward(self, readings: np.ndarray, check: bool = True) -> np.ndarray:
+        """The nozzle position Klipper's model puts at readings [rad], (N, 3) -> (N, 3) [mm]."""
+        return self.firmware.forward(readings, check)
+
+    def bed_height(self, geometry: DeltaGeometry) -> float:
+        """How far Klipper's bed is below a rotary robot's {O}: ``shoulder_height`` + its nozzle drop [mm]."""
+        return self.firmware.base_height(-float(geometry.tool[2]))
+
+    def in_bed_frame(self, geometry: DeltaGeometry,
+                     nozzle_drop_of: DeltaGeometry | None = None) -> DeltaGeometry:
+        """A rotary robot's geometry moved from its {O} into Klipper's frame (up by :meth:`bed_height`).
+
+        Args:
+            geometry: The robot in {O}.
+            nozzle_drop_of: The robot whose nozzle drop places the bed (a calibration's nominal robot,
+                the one it was identified from); by default ``geometry`` itself.
+        """
+        lift = self.bed_height(geometry if nozzle_drop_of is None else nozzle_drop_of)
+        return geometry.moved_rigidly(np.eye(3), np.array([0.0, 0.0, lift]))
