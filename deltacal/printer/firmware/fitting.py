@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Generic
+from typing import Generic, Protocol, TypeVar
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from ...identifiability import base_parameters
 from ...kinematics import exact
 from ...rotations import skew
 from ..robot import in_plane_motion, less_bed_motion
-from .base import FirmwareModel, Flatness, ModelT
+from .base import Flatness
 
 #: Gauss-Newton stops when a step moves no nozzle by more than this [mm].
 TOLERANCE = 1e-8
@@ -53,6 +53,21 @@ FLATNESS_SLACK = 1e-6
 #: :func:`largest_step`'s cutting planes: the cuts to begin with, the rounds at most, the cuts each
 #: round adds at most, and how far above the bound a cut is wanted [mm] (HiGHS holds rows to 1e-7).
 FIRST_CUTS, MAX_CUTS, CUTS_PER_ROUND, CUT_TOLERANCE = 30, 60, 10, 1e-6
+
+
+class Commands(Protocol):
+    """What the fit asks of a firmware's values: the readings it commands for nozzle targets.
+
+    Every :class:`~.base.FirmwareModel` is one; so is a rotary printer's
+    (:class:`~.klipper.rotary_fit.RotaryCommands`).
+    """
+
+    def inverse(self, targets: np.ndarray, step_distance: np.ndarray | float,
+                check: bool = True) -> np.ndarray:
+        """The printer's readings the firmware commands for nozzle targets, (N, 3)."""
+
+
+CommandsT = TypeVar("CommandsT", bound=Commands)
 
 
 @dataclass(frozen=True)
@@ -107,7 +122,7 @@ def first_layer(workspace: Workspace, per_radius: int = 12, ring: int = 48) -> n
     return printable_grid(disc, per_radius, 1, ring)
 
 
-def nozzle_errors(geometry: DeltaGeometry, model: FirmwareModel, step_distance: np.ndarray | float,
+def nozzle_errors(geometry: DeltaGeometry, model: Commands, step_distance: np.ndarray | float,
                   targets: np.ndarray) -> np.ndarray:
     """Where the real nozzle lands minus the target, the firmware commanding each target [mm], (N, 3)."""
     targets = np.atleast_2d(np.asarray(targets, dtype=float))
@@ -115,7 +130,7 @@ def nozzle_errors(geometry: DeltaGeometry, model: FirmwareModel, step_distance: 
     return exact.forward(geometry, q).point(geometry.tool) - targets
 
 
-def error_stats(geometry: DeltaGeometry, model: FirmwareModel, step_distance: np.ndarray | float,
+def error_stats(geometry: DeltaGeometry, model: Commands, step_distance: np.ndarray | float,
                 workspace: Workspace, grid: np.ndarray | None = None, part_frame: bool = False) -> ErrorStats:
     """3-D errors over the printable volume and the first layer's flatness of a firmware's values [mm].
 
@@ -131,7 +146,7 @@ def error_stats(geometry: DeltaGeometry, model: FirmwareModel, step_distance: np
 
 
 @dataclass(frozen=True)
-class ValueVector(Generic[ModelT]):
+class ValueVector(Generic[CommandsT]):
     """A firmware's values as the fit's unknowns.
 
     Attributes:
@@ -146,12 +161,12 @@ class ValueVector(Generic[ModelT]):
     names: tuple[str, ...]
     steps: tuple[float, ...]
     relative: int
-    values_of: Callable[[ModelT], np.ndarray]
-    with_values: Callable[[ModelT, np.ndarray], ModelT]
+    values_of: Callable[[CommandsT], np.ndarray]
+    with_values: Callable[[CommandsT, np.ndarray], CommandsT]
 
 
 @dataclass(frozen=True)
-class GaussNewton(Generic[ModelT]):
+class GaussNewton(Generic[CommandsT]):
     """What :func:`gauss_newton` found.
 
     Attributes:
@@ -162,14 +177,14 @@ class GaussNewton(Generic[ModelT]):
         iterations: Gauss-Newton iterations.
     """
 
-    model: ModelT
+    model: CommandsT
     columns: list[int]
     unidentifiable: list[str]
     singular_values: np.ndarray
     iterations: int
 
 
-def residuals(geometry: DeltaGeometry, model: ModelT, vector: ValueVector[ModelT],
+def residuals(geometry: DeltaGeometry, model: CommandsT, vector: ValueVector[CommandsT],
               step_distance: np.ndarray | float, targets: np.ndarray,
               columns: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
     """Nozzle errors (3N,) of the firmware's values and their Jacobian in the chosen values (3N, k) [mm]."""
@@ -190,11 +205,11 @@ def residuals(geometry: DeltaGeometry, model: ModelT, vector: ValueVector[ModelT
     return residual.ravel(), (nozzle @ dq).reshape(-1, len(columns))
 
 
-def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[ModelT],
+def gauss_newton(geometry: DeltaGeometry, start: CommandsT, vector: ValueVector[CommandsT],
                  step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                  wanted: list[int], max_iter: int = 30, first_layer_weight: float = 0.0,
                  part_frame: bool = True, title: str = "the firmware",
-                 minimax: bool = False, flatness: Flatness = None) -> GaussNewton[ModelT]:
+                 minimax: bool = False, flatness: Flatness = None) -> GaussNewton[CommandsT]:
     """The firmware's values that leave the least squared nozzle error over the grid (see the module).
 
     With ``minimax``, those values moved to leave the least largest error (:func:`least_largest`).
@@ -226,7 +241,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
     motion = np.zeros((targets.size, 3 if part_frame else 0))  # d residual / d in-plane motion
     motion[:grid.size] = -in_plane_motion(grid).reshape(-1, 3)[:, :motion.shape[1]]
 
-    def weighted(model: ModelT, columns: list[int], moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def weighted(model: CommandsT, columns: list[int], moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         r, J = residuals(geometry, model, vector, step_distance, targets, columns)
         return weights * (r + motion @ moved), weights[:, None] * np.hstack([J, motion])
 
@@ -262,7 +277,7 @@ def gauss_newton(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mod
     return GaussNewton(model, columns, [names[k] for k in base.unidentifiable], singular, iteration)
 
 
-def part_errors(geometry: DeltaGeometry, model: ModelT, vector: ValueVector[ModelT],
+def part_errors(geometry: DeltaGeometry, model: CommandsT, vector: ValueVector[CommandsT],
                 step_distance: np.ndarray | float, grid: np.ndarray, layer: np.ndarray,
                 columns: Sequence[int],
                 part_frame: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -396,10 +411,10 @@ def flatness_limits(flatness: float | tuple[float, float]) -> np.ndarray:
     return np.array([flatness, 2.0 * flatness])
 
 
-def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[ModelT],
+def least_largest(geometry: DeltaGeometry, start: CommandsT, vector: ValueVector[CommandsT],
                   step_distance: np.ndarray | float, workspace: Workspace, grid: np.ndarray,
                   columns: Sequence[int], part_frame: bool = True, max_iter: int = 40,
-                  flatness: Flatness = None) -> ModelT:
+                  flatness: Flatness = None) -> CommandsT:
     """The firmware's values that leave the least largest nozzle error over the grid, from ``start``.
 
     The first layer (:func:`first_layer`) stays no worse than the start leaves it: its largest
@@ -430,7 +445,7 @@ def least_largest(geometry: DeltaGeometry, start: ModelT, vector: ValueVector[Mo
     layer = first_layer(workspace)
     columns = list(columns)
 
-    def errors(model: ModelT) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def errors(model: CommandsT) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return part_errors(geometry, model, vector, step_distance, grid, layer, columns, part_frame)
 
     def first(z: np.ndarray) -> np.ndarray:  # [mm]: largest |z|, peak to valley

@@ -11,6 +11,8 @@ linear Delta; this module gives the rotary keys Klipper's meaning (``RotaryDelta
 * the step distance ``2π / (full_steps_per_rotation (default 200) × microsteps × gear_ratio)``
   [rad]: ``gear_ratio`` is required and ``rotation_distance`` is not Klipper's for these
   steppers (it refuses the key).
+
+:func:`rotary_config_text` writes the values back as those keys (the export's text to paste).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ....exceptions import GeometryError, InputError, UnreachableError
-from .config import STEPPERS, KlipperConfig, gear_ratio
+from .config import APPLY_NOTE, DEG_DECIMALS, MM_DECIMALS, STEPPERS, KlipperConfig, gear_ratio
 from .model import DEFAULT_FULL_STEPS
 from .rotary_model import ROTARY_ANGLES_DEG, KlipperRotaryDelta
 
@@ -94,3 +96,31 @@ def _arm_step(config: KlipperConfig, stepper: str) -> float:
     if full % 4:
         raise config.error(stepper, "full_steps_per_rotation", f"value {int(full)} must be a multiple of 4")
     return 2.0 * math.pi / (full * microsteps * gear_ratio(config, stepper))
+
+
+def rotary_config_text(klipper: KlipperRotaryDelta, title: str = "",
+                       notes: list[str] | tuple[str, ...] = ()) -> str:
+    """Klipper's rotary values as ``printer.cfg`` text, the keys it reads, to replace the printer's own.
+
+    ``[printer]`` ``shoulder_height`` and ``shoulder_radius``; each ``[stepper_a..c]``'s ``angle``
+    [deg, 4 decimals], ``upper_arm_length``, ``lower_arm_length`` and ``position_endstop`` [mm, 6
+    decimals], every stepper's written (not left to stepper A's defaults). Read back (the printer's
+    configuration with these keys) they give the same values to the written decimals; the gearing and
+    ``minimum_z_position`` stay the printer's.
+
+    Args:
+        klipper: The values.
+        title: A first comment line (what the values are).
+        notes: More comment lines (what the values leave), each written after ``# ``.
+    """
+    lines = [f"# {title}" if title else "# Klipper rotary_delta values written by deltacal",
+             f"# {APPLY_NOTE}",
+             *(f"# {note}".rstrip() for note in notes),
+             "", "[printer]", f"shoulder_height: {klipper.shoulder_height:.{MM_DECIMALS}f}",
+             f"shoulder_radius: {klipper.shoulder_radius:.{MM_DECIMALS}f}"]
+    for i, stepper in enumerate(STEPPERS):
+        lines += ["", f"[{stepper}]", f"angle: {math.degrees(klipper.angle[i]):.{DEG_DECIMALS}f}",
+                  f"upper_arm_length: {klipper.upper_arm[i]:.{MM_DECIMALS}f}",
+                  f"lower_arm_length: {klipper.lower_arm[i]:.{MM_DECIMALS}f}",
+                  f"position_endstop: {klipper.position_endstop[i]:.{MM_DECIMALS}f}"]
+    return "\n".join(lines) + "\n"
