@@ -190,9 +190,11 @@ class CorrectionGrid:
             of moves.
         scale: The unit of ``values`` [mm].
         holds: Where the calibration holds (:class:`SigmaGrid`), or None: the correction applied wholly.
+        cells: The bound of the correction's second derivative [1/mm] in each cell of the grid (from
+            node (i, j, k) to (i+1, j+1, k+1); i slowest, k fastest), or None: ``curvature`` alone.
     """
 
-    def __init__(self, origin, step, shape, values, curvature, scale=1.0, holds=None):
+    def __init__(self, origin, step, shape, values, curvature, scale=1.0, holds=None, cells=None):
         self.x0, self.y0, self.z0 = origin
         self.step = step
         self.inverse_step = 1.0 / step
@@ -204,6 +206,7 @@ class CorrectionGrid:
         self.curvature = curvature
         self.scale = scale
         self.holds = holds
+        self.cells = cells
         self._plane = None
         self._px = self._py = self._pz = ()
         self._cells = {}
@@ -308,18 +311,39 @@ class CorrectionGrid:
             return 1
         free = self._free.get(tolerance)
         if free is None:  # the longest segment the largest bound allows: shorter moves are never cut
-            largest = max(max(row) for row in self.curvature)
+            largest = max(max(row) for row in self.curvature) if self.cells is None else max(self.cells)
             free = self._free[tolerance] = math.sqrt(8.0 * tolerance / largest) if largest > 0.0 else math.inf
         if length <= free:
             return 1
+        bound = self._ring_bound(start, end) if self.cells is None else self._cell_bound(start, end)
+        longest = math.sqrt(8.0 * tolerance / bound) if bound > 0.0 else length
+        return min(max(1, int(math.ceil(length / longest))), MOST_SEGMENTS)
+
+    def _ring_bound(self, start, end):
+        """The curvature bound of a move from ``curvature``: its ring at the larger radius, its layers."""
         radius = max(math.hypot(start[0], start[1]), math.hypot(end[0], end[1]))
         row = self.curvature[min(int(radius * self.inverse_step) + 1, len(self.curvature) - 1)]
         last = len(row) - 1
         low = min(max(int((min(start[2], end[2]) - self.z0) * self.inverse_step), 0), last)
         high = min(max(int((max(start[2], end[2]) - self.z0) * self.inverse_step) + 1, 0), last)
-        bound = max(row[low:high + 1])
-        longest = math.sqrt(8.0 * tolerance / bound) if bound > 0.0 else length
-        return min(max(1, int(math.ceil(length / longest))), MOST_SEGMENTS)
+        return max(row[low:high + 1])
+
+    def _cell_bound(self, start, end):
+        """The curvature bound of a move from ``cells``: the largest of the cells its box crosses.
+
+        A box beyond the grid takes its edge's cells (the correction is 0 beyond them).
+        """
+        spans = []
+        for axis, origin, count in ((0, self.x0, self.nx), (1, self.y0, self.ny), (2, self.z0, self.nz)):
+            low = (min(start[axis], end[axis]) - origin) * self.inverse_step
+            high = (max(start[axis], end[axis]) - origin) * self.inverse_step
+            spans.append((min(max(int(math.floor(low)), 0), count - 2),
+                          min(max(int(math.floor(high)), 0), count - 2)))
+        (i0, i1), (j0, j1), (k0, k1) = spans
+        cells, stride_j = self.cells, self.nz - 1
+        stride_i = (self.ny - 1) * stride_j
+        return max(max(cells[i * stride_i + j * stride_j + k0:i * stride_i + j * stride_j + k1 + 1])
+                   for i in range(i0, i1 + 1) for j in range(j0, j1 + 1))
 
 
 class DeltacalGeometry:
@@ -578,7 +602,25 @@ def read_section(config):
         raise config.error(f"deltacal_geometry: key correction: {len(correction)} values, expected "
                            f"{expected} (3 per node of grid_shape {tuple(shape)})")
     holds = read_holds(config)
-    return CorrectionGrid(origin, step, shape, correction, curvature, unit, holds), values, volume
+    cells = read_cells(config, shape)
+    return CorrectionGrid(origin, step, shape, correction, curvature, unit, holds, cells), values, volume
+
+
+def read_cells(config, shape):
+    """The bound of the curvature per cell of the grid (``split_cells``), or None: the section has none.
+
+    Raises:
+        config.error: naming the key.
+    """
+    text = config.get("split_cells", "")
+    if not text.strip():
+        return None
+    cells = decode_floats(text, config.error, "split_cells")
+    expected = (shape[0] - 1) * (shape[1] - 1) * (shape[2] - 1)
+    if len(cells) != expected or not all(0.0 <= v < math.inf for v in cells):
+        raise config.error(f"deltacal_geometry: key split_cells: {len(cells)} values, expected {expected} "
+                           "non-negative finite ones (1 per cell of grid_shape)")
+    return cells
 
 
 def read_holds(config):
