@@ -76,6 +76,7 @@ def test_a_move_klipper_refuses_is_refused_whole_before_any_segment_is_made():
         (1e9, 0.0, 10.0): "Move out of range: 1000000000.000 0.000 10.000 [0.000]",
         (100000.0, 0.0, 10.0): "Move out of range: 100000.000 0.000 10.000 [0.000]",
         (0.0, 0.0, 1000.0): "Move out of range: 0.000 0.000 1000.000 [0.000]",  # Klipper's taper: no radius
+        (1e300, 0.0, 10.0): f"Move out of range: {1e300:.3f} 0.000 10.000 [0.000]",  # length inf, no overflow
         (math.inf, 0.0, 10.0): "Move out of range: inf 0.000 10.000 [0.000]",
         (math.nan, 0.0, 10.0): "Move out of range: nan 0.000 10.000 [0.000]",  # Klipper would pass it
         (0.0, -math.inf, math.nan): "Move out of range: 0.000 -inf nan [0.000]",

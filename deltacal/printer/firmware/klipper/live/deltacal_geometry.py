@@ -264,7 +264,7 @@ class CorrectionGrid:
             columns = tuple(list(map(add, map(add, map(mul, c0, z0), map(mul, c1, z1)),
                                      map(add, map(mul, c2, z2), map(mul, c3, z3))))
                             for c0, c1, c2, c3 in cell)
-            if len(self._planes) >= 4096:  # a print's cells at a layer's height, many times over
+            if len(self._planes) >= 1024:  # a layer's cells, many times over (48 floats each)
                 self._planes.clear()
             self._planes[self._plane] = columns
         self._columns = columns
@@ -528,9 +528,12 @@ class Limits:
 
     @staticmethod
     def moves_nozzle(start, end):
-        """Whether Klipper checks a move from ``start`` to ``end``: its nozzle moves (or is not a number)."""
-        length = math.sqrt(sum((e - s) ** 2 for s, e in zip(start[:3], end[:3])))  # noqa: B905 (Python 3.7+)
-        return not length < KLIPPER_LEAST_MOVE
+        """Whether Klipper checks a move from ``start`` to ``end``: its nozzle moves (or is not a number).
+
+        Klipper's arithmetic (its ``Move``: squares as products, so that a huge move's length is inf).
+        """
+        dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+        return not math.sqrt(dx * dx + dy * dy + dz * dz) < KLIPPER_LEAST_MOVE
 
     def refusal(self, end, homed):
         """Klipper's refusal of a move of the nozzle to ``end``, in its words, or "" (none).
@@ -544,7 +547,7 @@ class Limits:
         x, y, z = end[0], end[1], end[2]
         if not homed:
             what = "Must home first"
-        elif not all(math.isfinite(v) for v in (x, y, z)) or self._refuses(x, y, z):
+        elif not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)) or self._refuses(x, y, z):
             what = "Move out of range"
         else:
             return ""
