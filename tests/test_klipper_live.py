@@ -51,7 +51,7 @@ from deltacal.printer.firmware.klipper.live.field import (
     LiveVolume,
     SamplingError,
     correction_field,
-    curvature_bound,
+    curvature_bounds,
     exact_correction,
     sampling_error,
 )
@@ -201,6 +201,23 @@ def test_long_moves_are_cut_to_keep_the_chord_within_tolerance():
     assert grid.segments([5.0, 0, 100, 0], [15.0, 0, 100, 0], 0.005) == 16
 
 
+def test_long_moves_are_cut_by_the_bound_of_the_cells_they_cross():
+    """With the section's bound per cell, a move is cut by the cells its box crosses, not by its ring."""
+    grid = _grid(_smooth_field())
+    grid.curvature = [[1e-3] * grid.nz] * 8  # its rings' bound: segments of 6.3 mm
+    cells = [1e-4] * ((grid.nx - 1) * (grid.ny - 1) * (grid.nz - 1))  # segments of 20 mm
+    # one cell bends more: x 20 to 30, y -10 to 0, z 0 to 10 (K 0.1: segments of 0.63 mm)
+    cells[(12 * (grid.ny - 1) + 9) * (grid.nz - 1) + 4] = 0.1
+    assert grid.segments([0, 5.0, 1, 0], [40.0, 5.0, 1, 0], 0.005) == 7  # by its ring
+    grid.cells = cells
+    assert grid.segments([0, 5.0, 1, 0], [40.0, 5.0, 1, 0], 0.005) == 2  # y 0 to 10: away from it
+    assert grid.segments([0, -5.0, 1, 0], [40.0, -5.0, 1, 0], 0.005) == 64  # through it
+    assert grid.segments([0, -5.0, 11, 0], [40.0, -5.0, 11, 0], 0.005) == 2  # the layer above it
+    assert grid.segments([25.0, -5.0, 20, 0], [25.0, -5.0, 5, 0], 0.005) == 24  # down into it
+    assert grid.segments([0, 5.0, 1, 0], [4.0, 5.0, 1, 0], 0.005) == 1  # shorter than the cells allow
+    assert grid.segments([-500.0, 5.0, 1, 0], [-460.0, 5.0, 1, 0], 0.005) == 2  # beyond: the edge's cells
+
+
 class _Section:
     """Klipper's reading of a section (the calls of ``configfile.ConfigWrapper`` the module makes)."""
 
@@ -254,6 +271,9 @@ def test_the_section_reads_back_into_the_module():
     assert list(grid.holds.radius) == list(holds.radius) and list(grid.holds.height) == list(holds.height)
     assert list(grid.holds.azimuth) == list(holds.azimuth)
     assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    # the bound of the curvature per cell, exact
+    assert list(grid.cells) == curvature_bounds(field)[1].ravel().tolist() and max(grid.cells) > 0.0
+    assert len(grid.cells) == (grid.nx - 1) * (grid.ny - 1) * (grid.nz - 1)
     # a calibration without it (a geometry): the whole correction, no σ keys
     plain = _Section(_section(_smooth_field()))
     assert live.read_section(plain)[0].holds is None and "holds_sigma" not in plain.options
@@ -421,6 +441,7 @@ def _transform():
 def test_a_long_move_is_cut_into_corrected_segments_on_its_line():
     module, toolhead, _ = _transform()
     module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
+    module.grid.cells = [4e-4] * len(module.grid.cells)  # the section's bound per cell, made even
     module.tolerance = 0.005  # segments of 10 mm at most
     toolhead.position = [-20.0, 5.0, 40.0, 0.0]
     start = module.get_position()
@@ -536,12 +557,14 @@ def test_the_field_is_the_whole_correction_and_the_module_weights_it_as_the_offl
 
 
 @pytest.mark.long
-def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_correction():
+@pytest.mark.parametrize("per", ["ring", "cell"])
+def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_correction(per):
     """The module's cut keeps each segment's chord within the tolerance of the applied correction.
 
     The applied correction (weighted: its weights turn from 1 to 0 inside the volume, bent where
     the σ grid's trilinear interpolation bends) at 200 points along each segment of random long
-    moves, cut as the module cuts them by :func:`curvature_bound`, against the segment's chord.
+    moves, cut as the module cuts them by :func:`curvature_bounds` (per ring and layer; per cell of
+    the grid, as the section's ``split_cells`` gives it), against the segment's chord.
     """
     truth = random_printer(PRINTER, np.random.default_rng(5), typical_kit())
     firmware = KlipperDelta.from_printer(PRINTER)
@@ -551,8 +574,9 @@ def test_long_moves_cut_by_the_bound_stay_within_the_tolerance_of_the_applied_co
     r, _, z = np.meshgrid(radius, azimuth, height, indexing="ij")
     holds = WhereItHolds(radius, azimuth, height, 0.003 + 0.0015 * z + 0.0001 * r, 0.004 + 0.003 * z)
     field = correction_field(_made_up_calibration(truth, holds), controller, volume, step=10.0)
-    bound = curvature_bound(field)
-    grid = live.CorrectionGrid(tuple(field.origin), field.step, field.shape, [], bound.tolist())
+    bound, cells = curvature_bounds(field)
+    grid = live.CorrectionGrid(tuple(field.origin), field.step, field.shape, [], bound.tolist(),
+                               cells=cells.ravel().tolist() if per == "cell" else None)
     rng = np.random.default_rng(9)
     ends = volume.sample(120, rng).reshape(60, 2, 3)
     ends[:30, :, 2] = rng.uniform(0.0, 25.0, (30, 1))  # moves along a layer through the transition

@@ -66,6 +66,7 @@ def _counting(module) -> list:
 def test_a_move_klipper_refuses_is_refused_whole_before_any_segment_is_made():
     module, toolhead, _ = _transform()
     module.grid.curvature = [[4e-4] * module.grid.nz] * len(module.grid.curvature)
+    module.grid.cells = [4e-4] * len(module.grid.cells)  # the section's bound per cell, made even
     module.tolerance = 0.005  # segments of 10 mm at most: the moves below would be cut
     module.move([0.0, 0.0, 10.0, 0.0], 50.0)
     toolhead.moves.clear()
@@ -75,6 +76,7 @@ def test_a_move_klipper_refuses_is_refused_whole_before_any_segment_is_made():
         (1e9, 0.0, 10.0): "Move out of range: 1000000000.000 0.000 10.000 [0.000]",
         (100000.0, 0.0, 10.0): "Move out of range: 100000.000 0.000 10.000 [0.000]",
         (0.0, 0.0, 1000.0): "Move out of range: 0.000 0.000 1000.000 [0.000]",  # Klipper's taper: no radius
+        (1e300, 0.0, 10.0): f"Move out of range: {1e300:.3f} 0.000 10.000 [0.000]",  # length inf, no overflow
         (math.inf, 0.0, 10.0): "Move out of range: inf 0.000 10.000 [0.000]",
         (math.nan, 0.0, 10.0): "Move out of range: nan 0.000 10.000 [0.000]",  # Klipper would pass it
         (0.0, -math.inf, math.nan): "Move out of range: 0.000 -inf nan [0.000]",
@@ -132,6 +134,7 @@ def test_klippers_refusal_is_its_check_move():
 def test_the_segments_of_a_move_are_few_whatever_its_points():
     grid = _transform()[0].grid
     grid.curvature = [[4e-4] * grid.nz] * len(grid.curvature)
+    grid.cells = [4e-4] * len(grid.cells)  # the section's bound per cell, made even
     start = [0.0, 0.0, 10.0, 0.0]
     for end in ([math.inf, 0.0, 10.0, 0.0], [math.nan, 0.0, 10.0, 0.0], [1e300, 1e300, 10.0, 0.0],
                 [-1e308, 0.0, 1e308, 0.0]):
@@ -155,13 +158,16 @@ def _with(text: str, key: str, value: str) -> str:
     return text.replace(line[0], f"{key}: {', '.join([value, *values[1:]])}", 1)
 
 
-def _with_sigma(text: str, value: float) -> str:
-    """The section with the σ grid's first value replaced (holds_sigma, encoded)."""
+def _with_sigma(text: str, value: float | None, key: str = "holds_sigma") -> str:
+    """The section with the σ grid's first value replaced (holds_sigma, encoded; None: removed)."""
     lines = text.split("\n")
-    first = lines.index("holds_sigma:") + 1
+    first = lines.index(f"{key}:") + 1
     last = next(k for k in range(first, len(lines)) if not lines[k].startswith("  "))
     sigma = array("d", zlib.decompress(base64.b64decode("".join(lines[first:last]))))
-    sigma[0] = value
+    if value is None:
+        sigma.pop()
+    else:
+        sigma[0] = value
     encoded = base64.b64encode(zlib.compress(sigma.tobytes())).decode("ascii")
     return "\n".join([*lines[:first], "  " + encoded, *lines[last:]])
 
@@ -199,6 +205,17 @@ def test_split_curvature_split_tolerance_and_holds_sigma_that_are_not_numbers_ar
         broken = text.replace("split_tolerance: 0.01", f"split_tolerance: {value}", 1)
         with pytest.raises(_Section.error, match=rf"key split_tolerance: {value} is not a finite number"):
             live.DeltacalGeometry(_Config(broken, _Printer(_Toolhead(firmware))))
+
+
+def test_split_cells_that_are_not_deltacals_bounds_are_refused_naming_the_key():
+    text = _text()
+    for value in (math.nan, math.inf, -1e-3, None):  # None: one value short
+        with pytest.raises(_Section.error, match=r"^deltacal_geometry: key split_cells: \d+ values, expected "
+                                                 r"\d+ non-negative finite ones"):
+            live.read_section(_Section(_with_sigma(text, value, "split_cells")))
+    with pytest.raises(_Section.error, match="key split_cells: not deltacal's encoded values"):
+        live.read_section(_Section(text.replace("split_cells:\n  eN", "split_cells:\n  #N", 1)))
+    assert live.read_section(_Section(_with_sigma(text, 0.5, "split_cells")))[0].cells[0] == 0.5
 
 
 def test_a_sigma_bound_below_the_correction_unit_is_refused_by_the_module():

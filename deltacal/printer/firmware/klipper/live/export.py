@@ -37,7 +37,7 @@ from .field import (
     LiveVolume,
     SamplingError,
     correction_field,
-    curvature_bound,
+    curvature_bounds,
     sampling_error,
 )
 
@@ -203,7 +203,7 @@ def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperD
              "grid_origin": ", ".join(_number(x) for x in field.origin), "grid_step": _number(field.step),
              "grid_shape": ", ".join(str(n) for n in field.shape),
              "correction_unit": f"{VALUE_UNIT_MM:g}", "sigma_bound": _number(field.bound)}
-    bound = curvature_bound(field)
+    bound, cells = curvature_bounds(field)
     lines = ["# deltacal's live correction: the [deltacal_geometry] section deltacal_geometry.py reads.",
              f"# To install: {INSTALL_NOTE}.",
              "# Computed for the Klipper values below: the module refuses to start under others (export "
@@ -212,6 +212,9 @@ def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperD
              *(f"{key}: {value}" for key, value in keys.items()), *holds_lines(field.holds),
              "# split_curvature: per ring of grid_step (from the axis), the bound at each z node [1/mm]",
              "split_curvature:", *("  " + ", ".join(f"{k:.3g}" for k in row) for row in bound),
+             "# split_cells: base64 of the zlib-compressed little-endian float64 bound [1/mm] in each cell "
+             "of the grid (from node (i, j, k) to (i+1, j+1, k+1); i slowest, k fastest)",
+             "split_cells:", *("  " + line for line in encode_floats(cells)),
              "# correction: base64 of the zlib-compressed little-endian int32 values (in correction_unit), "
              "3 per node, x slowest, then y, z, the component fastest",
              "correction:", *("  " + line for line in encode_values(field.values))]
@@ -222,15 +225,20 @@ def holds_lines(holds: WhereItHolds | None) -> list[str]:
     """The section's lines of where the calibration holds: its σ grid's nodes and σ, exact (none: [])."""
     if holds is None:
         return []
-    sigma = np.concatenate([holds.horizontal.ravel(), holds.vertical.ravel()]).astype("<f8").tobytes()
-    text = base64.b64encode(zlib.compress(sigma, 9)).decode("ascii")
+    sigma = np.concatenate([holds.horizontal.ravel(), holds.vertical.ravel()])
     return [f"holds_radius: {', '.join(_number(r) for r in holds.radius)}",
             f"holds_azimuth: {', '.join(_number(a) for a in holds.azimuth)}",
             f"holds_height: {', '.join(_number(z) for z in holds.height)}",
             "# holds_sigma: base64 of the zlib-compressed little-endian float64 σ [mm] of the correction's "
             "horizontal part, then of its vertical part, at the nodes of holds_radius x holds_azimuth x "
             "holds_height (the radius slowest, the height fastest)",
-            "holds_sigma:", *("  " + text[k:k + LINE_CHARS] for k in range(0, len(text), LINE_CHARS))]
+            "holds_sigma:", *("  " + line for line in encode_floats(sigma))]
+
+
+def encode_floats(values: np.ndarray) -> list[str]:
+    """Values as the section's lines, exact: base64 of zlib-compressed little-endian float64, in C order."""
+    text = base64.b64encode(zlib.compress(np.asarray(values, dtype="<f8").tobytes(), 9)).decode("ascii")
+    return [text[k:k + LINE_CHARS] for k in range(0, len(text), LINE_CHARS)]
 
 
 def encode_values(values: np.ndarray) -> list[str]:

@@ -24,8 +24,8 @@ mm where the σ crosses the bound, faster than any grid of the correction could 
 holds the whole correction, smooth (the offline route's with ``bound = inf``: the identified
 printer in Klipper's frame), and the weights are applied at each point after the interpolation,
 from the calibration's σ grid, as the library computes them (:meth:`CorrectionField.applied`: the
-module does the same arithmetic). :func:`curvature_bound` bounds the applied correction's curvature,
-what the module needs to cut long moves. Units: mm.
+module does the same arithmetic). :func:`curvature_bounds` bounds the applied correction's curvature (per
+ring and layer, and per cell of the grid), what the module needs to cut long moves. Units: mm.
 """
 
 from __future__ import annotations
@@ -57,9 +57,9 @@ BLEND_NODES = 2
 #: Calls of the library at most (each may name more refused points at a later check).
 _TRIES = 8
 #: The curvature of the applied correction is bounded from its values on a grid this many times finer
-#: than the correction's (:func:`curvature_bound`).
+#: than the correction's (:func:`curvature_bounds`).
 CURVATURE_REFINE = 4
-#: The bound is this many times the largest second difference (:func:`curvature_bound`): a second
+#: The bound is this many times the largest second difference (:func:`curvature_bounds`): a second
 #: difference at spacing f is the curvature averaged over ±f (a hat), and where the curvature jumps
 #: (the smooth steps' ends, the interpolation's nodes) or gathers in a bend (the σ's trilinear
 #: interpolation, its edges) the nearest fine node sees half of it or more.
@@ -345,8 +345,8 @@ def _shifted(a: np.ndarray, axis: int, offset: int) -> np.ndarray:
     return out
 
 
-def curvature_bound(field: CorrectionField, refine: int = CURVATURE_REFINE) -> np.ndarray:
-    """A bound of the applied correction's second derivative along any direction, per ring and layer [1/mm].
+def curvature_bounds(field: CorrectionField, refine: int = CURVATURE_REFINE) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the applied correction's second derivative along any direction: per ring and layer, per cell.
 
     The applied correction (:meth:`CorrectionField.applied`: interpolated, then weighted where the
     calibration holds) is evaluated on a grid ``refine`` times finer than the field's over what
@@ -354,12 +354,20 @@ def curvature_bound(field: CorrectionField, refine: int = CURVATURE_REFINE) -> n
     interpolation bends it at the σ grid's nodes, which the field's own nodes would not see. At each
     fine node, ``sqrt(Σ ‖H‖²)``, H each component's Hessian by finite differences at the fine
     spacing (its norm bounds the second derivative along any unit direction; across a bend, the
-    slope's change over one fine spacing), times :data:`CURVATURE_MARGIN`. Ring k (radius k × step)
-    and layer j (the field's z nodes) take the largest of the nodes at radius from k × step and
-    heights from z_j up to z_{j+1}, then of their neighbours; non-decreasing outwards, so that a
-    move's larger radius (one of its ends) and the layers of its heights give its bound. The chord
-    of a segment of length s is then off the applied correction by at most s² K / 8: the module's
-    cut of long moves (checked on random moves: tests/test_klipper_live.py). Shape (rings, nz).
+    slope's change over one fine spacing), times :data:`CURVATURE_MARGIN`.
+
+    Per ring: ring k (radius k × step) and layer j (the field's z nodes) take the largest of the
+    nodes at radius from k × step and heights from z_j up to z_{j+1}, then of their neighbours;
+    non-decreasing outwards, so that a move's larger radius (one of its ends) and the layers of its
+    heights give its bound. Shape (rings, nz).
+
+    Per cell: the cell (i, j, k) of the field's grid (from node (i, j, k) to (i+1, j+1, k+1)) takes
+    the largest of the fine nodes in it, then of its 26 neighbours' (a fine node's second difference
+    sees ±1 fine spacing, into the next cell): the cells a move's box crosses give its bound, where
+    the correction bends in one place only the moves near it are cut finely. Shape (nx-1, ny-1, nz-1).
+
+    The chord of a segment of length s is then off the applied correction by at most s² K / 8: the
+    module's cut of long moves (checked on random moves: tests/test_klipper_live.py).
     """
     h, volume = field.step, field.volume
     fine = h / refine
@@ -374,6 +382,7 @@ def curvature_bound(field: CorrectionField, refine: int = CURVATURE_REFINE) -> n
     nz = field.shape[2]
     rings = int(np.ceil(volume.radius / h)) + 2
     bound = np.zeros((rings, nz))
+    cells = np.zeros(tuple(n - 1 for n in field.shape))
     width = 16  # x nodes per slab (and one on each side)
     for start in range(1, axes[0].size - 1, width):
         stop = min(start + width, axes[0].size - 1)
@@ -386,7 +395,11 @@ def curvature_bound(field: CorrectionField, refine: int = CURVATURE_REFINE) -> n
         ring = np.minimum((np.hypot(inner[:, 0], inner[:, 1]) / h).astype(int), rings - 1)
         layer = np.clip(np.floor((inner[:, 2] - field.origin[2]) / h).astype(int), 0, nz - 1)
         np.maximum.at(bound, (ring[admitted], layer[admitted]), norm[admitted])
-    return CURVATURE_MARGIN * np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0)
+        cell = np.floor((inner[admitted] - field.origin) / h).astype(int)
+        cell = np.clip(cell, 0, np.array(cells.shape) - 1)
+        np.maximum.at(cells, tuple(cell.T), norm[admitted])
+    return (CURVATURE_MARGIN * np.maximum.accumulate(maximum_filter(bound, size=3, mode="nearest"), axis=0),
+            CURVATURE_MARGIN * maximum_filter(cells, size=3, mode="nearest"))
 
 
 def _upsampled(values: np.ndarray, axis: int, index: np.ndarray, refine: int) -> np.ndarray:
