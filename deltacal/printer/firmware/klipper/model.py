@@ -36,8 +36,10 @@ such move ("Must home first"): a program's commands are judged as a homed printe
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import Protocol
 
 import numpy as np
 
@@ -265,38 +267,71 @@ class KlipperDelta:
         Args:
             commands: Commands :meth:`outside` refuses [mm], (N, 3), the first the one to name.
         """
-        commands = np.atleast_2d(np.asarray(commands, dtype=float))
-        codes = self.outside(commands)
-        parts = []
-        for code in dict.fromkeys(codes[codes != 0].tolist()):
-            parts.append(self._refusal(int(code), commands[codes == code]))
-        return "; also ".join(parts) if parts else "inside Klipper's limits"
+        return limits_refusal(self, commands, self._beyond_radius)
 
-    def _refusal(self, code: int, commands: np.ndarray) -> str:
-        """One limit's refusal: the first command, the limit, what admits them all."""
-        of = f" of {self.name}" if self.name else ""
-        x, y, z = commands[0]
-        radius = math.hypot(x, y)
+    def _beyond_radius(self, commands: np.ndarray, of: str) -> str:
+        """The radius limit's refusal: print_radius to set, or the arms' reach no key admits."""
+        radius = math.hypot(*commands[0, :2])
+        need = -step_below(-float(np.max(np.hypot(commands[:, 0], commands[:, 1]))))
+        if need <= self.reach_radius:
+            now = f"{self.print_radius:g}" if self.print_radius is not None else \
+                f"{self.delta_radius:g} (delta_radius, the default)"
+            return (f"corrected point's radius {radius:.4f} mm is beyond print_radius {now}{of}: "
+                    f"set [printer] print_radius: {need:.2f}")
+        return (f"corrected point's radius {radius:.4f} mm is beyond {self.reach_radius:.2f} mm, the "
+                f"arms' reach in Klipper's model{of}: no key admits it: keep the program within it")
+
+
+class KlipperLimits(Protocol):
+    """What :func:`limits_refusal` reads of a Klipper model (linear or rotary)."""
+
+    @property
+    def name(self) -> str: ...  # noqa: D102
+
+    @property
+    def minimum_z_position(self) -> float: ...  # noqa: D102
+
+    @property
+    def max_z(self) -> float: ...  # noqa: D102
+
+    @property
+    def limit_z(self) -> float: ...  # noqa: D102
+
+    def outside(self, commands: np.ndarray) -> np.ndarray: ...  # noqa: D102
+
+
+def limits_refusal(model: KlipperLimits, commands: np.ndarray,
+                   beyond_radius: Callable[[np.ndarray, str], str]) -> str:
+    """What Klipper refuses of commands, each limit broken once (the first command's first), in one line.
+
+    Args:
+        model: The Klipper model (linear or rotary).
+        commands: Commands its ``outside`` refuses [mm], (N, 3).
+        beyond_radius: The radius limit's words for the commands that break it and `` of NAME``.
+    """
+    commands = np.atleast_2d(np.asarray(commands, dtype=float))
+    codes = model.outside(commands)
+    of = f" of {model.name}" if model.name else ""
+    parts = []
+    for code in dict.fromkeys(codes[codes != 0].tolist()):
+        broken = commands[codes == code]
+        x, y, z = broken[0]
         if code == BELOW_MIN_Z:
-            need = step_below(float(np.min(commands[:, 2])))
-            return (f"corrected Z {z:.4f} mm is below minimum_z_position {self.minimum_z_position:g}{of}: "
-                    f"set [printer] minimum_z_position: {need:.2f}")
-        if code == ABOVE_MAX_Z:
-            return (f"corrected Z {z:.4f} mm is above {self.max_z:g}, the lowest position_endstop{of} "
-                    "(Klipper's top): no key admits it (position_endstop is the printer's height): lower the "
-                    "program's moves")
-        if code == BEYOND_RADIUS:
-            need = -step_below(-float(np.max(np.hypot(commands[:, 0], commands[:, 1]))))
-            if need <= self.reach_radius:
-                now = f"{self.print_radius:g}" if self.print_radius is not None else \
-                    f"{self.delta_radius:g} (delta_radius, the default)"
-                return (f"corrected point's radius {radius:.4f} mm is beyond print_radius {now}{of}: "
-                        f"set [printer] print_radius: {need:.2f}")
-            return (f"corrected point's radius {radius:.4f} mm is beyond {self.reach_radius:.2f} mm, the "
-                    f"arms' reach in Klipper's model{of}: no key admits it: keep the program within it")
-        return (f"corrected point at radius {radius:.4f} mm, Z {z:.4f} mm is beyond Klipper's radius taper "
-                f"near the top{of} (radius at most {self.max_z:g} - Z above Z {self.limit_z:.2f}): no key "
-                "admits it: lower the move or bring it nearer the centre")
+            need = step_below(float(np.min(broken[:, 2])))
+            parts.append(f"corrected Z {z:.4f} mm is below minimum_z_position {model.minimum_z_position:g}"
+                         f"{of}: set [printer] minimum_z_position: {need:.2f}")
+        elif code == ABOVE_MAX_Z:
+            parts.append(f"corrected Z {z:.4f} mm is above {model.max_z:g}, the lowest "
+                         f"position_endstop{of} (Klipper's top): no key admits it (position_endstop is the "
+                         "printer's height): lower the program's moves")
+        elif code == BEYOND_RADIUS:
+            parts.append(beyond_radius(broken, of))
+        else:
+            parts.append(f"corrected point at radius {math.hypot(x, y):.4f} mm, Z {z:.4f} mm is beyond "
+                         f"Klipper's radius taper near the top{of} (radius at most {model.max_z:g} - Z above "
+                         f"Z {model.limit_z:.2f}): no key admits it: lower the move or bring it nearer the "
+                         "centre")
+    return "; also ".join(parts) if parts else "inside Klipper's limits"
 
 
 def move_check(commands: np.ndarray, minimum_z: float, max_z: float, max_radius: float, limit_z: float,

@@ -53,7 +53,7 @@ import numpy as np
 from ....exceptions import AssemblyError, GeometryError, UnreachableError
 from ....geometry import DeltaGeometry, radial_vectors, tangent_vectors
 from ....kinematics.closed_form import VirtualDelta
-from .model import ABOVE_MAX_Z, BELOW_MIN_Z, BEYOND_RADIUS, move_check, step_below
+from .model import limits_refusal, move_check
 
 #: Klipper's arm angles when a ``[stepper_*]`` gives none [deg] (steppers A, B, C).
 ROTARY_ANGLES_DEG = (30.0, 150.0, 270.0)
@@ -233,31 +233,14 @@ class KlipperRotaryDelta:
         Args:
             commands: Commands :meth:`outside` refuses [mm], (N, 3), the first the one to name.
         """
-        commands = np.atleast_2d(np.asarray(commands, dtype=float))
-        codes = self.outside(commands)
-        parts = [self._refusal(int(code), commands[codes == code])
-                 for code in dict.fromkeys(codes[codes != 0].tolist())]
-        return "; also ".join(parts) if parts else "inside Klipper's limits"
+        return limits_refusal(self, commands, self._beyond_radius)
 
-    def _refusal(self, code: int, commands: np.ndarray) -> str:
-        """One limit's refusal: the first command, the limit, what admits them all."""
-        of = f" of {self.name}" if self.name else ""
-        x, y, z = commands[0]
-        radius = math.hypot(x, y)
-        if code == BELOW_MIN_Z:
-            need = step_below(float(np.min(commands[:, 2])))
-            return (f"corrected Z {z:.4f} mm is below minimum_z_position {self.minimum_z_position:g}{of}: "
-                    f"set [printer] minimum_z_position: {need:.2f}")
-        if code == ABOVE_MAX_Z:
-            return (f"corrected Z {z:.4f} mm is above {self.max_z:g}, the lowest position_endstop{of} "
-                    "(Klipper's top): no key admits it: lower the program's moves")
-        if code == BEYOND_RADIUS:
-            return (f"corrected point's radius {radius:.4f} mm is beyond {self.max_radius:.2f} mm, Klipper's "
-                    f"rotary max_xy{of} (the arms' reach: min(shoulder_radius + upper_arm_length, "
-                    "lower_arm_length - shoulder_radius)): no key admits it: keep the program within it")
-        return (f"corrected point at radius {radius:.4f} mm, Z {z:.4f} mm is beyond Klipper's radius taper "
-                f"near the top{of} (radius at most {self.max_z:g} - Z above Z {self.limit_z:.2f}): no key "
-                "admits it: lower the move or bring it nearer the centre")
+    def _beyond_radius(self, commands: np.ndarray, of: str) -> str:
+        """The radius limit's refusal: the arms' reach, which no key admits."""
+        return (f"corrected point's radius {math.hypot(*commands[0, :2]):.4f} mm is beyond "
+                f"{self.max_radius:.2f} mm, Klipper's rotary max_xy{of} (the arms' reach: "
+                "min(shoulder_radius + upper_arm_length, lower_arm_length - shoulder_radius)): no key admits "
+                "it: keep the program within it")
 
     # ---------------------------------------------------- as a controller
     @cached_property
