@@ -71,7 +71,7 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
     if request.live or request.keep_rotation_distance:
         option = "--live" if request.live else "--keep-rotation-distance"
         raise UsageError(f"{option} applies to a linear Delta printer's calibration; "
-                         f"{request.calibration} is a rotary Delta's")
+                         f"{request.calibration} is a rotary Delta's calibration")
     if request.config is None:
         raise UsageError(f"{given}: {request.calibration} is a rotary Delta's calibration; "
                          f"{firmware.title}'s values are fitted from the configuration the printer runs: "
