@@ -67,6 +67,7 @@ if TYPE_CHECKING:
     from ...calibration import Calibration
     from ..files.importer import PrinterImport
     from ..robot import NominalLinearDelta
+    from .rotary_values import RotaryValues
 
 
 #: Margin below the lowest corrected bed point of the lowest Z admitted [mm].
@@ -390,6 +391,11 @@ class Firmware(ABC, Generic[ModelT]):
         Raises:
             InputError: a rotary configuration's first problem.
         """
+        return None
+
+    def rotary_export(self, path: str | Path, calibration: Calibration, source: str | Path,
+                      volume: Workspace | None = None, where: str = "") -> RotaryValues | None:
+        """The rotary printer ``path`` configures: values fitted over ``volume`` ({O}; None: its own)."""
         return None
 
     def live_correction(self, path: str | Path) -> LiveCorrection | None:

@@ -20,7 +20,7 @@ from ...io import load_nominal
 from ...printer.firmware import firmware_named
 from ..base import Done, Robot, Wing
 from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportRequest, SimulateRequest
-from .export import export_controller_values
+from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
 from .plan import plan_poses
 from .simulate import simulate_rotary
@@ -58,17 +58,19 @@ class RotaryWing(Wing):
         return identify_rotary(request, self._robot(request.nominal, robot))
 
     def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:
-        """A Cartesian controller's offsets or per-limb values (:func:`.export.export_controller_values`)."""
-        if request.controller not in FIT_KINDS:
-            raise UsageError(f"--controller {request.controller}: {request.calibration} is a rotary Delta's "
-                             f"calibration; {self._values(request.controller)} are a printer's (--controller "
-                             "offsets|limbs serve a rotary Delta)")
-        return export_controller_values(request, calibration)
+        """A Cartesian controller's offsets or per-limb values, or a firmware's of a rotary Delta printer.
 
-    @staticmethod
-    def _values(name: str | None) -> str:
-        firmware = firmware_named(str(name))
-        return f"{firmware.title}'s values" if firmware is not None else "a firmware's values"
+        ``offsets``, ``limbs``: :func:`.export.export_controller_values`; a firmware's name: its values
+        of the rotary Delta printer its ``--config`` configures (:func:`.export.export_firmware_rotary`).
+        """
+        if request.controller in FIT_KINDS:
+            return export_controller_values(request, calibration)
+        firmware = firmware_named(str(request.controller))
+        if firmware is None:
+            raise UsageError(f"--controller {request.controller}: {request.calibration} is a rotary Delta's "
+                             "calibration; a firmware's values are a printer's (--controller offsets|limbs "
+                             "serve a rotary Delta)")
+        return export_firmware_rotary(firmware, request, calibration)
 
     def report_firmware(self, request: ReportRequest,
                         calibration: Calibration) -> tuple[None, None, tuple[()], Calibration]:

@@ -8,14 +8,18 @@ default cylinder), written as a controller file whose ``[fit]`` holds the TCP er
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from ...calibration import Calibration
 from ...controller import Controller, fit_controller
-from ...exceptions import AssemblyError, GeometryError, InputError, UnreachableError
+from ...exceptions import AssemblyError, GeometryError, InputError, UnreachableError, UsageError
 from ...geometry import Workspace
 from ...io import load_nominal, save_controller
 from ...kinematics.workspace import default_workspace
+from ...printer.firmware.base import Firmware
+from ...printer.firmware.config_file import refuse_deltacal_file
 from ...report.accuracy import GRID, workspace_slices
 from ..base import Done
 from ..requests import ExportRequest
@@ -49,6 +53,43 @@ def export_controller_values(request: ExportRequest, calibration: Calibration) -
         lines.append("held at nominal (not identifiable from the TCP error; b_i and a_i enter only as b_i - "
                      f"a_i): {', '.join(fit.held)}")
     return Done(tuple(lines))
+
+
+def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
+    """``export --controller FIRMWARE --config printer.cfg``: the firmware's values of a rotary printer.
+
+    Fitted to the calibration from the configuration's values
+    (:meth:`~deltacal.printer.firmware.base.Firmware.rotary_export`), over ``--robot``'s
+    ``[workspace]``, else the configuration's own printable volume; written to ``-o``, what they leave said.
+
+    Raises:
+        UsageError: no ``--config``, ``--live`` or ``--keep-rotation-distance``, or a configuration that is
+            not of a rotary Delta printer (a linear Delta's).
+        InputError: a file's first problem, a target out of the firmware's reach.
+    """
+    given = f"--controller {firmware.name}"
+    if request.live or request.keep_rotation_distance:
+        option = "--live" if request.live else "--keep-rotation-distance"
+        raise UsageError(f"{option} applies to a linear Delta printer's calibration; "
+                         f"{request.calibration} is a rotary Delta's calibration")
+    if request.config is None:
+        raise UsageError(f"{given}: {request.calibration} is a rotary Delta's calibration; "
+                         f"{firmware.title}'s values are fitted from the configuration the printer runs: "
+                         f"give --config {firmware.config_file} (or --controller offsets|limbs)")
+    assert request.output is not None
+    refuse_deltacal_file(request.config, "--config")
+    volume, where = None, ""
+    if request.robot is not None:
+        volume = load_nominal(request.robot).workspace
+        where = "" if volume is None else f" of {request.robot}"
+    values = firmware.rotary_export(request.config, calibration, request.calibration, volume, where)
+    if values is None:
+        raise UsageError(f"--config {request.config} is not {firmware.title}'s configuration of a rotary "
+                         f"Delta printer, but {request.calibration} is a rotary Delta's calibration: give "
+                         "the rotary printer's")
+    values.save(request.output)
+    return Done((f"wrote the {firmware.title} rotary values that best fit {request.calibration} to "
+                 f"{request.output}", *values.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
 
 
 def _start(calibration: Calibration, request: ExportRequest) -> tuple[Controller, Workspace, np.ndarray, str]:

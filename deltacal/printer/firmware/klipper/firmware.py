@@ -25,6 +25,7 @@ from ..base import PROBE_CLEARANCE, Firmware, FirmwareFit, Flatness, Measuring
 from ..live_correction import LiveCorrection
 from ..owner_keys import OwnerKeys
 from ..probe_log import ProbeLog
+from ..rotary_values import RotaryValues
 from ..value_keys import ValueKey
 from .calibrate import (
     BASIC_TITLE,
@@ -55,6 +56,7 @@ from .model import KlipperController, KlipperDelta
 from .probing import klipper_manual_heights, klipper_probe_program, klipper_probe_travel
 from .rotary_config import is_rotary_config, rotary_from_config
 from .rotary_controller import KlipperRotaryController
+from .rotary_export import export_rotary
 from .rotary_importer import import_rotary, write_rotary_import
 from .rotary_model import KlipperRotaryDelta
 from .saved import read_saved_calibration
@@ -209,6 +211,18 @@ class Klipper(Firmware[KlipperDelta]):
         if not is_rotary_config(config):
             return None
         return KlipperRotaryController(rotary_from_config(config))
+
+    def rotary_export(self, path: str | Path, calibration: Calibration, source: str | Path,
+                      volume: Workspace | None = None, where: str = "") -> RotaryValues | None:
+        """A ``kinematics: rotary_delta`` configuration: :func:`~.rotary_export.export_rotary`.
+
+        None for any other kinematics (a linear Delta's configuration). ``volume``: the printable volume
+        in the calibration's frame {O} (``where``: where from), or None: the configuration's own.
+        """
+        config = read_klipper_config(path)
+        if not is_rotary_config(config):
+            return None
+        return export_rotary(config, calibration, source, volume, where)
 
     def live_correction(self, path: str | Path) -> LiveCorrection | None:
         """Where ``printer.cfg`` includes ``export --live``'s section (:attr:`~.config.KlipperConfig.live`).

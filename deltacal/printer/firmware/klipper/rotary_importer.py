@@ -73,6 +73,14 @@ def import_rotary(config: KlipperConfig, effector_radius: float | None = None,
     return ImportedRotary(_robot_text(config, klipper, measured), klipper, measured, saved)
 
 
+def printable_radius(config: KlipperConfig, klipper: KlipperRotaryDelta) -> tuple[float, str]:
+    """The printable radius [mm]: ``[delta_calibrate] radius``, else Klipper's ``max_xy``; and what it is."""
+    if config.has("delta_calibrate", "radius"):
+        return config.number("delta_calibrate", "radius", above=0.0), "[delta_calibrate] radius"
+    return klipper.max_radius, ("Klipper's max_xy: min(shoulder_radius + upper arm, lower arm - "
+                                "shoulder_radius)")
+
+
 def _robot_text(config: KlipperConfig, klipper: KlipperRotaryDelta, measured: Measured) -> str:
     """The robot file's text (the module's documentation)."""
     source = Path(config.source)
@@ -82,11 +90,7 @@ def _robot_text(config: KlipperConfig, klipper: KlipperRotaryDelta, measured: Me
         raise InputError(f"Klipper's full-radius height limit_z {top:g} mm is not above minimum_z_position "
                          f"{bottom:g} mm: no printable volume", config.source,
                          "sections [stepper_a..c], key position_endstop")
-    if config.has("delta_calibrate", "radius"):
-        radius, note = config.number("delta_calibrate", "radius", above=0.0), "[delta_calibrate] radius"
-    else:
-        radius, note = klipper.max_radius, "Klipper's max_xy: min(shoulder_radius + upper arm, lower arm - " \
-                                           "shoulder_radius)"
+    radius, note = printable_radius(config, klipper)
     a, drop = measured.effector_radius, measured.nozzle_drop
     defaults = [f"# Not in a Klipper configuration, taken by default: {', '.join(measured.defaults)} "
                 f"(measure them and give {MEASURED_OPTIONS})."] if measured.defaults else []
