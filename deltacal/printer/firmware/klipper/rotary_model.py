@@ -59,6 +59,55 @@ from .model import limits_refusal, move_check
 ROTARY_ANGLES_DEG = (30.0, 150.0, 270.0)
 
 
+def arm_angles(radius: float, height: float, angle: np.ndarray, upper: np.ndarray, lower: np.ndarray,
+               targets: np.ndarray) -> np.ndarray:
+    """Klipper's arm angles θ_i of nozzle targets for these values [rad], (N, 3) -> (N, 3), NaN out of reach.
+
+    Each target in the shoulder's frame: ``sjx`` outward from the shoulder, ``sjy`` up from it,
+    ``sjz`` along its axis; the lower arm's reach in the arm's plane is then ``sqrt(l² − sjz²)``
+    and the elbow the outer intersection of the two circles (``kin_rotary_delta.c``).
+    """
+    x, y, z = (targets[:, k : k + 1] for k in range(3))
+    cos, sin = np.cos(angle), np.sin(angle)
+    sjz = y * cos - x * sin
+    sjx = x * cos + y * sin - radius
+    sjy = z - height
+    upper2 = upper**2
+    lower2 = lower**2 - sjz * sjz
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inv_dy = 1.0 / sjy
+        c1 = 0.5 * inv_dy * (sjx * sjx + sjy * sjy + upper2 - lower2)
+        c2 = sjx * inv_dy
+        scale = c2 * c2 + 1.0
+        scaled_x = c1 * c2 + np.sqrt(scale * upper2 - c1 * c1)
+        scaled_y = c1 * scale - c2 * scaled_x
+        theta = np.arctan2(scaled_y, scaled_x)
+    return np.where(np.isfinite(scaled_x) & np.isfinite(scaled_y), theta, np.nan)
+
+
+def trilaterate(elbows: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """The point at the lower arms' lengths from the elbows [mm], (N, 3 limbs, 3) -> (N, 3), NaN where none.
+
+    Klipper's ``mathutil.trilateration``: the solution on the side of ``(e2 − e1) × (e3 − e1)``
+    taken negative.
+    """
+    e = elbows
+    r2 = lower**2
+    s21, s31 = e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]
+    d = np.linalg.norm(s21, axis=1, keepdims=True)
+    ex = s21 / d
+    i = np.sum(ex * s31, axis=1, keepdims=True)
+    ey = s31 - ex * i
+    ey /= np.linalg.norm(ey, axis=1, keepdims=True)
+    ez = np.cross(ex, ey)
+    j = np.sum(ey * s31, axis=1, keepdims=True)
+    px = (r2[0] - r2[1] + d**2) / (2.0 * d)
+    py = (r2[0] - r2[2] - px**2 + (px - i) ** 2 + j**2) / (2.0 * j)
+    with np.errstate(invalid="ignore"):
+        pz = -np.sqrt(r2[0] - px**2 - py**2)
+    return e[:, 0] + ex * px + ey * py + ez * pz
+
+
 @dataclass(frozen=True, eq=False)
 class KlipperRotaryDelta:
     """Klipper's rotary delta kinematics with its configuration's values.
@@ -104,32 +153,14 @@ class KlipperRotaryDelta:
 
     # ----------------------------------------------------------- kinematics
     def shoulder_angles(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
-        """Klipper's arm angles θ_i for nozzle targets [rad], (N, 3) -> (N, 3) (``kin_rotary_delta.c``).
-
-        Each target in the shoulder's frame: ``sjx`` outward from the shoulder, ``sjy`` up from it,
-        ``sjz`` along its axis; the lower arm's reach in the arm's plane is then
-        ``sqrt(l² − sjz²)`` and the elbow the outer intersection of the two circles.
+        """Klipper's arm angles θ_i for nozzle targets [rad], (N, 3) -> (N, 3) (:func:`arm_angles`).
 
         Raises:
             UnreachableError: a target no arm reaches (``check``; else NaN rows).
         """
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
-        x, y, z = (targets[:, k : k + 1] for k in range(3))
-        cos, sin = np.cos(self.angle), np.sin(self.angle)
-        sjz = y * cos - x * sin
-        sjx = x * cos + y * sin - self.shoulder_radius
-        sjy = z - self.shoulder_height
-        upper2 = self.upper_arm**2
-        lower2 = self.lower_arm**2 - sjz * sjz
-        with np.errstate(invalid="ignore", divide="ignore"):
-            inv_dy = 1.0 / sjy
-            c1 = 0.5 * inv_dy * (sjx * sjx + sjy * sjy + upper2 - lower2)
-            c2 = sjx * inv_dy
-            scale = c2 * c2 + 1.0
-            scaled_x = c1 * c2 + np.sqrt(scale * upper2 - c1 * c1)
-            scaled_y = c1 * scale - c2 * scaled_x
-            theta = np.arctan2(scaled_y, scaled_x)
-        theta = np.where(np.isfinite(scaled_x) & np.isfinite(scaled_y), theta, np.nan)
+        theta = arm_angles(self.shoulder_radius, self.shoulder_height, self.angle, self.upper_arm,
+                           self.lower_arm, targets)
         if check:
             bad = ~np.all(np.isfinite(theta), axis=1)
             if np.any(bad):
@@ -144,31 +175,16 @@ class KlipperRotaryDelta:
         return np.stack([out * np.cos(self.angle), out * np.sin(self.angle), up], axis=-1)
 
     def positions(self, angles: np.ndarray, check: bool = True) -> np.ndarray:
-        """Klipper's nozzle positions at arm angles θ [mm], (N, 3) -> (N, 3) (``mathutil.trilateration``).
+        """Klipper's nozzle positions at arm angles θ [mm], (N, 3) -> (N, 3) (:func:`trilaterate`).
 
-        The three spheres of radii l_i about the elbows, the solution on the side of
-        ``(e2 − e1) × (e3 − e1)`` taken negative, as Klipper's (below the elbows for arms in
+        The three spheres of radii l_i about the elbows (the solution below the elbows for arms in
         counter-clockwise order).
 
         Raises:
             AssemblyError: angles where the spheres do not meet (``check``; else NaN rows).
         """
         angles = np.atleast_2d(np.asarray(angles, dtype=float))
-        e = self.elbows(angles)
-        r2 = self.lower_arm**2
-        s21, s31 = e[:, 1] - e[:, 0], e[:, 2] - e[:, 0]
-        d = np.linalg.norm(s21, axis=1, keepdims=True)
-        ex = s21 / d
-        i = np.sum(ex * s31, axis=1, keepdims=True)
-        ey = s31 - ex * i
-        ey /= np.linalg.norm(ey, axis=1, keepdims=True)
-        ez = np.cross(ex, ey)
-        j = np.sum(ey * s31, axis=1, keepdims=True)
-        px = (r2[0] - r2[1] + d**2) / (2.0 * d)
-        py = (r2[0] - r2[2] - px**2 + (px - i) ** 2 + j**2) / (2.0 * j)
-        with np.errstate(invalid="ignore"):
-            pz = -np.sqrt(r2[0] - px**2 - py**2)
-        x = e[:, 0] + ex * px + ey * py + ez * pz
+        x = trilaterate(self.elbows(angles), self.lower_arm)
         if check:
             bad = ~np.all(np.isfinite(x), axis=1)
             if np.any(bad):

@@ -1,0 +1,109 @@
+"""Simulated rotary Delta printers run by Klipper's ``rotary_delta`` values, measured as Klipper measures.
+
+The true printer is a deltacal rotary :class:`~deltacal.geometry.DeltaGeometry` in Klipper's bed
+frame (the true bed z = 0). Klipper's values ``config`` command a nozzle position x as steps from
+the endstops ``n = config.steps(x)`` (:mod:`.firmware.klipper.rotary_model`); deltacal's readings of
+them are ``q = n d − θ_end`` with d and θ_end the step distance and endstop angles of a reference,
+the printer's nominal values (``q = −θ`` for the nominal values, :meth:`KlipperRotaryDelta.readings`):
+what an arm does at the endstop and per step is the truth's (its ``encoder_offset`` and
+``joint_scale``), whatever values command it.
+
+* :func:`klipper_truth`: the printer Klipper's model describes exactly, with true values (the
+  errors Klipper calibrates: shoulder height, endstops, shoulder radius, angles);
+* :func:`probe_triggers`: the commanded positions at which the nozzle touches the true bed at
+  commanded x, y (Klipper's probe points), by a secant on the commanded z;
+* :func:`printed_distances`: the true distances between features printed at commanded positions;
+* :func:`nozzle_errors`: where the true nozzle lands less the target, a configuration commanding it.
+
+Units: mm, rad.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..exceptions import ConvergenceError
+from ..geometry import DeltaGeometry
+from ..kinematics import exact
+from .firmware.klipper.rotary_model import KlipperRotaryDelta
+from .simulation import PROBE_TOLERANCE
+
+
+@dataclass(frozen=True, eq=False)
+class RotaryPrinter:
+    """A true rotary printer and the reference of its readings.
+
+    Attributes:
+        geometry: The true printer in Klipper's bed frame (the true bed z = 0).
+        reference: The values whose step distances and endstop angles define the readings (the
+            printer's nominal values).
+    """
+
+    geometry: DeltaGeometry
+    reference: KlipperRotaryDelta
+
+    def readings(self, config: KlipperRotaryDelta, commanded: np.ndarray) -> np.ndarray:
+        """The readings (deltacal's) of the steps ``config`` commands for nozzle positions [rad], (N, 3)."""
+        steps = config.steps(commanded)
+        return steps * self.reference.step_distance - self.reference.endstop_angles
+
+    def nozzle(self, config: KlipperRotaryDelta, commanded: np.ndarray) -> np.ndarray:
+        """The true nozzle at commanded positions, ``config`` commanding them [mm], (N, 3)."""
+        pose = exact.forward(self.geometry, self.readings(config, np.atleast_2d(commanded)))
+        return pose.point(self.geometry.tool)
+
+
+def klipper_truth(true: KlipperRotaryDelta, reference: KlipperRotaryDelta, effector_radius: float,
+                  rod_spacing: float, nozzle_drop: float) -> RotaryPrinter:
+    """The printer Klipper's model with the values ``true`` describes, its readings ``reference``'s.
+
+    The arm's true angle at the endstop is ``true``'s endstop angle: the truth's encoder offset is
+    ``θ_end,ref − θ_end,true`` (the step distances must be the same).
+    """
+    geometry = true.geometry(effector_radius, rod_spacing, nozzle_drop)
+    geometry = geometry.moved_rigidly(np.eye(3), np.array([0.0, 0.0, true.base_height(nozzle_drop)]))
+    offset = reference.endstop_angles - true.endstop_angles
+    return RotaryPrinter(_with_offset(geometry, offset), reference)
+
+
+def _with_offset(geometry: DeltaGeometry, offset: np.ndarray) -> DeltaGeometry:
+    return replace(geometry, encoder_offset=np.asarray(geometry.encoder_offset, dtype=float) + offset)
+
+
+def probe_triggers(printer: RotaryPrinter, config: KlipperRotaryDelta, xy: np.ndarray,
+                   max_iter: int = 30) -> np.ndarray:
+    """Commanded nozzle positions at which the true nozzle touches the bed (z = 0) [mm], (N, 2) -> (N, 3).
+
+    Raises:
+        ConvergenceError: the secant on the commanded z did not converge.
+    """
+    xy = np.atleast_2d(np.asarray(xy, dtype=float))
+
+    def height(z: np.ndarray) -> np.ndarray:
+        return printer.nozzle(config, np.column_stack([xy, z]))[:, 2]
+
+    z0, z1 = np.zeros(len(xy)), np.ones(len(xy))
+    h0, h1 = height(z0), height(z1)
+    for _ in range(max_iter):
+        slope = np.where(z1 != z0, (h1 - h0) / np.where(z1 != z0, z1 - z0, 1.0), 1.0)
+        z2 = z1 - np.divide(h1, slope, out=np.zeros_like(h1), where=slope != 0.0)
+        if np.max(np.abs(z2 - z1)) < PROBE_TOLERANCE:
+            return np.column_stack([xy, z2])
+        z0, h0, z1 = z1, h1, z2
+        h1 = height(z1)
+    raise ConvergenceError(f"probe heights did not converge in {max_iter} iterations", float("nan"))
+
+
+def printed_distances(printer: RotaryPrinter, config: KlipperRotaryDelta, pairs: np.ndarray) -> np.ndarray:
+    """True distances between features printed at commanded positions [mm], (M, 6) -> (M,)."""
+    pairs = np.atleast_2d(np.asarray(pairs, dtype=float))
+    first, second = printer.nozzle(config, pairs[:, :3]), printer.nozzle(config, pairs[:, 3:])
+    return np.linalg.norm(second - first, axis=1)
+
+
+def nozzle_errors(printer: RotaryPrinter, config: KlipperRotaryDelta, targets: np.ndarray) -> np.ndarray:
+    """Where the true nozzle lands less the target, ``config`` commanding each target [mm], (N, 3)."""
+    targets = np.atleast_2d(np.asarray(targets, dtype=float))
+    return printer.nozzle(config, targets) - targets
