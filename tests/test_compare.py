@@ -206,3 +206,13 @@ def test_across_a_recalibrated_printer_cfg_nothing_else_is_significant(recalibra
 def _anchored_pair(old, new):
     a, b = load_calibration(old), load_calibration(new)
     return old_against_new_controller(a, b, old, new)[:2]
+
+
+def test_another_step_distance_cannot_be_brought_under_one_prior(kossel_identified):
+    """NEW's robot file counts steps in another step distance: OLD's readings cannot be identified from it;
+    refused in one line naming OLD (before this wrap: a ValueError, exit 3)."""
+    cal = load_calibration(kossel_identified / "cal.toml")
+    other = dataclasses.replace(cal.nominal, rod_length=cal.nominal.rod_length + 0.5,
+                                step_distance=cal.nominal.step_distance * 2.0)
+    with pytest.raises(InputError, match="identifying it again under new.toml's prior failed"):
+        old_against_new_controller(cal, dataclasses.replace(cal, nominal=other), "old.toml", "new.toml")

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..controller_record import changes_in_words
-from ..exceptions import InputError
+from ..exceptions import AssemblyError, ConvergenceError, InputError
 from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
 from .firmware.config_file import check_printer_values, recorded_firmware
@@ -180,8 +180,12 @@ def old_against_new_controller(
                              "from the same robot file", str(source))
     assert old.measured is not None and new.measured is not None
     scale = float(np.sqrt(old.measured.tolerance_scale * new.measured.tolerance_scale))
-    old, new = (reanchored(replace(c, measured=replace(c.measured, tolerance_scale=scale)), new.nominal)
-                for c in (old, new) if c.measured is not None)
+    try:
+        old, new = (reanchored(replace(c, measured=replace(c.measured, tolerance_scale=scale)), new.nominal)
+                    for c in (old, new) if c.measured is not None)
+    except (ValueError, ConvergenceError, AssemblyError) as exc:
+        raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify both "
+                         "from the same robot file", str(old_source)) from None
     said += (f"both identified again under one prior ({new_source}'s robot file, the build tolerances scaled "
              f"by {scale:.3g}; {keys}): what the measurements determine is kept",)
     return old, new, firmware, said

@@ -22,7 +22,7 @@ import numpy as np
 
 from ...controller.targets import CommandModel
 from ...controller_record import ControllerRecord, changes_in_words, files_digest
-from ...exceptions import GeometryError, InputError, UsageError
+from ...exceptions import AssemblyError, ConvergenceError, GeometryError, InputError, UsageError
 from ...gcode.dialect import Dialect
 from ...geometry import DeltaGeometry
 from ..identification.anchor import controller_shift, reanchored, same_commands
@@ -199,7 +199,11 @@ class FirmwareConfig:
             return calibration, (said + f"{source} records no measurements to re-anchor with (written before "
                                  f"they were recorded): its correction is taken as identified, relative to "
                                  f"{record.source}'s values; identify again to follow {self.path}",)
-        moved = reanchored_to(self.firmware, calibration, self.values)
+        try:
+            moved = reanchored_to(self.firmware, calibration, self.values)
+        except (ValueError, ConvergenceError, AssemblyError) as exc:
+            raise InputError(f"{said}re-anchoring {source} to these values failed ({exc}): measure the "
+                             f"printer again and identify through {self.path}", self.path) from None
         if moved is None:
             return calibration, (said + "they move no nozzle (limits only): the calibration is used as "
                                  "identified",)
