@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Generic, Protocol, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 import numpy as np
 
@@ -58,8 +58,42 @@ class ControlledModel(Protocol):
 ModelT = TypeVar("ModelT", bound=ControlledModel)
 
 
+class NozzleCommands:
+    """What every firmware controller shares: its targets are the nozzle's, in its frame, on straight lines.
+
+    For a controller holding its model as ``firmware`` (a linear or a rotary Delta's): the name, no
+    tool, the home and the limits are the model's.
+    """
+
+    firmware: Any
+
+    #: How the controller moves between two targets: each firmware plans a move as a straight line
+    #: in its Cartesian frame and maps every step (or short segment) on the way through its model.
+    interpolation = "cartesian"
+
+    @property
+    def name(self) -> str:
+        """The configuration's name."""
+        return str(self.firmware.name)
+
+    @property
+    def tool(self) -> np.ndarray:
+        """A firmware's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
+        return np.zeros(3)
+
+    @cached_property
+    def home(self) -> np.ndarray:
+        """Where the firmware puts the nozzle after homing: every carriage (arm) at its endstop [mm], (3,)."""
+        return np.asarray(self.firmware.home_position, dtype=float)
+
+    @property
+    def limits(self) -> Any:
+        """The firmware's limits on its commands: its model's (``outside``, ``refusal``)."""
+        return self.firmware
+
+
 @dataclass(frozen=True, eq=False)
-class FirmwareController(Generic[ModelT]):
+class FirmwareController(NozzleCommands, Generic[ModelT]):
     """A firmware as a controller of a printer whose readings count steps in ``step_distance``.
 
     Attributes:
@@ -72,37 +106,13 @@ class FirmwareController(Generic[ModelT]):
     firmware: ModelT
     step_distance: np.ndarray
 
-    #: How the controller moves between two targets: each firmware plans a move as a straight line
-    #: in its Cartesian frame and maps every step (or short segment) on the way through its model.
-    interpolation = "cartesian"
-
     def __post_init__(self) -> None:
         object.__setattr__(self, "step_distance", per_tower("step_distance", self.step_distance))
-
-    @property
-    def name(self) -> str:
-        """The configuration's name."""
-        return self.firmware.name
-
-    @property
-    def tool(self) -> np.ndarray:
-        """A firmware's targets are the nozzle's: no tool offset on its model [mm], (3,)."""
-        return np.zeros(3)
 
     @cached_property
     def virtual(self) -> VirtualDelta:
         """The firmware's model as a prismatic :class:`VirtualDelta` whose readings are deltacal's [mm]."""
         return replace(self.firmware.virtual, joint_scale=self.firmware.step_distance / self.step_distance)
-
-    @cached_property
-    def home(self) -> np.ndarray:
-        """Where the firmware puts the nozzle after homing: every carriage at its endstop [mm], (3,)."""
-        return self.firmware.home_position
-
-    @property
-    def limits(self) -> ModelT:
-        """The firmware's limits on its commands: its model's (``outside``, ``refusal``)."""
-        return self.firmware
 
     def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """The readings the firmware commands for nozzle targets [mm], (N, 3) -> (N, 3) [mm]."""

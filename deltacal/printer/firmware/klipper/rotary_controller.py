@@ -18,17 +18,17 @@ import`` writes the robot file). Units: mm and rad.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
 
 from ....geometry import DeltaGeometry
 from ....kinematics.closed_form import VirtualDelta
+from ..controller import NozzleCommands
 from .rotary_model import KlipperRotaryDelta
 
 
 @dataclass(frozen=True, eq=False)
-class KlipperRotaryController:
+class KlipperRotaryController(NozzleCommands):
     """Klipper's rotary_delta model as a :class:`~deltacal.controller.targets.CommandModel`.
 
     Attributes:
@@ -37,33 +37,10 @@ class KlipperRotaryController:
 
     firmware: KlipperRotaryDelta
 
-    #: Klipper plans a move as a straight line in its Cartesian frame and maps each step through its model.
-    interpolation = "cartesian"
-
-    @property
-    def name(self) -> str:
-        """The configuration's name."""
-        return self.firmware.name
-
-    @property
-    def tool(self) -> np.ndarray:
-        """Klipper's targets are the nozzle's: no tool on its point effector [mm], (3,)."""
-        return np.zeros(3)
-
     @property
     def virtual(self) -> VirtualDelta:
         """Klipper's model as a revolute :class:`VirtualDelta` in its frame, readings ``q = −θ``."""
         return self.firmware.virtual
-
-    @cached_property
-    def home(self) -> np.ndarray:
-        """Where homing leaves the nozzle: every arm at its endstop angle [mm], (3,)."""
-        return self.firmware.home_position
-
-    @property
-    def limits(self) -> KlipperRotaryDelta:
-        """Klipper's limits on its commands (``outside``, ``refusal``)."""
-        return self.firmware
 
     def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """The readings ``q = −θ`` Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [rad]."""
