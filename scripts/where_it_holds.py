@@ -69,6 +69,10 @@ REAL = REPO_ROOT / "tests" / "data" / "klipper" / "real"
 KOSSEL = REPO_ROOT / "deltacal" / "models" / "kossel.toml"
 #: The real printers, each with its runs' files in time order.
 PRINTERS = {name: sorted(REAL.glob(f"flsun-v400-{name}-run*.cfg")) for name in ("a", "b")}
+#: Printer A's six saved runs in time order: heights alone on FLSUN's Klipper (2023-03), its four
+#: runs with the printed object (2023-04), heights alone again (2023-05-02); each file names its source.
+A_LIFE = [REAL / "flsun-v400-a-heights-2023-03.cfg", *PRINTERS["a"],
+          REAL / "flsun-v400-a-heights-2023-05.cfg"]
 #: Heights of the real runs' targets [mm], and their radius.
 REAL_HEIGHTS, REAL_RADIUS = (0.2, 10.0, 50.0, 100.0, 200.0), 120.0
 #: Heights judged on the simulated printers [mm], over the comparison's radius.
@@ -151,14 +155,16 @@ def calibrate(nominal: DeltaGeometry, data: PrinterMeasurements, config: Path | 
                          "hints": list(result.hints), "warnings": list(result.warnings)}
 
 
-def real_printer(paths: list[Path], anchored: bool = True) -> dict:
+def real_printer(paths: list[Path], anchored: bool = True, through: Path | None = None) -> dict:
     """Each run identified alone, the same targets compensated through the first run's printer.cfg.
 
     ``anchored``: each run's calibration re-anchored to that printer.cfg's values, as ``compensate``
     does (:meth:`~deltacal.printer.firmware.config_file.FirmwareConfig.anchor`); else as identified.
+    ``through``: another printer.cfg to compensate through (e.g. the latest run's), else the first run's.
     """
     runs = [read_real_run(p) for p in paths]
-    config = FirmwareConfig.read(KLIPPER, paths[0])
+    through = paths[0] if through is None else through
+    config = FirmwareConfig.read(KLIPPER, through)
     controller = KLIPPER.controller(config.values, runs[0].step)
     layers = {z: disc(REAL_RADIUS, z) for z in REAL_HEIGHTS}
     commands, weights, fits = [], [], []
@@ -176,18 +182,20 @@ def real_printer(paths: list[Path], anchored: bool = True) -> dict:
         # the offset removed as far as each command carries it (its vertical weight)
         commands.append({z: c - np.outer(w[:, 1], [0.0, 0.0, offset]) for z, (c, w) in per_layer.items()})
         weights.append({z: np.max(w, axis=1) for z, (_, w) in per_layer.items()})
-    apart, apart_correcting = {}, {}
+    apart, apart_correcting, pairs = {}, {}, {}
     for z in REAL_HEIGHTS:
-        worst, worst_both = 0.0, 0.0
+        worst, pairs[str(z)] = 0.0, {}
         for i in range(len(runs)):
             for j in range(i + 1, len(runs)):
                 d = np.linalg.norm(commands[i][z] - commands[j][z], axis=1)
                 worst = max(worst, float(np.max(d)))
                 both = (weights[i][z] > 0.0) & (weights[j][z] > 0.0)
-                worst_both = max(worst_both, float(np.max(d[both])) if np.any(both) else 0.0)
-        apart[str(z)], apart_correcting[str(z)] = worst, worst_both
-    return {"controller": paths[0].name, "runs": fits, "largest_disagreement_mm": apart,
-            "largest_disagreement_where_both_correct_mm": apart_correcting}
+                pair = f"{runs[i].name} {runs[j].name}"
+                pairs[str(z)][pair] = float(np.max(d[both])) if np.any(both) else 0.0
+        apart[str(z)], apart_correcting[str(z)] = worst, max(pairs[str(z)].values(), default=0.0)
+    return {"controller": through.name, "runs": fits, "largest_disagreement_mm": apart,
+            "largest_disagreement_where_both_correct_mm": apart_correcting,
+            "disagreement_where_both_correct_by_pair_mm": pairs}
 
 
 # ----------------------------------------------------------------------------------- (b) simulated printers
@@ -453,6 +461,8 @@ def main(argv: list[str] | None = None) -> int:
     real = {name: real_printer(paths) for name, paths in PRINTERS.items()}
     # the issue's figures took the six runs as one printer's: both printers' runs, through A's first
     real["a and b together"] = real_printer(PRINTERS["a"] + PRINTERS["b"])
+    # the Done when on one printer's six runs, through its latest run's printer.cfg
+    real["a, six runs"] = real_printer(A_LIFE, through=A_LIFE[-1])
     for name, r in real.items():
         print(f"printer {name} through {r['controller']}:")
         print("  largest disagreement between runs at z " + " / ".join(r["largest_disagreement_mm"]) + " mm: "
