@@ -181,21 +181,36 @@ def real_printer(paths: list[Path], anchored: bool = True, through: Path | None 
                                              "vertical": float(np.mean(per_layer[0.2][1][:, 1]))}})
         # the offset removed as far as each command carries it (its vertical weight)
         commands.append({z: c - np.outer(w[:, 1], [0.0, 0.0, offset]) for z, (c, w) in per_layer.items()})
-        weights.append({z: np.max(w, axis=1) for z, (_, w) in per_layer.items()})
-    apart, apart_correcting, pairs = {}, {}, {}
+        weights.append({z: w for z, (_, w) in per_layer.items()})
+    return {"controller": through.name, "runs": fits, **_disagreements(runs, commands, weights)}
+
+
+def _disagreements(runs: list[RealRun], commands: list[dict], weights: list[dict]) -> dict:
+    """The runs' commands apart, per height: anywhere, where both correct, per pair, and per part.
+
+    Where both correct: either part of the correction weighted in both (3-D apart). Per part: the
+    vertical part apart where both weight it, the part along the bed where both weight that one (a
+    run from heights alone corrects no x, y: its x, y are the controller's own).
+    """
+    apart, apart_correcting, pairs, parts = {}, {}, {}, {}
     for z in REAL_HEIGHTS:
-        worst, pairs[str(z)] = 0.0, {}
+        worst, pairs[str(z)], part = 0.0, {}, [0.0, 0.0]
         for i in range(len(runs)):
             for j in range(i + 1, len(runs)):
-                d = np.linalg.norm(commands[i][z] - commands[j][z], axis=1)
+                diff = commands[i][z] - commands[j][z]
+                d = np.linalg.norm(diff, axis=1)
                 worst = max(worst, float(np.max(d)))
-                both = (weights[i][z] > 0.0) & (weights[j][z] > 0.0)
-                pair = f"{runs[i].name} {runs[j].name}"
-                pairs[str(z)][pair] = float(np.max(d[both])) if np.any(both) else 0.0
+                both = (weights[i][z] > 0.0) & (weights[j][z] > 0.0)  # per part, (N, 2)
+                either = np.any(both, axis=1)
+                apart_here = float(np.max(d[either])) if either.any() else 0.0
+                pairs[str(z)][f"{runs[i].name} {runs[j].name}"] = apart_here
+                for k, size in enumerate((np.hypot(diff[:, 0], diff[:, 1]), np.abs(diff[:, 2]))):
+                    part[k] = max(part[k], float(np.max(size[both[:, k]], initial=0.0)))
         apart[str(z)], apart_correcting[str(z)] = worst, max(pairs[str(z)].values(), default=0.0)
-    return {"controller": through.name, "runs": fits, "largest_disagreement_mm": apart,
-            "largest_disagreement_where_both_correct_mm": apart_correcting,
-            "disagreement_where_both_correct_by_pair_mm": pairs}
+        parts[str(z)] = {"along_bed": part[0], "vertical": part[1]}
+    return {"largest_disagreement_mm": apart, "largest_disagreement_where_both_correct_mm": apart_correcting,
+            "disagreement_where_both_correct_by_pair_mm": pairs,
+            "largest_disagreement_of_each_part_where_both_correct_it_mm": parts}
 
 
 # ----------------------------------------------------------------------------------- (b) simulated printers

@@ -597,11 +597,22 @@ def test_printer_a_six_runs_never_move_the_part_and_its_object_runs_agree(a_life
 
 
 @pytest.mark.long
+def test_printer_a_six_runs_agree_in_each_part_where_both_correct_it(a_life):
+    """All six, each part of the correction (along the bed, in height) where two runs both apply it: within
+    0.15 mm (measured 0.043 / 0.072 mm at the first layer, 0.095 / 0.092 at z 10). A run from heights alone
+    applies no correction along the bed: its x, y are the controller's own, not a correction of its own."""
+    for z, parts in a_life["largest_disagreement_of_each_part_where_both_correct_it_mm"].items():
+        for part, apart in parts.items():
+            assert apart <= 0.15, (z, part, apart)
+
+
+@pytest.mark.long
 @pytest.mark.xfail(strict=True, reason=(
     "not reached (measured): A's two heights-alone runs correct the first layer with a mean vertical "
-    "weight of 0.13 and 0.41, and where they correct they differ from the four object runs by 0.30-0.34 mm "
-    "at the first layer (they agree with each other within 0.015, the object runs among themselves within "
-    "0.054)"))
+    "weight of 0.13 and 0.40 (their σ in height 0.04-0.05 mm between the centre and the ring of probe points:"
+    " seven heights do not tell the bowl an arm error leaves there), and the 3-D commands of a run that "
+    "corrects only heights differ from the object runs' by 0.30-0.34 mm at the first layer (its x, y are "
+    "the controller's; each part where both correct it agrees within 0.095 mm)"))
 def test_printer_a_six_runs_meet_the_done_when(a_life):
     for z, apart in a_life["largest_disagreement_where_both_correct_mm"].items():
         assert apart <= 0.15, (z, apart)
