@@ -106,6 +106,12 @@ class Quantity:
     digits: int = 2
 
 
+def significant_in_words(changes: Sequence[Change]) -> str:
+    """``significant: tower B's endstop``, or ``no significant change between them``."""
+    found = [c.what for c in changes if c.significant]
+    return f"significant: {', '.join(found)}" if found else "no significant change between them"
+
+
 def _labels(names: Sequence[str]) -> list[tuple[str, str, int]]:
     """The owner's quantities' (name, unit, digits), in :func:`~.owner.owner_quantities`'s order."""
     labels = [(f"tower {names[i]}'s {what}", unit, digits) for i in range(3)
@@ -308,4 +314,4 @@ NOMINAL_FIELDS = ("axis_point", "axis_direction", "encoder_offset", "arm_ball", 
 
 
 __all__ = ["SIGNIFICANT_SIGMAS", "Change", "Quantity", "calibration_history", "compare_calibrations",
-           "old_against_new_controller", "under_one_prior"]
+           "old_against_new_controller", "significant_in_words", "under_one_prior"]
