@@ -10,15 +10,17 @@ prior when their robot files or tolerances' scales differ), each step's changes 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from ...calibration import Calibration
 from ...exceptions import InputError
 from ...io import load_calibration
 from ...printer.firmware import firmwares
+from ...printer.firmware.base import Firmware
 from ...printer.history import SIGNIFICANT_SIGMAS, calibration_history, significant_in_words, under_one_prior
-from ...report.history import write_comparison, write_history
+from ...report.history import history_html, write_comparison, write_history
 from ..base import Done
-from ..requests import CompareRequest
+from ..requests import CompareRequest, ReportRequest
 
 
 def printer_calibration(path: str | Path) -> Calibration:
@@ -77,4 +79,33 @@ def compare_printer_calibrations(request: CompareRequest) -> Done:
     return Done(tuple(lines))
 
 
-__all__ = ["checked_printer_calibration", "compare_printer_calibrations", "printer_calibration"]
+def history_section(request: ReportRequest, calibration: Calibration, firmware: Firmware[Any]
+                    ) -> tuple[str, tuple[str, ...]]:
+    """``report --history OLDER ...``: the printer's history up to ``calibration`` (the report's, as read).
+
+    Each file checked as compare checks it, all brought under the report's calibration's prior
+    (:func:`~deltacal.printer.history.under_one_prior`), every step compared.
+
+    Returns:
+        The report's section (:func:`~deltacal.report.history.history_html`) and what to say: the
+        re-anchoring, then each step's significant changes.
+
+    Raises:
+        InputError: a file that is not a printer's calibration, of another firmware or printer (one line).
+    """
+    assert request.history
+    files = (*request.history, request.calibration)
+    older = [printer_calibration(f) for f in request.history]
+    newest = checked_printer_calibration(calibration, request.calibration)
+    cals, found, said = under_one_prior([*older, newest], files)
+    if found is not None and found is not firmware:
+        raise InputError(f"identified with {found.title} but the report speaks {firmware.title}: a printer's "
+                         "history compares only through one firmware", str(request.history[0]))
+    history = calibration_history(cals, names=firmware.owner_keys.towers)
+    steps = tuple(f"history, {a} -> {b}: {significant_in_words([q.steps[k] for q in history])}"
+                  for k, (a, b) in enumerate(zip(files, files[1:], strict=False)))
+    return history_html(history, [str(f) for f in files]), (*said, *steps)
+
+
+__all__ = ["checked_printer_calibration", "compare_printer_calibrations", "history_section",
+           "printer_calibration"]
