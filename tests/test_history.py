@@ -116,3 +116,12 @@ def test_a_bad_history_file_is_refused_in_one_line_and_nothing_written(bad, tmp_
     err = _one_line(capsys)
     assert all(word in err for word in said), err
     assert not page.exists()
+
+
+def test_history_of_a_rotary_calibration_is_refused(bad, tmp_path, capsys):
+    capsys.readouterr()
+    page = tmp_path / "r.html"
+    assert main(["report", bad["rotary"], "-o", str(page), "--no-view", "--history", bad["cal"]]) == 2
+    err = _one_line(capsys)
+    assert "--history" in err and "rotary" in err, err
+    assert not page.exists()
