@@ -1,4 +1,8 @@
-"""What changed in a printer between two of its calibrations, in its owner's words, each with its σ.
+"""What changed in a printer between its calibrations, in its owner's words, each with its σ.
+
+Of two calibrations, :func:`compare_calibrations`; of several (oldest first), the printer's history
+(:func:`calibration_history`): each quantity in each and each step between consecutive ones, all under
+the newest's prior (:func:`under_one_prior`).
 
 Each owner's quantity (:mod:`.owner`: a tower's endstop, travel, own leans and rods; the bed's slope)
 is read from both calibrations through the same linear map of their 54 parameters
