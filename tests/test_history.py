@@ -23,11 +23,12 @@ from deltacal.printer.history import SIGNIFICANT_SIGMAS, calibration_history, un
 def three(moved):  # noqa: F811
     """The three calibrations' files, oldest first: unchanged, measured again, tower B's endstop moved."""
     kossel, cfg, plan = str(MODELS / "kossel.toml"), str(moved / "printer.cfg"), moved / "obj"
-    assert main(["simulate", kossel, str(plan / "probe.csv"), str(plan / "distances.csv"), "--controller", cfg,
-                 "--truth", str(moved / "probe.truth.toml"), "--seed", "3", "-o", str(moved / "probe_again.csv"),
-                 "--distances-output", str(moved / "d_again.csv")]) == 0
-    assert main(["identify", kossel, str(moved / "probe_again.csv"), str(moved / "d_again.csv"), "--controller",
-                 cfg, "-o", str(moved / "again.toml")]) == 0
+    probe, distances = str(moved / "probe_again.csv"), str(moved / "d_again.csv")
+    assert main(["simulate", kossel, str(plan / "probe.csv"), str(plan / "distances.csv"), "--controller",
+                 cfg, "--truth", str(moved / "probe.truth.toml"), "--seed", "3", "-o", probe,
+                 "--distances-output", distances]) == 0
+    again = str(moved / "again.toml")
+    assert main(["identify", kossel, probe, distances, "--controller", cfg, "-o", again]) == 0
     return [str(moved / name) for name in ("cal.toml", "again.toml", "new.toml")]
 
 
@@ -42,7 +43,8 @@ def history(three):
 def test_only_the_moved_endstop_changed_and_only_in_its_step(history):
     b = history["tower B's endstop"]
     first, second = b.steps
-    assert second.significant and abs(second.change - MOVED_MM) < SIGNIFICANT_SIGMAS * second.sigma, second.words()
+    assert second.significant, second.words()
+    assert abs(second.change - MOVED_MM) < SIGNIFICANT_SIGMAS * second.sigma, second.words()
     assert not first.significant, first.words()
     assert [w for w, q in history.items() if q.steps[0].significant] == []
     assert [w for w, q in history.items() if q.steps[1].significant] == ["tower B's endstop"]
@@ -108,7 +110,8 @@ def test_a_bad_history_file_is_refused_in_one_line_and_nothing_written(bad, tmp_
                                                                        said):
     capsys.readouterr()
     page = tmp_path / "r.html"
-    assert main(["report", bad["cal"], "-o", str(page), "--no-view", "--history", bad["cal"], bad[which]]) == status
+    args = ["report", bad["cal"], "-o", str(page), "--no-view", "--history", bad["cal"], bad[which]]
+    assert main(args) == status
     err = _one_line(capsys)
     assert all(word in err for word in said) and bad[which].rsplit("/", 1)[-1] in err, err
     assert not page.exists()
