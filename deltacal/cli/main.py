@@ -12,7 +12,7 @@ Commands (files in mm and deg; see docs/conventions.md for formats):
 * ``deltacal simulate NOMINAL POSES (--perturb SEED | --truth TRUE) -o MEAS``
 * ``deltacal view NOMINAL [...] [--html OUT]``
 * ``deltacal report CAL -o REPORT.html [--measurements MEAS] [--truth TRUE] [--tool X,Y,Z]``
-* ``deltacal compare OLD.toml NEW.toml [-o COMPARE.html]``
+* ``deltacal compare OLD.toml NEW.toml [NEWER.toml ...] [-o COMPARE.html]``
 
 Errors in the user's input print one line on stderr naming the file, line,
 column or key and value, and exit with status 1 (bad data) or 2 (bad usage:

@@ -42,6 +42,10 @@ def add_parser(sub) -> None:
     p.add_argument("--controller", metavar="SETTINGS",
                    help="a printer: the firmware's settings its measurements were made with (printer.cfg, "
                         "config.g, an M503 capture)")
+    p.add_argument("--history", metavar="OLDER.toml", nargs="+",
+                   help="a printer: its earlier calibrations, oldest first (the calibration is the newest): "
+                        "the page shows each owner's quantity in each and each step's change with its σ, all "
+                        "under the calibration's prior, as compare does")
     p.add_argument("--truth", metavar="TRUE.toml",
                    help="true geometry of a simulation (simulate --perturb writes MEAS.truth.toml): actual "
                         "TCP errors beside the predicted σ")

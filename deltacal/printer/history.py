@@ -1,4 +1,8 @@
-"""What changed in a printer between two of its calibrations, in its owner's words, each with its σ.
+"""What changed in a printer between its calibrations, in its owner's words, each with its σ.
+
+Of two calibrations, :func:`compare_calibrations`; of several (oldest first), the printer's history
+(:func:`calibration_history`): each quantity in each and each step between consecutive ones, all under
+the newest's prior (:func:`under_one_prior`).
 
 Each owner's quantity (:mod:`.owner`: a tower's endstop, travel, own leans and rods; the bed's slope)
 is read from both calibrations through the same linear map of their 54 parameters
@@ -35,7 +39,7 @@ from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
 from .firmware.config_file import check_printer_values, recorded_firmware
 from .identification.anchor import reanchored
-from .owner import DETERMINED_FRACTION, TOWERS, owner_quantities
+from .owner import DETERMINED_FRACTION, TOWERS, Estimate, OwnerQuantities, owner_quantities
 
 #: A change is significant when it exceeds this many of its σ (and both calibrations measure it).
 SIGNIFICANT_SIGMAS = 3.0
@@ -86,9 +90,90 @@ class Change:
         return f"{moved}: {'significant' if self.significant else 'not significant'}"
 
 
+@dataclass(frozen=True)
+class Quantity:
+    """One owner's quantity through a printer's calibrations, oldest first: its history.
+
+    Attributes:
+        what: The quantity in the owner's words (``tower B's endstop``).
+        unit: Its unit (mm, deg, %).
+        values: Its value in each calibration, with its whole σ and whether that one measures it
+            (:class:`~.owner.Estimate`).
+        steps: Its change between each two consecutive calibrations (one fewer than ``values``).
+        digits: Decimals to show.
+    """
+
+    what: str
+    unit: str
+    values: tuple[Estimate, ...]
+    steps: tuple[Change, ...]
+    digits: int = 2
+
+
+def significant_in_words(changes: Sequence[Change]) -> str:
+    """``significant: tower B's endstop``, or ``no significant change between them``."""
+    found = [c.what for c in changes if c.significant]
+    return f"significant: {', '.join(found)}" if found else "no significant change between them"
+
+
+def _labels(names: Sequence[str]) -> list[tuple[str, str, int]]:
+    """The owner's quantities' (name, unit, digits), in :func:`~.owner.owner_quantities`'s order."""
+    labels = [(f"tower {names[i]}'s {what}", unit, digits) for i in range(3)
+              for what, unit, digits in _TOWER_QUANTITIES]
+    return labels + [(f"the bed's slope rising towards +{axis}", "deg", 3) for axis in "xy"]
+
+
+def _read(q: OwnerQuantities) -> list[tuple[Estimate, float]]:
+    """Each owner's quantity of one calibration in the owner's unit: its estimate and its noise part's σ."""
+    # the bed's rotation vector β (rows 18, 19): its height at p is p·(z × β) = −β_y x + β_x y
+    slope = np.eye(20)
+    slope[18, 18:20], slope[19, 18:20] = (0.0, -1.0), (1.0, 0.0)
+    out = []
+    for k in range(20):
+        u, row = q.units[k], slope[k]
+        sigma = float(np.sqrt(max(row @ q.covariance @ row, 0.0))) * u
+        before = float(np.sqrt(row**2 @ q.before**2)) * u
+        estimate = Estimate(float(row @ q.values) * u, sigma, bool(sigma < DETERMINED_FRACTION * before))
+        out.append((estimate, float(np.sqrt(max(row @ q.noise @ row, 0.0))) * u))
+    return out
+
+
+def calibration_history(calibrations: Sequence[Calibration], tolerances: Tolerances | None = None,
+                        names: Sequence[str] = TOWERS) -> list[Quantity]:
+    """Each owner's quantity in each of a printer's calibrations, and each step's change.
+
+    Args:
+        calibrations: Two or more, oldest first, all against one controller under one prior
+            (:func:`under_one_prior`).
+        tolerances: The build tolerances that say what is measured (default: a kit's).
+        names: The towers' names in the firmware's words.
+
+    Returns:
+        Per tower its endstop, travel, leans outwards and sideways, rods' mean and difference; then
+        the bed's slope rising towards +x and towards +y [deg]. A step's σ: both calibrations' noise
+        parts in quadrature; measured when both calibrations measure the quantity.
+
+    Raises:
+        ValueError: fewer than two calibrations, or one not of the complete printer model.
+    """
+    if len(calibrations) < 2:
+        raise ValueError(f"a history needs two calibrations or more, got {len(calibrations)}")
+    read = [_read(owner_quantities(c, tolerances)) for c in calibrations]
+    out = []
+    for k, (what, unit, digits) in enumerate(_labels(names)):
+        values = tuple(r[k][0] for r in read)
+        steps = tuple(Change(what, unit, a[k][0].value, b[k][0].value, float(np.hypot(a[k][1], b[k][1])),
+                             a[k][0].determined and b[k][0].determined, digits)
+                      for a, b in zip(read, read[1:], strict=False))
+        out.append(Quantity(what, unit, values, steps, digits))
+    return out
+
+
 def compare_calibrations(old: Calibration, new: Calibration, tolerances: Tolerances | None = None,
                          names: Sequence[str] = TOWERS) -> list[Change]:
     """Each owner's quantity's change from ``old`` to ``new``, two calibrations against one controller.
+
+    The one step of :func:`calibration_history` of the two.
 
     Args:
         old: The older calibration (complete ``printer`` model), already against ``new``'s controller
@@ -97,98 +182,128 @@ def compare_calibrations(old: Calibration, new: Calibration, tolerances: Toleran
         tolerances: The build tolerances that say what is measured (default: a kit's).
         names: The towers' names in the firmware's words.
 
-    Returns:
-        Per tower its endstop, travel, leans outwards and sideways, rods' mean and difference; then
-        the bed's slope rising towards +x and towards +y [deg].
-
     Raises:
         ValueError: a calibration not of the complete printer model.
     """
-    a, b = owner_quantities(old, tolerances), owner_quantities(new, tolerances)
-    # the bed's rotation vector β (rows 18, 19): its height at p is p·(z × β) = −β_y x + β_x y
-    slope = np.eye(20)
-    slope[18, 18:20], slope[19, 18:20] = (0.0, -1.0), (1.0, 0.0)
-    labels = [(f"tower {names[i]}'s {what}", unit, digits) for i in range(3)
-              for what, unit, digits in _TOWER_QUANTITIES]
-    labels += [(f"the bed's slope rising towards +{axis}", "deg", 3) for axis in "xy"]
-    out = []
-    for k, (what, unit, digits) in enumerate(labels):
-        u, row = a.units[k], slope[k]
-        values = [float(row @ q.values) * u for q in (a, b)]
-        sigmas = [float(np.sqrt(max(row @ q.covariance @ row, 0.0))) * u for q in (a, b)]
-        noise = [float(np.sqrt(max(row @ q.noise @ row, 0.0))) * u for q in (a, b)]
-        before = float(np.sqrt(row**2 @ a.before**2)) * u
-        measured = all(s < DETERMINED_FRACTION * before for s in sigmas)
-        out.append(Change(what, unit, values[0], values[1], float(np.hypot(*noise)), measured, digits))
-    return out
+    return [q.steps[0] for q in calibration_history((old, new), tolerances, names)]
 
 
 def old_against_new_controller(
     old: Calibration, new: Calibration, old_source: str | Path, new_source: str | Path,
 ) -> tuple[Calibration, Calibration, Firmware[Any] | None, tuple[str, ...]]:
-    """Both calibrations under one prior, NEW's: each fit's measurements kept; the firmware; what to say.
-
-    Refuses two calibrations of different firmwares (naming both) or printers (a value beyond its build
-    tolerance, naming the key). Each fit's prior is centred on the nominal printer it was identified
-    from (its robot file: the controller values it was imported from) and scaled by the factor its
-    evidence chose: a change of a quantity the measurements do not wholly determine would otherwise
-    be the two priors' difference. When the nominals or the scales differ, both are identified again
-    (:func:`~.identification.anchor.reanchored`) from NEW's nominal with one scale, the geometric
-    mean of the two (each data set's evidence weighing alike); said, with the controller values that
-    differ. On a simulated Kossel whose tower B endstop moved 0.2 mm and whose printer.cfg was
-    re-calibrated between them (tower A's arm 1 mm longer), OLD re-anchored with its own scale (0.57)
-    against NEW's (1.17) read tower A's endstop moved -0.21 ± 0.07 mm; under one prior -0.02 ± 0.06
-    and tower B's +0.20 ± 0.05. Refused when a calibration that must be identified again records no
-    measurements. A calibration that records no controller (written before they were recorded) is
-    taken to be against the other's, said.
+    """Both calibrations under one prior, NEW's (:func:`under_one_prior` of the two).
 
     Returns:
         OLD and NEW under one prior, the firmware (None: neither records one) and the lines to say.
 
     Raises:
-        InputError: as above, one line.
+        InputError: as :func:`under_one_prior`, one line.
     """
+    (old, new), firmware, said = under_one_prior((old, new), (old_source, new_source))
+    return old, new, firmware, said
+
+
+def under_one_prior(
+    calibrations: Sequence[Calibration], sources: Sequence[str | Path],
+) -> tuple[list[Calibration], Firmware[Any] | None, tuple[str, ...]]:
+    """A printer's calibrations (oldest first) under one prior, the newest's: each fit's measurements kept.
+
+    Refuses a calibration of another firmware than the newest (naming both) or of another printer (a
+    value beyond its build tolerance, naming the key). Each fit's prior is centred on the nominal
+    printer it was identified from (its robot file: the controller values it was imported from) and
+    scaled by the factor its evidence chose: a change of a quantity the measurements do not wholly
+    determine would otherwise be the two priors' difference. When the nominals or the scales differ,
+    all are identified again (:func:`~.identification.anchor.reanchored`) from the newest's nominal
+    with one scale, the geometric mean of theirs (each data set's evidence weighing alike); said, with
+    the controller values that differ. On a simulated Kossel whose tower B endstop moved 0.2 mm and
+    whose printer.cfg was re-calibrated between two calibrations (tower A's arm 1 mm longer), OLD
+    re-anchored with its own scale (0.57) against NEW's (1.17) read tower A's endstop moved
+    -0.21 ± 0.07 mm; under one prior -0.02 ± 0.06 and tower B's +0.20 ± 0.05. Refused when a
+    calibration that must be identified again records no measurements. A calibration that records no
+    controller (written before they were recorded) is taken to be against the others', said.
+
+    Returns:
+        The calibrations under one prior, the firmware (None: none records one) and the lines to say.
+
+    Raises:
+        InputError: as above, one line naming the file.
+    """
+    cals, new_source = list(calibrations), sources[-1]
+    new = cals[-1]
     firmware = recorded_firmware(new, new_source)
+    for old, old_source in zip(cals[:-1], sources, strict=False):
+        firmware = _same_printer(old, new, old_source, new_source, firmware)
+    said = tuple(f"{source} records no controller (written before calibrations recorded the one they were "
+                 "identified with): taken to be the other's"
+                 for source, cal in zip(sources, cals, strict=True) if cal.controller is None)
+    changed, keys = _controller_changes(cals, sources)
+    scales = [None if c.measured is None else c.measured.tolerance_scale for c in cals]
+    if all(_same_nominal(c.nominal, new.nominal) for c in cals) and len(set(scales)) == 1:
+        if changed:  # the readings are the printer's own, whatever the values that commanded them
+            said += (f"{_all(cals)} identified from the same nominal printer under one prior, through "
+                     f"{keys}: compared as identified",)
+        return cals, firmware, said
+    for cal, source in zip(cals, sources, strict=True):
+        if cal.measured is None:
+            pair = " and ".join(str(s) for s in sources)
+            raise InputError(f"{pair} were identified under different priors (another robot file or "
+                             f"tolerances' scale; {keys}) and this one records no measurements to identify "
+                             "again under one (written before they were recorded): identify "
+                             f"{_all(cals)} from the same robot file", str(source))
+    scale = float(np.prod([c.measured.tolerance_scale for c in cals if c.measured]) ** (1.0 / len(cals)))
+    anchored = []
+    for cal, source in zip(cals, sources, strict=True):
+        assert cal.measured is not None
+        try:
+            anchored.append(reanchored(replace(cal, measured=replace(cal.measured, tolerance_scale=scale)),
+                                       new.nominal))
+        except (ValueError, ConvergenceError, AssemblyError) as exc:
+            raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify "
+                             f"{_all(cals)} from the same robot file", str(source)) from None
+    said += (f"{_all(cals)} identified again under one prior ({new_source}'s robot file, the build "
+             f"tolerances scaled by {scale:.3g}; {keys}): what the measurements determine is kept",)
+    return anchored, firmware, said
+
+
+def _all(cals: Sequence[Calibration]) -> str:
+    """``both`` of two calibrations, ``all 3`` of three."""
+    return "both" if len(cals) == 2 else f"all {len(cals)}"
+
+
+def _same_printer(old: Calibration, new: Calibration, old_source: str | Path, new_source: str | Path,
+                  firmware: Firmware[Any] | None) -> Firmware[Any] | None:
+    """OLD of NEW's firmware (``firmware``: NEW's, or an older one's) and printer; the firmware.
+
+    Raises:
+        InputError: another firmware (naming both) or another printer (naming the key).
+    """
     theirs = recorded_firmware(old, old_source)
     if firmware is not None and theirs is not None and theirs is not firmware:
-        assert old.controller is not None and new.controller is not None
+        assert old.controller is not None
+        other = new.controller.source if new.controller is not None else new_source
         raise InputError(f"identified with {theirs.title} ({old.controller.source}) but {new_source} with "
-                         f"{firmware.title} ({new.controller.source}): two calibrations compare only "
-                         "through one firmware", str(old_source))
+                         f"{firmware.title} ({other}): two calibrations compare only through one firmware",
+                         str(old_source))
     firmware = firmware or theirs
     if firmware is not None:
         check_printer_values(firmware, old.geometry, firmware.start(new.geometry), old_source,
                              f"{new_source}'s geometry")
-    said = tuple(f"{source} records no controller (written before calibrations recorded the one they were "
-                 "identified with): taken to be the other's" for source, cal in ((old_source, old),
-                                                                               (new_source, new))
-                 if cal.controller is None)
-    changes = [] if old.controller is None or new.controller is None else \
-        old.controller.changes(new.controller.values)
-    keys = f"controller values {changes_in_words(changes)}" if changes else "the same controller values"
-    scales = [None if c.measured is None else c.measured.tolerance_scale for c in (old, new)]
-    if _same_nominal(old.nominal, new.nominal) and scales[0] == scales[1]:
-        if changes:  # the readings are the printer's own, whatever the values that commanded them
-            said += (f"both identified from the same nominal printer under one prior, through {keys}: "
-                     "compared as identified",)
-        return old, new, firmware, said
-    for cal, source in ((old, old_source), (new, new_source)):
-        if cal.measured is None:
-            raise InputError(f"{old_source} and {new_source} were identified under different priors (another "
-                             f"robot file or tolerances' scale; {keys}) and this one records no measurements "
-                             "to identify again under one (written before they were recorded): identify both "
-                             "from the same robot file", str(source))
-    assert old.measured is not None and new.measured is not None
-    scale = float(np.sqrt(old.measured.tolerance_scale * new.measured.tolerance_scale))
-    try:
-        old, new = (reanchored(replace(c, measured=replace(c.measured, tolerance_scale=scale)), new.nominal)
-                    for c in (old, new) if c.measured is not None)
-    except (ValueError, ConvergenceError, AssemblyError) as exc:
-        raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify both "
-                         "from the same robot file", str(old_source)) from None
-    said += (f"both identified again under one prior ({new_source}'s robot file, the build tolerances scaled "
-             f"by {scale:.3g}; {keys}): what the measurements determine is kept",)
-    return old, new, firmware, said
+    return firmware
+
+
+def _controller_changes(cals: Sequence[Calibration], sources: Sequence[str | Path]) -> tuple[bool, str]:
+    """Whether an older calibration was identified with controller values other than the newest's; which."""
+    new = cals[-1].controller
+    found = []
+    for cal, source in zip(cals[:-1], sources, strict=False):
+        changes = [] if cal.controller is None or new is None else cal.controller.changes(new.values)
+        if changes:
+            found.append((source, changes_in_words(changes)))
+    if not found:
+        return False, "the same controller values"
+    if len(cals) == 2:
+        return True, f"controller values {found[0][1]}"
+    return True, "controller values " + "; ".join(f"{source}'s {words}" for source, words in found)
 
 
 def _same_nominal(a: DeltaGeometry, b: DeltaGeometry) -> bool:
@@ -202,4 +317,5 @@ NOMINAL_FIELDS = ("axis_point", "axis_direction", "encoder_offset", "arm_ball", 
                   "tool", "step_distance")
 
 
-__all__ = ["SIGNIFICANT_SIGMAS", "Change", "compare_calibrations", "old_against_new_controller"]
+__all__ = ["SIGNIFICANT_SIGMAS", "Change", "Quantity", "calibration_history", "compare_calibrations",
+           "old_against_new_controller", "significant_in_words", "under_one_prior"]

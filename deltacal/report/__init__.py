@@ -92,6 +92,7 @@ def write_report(
     payload: float = 0.0,
     firmware: Firmware[Any] | None = None,
     controller: FirmwareModel | None = None,
+    history: str | None = None,
 ) -> ReportSummary:
     """Write the HTML report of a calibration, atomically.
 
@@ -112,6 +113,8 @@ def write_report(
             :func:`~deltacal.printer.firmware.firmwares`, Klipper).
         controller: A printer's firmware values its measurements were commanded with (its
             ``--controller`` settings), for their residuals.
+        history: A printer's history of its calibrations, its section's HTML
+            (:func:`~deltacal.report.history.history_html`), after the owner's part.
 
     Returns:
         A summary of what was written.
@@ -150,7 +153,7 @@ def write_report(
         scene_html=scene, scene_note=note, warnings=warnings,
         controllers=controller_routes(cal, amap, truth, firmware),
         deflection=None if cal.compliance is None else deflection_map(cal.geometry, ws, payload),
-        owner=_owner(cal, firmware),
+        owner=_owner(cal, firmware), history=history,
     )
     path = Path(output)
     atomic_write_text(path, render_page(page))

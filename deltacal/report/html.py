@@ -121,6 +121,7 @@ class Page:
     controllers: ControllerRoutes | None = None
     deflection: DeflectionMap | None = None
     owner: list[str] | None = None
+    history: str | None = None
 
 
 def _owner(page: Page) -> str:
@@ -447,6 +448,8 @@ def render_page(page: Page) -> str:
     """The whole HTML document."""
     c = page.calibration
     sections = [] if page.owner is None else [("owner", "The printer, in its owner's words", _owner(page))]
+    if page.history is not None:
+        sections.append(("history", "History of this printer's calibrations", page.history))
     sections += [
         ("overview", "Robot, model and fit", _summary(page)),
         ("parameters", "Base parameters", _parameters(page)),

@@ -128,14 +128,14 @@ def _exported_geometry(path: str | Path) -> tuple[DeltaGeometry, list[str]]:
 def report(request: ReportRequest) -> Done:
     """``deltacal report``: the calibration's HTML page, through its wing (a printer's: its firmware)."""
     check_files((request.calibration, *(request.measurements or ()), request.truth, request.robot,
-                 request.controller), request.output)
+                 request.controller, *(request.history or ())), request.output)
     calibration = load_calibration(request.calibration)
     return wing_for(calibration.geometry.chain).report(request, calibration)
 
 
 def compare(request: CompareRequest) -> Done:
-    """``deltacal compare OLD NEW``: what changed in a printer between two of its calibrations."""
-    check_files((request.old, request.new), request.output)
+    """``deltacal compare OLD NEW [NEWER ...]``: what changed in a printer between its calibrations."""
+    check_files(request.files, request.output)
     return compare_printer_calibrations(request)
 
 

@@ -121,6 +121,21 @@ class Wing(ABC):
         """
         return None, None, (), calibration
 
+    def report_history(self, request: ReportRequest, calibration: Calibration, firmware: Firmware[Any] | None
+                       ) -> tuple[str | None, tuple[str, ...]]:
+        """The report's history of the calibrations (``--history``), an HTML fragment, and what to say.
+
+        A printer's (its wing's); ``calibration``: as read from its file.
+
+        Raises:
+            UsageError: ``--history`` of a robot that is not a printer.
+        """
+        if request.history:
+            robot = calibration.geometry.chain.words.a_robot
+            raise UsageError(f"--history: {request.calibration} is {robot}'s calibration; the history is of "
+                             "a printer's calibrations")
+        return None, ()
+
     def export_mjcf(self, request: ExportRequest, geometry: DeltaGeometry, stations: Sequence[str]) -> Done:
         """``deltacal export --mjcf``: the robot as an MJCF model, of either kind (:func:`write_mjcf`).
 
@@ -137,7 +152,10 @@ class Wing(ABC):
 
     def report(self, request: ReportRequest, calibration: Calibration) -> Done:
         """``deltacal report``: one self-contained HTML page of the calibration (:func:`write_report`)."""
+        read = calibration
         firmware, controller, said, calibration = self.report_firmware(request, calibration)
+        history, told = self.report_history(request, read, firmware)
+        said += told
         nominal = calibration.nominal
         truth = load_geometry(request.truth) if request.truth is not None else None
         robot = load_robot(request.robot) if request.robot is not None else None
@@ -152,7 +170,8 @@ class Wing(ABC):
                                truth_source=None if request.truth is None else str(request.truth),
                                tool=request.tool, payload=request.payload,
                                workspace=robot.workspace if robot is not None else None,
-                               view=not request.no_view, firmware=firmware, controller=controller)
+                               view=not request.no_view, firmware=firmware, controller=controller,
+                               history=history)
         warn(summary.warnings)
         w = summary.worst_point
         return Done((*said, f"largest predicted σ of the TCP: {summary.worst_sigma * 1000.0:.4g} µm at "

@@ -458,7 +458,8 @@ class ReportRequest:
     deflection is mapped [kg]; ``firmware``: a printer's firmware, whose values the page fits and
     names (default: ``controller``'s, else Klipper's); ``measurements``: the file the calibration was
     identified from (residual plots), a printer's probe heights and distances files, with
-    ``controller``: the firmware's settings they were commanded with (of ``firmware`` when named).
+    ``controller``: the firmware's settings they were commanded with (of ``firmware`` when named);
+    ``history``: a printer's earlier calibrations, oldest first (the page shows its history).
     """
 
     calibration: Path_
@@ -471,25 +472,38 @@ class ReportRequest:
     no_view: bool = False
     firmware: str | None = None
     controller: Path_ | None = None
+    history: tuple[Path_, ...] | None = None
 
     def __post_init__(self) -> None:
-        given = self.measurements
-        if given is not None:
-            files = (given,) if isinstance(given, (str, Path)) else tuple(given)
-            object.__setattr__(self, "measurements", files)
+        for name in ("measurements", "history"):
+            given = getattr(self, name)
+            if given is not None:
+                files = (given,) if isinstance(given, (str, Path)) else tuple(given)
+                object.__setattr__(self, name, files)
         _check_firmware(self.firmware)
 
 
 @dataclass(frozen=True, eq=False)
 class CompareRequest:
-    """``deltacal compare OLD.toml NEW.toml [-o compare.html]``: what changed in a printer, two calibrations.
+    """``deltacal compare OLD.toml NEW.toml [NEWER.toml ...] [-o compare.html]``: what changed in a printer.
 
-    ``output``: an HTML page of the changes (None: the lines alone).
+    ``new``: the newer calibration, or several, oldest first (each step between consecutive ones
+    compared); ``output``: an HTML page of the changes (None: the lines alone).
     """
 
     old: Path_
-    new: Path_
+    new: Path_ | tuple[Path_, ...]
     output: Path_ | None = None
+
+    def __post_init__(self) -> None:
+        files = (self.new,) if isinstance(self.new, (str, Path)) else tuple(self.new)
+        object.__setattr__(self, "new", files)
+
+    @property
+    def files(self) -> tuple[Path_, ...]:
+        """The calibration files, oldest first."""
+        assert isinstance(self.new, tuple)
+        return (self.old, *self.new)
 
 
 @dataclass(frozen=True, eq=False)

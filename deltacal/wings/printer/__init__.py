@@ -35,6 +35,7 @@ from ...printer.robot import NominalLinearDelta
 from ...robots import load_robot
 from ..base import Done, Robot, Wing
 from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportRequest, SimulateRequest
+from .compare import history_section
 from .identify import identify_from_prints
 from .plan import plan_printed_object
 from .simulate import simulate_prints
@@ -121,6 +122,14 @@ class PrinterWing(Wing):
         config = read_firmware_config(request.controller, request.firmware)
         calibration, said = config.anchor(calibration, request.calibration)
         return config.firmware, config.values, said, calibration
+
+    def report_history(self, request: ReportRequest, calibration: Calibration, firmware: Firmware[Any] | None
+                       ) -> tuple[str | None, tuple[str, ...]]:
+        """``--history``: the calibrations under the report's prior (:func:`.compare.history_section`)."""
+        if not request.history:
+            return None, ()
+        assert firmware is not None
+        return history_section(request, calibration, firmware)
 
 
 def _export_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
