@@ -257,20 +257,23 @@ class RevoluteChain(Chain):
         return -np.sin(theta), np.cos(theta)
 
     def coordinate(self, q: np.ndarray, scale: np.ndarray, offset: np.ndarray) -> np.ndarray:
-        """``q + offset``: the scale is 1, the reading is taken as it is, bit for bit."""
-        return q + offset
+        """``scale q + offset``: the scale is 1 for a robot (its reading taken as it is, bit for bit).
+
+        A rotary printer's scale is its arm's true turn per unit counted in the nominal step angle.
+        """
+        return scale * q + offset
 
     def carrier_rotation(self, actuator_rotation: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """``R0_i R_y(θ_i)``."""
         return actuator_rotation[None] @ rotation_about_y(theta)
 
     def joint_value(self, q: np.ndarray, scale: np.ndarray, length_unit: float = 1.0) -> np.ndarray:
-        """The readings themselves [rad]."""
-        return q
+        """The arms' turns from their offsets, ``scale q`` [rad] (the readings themselves at scale 1)."""
+        return scale * q
 
     def reading_of(self, value: np.ndarray, scale: np.ndarray) -> np.ndarray:
-        """The joint values themselves [rad]."""
-        return value
+        """The readings of the turns: ``value / scale`` [rad]."""
+        return value / scale
 
     def wrap(self, difference: np.ndarray) -> np.ndarray:
         """Within ±π [rad]."""

@@ -324,8 +324,9 @@ class DeltaGeometry:
             rotary Delta's arms) or :data:`~deltacal.chains.PRISMATIC` (a linear Delta's carriages:
             axis point = carriage frame origin at the endstop, axis direction = up the tower,
             reading = travel below the endstop [mm]); :attr:`joint` is its word in files.
-        joint_scale: True joint coordinate per unit reading, shape (3,): a prismatic chain's
-            true over nominal step distance; 1 for a revolute chain.
+        joint_scale: True joint coordinate per unit reading, shape (3,): a printer's true over
+            nominal step distance (a carriage's, or a rotary printer's arm's step angle); 1 for a
+            rotary robot.
         masses: Masses of the moving bodies (all zero: a kinematic robot).
         compliance: Compliance c_i of each actuator [rad/N m], (3,): the true arm angle is ``reading +
             encoder_offset + c_i tau_i``, tau_i the gravity torque (:mod:`~.kinematics.statics`); 0: rigid.
@@ -388,8 +389,6 @@ class DeltaGeometry:
             raise GeometryError(f"rod lengths must be positive, got {self.rod_length.tolist()}")
         if "tcp" in pts:
             raise GeometryError("'tcp' is reserved for the tool centre point")
-        if not self.chain.counts_steps and np.any(self.joint_scale != 1.0):
-            raise GeometryError(f"a revolute chain's joint_scale must be 1, got {self.joint_scale.tolist()}")
         if np.any(self.joint_scale <= 0.0):
             raise GeometryError(f"joint_scale must be positive, got {self.joint_scale.tolist()}")
         if self.step_distance is not None:

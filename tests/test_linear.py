@@ -102,9 +102,15 @@ def test_error_names_belong_to_their_chain(kossel):
         g.with_errors({"limb1.axis_tilt_z": 0.01})
     with pytest.raises(GeometryError, match="does not apply to a revolute chain"):
         load_nominal(MODELS / "bai2015.toml").geometry().with_errors({"limb1.joint_scale": 0.01})
-    with pytest.raises(GeometryError, match="revolute chain's joint_scale must be 1"):
-        DeltaGeometry(**{**_fields(load_nominal(MODELS / "bai2015.toml").geometry()),
-                         "joint_scale": np.array([1.0, 1.001, 1.0])})
+    # a rotary printer's arm turns by its steps times a true step angle: a revolute joint scale is
+    # its readings scaled (the exact kinematics, the closed form's inverse)
+    rotary = load_nominal(MODELS / "bai2015.toml").geometry()
+    scaled = DeltaGeometry(**{**_fields(rotary), "joint_scale": np.array([1.0, 1.001, 0.998])})
+    q = np.radians([[10.0, 20.0, 30.0], [-5.0, 15.0, 40.0]])
+    assert_allclose(exact.forward(scaled, q).position,
+                    exact.forward(rotary, q * scaled.joint_scale).position, rtol=0, atol=1e-9)
+    assert_allclose(VirtualDelta.from_geometry(scaled).inverse(exact.forward(scaled, q).position), q,
+                    rtol=0, atol=1e-9)
     # a lean about t_i tilts tower i in its radial plane: its top moves outward, along r_i
     leaned = g.with_errors({"limb1.axis_tilt_t": 0.002})
     assert_allclose(leaned.axis_direction[0], [*(0.002 * kossel.radial[0, :2]), 1.0], atol=3e-6)

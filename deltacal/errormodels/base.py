@@ -27,7 +27,8 @@ actuator rotations    9      rigid rotation of actuator frame i about its axis
                              [rad]; the w component is the encoder offset
 joint scales          3      joint_scale[i]: true joint coordinate per unit
                              reading (a printer's step distance) [-]; a
-                             rotary Delta's stay 1 (their columns are 0)
+                             rotary robot's stay 1, a rotary printer's arm
+                             turns by its steps times a step angle
 ====================  =====  ==============================================
 ```
 
@@ -35,7 +36,8 @@ A linear Delta (a prismatic chain, :mod:`deltacal.chains`) has the same moves: i
 are its carriage's, held in the carriage frame; the actuator rotation's two tilts lean its tower
 about the carriage frame's origin at the endstop (P_i); and, as for a revolute chain, the w
 component is the joint's offset: the endstop's error [mm] (a carriage turned about its tower is
-its balls moved, already there). The joint scales are a printer's; a rotary Delta's stay at 1.
+its balls moved, already there). The joint scales are a printer's (linear or rotary: a step
+distance's error); a rotary robot's stay at 1.
 
 The rod equations ``|A_ij(q) - (p + R B_ij)| = l_ij`` (Savoure Eq. 2), differentiated,
 give ``J_X dX + J_k e = 0`` (Savoure Eq. 12, 17), so ``S = -J_X^-1 J_k M``
@@ -154,7 +156,8 @@ def elementary_jacobian(
             J[:, i, j, s : s + 3] = -torque[:, i, j] @ R0[i]
             if slides:  # the w component: the endstop, a shift along the line of travel
                 J[:, i, j, s + 1] = -along[:, i, j]
-                J[:, i, j, joint_scale_index(i)] = -along[:, i, j] * q[:, i]
+            # the joint scale: the joint moved by its reading per unit (a step distance's error)
+            J[:, i, j, joint_scale_index(i)] = -along[:, i, j] * q[:, i]
     return J.reshape(N, 6, N_ELEMENTARY)
 
 
@@ -174,14 +177,18 @@ def _moved_rods(geometry: DeltaGeometry, q: np.ndarray, pose: PlatePose, e: np.n
     col = lambda v: np.ascontiguousarray(v.reshape(6, 3).T)[:, :, None]  # noqa: E731  (3, 2, 3) -> (3, 6, 1)
     F, G, H = (col(m + np.cross(omega, v)) for m, v in zip(moved, lever, strict=True))
     C, U, V = (col(v) for v in circle)
-    theta = (q + geometry.encoder_offset).T  # (3, N)
+    theta = geometry.joint_coordinate(q).T  # (3, N)
     cos, sin = np.repeat(np.cos(theta), 2, axis=0), np.repeat(np.sin(theta), 2, axis=0)  # (6, N)
     R = np.asarray(pose.rotation, dtype=float).transpose(1, 2, 0)  # (3, 3, N)
     d = (np.asarray(pose.position, dtype=float).T[:, None] + np.matmul(geometry.plate_ball.reshape(6, 3), R)
          - C - cos * U - sin * V)
     n = d / np.sqrt(b3.dot(d, d))
     dB = np.matmul(e[PLATE_BALLS].reshape(6, 3), R)
-    change = b3.dot(n, dB - F - cos * G - sin * H) - e[RODS][:, None]
+    moved = dB - F - cos * G - sin * H
+    if np.any(e[JOINT_SCALES]):  # each arm turned by its reading per unit scale: dA/dθ = −sin U + cos V
+        turn = np.repeat(q.T * e[JOINT_SCALES][:, None], 2, axis=0)  # (6, N)
+        moved = moved - turn * (cos * V - sin * U)
+    change = b3.dot(n, moved) - e[RODS][:, None]
     return np.ascontiguousarray(change.T)
 
 
@@ -293,6 +300,9 @@ class ErrorModel(ABC):
     #: are taken among these first: positions of elements, not an axis tilt nor an encoder
     #: offset, whose real deviation a held value would deny.
     frame_held_first: tuple[str, ...] = ()
+    #: The parameters that raise the whole robot alike, one unit each (a linear printer's endstops);
+    #: none: a rise is the least-squares combination that moves the plate so (a rotary printer's).
+    bed_rise: tuple[str, ...] = ()
 
     @property
     @abstractmethod
@@ -401,6 +411,7 @@ class SubModel(ErrorModel):
         self.chain = parent.chain
         self.preferred = parent.preferred
         self.frame_held_first = tuple(n for n in parent.frame_held_first if n in keep)
+        self.bed_rise = parent.bed_rise if set(parent.bed_rise) <= set(keep) else ()
 
     @property
     def names(self) -> list[str]:

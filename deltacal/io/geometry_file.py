@@ -45,6 +45,8 @@ def geometry_to_dict(geometry: DeltaGeometry) -> dict[str, Any]:
             limb["joint_scale"] = float(geometry.joint_scale[i])
         else:
             limb["encoder_offset_deg"] = exact_degrees(float(geometry.encoder_offset[i]))
+            if geometry.joint_scale[i] != 1.0:  # a rotary printer's step angle; a robot's file unchanged
+                limb["joint_scale"] = float(geometry.joint_scale[i])
         limb |= {
             "arm_ball_mm": geometry.arm_ball[i].tolist(),
             "plate_ball_mm": geometry.plate_ball[i].tolist(),
@@ -122,7 +124,8 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
     fields: dict[str, list[Any]] = {k: [] for k in (
         "limb_azimuth", "axis_point", "axis_direction", "encoder_offset", "arm_ball", "plate_ball",
         "rod_length", "joint_scale")}
-    joint_keys = ["endstop_offset_mm", "joint_scale"] if chain.counts_steps else ["encoder_offset_deg"]
+    joint_keys = ["endstop_offset_mm", "joint_scale"] if chain.counts_steps else ["encoder_offset_deg",
+                                                                                   "joint_scale"]
     for i, limb_data in enumerate(limbs):
         t = TomlTable(limb_data, source, f"{prefix}limb[{i + 1}].")
         t.check_unknown(["azimuth_deg", "axis_point_mm", "axis_direction", *joint_keys, "arm_ball_mm",
@@ -141,7 +144,8 @@ def geometry_from_dict(data: Mapping[str, Any], source: str, prefix: str = "") -
             fields["joint_scale"].append(scale)
         else:
             fields["encoder_offset"].append(t.angle("encoder_offset_deg"))
-            fields["joint_scale"].append(1.0)
+            fields["joint_scale"].append(t.number("joint_scale", positive=True) if "joint_scale" in limb_data
+                                         else 1.0)
         fields["arm_ball"].append(t.vector("arm_ball_mm", (2, 3)))
         fields["plate_ball"].append(t.vector("plate_ball_mm", (2, 3)))
         rods = t.vector("rod_length_mm", (2,))

@@ -203,7 +203,7 @@ class VirtualDelta:
         t2 = base - gamma
         theta = np.where(np.cos(t1) >= np.cos(t2), t1, t2)
         q = theta - self.encoder_offset
-        q = (q + np.pi) % (2.0 * np.pi) - np.pi
+        q = ((q + np.pi) % (2.0 * np.pi) - np.pi) / self.joint_scale
         if check:
             bad = ~np.all(np.isfinite(q), axis=1)
             if np.any(bad):

@@ -109,7 +109,7 @@ def singularity_measures(
     reach = np.linalg.norm(e, axis=1)
     wu = np.cross(w, u) / reach[:, None]
     wv = np.cross(w, v) / reach[:, None]
-    theta = q + virtual.encoder_offset
+    theta = virtual.chain.coordinate(q, virtual.joint_scale, virtual.encoder_offset)
     cos, sin = np.cos(theta), np.sin(theta)
     rod = [x[:, k : k + 1] + (virtual.plate_attachment[:, k] - centre[:, k]) - cos * u[:, k] - sin * v[:, k]
            for k in range(3)]  # x + a_i − E_i, (N, 3) per coordinate

@@ -1,4 +1,6 @@
-"""Error models of a linear Delta printer: the complete one (54) and the firmware's own (Klipper, 13).
+"""Error models of a Delta printer: a linear one's complete (54), its firmware's (13); a rotary one's (54).
+
+The rotary printer's is :class:`RotaryPrinterModel` (``rotary_printer``).
 
 ``printer``: Savoure's complete model carried over to a prismatic chain (Savoure 2006, Eq. 12-22,
 written for the whole family of parallelogram robots): per rod (i, j), in the order (1,1), (1,2),
@@ -29,7 +31,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ...chains import PRISMATIC
+from ...chains import PRISMATIC, REVOLUTE
 from ...errormodels.base import (
     N_ELEMENTARY,
     ErrorModel,
@@ -40,6 +42,7 @@ from ...errormodels.base import (
     plate_ball_index,
     rod_index,
 )
+from ...errormodels.complete import CompleteModel
 from ...geometry import DeltaGeometry, Tolerances
 from ...kinematics import exact
 
@@ -61,6 +64,7 @@ class PrinterModel(ErrorModel):
     name = "printer"
     chain = PRISMATIC
     tilts_plate = True
+    bed_rise = ("endstop1", "endstop2", "endstop3")
 
     def __init__(self) -> None:
         names: list[str] = []
@@ -217,20 +221,25 @@ def bed_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
     """The parameters that move a printer rigidly against its bed: tilted about x, about y, raised, (n, 3).
 
     Per unit: a turn of 1 rad about the x and the y axis through the bed's centre, a rise of 1 mm.
-    The rise is every endstop moved up alike. The tilts are the least-squares parameters whose
-    plate displacement (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) is the rigid turn's
-    ``(ω × p, ω)`` at the readings of two rings of points, on the bed and half a tower's reach above
-    it (the model holds a rigid turn of the whole printer: its towers lean and move, its balls stay).
+    Each is the least-squares parameters whose plate displacement
+    (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) is the rigid motion's (``(ω × p, ω)`` for
+    a turn, ``(z, 0)`` for the rise) at the readings of two rings of points, on the bed and half an
+    axis' reach above it (the model holds a rigid motion of the whole printer: its towers or shoulders
+    lean and move, its balls stay); but the rise of a model whose ``bed_rise`` parameters raise it (a
+    linear printer's endstops) is those alike.
     """
     q = _readings(geometry)
     pose = exact.forward(geometry, q)
     S = model.sensitivity(geometry, q, pose).reshape(-1, model.size)
+    motions = [np.concatenate([np.cross(omega, pose.position), np.broadcast_to(omega, pose.position.shape)],
+                              axis=1) for omega in np.eye(3)[:2]]
+    if not model.bed_rise:
+        motions.append(np.broadcast_to([0.0, 0.0, 1.0, 0.0, 0.0, 0.0], pose.position.shape[:1] + (6,)))
     modes = np.zeros((model.size, 3))
-    for k, omega in enumerate(np.eye(3)[:2]):
-        turn = np.concatenate([np.cross(omega, pose.position), np.broadcast_to(omega, pose.position.shape)],
-                              axis=1)
-        modes[:, k] = np.linalg.lstsq(S, turn.reshape(-1), rcond=None)[0]
-    modes[[model.names.index(f"endstop{i}") for i in range(1, 4)], 2] = 1.0
+    for k, motion in enumerate(motions):
+        modes[:, k] = np.linalg.lstsq(S, motion.reshape(-1), rcond=None)[0]
+    if model.bed_rise:
+        modes[[model.names.index(name) for name in model.bed_rise], 2] = 1.0
     return modes
 
 
@@ -272,3 +281,76 @@ def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
     S = model.sensitivity(geometry, q, pose).reshape(-1, model.size)
     F = firmware.sensitivity(geometry, q, pose)[:, :, [firmware.names.index(n) for n in FIRMWARE_VALUES]]
     return np.linalg.lstsq(S, F.reshape(-1, len(FIRMWARE_VALUES)), rcond=None)[0]
+
+
+class RotaryPrinterModel(ErrorModel):
+    """The complete model of a rotary Delta printer (54 parameters): Savoure's 51 and each arm's step scale.
+
+    The revolute chain's complete model (:class:`~deltacal.errormodels.complete.CompleteModel`: per rod
+    its balls and length; per arm ``beta{i}r``, ``beta{i}t``, ``beta{i}z``, its shoulder frame turned
+    about the arm's zero direction, about the shoulder axis (the arm's angle at its endstop: the
+    encoder offset) and about up [rad]), then per arm ``scale{i}`` [rad]: the arm's true turn per
+    radian counted in the nominal step angle, minus 1 rad (a step angle 0.2 % large, a gear ratio
+    0.2 % small, is 0.002). The printer is in Klipper's frame, the bed's: its tilt and height are
+    the whole printer moved rigidly against it (:func:`bed_modes`, least squares: no parameter
+    raises a rotary printer alone).
+    """
+
+    name = "rotary_printer"
+    chain = REVOLUTE
+    tilts_plate = True
+
+    def __init__(self) -> None:
+        self._complete = CompleteModel()
+        names = self._complete.names + [f"scale{i}" for i in range(1, 4)]
+        # what bounds each before a measurement (prior_sigma): b, a, l by their first letter
+        self._kinds = [("endstop" if n[-1] == "t" else "tilt") if n.startswith("beta") else
+                       "scale" if n.startswith("scale") else n[0] for n in names]
+        self._names, self._units = names, self._complete.units + ["rad"] * 3
+        # an owner adjusts the endstops, the gear ratios, the shoulders' tilts, then rods and balls
+        self.preferred = ([f"beta{i}t" for i in range(1, 4)] + [f"scale{i}" for i in range(1, 4)]
+                          + [f"beta{i}{a}" for a in "rz" for i in range(1, 4)]
+                          + [f"l{i}{j}" for i in range(1, 4) for j in (1, 2)]
+                          + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
+                          + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"])
+        self.frame_held_first = self._complete.frame_held_first
+
+    @property
+    def names(self) -> list[str]:
+        """The 54 parameter names."""
+        return list(self._names)
+
+    @property
+    def units(self) -> list[str]:
+        """Units of the parameters."""
+        return list(self._units)
+
+    def moves(self, geometry: DeltaGeometry) -> np.ndarray:
+        """Each parameter is one elementary move (a constant matrix): the complete model's, the scales."""
+        scales = np.zeros((N_ELEMENTARY, 3))
+        scales[[joint_scale_index(i) for i in range(3)], range(3)] = 1.0
+        return np.hstack([self._complete.moves(geometry), scales])
+
+    def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
+        """σ of each parameter from the build tolerances alone (n,); the bed's place: :meth:`prior_factor`.
+
+        An effector ball also carries its shoulder's position (Savoure's Eq. 13: every coordinate).
+        """
+        sigma = {"b": float(np.hypot(tolerances.ball_centre, tolerances.axis_position)),
+                 "a": tolerances.ball_centre, "l": tolerances.rod_length, "tilt": tolerances.axis_direction,
+                 "endstop": tolerances.encoder_offset, "scale": tolerances.joint_scale}
+        return np.array([sigma[kind] for kind in self._kinds])
+
+    def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
+                     calibrated: bool | Sequence[str] = False) -> np.ndarray:
+        """P with ``Σ = P Pᵀ``: the build tolerances, the bed's place (:data:`BED_TILT`, :data:`BED_HEIGHT`).
+
+        The bed's tilt and height are the printer moved rigidly against it (:func:`bed_modes`).
+
+        Raises:
+            ValueError: a start ``calibrated`` from the measurements (not modelled for a rotary printer).
+        """
+        if calibrated:
+            raise ValueError("a rotary printer's start calibrated from the same measurements is not modelled")
+        modes = bed_modes(self, geometry) * np.array([BED_TILT, BED_TILT, BED_HEIGHT])
+        return np.linalg.cholesky(np.diag(self.prior_sigma(tolerances) ** 2) + modes @ modes.T)

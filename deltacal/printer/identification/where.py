@@ -169,9 +169,12 @@ def firmware_determination(geometry: DeltaGeometry, model: ErrorModel, covarianc
         workspace: The printable volume.
 
     Returns:
-        The ratio of the two σ for each of the ``klipper`` error model's names (at its last judgement).
+        The ratio of the two σ for each of the ``klipper`` error model's names (at its last judgement);
+        none for a printer of another chain than that model's (a rotary printer's values are not these).
     """
     firmware = get_model("klipper")
+    if firmware.chain != geometry.chain:
+        return {}
     grid = WhereItHolds.nodes(*WhereItHolds.grid(workspace.radius, workspace.top_z))
     q = readings_at(geometry, grid)
     q = q[np.all(np.isfinite(q), axis=1)]
