@@ -11,13 +11,14 @@ through Klipper's nominal inverse). The probe: Klipper's round 9 x 9 mesh over r
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import replace
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
 
+from deltacal.calibration import Calibration
 from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances, Workspace
 from deltacal.printer.firmware.fitting import printable_grid
@@ -25,6 +26,7 @@ from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.rotary_calibrate import klipper_rotary_basic, klipper_rotary_extended
 from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
 from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryController
+from deltacal.printer.firmware.klipper.rotary_fit import fit_klipper_rotary
 from deltacal.printer.identification.errormodels import RotaryPrinterModel
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer, residuals_and_regressor
 from deltacal.printer.printed.object import blocking, candidate_pairs, object_layout, probe_grid
@@ -71,55 +73,82 @@ def _plan(k, nominal, tolerances) -> tuple[np.ndarray, np.ndarray]:
     return probe[:, :2], ends[chosen].reshape(-1, 6)
 
 
-def _figures(k, nominal, tolerances, seed):
-    """3-D max over the volume, raw and less the bed motion: Klipper's nominal, basic, extended; ours."""
+@functools.cache
+def _planned(tolerances: Tolerances) -> tuple[np.ndarray, np.ndarray]:
+    """The probe points and the object's pairs planned for a class of printers (one plan per class)."""
+    k, nominal = _nominal()
+    return _plan(k, nominal, tolerances)
+
+
+@functools.cache
+def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]]:
+    """3-D max over the volume, raw and less the motion along the bed no measurement sees [mm]: Klipper's
+    nominal values, its basic and extended calibrations, ours (the calibration as ``compensate`` uses it:
+    put in Klipper's frame along the bed, each correction weighted where it holds) and the values ours
+    exports (``fit_klipper_rotary``)."""
+    k, nominal = _nominal()
     rng = np.random.default_rng(seed)
     truth = nominal.perturbed(tolerances, rng)
     printer = RotaryPrinter(replace(truth, joint_scale=1.0 + rng.normal(0.0, tolerances.joint_scale, 3)), k)
-    xy, pairs = _plan(k, nominal, tolerances)
+    xy, pairs = _planned(tolerances)
     probe = probe_triggers(printer, k, xy)
     probe[:, 2] += rng.normal(0.0, 0.01, len(probe))  # the probe's repeatability
     distances = printed_distances(printer, k, pairs) + rng.normal(0.0, 0.02, len(pairs))  # the caliper's
     data = PrinterMeasurements(printer.readings(k, probe), np.stack(
         [printer.readings(k, pairs[:, :3]), printer.readings(k, pairs[:, 3:])], axis=1), distances)
     result = identify_printer(nominal, data, RotaryPrinterModel(), tolerances=tolerances)
+    calibration = Calibration.from_result(result)
+    assert calibration.holds is not None  # where it holds, as a linear printer's
     controller = KlipperRotaryController(k)
-    ours = printer.nozzle(k, corrected_targets(result.geometry, controller, VOLUME).commands) - VOLUME
-    errors = [nozzle_errors(printer, c, VOLUME) for c in
-              (k, klipper_rotary_basic(k, probe), klipper_rotary_extended(k, probe, pairs, distances))]
-    errors.append(ours)
-    return [[float(np.linalg.norm(e, axis=1).max()) for e in errors],
-            [float(np.linalg.norm(less_bed_motion(VOLUME, e)[0], axis=1).max()) for e in errors]]
+    ours = printer.nozzle(k, corrected_targets(calibration, controller, VOLUME).commands) - VOLUME
+    lift = np.array([0.0, 0.0, -k.base_height(EFFECTOR[2])])  # the bed frame's printer into {O}
+    exported = fit_klipper_rotary(result.geometry.moved_rigidly(np.eye(3), lift), k, OBJECT,
+                                  nozzle_drop_of=nominal.moved_rigidly(np.eye(3), lift)).values
+    errors = {"nominal": nozzle_errors(printer, k, VOLUME), "basic": nozzle_errors(
+        printer, klipper_rotary_basic(k, probe), VOLUME), "extended": nozzle_errors(
+        printer, klipper_rotary_extended(k, probe, pairs, distances), VOLUME), "ours": ours,
+        "exported": nozzle_errors(printer, exported, VOLUME)}
+    return {name: (float(np.linalg.norm(e, axis=1).max()),
+                   float(np.linalg.norm(less_bed_motion(VOLUME, e)[0], axis=1).max()))
+            for name, e in errors.items()}
+
+
+PRINTERS = [("kit", KIT, 200), ("kit", KIT, 201), ("kit", KIT, 202),
+            ("well built", WELL_BUILT, 200), ("well built", WELL_BUILT, 201), ("well built", WELL_BUILT, 202)]
+#: Where the issue's 1/3 is not reached (measured, less the motion along the bed).
+NOT_A_THIRD = {("well built", 200): "ours 0.032 mm against Klipper's extended 0.043 (0.74)",
+               ("well built", 201): "ours 0.031 mm against Klipper's extended 0.087 (0.36; 0.025 with the "
+                                    "whole correction everywhere)"}
+
+
+def _marked(p: tuple) -> object:
+    if (p[0], p[2]) not in NOT_A_THIRD:
+        return p
+    return pytest.param(*p, marks=pytest.mark.xfail(strict=True, reason=f"issue 48, not reached: "
+                                                                        f"{NOT_A_THIRD[p[0], p[2]]}"))
 
 
 @pytest.mark.long
 @pytest.mark.slow
-def test_identified_rotary_printers_against_klippers_extended_calibration():
-    """Three kits and three well-built printers (seeds 200-202), Klipper's example values, the bed frame's
-    truth with every error of the complete model and the arms' gear ratios (none of which but the
-    endstops Klipper's model holds). 3-D max over r <= 50, z 0.2..100 mm, less the shift along the bed and
-    turn about its normal no probe or caliper sees (raw in brackets):
+@pytest.mark.parametrize(("label", "tolerances", "seed"), [_marked(p) for p in PRINTERS],
+                         ids=[f"{p[0]}-{p[2]}" for p in PRINTERS])
+def test_identified_rotary_printers_a_third_of_klippers_extended_calibration(label, tolerances, seed):
+    """Klipper's example values, the bed frame's truth with every error of the complete model and the arms'
+    gear ratios (none of which but the endstops Klipper's model holds), measured as Klipper measures; 3-D
+    max over r <= 50, z 0.2..100 mm less the shift along the bed and turn about its normal no probe or
+    caliper sees (the printer's convention: the part is the same part). The issue's bound: ours at most a
+    third of Klipper's extended calibration's on the same data. Measured, ours / Klipper's extended [mm]:
+    kits 0.044 / 0.167, 0.042 / 0.310, 0.035 / 0.466; well built 0.032 / 0.043, 0.031 / 0.087, 0.025 / 0.105
+    (docs/printers.md, "Rotary Delta printers")."""
+    figures = _figures(tolerances, seed)
+    assert figures["ours"][1] <= figures["extended"][1] / 3.0, figures
 
-    ========  ==============  ==============  ==============  ==============
-    printer   nominal         Klipper basic   Klipper ext.    ours
-    ========  ==============  ==============  ==============  ==============
-    kit 200   0.561 (0.901)   0.174 (0.517)   0.167 (0.447)   0.035 (0.490)
-    kit 201   1.231 (3.370)   0.329 (0.672)   0.310 (0.614)   0.035 (1.403)
-    kit 202   1.021 (1.276)   0.458 (0.801)   0.466 (1.311)   0.035 (0.224)
-    well 200  0.734 (1.505)   0.041 (0.110)   0.043 (0.103)   0.023 (0.274)
-    well 201  0.895 (3.314)   0.085 (0.163)   0.087 (0.130)   0.025 (0.421)
-    well 202  1.106 (1.346)   0.117 (0.198)   0.105 (0.301)   0.033 (0.098)
-    ========  ==============  ==============  ==============  ==============
 
-    Ours is at most 1/3 of Klipper's extended on 5 of the 6 (0.08-0.31), 0.54 on well-built 200; raw, the
-    motion along the bed the identification cannot see dominates ours (the nominal's frame kept).
-    """
-    k, nominal = _nominal()
-    figures = np.array([_figures(k, nominal, tolerances, seed)
-                        for tolerances in (KIT, WELL_BUILT) for seed in (200, 201, 202)])
-    less = figures[:, 1]
-    assert_allclose(less, [[0.561, 0.174, 0.167, 0.035], [1.231, 0.329, 0.310, 0.035],
-                           [1.021, 0.458, 0.466, 0.035], [0.734, 0.041, 0.043, 0.023],
-                           [0.895, 0.085, 0.087, 0.025], [1.106, 0.117, 0.105, 0.033]], rtol=0, atol=0.002)
-    assert_allclose(figures[:, 0, 3], [0.490, 1.403, 0.224, 0.274, 0.421, 0.098], rtol=0, atol=0.002)
-    assert np.all(less[:, 3] < 0.6 * less[:, 2])
+@pytest.mark.long
+@pytest.mark.slow
+@pytest.mark.parametrize(("label", "tolerances", "seed"), PRINTERS, ids=[f"{p[0]}-{p[2]}" for p in PRINTERS])
+def test_the_exported_rotary_values_never_worse_than_klippers(label, tolerances, seed):
+    """The issue's bound: the values deltacal exports (its identified printer fitted with Klipper's rotary
+    model) never worse than Klipper's extended calibration's, 3-D max less the motion along the bed."""
+    figures = _figures(tolerances, seed)
+    assert figures["exported"][1] <= figures["extended"][1], figures

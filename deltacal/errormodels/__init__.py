@@ -5,7 +5,8 @@
   distance measurements (Eq. 11, §3.2); ``bai24``: model 24 with Bai's names.
 * ``complete``: Savoure's complete model, 51 parameters (Eq. 12-22).
 * ``printer``: the complete model of a linear Delta printer (54); ``klipper``: the values the
-  firmware holds, as deviations of the printer's full geometry (13).
+  firmware holds, as deviations of the printer's full geometry (13); ``rotary_printer``: the complete
+  model of a rotary Delta printer (51, and each arm's step scale: 54).
 """
 
 from __future__ import annotations
@@ -38,11 +39,12 @@ _MODELS: dict[str, Callable[[], ErrorModel]] = {
 }
 #: The names of the rotary Delta's models (:func:`get_model`).
 MODEL_NAMES = tuple(_MODELS)
-#: The models of a linear Delta printer (a prismatic chain), defined in the printer's wing: name ->
+#: The models of a Delta printer (linear; rotary: ``rotary_printer``), defined in its wing: name ->
 #: (module, class). Imported on first use, so the engine never imports the wing.
 _PRINTER_MODELS = {
     "printer": ("deltacal.printer.identification.errormodels", "PrinterModel"),
     "klipper": ("deltacal.printer.identification.errormodels", "FirmwareErrorModel"),
+    "rotary_printer": ("deltacal.printer.identification.errormodels", "RotaryPrinterModel"),
 }
 PRINTER_MODEL_NAMES = tuple(_PRINTER_MODELS)
 
