@@ -222,8 +222,8 @@ class Tolerances:
         axis_direction: Actuator axis direction, each of its two tilts [rad].
         encoder_offset: Encoder zero [rad] (a prismatic chain's endstop [mm]).
         tool: TCP in the plate frame, per coordinate [mm] (0: the tool is known).
-        joint_scale: Relative error of a prismatic chain's step distance (the scale's
-            deviation from 1); revolute chains have none.
+        joint_scale: Relative error of a printer's step distance or step angle (the scale's
+            deviation from 1); a rotary robot's readings have none.
     """
 
     ball_centre: float = 0.05
@@ -248,6 +248,22 @@ class Tolerances:
             axis_direction=math.radians(0.15),
             encoder_offset=0.5,
             joint_scale=0.003,
+        )
+
+    @classmethod
+    def rotary_printer_kit(cls) -> Tolerances:
+        """Errors of a typical rotary Delta printer kit (the prior of its fit).
+
+        Shoulder axes placed to 0.2 mm and turned 0.1 deg, endstops to 0.3 deg, the arms' gear
+        ratios (their step angles) to 0.2 %, balls to 0.05 mm and rods to 0.1 mm.
+        """
+        return cls(
+            ball_centre=0.05,
+            rod_length=0.1,
+            axis_position=0.2,
+            axis_direction=math.radians(0.1),
+            encoder_offset=math.radians(0.3),
+            joint_scale=0.002,
         )
 
     @classmethod

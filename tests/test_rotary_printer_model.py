@@ -17,7 +17,7 @@ from deltacal.io.geometry_file import load_geometry, save_geometry
 from deltacal.kinematics import exact
 from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
-from deltacal.printer.identification.errormodels import RotaryPrinterModel, bed_modes
+from deltacal.printer.identification.errormodels import SCALE_TURN_RAD, RotaryPrinterModel, bed_modes
 from tests.test_errormodels import FD_RTOL, _column_norms, _sensitivity_and_differences
 from tests.test_klipper_rotary import EXAMPLE
 
@@ -44,7 +44,7 @@ def test_the_model_is_the_complete_one_and_the_step_scales():
     assert model.preferred[:6] == ["beta1t", "beta2t", "beta3t", "scale1", "scale2", "scale3"]
     assert sorted(model.preferred) == sorted(model.names)
     sigma = dict(zip(model.names, model.prior_sigma(Tolerances(joint_scale=0.002)), strict=True))
-    assert sigma["scale2"] == 0.002 and sigma["beta1t"] == Tolerances().encoder_offset
+    assert sigma["scale2"] == SCALE_TURN_RAD * 0.002 and sigma["beta1t"] == Tolerances().encoder_offset
     assert sigma["b11z"] == pytest.approx(np.hypot(0.05, 0.2)) and sigma["l32"] == 0.05
 
 
@@ -60,9 +60,10 @@ def test_sensitivity_matches_finite_differences():
     ori_norm, ori_err = _column_norms(S[:, 3:]), _column_norms(S[:, 3:] - F[:, 3:])
     assert np.all(ori_norm > 1e-4)
     assert np.max(ori_err / ori_norm) < FD_RTOL
-    # the scale columns are the arm's turn times its reading: not the encoder offsets' (q is not 1)
+    # the scale columns are the arm's turn times its reading over 100 deg: not the encoder offsets' (q is
+    # not 1)
     scale, offset = S[..., model.names.index("scale1")], S[..., model.names.index("beta1t")]
-    assert np.linalg.norm(scale - offset * q[:, :1]) < 1e-9 * np.linalg.norm(scale)
+    assert np.linalg.norm(scale - offset * q[:, :1] / SCALE_TURN_RAD) < 1e-9 * np.linalg.norm(scale)
 
 
 def test_joint_scale_moves_without_forming_the_jacobian():

@@ -132,12 +132,12 @@ class IdentifyRequest:
         """The error model of a rotary Delta (default ``complete``)."""
         return self.model or "complete"
 
-    def printer_model(self) -> str:
-        """A printer's identification: its options checked, its error model (default ``printer``)."""
+    def printer_model(self, default: str = "printer") -> str:
+        """A printer's identification: its options checked, its error model (``default`` if not given)."""
         if self.controller is None:
             raise settings_needed(self.measurements, "measurements", "the firmware's settings they were made "
                                   "with, which turn them into the printer's readings")
-        model = self.model or "printer"
+        model = self.model or default
         if model not in PRINTER_MODEL_NAMES:
             raise UsageError(f"--model {model}: a printer's models are {', '.join(PRINTER_MODEL_NAMES)}")
         for flag in ("distances", "compliance", "free_points", "pairs"):

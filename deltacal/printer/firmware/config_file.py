@@ -248,8 +248,11 @@ class RotaryFirmwareConfig:
         """
         nominal = calibration.nominal
         lift = self.rotary.bed_height(nominal)
+        holds = calibration.holds  # a rotary printer's: its grid in the firmware's frame, its printer in {O}
+        if holds is not None and holds.along_bed is not None:
+            holds = replace(holds, along_bed=self.rotary.in_bed_frame(holds.along_bed, nominal))
         moved = replace(calibration, geometry=self.rotary.in_bed_frame(calibration.geometry, nominal),
-                        nominal=self.rotary.in_bed_frame(nominal))
+                        nominal=self.rotary.in_bed_frame(nominal), holds=holds)
         return moved, (f"{self.path}: targets and commands in {self.firmware.title}'s frame: its bed (z = 0) "
                        f"at z = {-lift:g} mm in {source}'s frame (shoulder height + nozzle drop "
                        f"{-float(nominal.tool[2]):g} mm)",)

@@ -283,15 +283,20 @@ def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
     return np.linalg.lstsq(S, F.reshape(-1, len(FIRMWARE_VALUES)), rcond=None)[0]
 
 
+#: The turn a rotary printer's ``scale{i}`` parameter is given per [rad]: its value is the error over it.
+SCALE_TURN_RAD = float(np.radians(100.0))
+
+
 class RotaryPrinterModel(ErrorModel):
     """The complete model of a rotary Delta printer (54 parameters): Savoure's 51 and each arm's step scale.
 
     The revolute chain's complete model (:class:`~deltacal.errormodels.complete.CompleteModel`: per rod
     its balls and length; per arm ``beta{i}r``, ``beta{i}t``, ``beta{i}z``, its shoulder frame turned
     about the arm's zero direction, about the shoulder axis (the arm's angle at its endstop: the
-    encoder offset) and about up [rad]), then per arm ``scale{i}`` [rad]: the arm's true turn per
-    radian counted in the nominal step angle, minus 1 rad (a step angle 0.2 % large, a gear ratio
-    0.2 % small, is 0.002). The printer is in Klipper's frame, the bed's: its tilt and height are
+    encoder offset) and about up [rad]), then per arm ``scale{i}`` [rad]: the arm's true turn over
+    :data:`SCALE_TURN_RAD` (100 deg) counted in the nominal step angle, minus that turn (a step angle
+    0.2 % large, a gear ratio 0.2 % small, is 0.2 deg: as a linear printer's ``scale{i}`` is per 100 mm).
+    The printer is in Klipper's frame, the bed's: its tilt and height are
     the whole printer moved rigidly against it (:func:`bed_modes`, least squares: no parameter
     raises a rotary printer alone).
     """
@@ -328,7 +333,7 @@ class RotaryPrinterModel(ErrorModel):
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Each parameter is one elementary move (a constant matrix): the complete model's, the scales."""
         scales = np.zeros((N_ELEMENTARY, 3))
-        scales[[joint_scale_index(i) for i in range(3)], range(3)] = 1.0
+        scales[[joint_scale_index(i) for i in range(3)], range(3)] = 1.0 / SCALE_TURN_RAD
         return np.hstack([self._complete.moves(geometry), scales])
 
     def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
@@ -338,7 +343,7 @@ class RotaryPrinterModel(ErrorModel):
         """
         sigma = {"b": float(np.hypot(tolerances.ball_centre, tolerances.axis_position)),
                  "a": tolerances.ball_centre, "l": tolerances.rod_length, "tilt": tolerances.axis_direction,
-                 "endstop": tolerances.encoder_offset, "scale": tolerances.joint_scale}
+                 "endstop": tolerances.encoder_offset, "scale": SCALE_TURN_RAD * tolerances.joint_scale}
         return np.array([sigma[kind] for kind in self._kinds])
 
     def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,

@@ -11,12 +11,15 @@ its file and line before the fit.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any, Protocol
 
 import numpy as np
 
 from ...calibration import Calibration
+from ...errormodels import ErrorModel
 from ...exceptions import AssemblyError, IdentificationError, InputError, PoorFitError
 from ...geometry import DeltaGeometry, Tolerances
+from ...identification.result import IdentificationResult
 from ...io import save_calibration
 from ...io.tables import data_row
 from ...kinematics import exact
@@ -69,28 +72,14 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
                         firmware.step_distance_keys)
     firmware.check_same_printer(firmware.nominal(printer), values, str(request.nominal),
                                 str(request.controller))
-    assert request.probe_offset is not None
-    files = _read(paths, values, printer, request.sigma_height, float(request.probe_offset[2]))
-    data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=request.probe_offset,
-                               height_sigma=request.sigma_height, distance_sigma=request.sigma_distance,
-                               trigger_height=files.trigger)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence",
                                 workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit,
                                 calibrated_start=firmware.calibrated_from_saved(request.controller))
     start = printer.geometry()
-    _check_assembled(start, data, files, printer.name)
-    found = None
-    if not request.accept_poor_fit:
-        found = printer_outliers(start, data, model, options)
-        if found.indices.size:
-            raise _outlier_error(found, data, files)
-    try:
-        result = identify_printer(start, data, model, options=options)
-    except PoorFitError as exc:
-        raise IdentificationError(f"{_dominant(exc.result, data, files)}: {exc}{_single(found, files)}; "
-                                  "nothing written (--accept-poor-fit keeps such a fit)") from None
+    result, data, files = identified_prints(request, start, model, options,
+                                            Commanded(values, printer.step_distance), printer.name)
     save_calibration(replace(Calibration.from_result(result), controller=config.record(),
                              measured=measured_record(data, options, result.tolerance_scale)), request.output)
     if result.outliers:
@@ -107,6 +96,57 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
         owner = (*owner, _heights_would_add(start, data, values, printer))
     return Done((*off, *owner, *where, "\nThe engineer's part:", result.report(),
                  f"\nwrote {request.output}"))
+
+
+class Inverse(Protocol):
+    """A firmware's inverse model: the readings it commands for nozzle targets in its frame."""
+
+    def inverse(self, targets: np.ndarray, step_distance: Any, check: bool = True) -> np.ndarray:
+        """The readings, (N, 3), for targets [mm], (N, 3)."""
+
+
+@dataclass(frozen=True)
+class Commanded:
+    """How commanded positions become the readings a firmware commanded: its model, the step distance counted.
+
+    Attributes:
+        firmware: The firmware's model (``inverse(targets, step_distance, check)``; a rotary printer's
+            ignores the step distance: its readings are angles).
+        step_distance: The nominal step distance the readings count in [mm] (a rotary printer's: unused).
+    """
+
+    firmware: Inverse
+    step_distance: np.ndarray | float = 1.0
+
+
+def identified_prints(request: IdentifyRequest, start: DeltaGeometry, model: str | ErrorModel,
+                      options: PrinterFitOptions, commanded: Commanded, name: str
+                      ) -> tuple[IdentificationResult, PrinterMeasurements, MeasuredFiles]:
+    """A printer's measurement files read through its firmware, checked, and identified from ``start``.
+
+    Raises:
+        InputError: a row the nominal printer cannot assemble, or one that does not fit the others
+            (by file and line).
+        IdentificationError: a poor fit (the file holding most of its misfit named).
+    """
+    assert request.probe_offset is not None
+    paths = [str(p) for p in request.measurements]
+    files = _read(paths, commanded, request.sigma_height, float(request.probe_offset[2]))
+    data = PrinterMeasurements(files.probe, files.pairs, files.distance, probe_offset=request.probe_offset,
+                               height_sigma=request.sigma_height, distance_sigma=request.sigma_distance,
+                               trigger_height=files.trigger)
+    _check_assembled(start, data, files, name)
+    found = None
+    if not request.accept_poor_fit:
+        found = printer_outliers(start, data, model, options)
+        if found.indices.size:
+            raise _outlier_error(found, data, files)
+    try:
+        result = identify_printer(start, data, model, options=options)
+    except PoorFitError as exc:
+        raise IdentificationError(f"{_dominant(exc.result, data, files)}: {exc}{_single(found, files)}; "
+                                  "nothing written (--accept-poor-fit keeps such a fit)") from None
+    return result, data, files
 
 
 def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmware, request: IdentifyRequest
@@ -142,7 +182,7 @@ def _heights_would_add(start: DeltaGeometry, data: PrinterMeasurements, firmware
 
 
 @dataclass(frozen=True)
-class _Files:
+class MeasuredFiles:
     """A printer's measurements as read, with where each came from."""
 
     probe: np.ndarray  # readings [mm], (N, 3)
@@ -163,10 +203,9 @@ class _Files:
         return ": ".join(self.place(k))
 
 
-def _read(paths: list[str], firmware: FirmwareModel, printer: NominalLinearDelta, height_sigma: float,
-          probe_drop: float) -> _Files:
+def _read(paths: list[str], commanded_by: Commanded, height_sigma: float, probe_drop: float) -> MeasuredFiles:
     """Readings of the probe heights (the first file, unless all are distances) and of the printed pairs."""
-    step_distance = printer.step_distance
+    firmware, step_distance = commanded_by.firmware, commanded_by.step_distance
     probe_file = paths[0] if _heights_given(paths[0], paths[1:]) else None
     distance_files = paths[1:] if probe_file is not None else paths
     probe, commanded, trigger = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
@@ -185,7 +224,8 @@ def _read(paths: list[str], firmware: FirmwareModel, printer: NominalLinearDelta
         pairs.append(both.reshape(-1, 2, 3))
         distance.append(printed.distance)
         sources += [(path, int(n)) for n in printed.lines]
-    return _Files(probe, np.concatenate(pairs), np.concatenate(distance), commanded[:, 2], trigger, sources)
+    return MeasuredFiles(probe, np.concatenate(pairs), np.concatenate(distance), commanded[:, 2], trigger,
+                         sources)
 
 
 def _heights_given(probe_file: str, distance_files: list[str]) -> bool:
@@ -244,7 +284,7 @@ def _check_heights(z: np.ndarray, lines: np.ndarray, source: str, sigma: float, 
                      f"lines {int(lines[0])}-{int(lines[-1])}, column z_mm")
 
 
-def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.ndarray | float, source: str,
+def _readings(firmware: Inverse, commanded: np.ndarray, step_distance: np.ndarray | float, source: str,
               lines: np.ndarray) -> np.ndarray:
     """The readings the firmware commanded for positions; a position it cannot reach is named by line."""
     readings = firmware.inverse(commanded, step_distance, check=False)
@@ -256,7 +296,8 @@ def _readings(firmware: FirmwareModel, commanded: np.ndarray, step_distance: np.
     return readings
 
 
-def _check_assembled(start: DeltaGeometry, data: PrinterMeasurements, files: _Files, name: str) -> None:
+def _check_assembled(start: DeltaGeometry, data: PrinterMeasurements, files: MeasuredFiles,
+                     name: str) -> None:
     """Refuse, by file and line, the first measurement the nominal printer cannot assemble."""
     chain, N = start.chain, data.probe.shape[0]
     for offset, readings, per in ((0, data.probe, 1), (N, data.pairs.reshape(-1, 3), 2)):
@@ -274,7 +315,7 @@ def _check_assembled(start: DeltaGeometry, data: PrinterMeasurements, files: _Fi
                              *files.place(offset + i // per)) from None
 
 
-def _outlier_error(found: Outliers, data: PrinterMeasurements, files: _Files) -> InputError:
+def _outlier_error(found: Outliers, data: PrinterMeasurements, files: MeasuredFiles) -> InputError:
     """The first measurement that does not fit the others, in one line: where, its value and the fit's."""
     N = data.probe.shape[0]
     k = int(found.indices[0])
@@ -294,7 +335,7 @@ def _outlier_error(found: Outliers, data: PrinterMeasurements, files: _Files) ->
                       files.sources[k][0], f"{files.place(k)[1]}, column {column}")
 
 
-def _dominant(result, data: PrinterMeasurements, files: _Files) -> str:
+def _dominant(result, data: PrinterMeasurements, files: MeasuredFiles) -> str:
     """The file whose rows hold the most of a fit's misfit (χ² in units of each row's σ), and its share."""
     residual = np.asarray(result.residual_after, dtype=float)
     N, M = data.probe.shape[0], data.distance.shape[0]
@@ -309,7 +350,7 @@ def _dominant(result, data: PrinterMeasurements, files: _Files) -> str:
     return f"{name} (its rows hold {100.0 * share[name] / total:.0f} % of the misfit)" if total > 0 else name
 
 
-def _single(found: Outliers | None, files: _Files) -> str:
+def _single(found: Outliers | None, files: MeasuredFiles) -> str:
     """What one measurement's error would explain of a poor fit, in clauses ("" when nothing).
 
     Several measurements any one of which, left out, leaves the others at their noise (the others

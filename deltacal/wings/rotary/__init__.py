@@ -23,6 +23,7 @@ from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportReques
 from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
 from .plan import plan_poses
+from .printing import identify_rotary_printer
 from .simulate import simulate_rotary
 
 
@@ -54,7 +55,13 @@ class RotaryWing(Wing):
         return simulate_rotary(request, self._robot(request.nominal, robot))
 
     def identify(self, request: IdentifyRequest, robot: Robot | None = None) -> Done:
-        """The geometry from one measurements CSV (:func:`.identify.identify_rotary`)."""
+        """The geometry from one measurements CSV (:func:`.identify.identify_rotary`), or a printer's.
+
+        Given the firmware's configuration (``--controller``): a rotary printer's, from its probe heights
+        and printed distances (:func:`.printing.identify_rotary_printer`).
+        """
+        if request.controller is not None:
+            return identify_rotary_printer(request, self._robot(request.nominal, robot))
         return identify_rotary(request, self._robot(request.nominal, robot))
 
     def export_controller(self, request: ExportRequest, calibration: Calibration) -> Done:

@@ -1,0 +1,93 @@
+"""A rotary Delta printer's identification: its probe heights and printed distances, through its firmware.
+
+A rotary robot file imported from a firmware's configuration (``deltacal import rotary.cfg``: Klipper's
+``rotary_delta``) is a printer when ``identify`` is given that configuration (``--controller``): its
+measurements are ``plan --object``'s files, of commanded positions in the firmware's frame (its bed,
+z = 0), turned into the arms' readings through the firmware's own rotary model; the complete rotary
+model with each arm's step scale (``rotary_printer``) is identified on the true bed from the nominal
+robot moved into that frame, with a rotary printer kit's tolerances
+(:meth:`~deltacal.geometry.Tolerances.rotary_printer_kit`) scaled by the evidence, as a linear printer's
+(:func:`~deltacal.wings.printer.identify.identified_prints`: the same files, checks and refusals). The
+calibration is written in the robot file's frame {O}, as a rotary robot's; where it holds stays in the
+firmware's frame, where ``compensate`` puts it again (:class:`~deltacal.printer.firmware.config_file.
+RotaryFirmwareConfig`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ...calibration import Calibration
+from ...exceptions import InputError
+from ...geometry import NominalDelta, Tolerances, Workspace
+from ...io import save_calibration
+from ...printer.firmware.config_file import RotaryFirmwareConfig, settings_read, told_firmware
+from ...printer.firmware.controller import RotaryFirmwareController
+from ...printer.identification.fit import PrinterFitOptions
+from ...printer.identification.where import holds_in_words
+from ..base import Done, check_files, warn
+from ..printer.identify import Commanded, identified_prints
+from ..requests import IdentifyRequest
+
+
+@dataclass(frozen=True)
+class _Angles:
+    """A rotary firmware's inverse as a printer's identification asks it (no step distance: angles)."""
+
+    rotary: RotaryFirmwareController
+
+    def inverse(self, targets: np.ndarray, step_distance: Any = None, check: bool = True) -> np.ndarray:
+        """The arms' readings [rad] the firmware commands for nozzle targets in its frame, (N, 3)."""
+        return self.rotary.inverse(targets, check=check)
+
+
+def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> Done:
+    """``deltacal identify`` of a rotary Delta printer: the calibration file written, the report said.
+
+    Raises:
+        InputError: a linear Delta's configuration, or the measurements' own refusals (by file and line).
+    """
+    model = request.printer_model("rotary_printer")
+    assert request.controller is not None
+    check_files([request.nominal, request.controller, *map(str, request.measurements)], request.output)
+    firmware = told_firmware(request.controller, request.firmware)
+    config = settings_read(firmware, request.controller)
+    if not isinstance(config, RotaryFirmwareConfig):
+        raise InputError(f"a linear Delta printer's settings, and {request.nominal} is a rotary Delta's "
+                         "robot file: give the rotary configuration it was imported from",
+                         str(request.controller))
+    rotary = config.rotary
+    robot = nominal.geometry()
+    lift = rotary.bed_height(robot)
+    start = rotary.in_bed_frame(robot)
+    ws = nominal.workspace
+    volume = None if ws is None else Workspace(ws.radius, ws.height, ws.top_z + lift)
+    options = PrinterFitOptions(method="linear" if request.linear else "iterated",
+                                tolerances=Tolerances.rotary_printer_kit(),
+                                tolerance_scale=request.tolerance_scale or "evidence", workspace=volume,
+                                accept_poor_fit=request.accept_poor_fit)
+    result, _, files = identified_prints(request, start, model, options, Commanded(_Angles(rotary)),
+                                         nominal.name)
+    down = np.array([0.0, 0.0, -lift])
+    calibration = Calibration.from_result(result)
+    holds = calibration.holds
+    if holds is not None and holds.along_bed is not None:
+        holds = replace(holds, along_bed=holds.along_bed.moved_rigidly(np.eye(3), down))
+    calibration = replace(calibration, geometry=calibration.geometry.moved_rigidly(np.eye(3), down),
+                          nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds)
+    save_calibration(calibration, request.output)
+    if result.outliers:
+        warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "
+              "remove it and identify again" for k in result.outliers])
+    where = () if result.holds is None else (f"where it holds: {holds_in_words(result.holds)}",)
+    step = (f"next: deltacal compensate {request.output} PART.gcode --controller {request.controller} "
+            f"corrects every move through {firmware.title}'s rotary model, where the calibration holds; "
+            f"deltacal export {request.output} --controller {firmware.name} --config {request.controller} -o "
+            f"{firmware.export_file} writes its values")
+    return Done((f"{request.nominal}: a rotary Delta printer measured through {request.controller}'s "
+                 f"{firmware.title} rotary model; identified in its frame (bed z = 0, {lift:g} mm below the "
+                 "robot file's {O})", *where, step, "\nThe engineer's part:", result.report(),
+                 f"\nwrote {request.output}"))

@@ -1,0 +1,123 @@
+"""A rotary Delta printer through the command line: ``import`` of Klipper's rotary configuration, ``identify``
+of its probe heights and printed distances (``--controller``), ``compensate`` through Klipper's rotary model.
+
+The truth: Klipper's example rotary printer (imported, in the bed frame) with a rotary printer kit's errors,
+the arms' gear ratios too, measured as Klipper measures (:mod:`deltacal.printer.rotary_simulation`) at the
+probe points and the object's pairs that ``tests/test_rotary_printer_identification.py`` plans.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from deltacal.calibration import Calibration
+from deltacal.cli import main
+from deltacal.controller import corrected_targets
+from deltacal.geometry import Tolerances, Workspace
+from deltacal.io import load_calibration
+from deltacal.io.robot import load_nominal
+from deltacal.printer.files.measurements import write_printed_distances, write_probe_heights
+from deltacal.printer.firmware import firmware_named
+from deltacal.printer.firmware.config_file import RotaryFirmwareConfig
+from deltacal.printer.firmware.klipper.config import read_klipper_config
+from deltacal.printer.firmware.klipper.rotary_calibrate import klipper_rotary_extended
+from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
+from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryController
+from deltacal.printer.identification.errormodels import RotaryPrinterModel
+from deltacal.printer.identification.fit import PrinterFitOptions, PrinterMeasurements, identify_printer
+from deltacal.printer.robot import less_bed_motion
+from deltacal.printer.rotary_simulation import RotaryPrinter, nozzle_errors, printed_distances, probe_triggers
+from tests.test_klipper_rotary import EXAMPLE
+from tests.test_klipper_rotary_compensate import MEASURED
+from tests.test_rotary_printer_identification import VOLUME, _plan
+
+
+@pytest.fixture(scope="module")
+def route(tmp_path_factory):
+    """The example imported, a true printer measured, the files written and identified through the CLI."""
+    folder = tmp_path_factory.mktemp("rotary-route")
+    assert main(["import", str(EXAMPLE), "-o", str(folder / "imp"), *MEASURED]) == 0
+    robot = folder / "imp" / "printer.toml"
+    k = rotary_from_config(read_klipper_config(EXAMPLE))
+    controller = KlipperRotaryController(k)
+    nominal = controller.in_bed_frame(load_nominal(robot).geometry())
+    tolerances = Tolerances.rotary_printer_kit()
+    rng = np.random.default_rng(4801)
+    truth = nominal.perturbed(tolerances, rng)
+    printer = RotaryPrinter(replace(truth, joint_scale=1.0 + rng.normal(0.0, tolerances.joint_scale, 3)), k)
+    xy, pairs = _plan(k, nominal, tolerances)
+    probe = probe_triggers(printer, k, xy)
+    probe[:, 2] += rng.normal(0.0, 0.01, len(probe))
+    distances = np.round(printed_distances(printer, k, pairs) + rng.normal(0.0, 0.02, len(pairs)), 3)
+    write_probe_heights(folder / "probe.csv", probe[:, :2], probe[:, 2])
+    write_printed_distances(folder / "distances.csv", pairs, distances)
+    cal = folder / "cal.toml"
+    code = main(["identify", str(robot), str(folder / "probe.csv"), str(folder / "distances.csv"),
+                 "--controller", str(EXAMPLE), "-o", str(cal)])
+    assert code == 0
+    return {"folder": folder, "robot": robot, "k": k, "controller": controller, "nominal": nominal,
+            "printer": printer, "probe": probe, "pairs": pairs, "distances": distances, "cal": cal}
+
+
+@pytest.mark.slow
+def test_identify_through_the_cli_is_the_library_fit(route):
+    """The calibration the CLI writes (in the robot file's {O}) is the library's fit of the same data in
+    Klipper's frame moved down by the bed's height, where it holds kept: the commands compensate's
+    calibration gives equal the library's within 1e-6 mm."""
+    k, controller, printer = route["k"], route["controller"], route["printer"]
+    probe, pairs = route["probe"], route["pairs"]
+    data = PrinterMeasurements(printer.readings(k, probe), np.stack(
+        [printer.readings(k, pairs[:, :3]), printer.readings(k, pairs[:, 3:])], axis=1), route["distances"])
+    ours = load_calibration(route["cal"])
+    assert ours.model.name == "rotary_printer" and ours.holds is not None
+    robot = load_nominal(route["robot"])
+    lift = controller.bed_height(robot.geometry())
+    assert robot.workspace is not None
+    ws = robot.workspace  # the robot file's printable cylinder, in Klipper's frame
+    options = PrinterFitOptions(tolerances=Tolerances.rotary_printer_kit(),
+                                workspace=Workspace(ws.radius, ws.height, ws.top_z + lift))
+    library = identify_printer(route["nominal"], data, RotaryPrinterModel(), options=options)
+    expected = corrected_targets(Calibration.from_result(library), controller, VOLUME).commands
+    klipper = firmware_named("klipper")
+    assert klipper is not None
+    moved, _ = RotaryFirmwareConfig(klipper, controller, str(EXAMPLE)).anchor(ours, "cal")
+    got = corrected_targets(moved, controller, VOLUME).commands
+    assert np.max(np.abs(got - expected)) < 1e-6
+
+
+@pytest.mark.long
+@pytest.mark.slow
+def test_compensate_through_the_cli_beats_klippers_extended_calibration(route, tmp_path, capsys):
+    """``compensate CAL targets.csv --controller rotary.cfg``: the true nozzle at the commands, less the
+    motion along the bed no measurement sees, within a third of Klipper's extended calibration's 3-D max on
+    the same data; the part not moved along the bed (the commands' mean shift over the first layer)."""
+    k, printer = route["k"], route["printer"]
+    np.savetxt(tmp_path / "t.csv", VOLUME, delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    assert main(["compensate", str(route["cal"]), str(tmp_path / "t.csv"), "--controller", str(EXAMPLE),
+                 "-o", str(tmp_path / "out.csv")]) == 0
+    capsys.readouterr()
+    out = np.genfromtxt(tmp_path / "out.csv", delimiter=",", names=True)
+    commands = np.column_stack([out["x_cmd_mm"], out["y_cmd_mm"], out["z_cmd_mm"]])
+    ours = printer.nozzle(k, commands) - VOLUME
+    extended = nozzle_errors(printer, klipper_rotary_extended(k, route["probe"], route["pairs"],
+                                                              route["distances"]), VOLUME)
+    less = [float(np.max(np.linalg.norm(less_bed_motion(VOLUME, e)[0], axis=1))) for e in (ours, extended)]
+    assert less[0] <= less[1] / 3.0, less
+    first = np.isclose(VOLUME[:, 2], VOLUME[:, 2].min())
+    assert np.linalg.norm(np.mean(commands[first, :2] - VOLUME[first, :2], axis=0)) < 0.05
+
+
+def test_a_linear_printer_cfg_for_a_rotary_robot_file_is_refused(tmp_path, capsys):
+    """One line naming the configuration, nothing written."""
+    assert main(["import", str(EXAMPLE), "-o", str(tmp_path / "imp"), *MEASURED]) == 0
+    write_probe_heights(tmp_path / "probe.csv", np.zeros((7, 2)), np.zeros(7))
+    linear = EXAMPLE.parents[1] / "example-delta.cfg"
+    capsys.readouterr()
+    assert main(["identify", str(tmp_path / "imp" / "printer.toml"), str(tmp_path / "probe.csv"),
+                 "--controller", str(linear), "-o", str(tmp_path / "cal.toml")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "example-delta.cfg" in err and "rotary" in err, err
+    assert not (tmp_path / "cal.toml").exists()
