@@ -8,6 +8,7 @@ probe points and the object's pairs that ``tests/test_rotary_printer_identificat
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -29,6 +30,7 @@ from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryCon
 from deltacal.printer.identification.errormodels import RotaryPrinterModel
 from deltacal.printer.identification.fit import PrinterFitOptions, PrinterMeasurements, identify_printer
 from deltacal.printer.robot import less_bed_motion
+from deltacal.printer.rotary_owner import arm_errors, rotary_owner_lines
 from deltacal.printer.rotary_simulation import RotaryPrinter, nozzle_errors, printed_distances, probe_triggers
 from tests.test_klipper_rotary import EXAMPLE
 from tests.test_klipper_rotary_compensate import MEASURED
@@ -121,3 +123,36 @@ def test_a_linear_printer_cfg_for_a_rotary_robot_file_is_refused(tmp_path, capsy
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "example-delta.cfg" in err and "rotary" in err, err
     assert not (tmp_path / "cal.toml").exists()
+
+
+@pytest.mark.slow
+def test_the_owners_words_name_each_arm_and_find_the_true_gear_ratios(route):
+    """Arm by arm in Klipper's keys; each arm's gear ratio error, where determined, within 3 σ of the truth's
+    (the arms' step scales the simulated printer was given); the arms' endstops within 3 σ of the truth's
+    encoder offsets."""
+    calibration = load_calibration(route["cal"])
+    lines = rotary_owner_lines(calibration)
+    for arm in "ABC":
+        key = f"[stepper_{arm.lower()}] position_endstop"
+        assert any(line.startswith(f"  arm {arm}: endstop") and key in line for line in lines), lines
+    truth, nominal = route["printer"].geometry, route["nominal"]
+    found = arm_errors(calibration)
+    for i, arm in enumerate(found):
+        ratio, _ = arm["gear ratio"]
+        assert ratio.determined
+        assert abs(ratio.value - 100.0 * (truth.joint_scale[i] - 1.0)) <= 3.0 * ratio.sigma, (i, ratio)
+        endstop, _ = arm["endstop"]
+        offset = math.degrees(truth.encoder_offset[i] - nominal.encoder_offset[i])
+        assert endstop.determined and abs(endstop.value - offset) <= 3.0 * endstop.sigma, (i, endstop, offset)
+
+
+@pytest.mark.slow
+def test_the_report_speaks_of_arms_and_shoulders(route, tmp_path):
+    """``report CAL`` of a rotary printer's calibration: the owner's part, arm by arm in Klipper's keys, and
+    where it holds, before the engineer's part."""
+    page = tmp_path / "r.html"
+    assert main(["report", str(route["cal"]), "-o", str(page), "--no-view"]) == 0
+    text = page.read_text()
+    first = text.index("arm A: endstop")
+    assert "[stepper_a] position_endstop" in text and "[stepper_c] gear_ratio" in text
+    assert "where it holds" in text[first:] and first < text.index("base parameters")

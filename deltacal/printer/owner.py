@@ -238,16 +238,7 @@ def owner_quantities(calibration: Calibration, tolerances: Tolerances | None = N
         ValueError: the calibration is not of the complete printer model.
     """
     model = PrinterModel()
-    index = {p.name: k for k, p in enumerate(calibration.base)}
-    missing = [n for n in model.names if n not in index]
-    if missing:
-        raise ValueError(f"a printer's errors need every parameter of the 'printer' model; {missing[0]} is "
-                         f"not in the calibration (model {calibration.model.name!r})")
-    order = [index[n] for n in model.names]
-    where = {k: j for j, k in enumerate(calibration.robot_index)}
-    picked = [where[k] for k in order]
-    cov = calibration.covariance()[np.ix_(picked, picked)]
-    value = np.array([calibration.base[k].value for k in order])
+    value, cov = model_parameters(calibration, model.names, "printer")
     prior = model.prior_sigma(tolerances or Tolerances.printer_kit())
     rows, units = _quantity_rows(calibration, model)
     noise = cov
@@ -257,6 +248,25 @@ def owner_quantities(calibration: Calibration, tolerances: Tolerances | None = N
         noise = cov - half.T @ half
     return OwnerQuantities(rows, units, rows @ value, rows @ cov @ rows.T,
                            np.sqrt(np.einsum("ij,j,ij->i", rows, prior**2, rows)), rows @ noise @ rows.T)
+
+
+def model_parameters(calibration: Calibration, names: Sequence[str],
+                     model: str) -> tuple[np.ndarray, np.ndarray]:
+    """The calibration's values of the parameters ``names`` (model ``model``'s order) and their covariance.
+
+    Raises:
+        ValueError: a parameter the calibration does not hold (another model, or regrouped).
+    """
+    index = {p.name: k for k, p in enumerate(calibration.base)}
+    missing = [n for n in names if n not in index]
+    if missing:
+        raise ValueError(f"a printer's errors need every parameter of the {model!r} model; {missing[0]} is "
+                         f"not in the calibration (model {calibration.model.name!r})")
+    order = [index[n] for n in names]
+    where = {k: j for j, k in enumerate(calibration.robot_index)}
+    picked = [where[k] for k in order]
+    values = np.array([calibration.base[k].value for k in order])
+    return values, calibration.covariance()[np.ix_(picked, picked)]
 
 
 def _quantity_rows(calibration: Calibration, model: PrinterModel) -> tuple[np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ from ..printer.firmware import firmwares
 from ..printer.firmware.base import Firmware, FirmwareModel
 from ..printer.identification.where import holds_in_words
 from ..printer.owner import owner_lines, printer_errors
+from ..printer.rotary_owner import rotary_owner_lines
 from ..viz import DEFAULT_EXAGGERATION, build_scene, default_workspace, recording_visualizer, words
 from . import figures
 from .accuracy import (
@@ -166,6 +167,9 @@ def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None
     Then where the calibration holds (:func:`~deltacal.printer.identification.where.holds_in_words`),
     when it knows.
     """
+    where = [] if cal.holds is None else [f"  where it holds: {holds_in_words(cal.holds)}"]
+    if cal.model.name == "rotary_printer":  # a rotary printer's: arm by arm (Klipper's rotary_delta)
+        return [*rotary_owner_lines(cal, "Klipper" if firmware is None else firmware.title), *where]
     if not cal.geometry.chain.firmware or cal.model.name != "printer":
         return None
     if firmware is None:
@@ -175,7 +179,6 @@ def _owner(cal: Calibration, firmware: Firmware[Any] | None) -> list[str] | None
         errors = printer_errors(cal, names=keys.towers)
     except ValueError:  # a calibration that regrouped the model's parameters: the engineer's part alone
         return None
-    where = [] if cal.holds is None else [f"  where it holds: {holds_in_words(cal.holds)}"]
     return [*owner_lines(errors, keys, firmware.title), *where]
 
 

@@ -28,6 +28,7 @@ from ...printer.firmware.config_file import RotaryFirmwareConfig, settings_read,
 from ...printer.firmware.controller import RotaryFirmwareController
 from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
+from ...printer.rotary_owner import rotary_owner_lines
 from ..base import Done, check_files, warn
 from ..printer.identify import Commanded, identified_prints
 from ..requests import IdentifyRequest
@@ -87,7 +88,8 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
             f"corrects every move through {firmware.title}'s rotary model, where the calibration holds; "
             f"deltacal export {request.output} --controller {firmware.name} --config {request.controller} -o "
             f"{firmware.export_file} writes its values")
+    owner = rotary_owner_lines(calibration, firmware.title)
     return Done((f"{request.nominal}: a rotary Delta printer measured through {request.controller}'s "
                  f"{firmware.title} rotary model; identified in its frame (bed z = 0, {lift:g} mm below the "
-                 "robot file's {O})", *where, step, "\nThe engineer's part:", result.report(),
+                 "robot file's {O})", *owner, *where, step, "\nThe engineer's part:", result.report(),
                  f"\nwrote {request.output}"))
