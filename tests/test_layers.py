@@ -51,6 +51,7 @@ LAYERS = {
     "chains": 10,
     "rotations": 10,
     "towers": 10,  # values held per tower of a linear Delta
+    "tolerances": 10,  # the σ of a Delta's build errors: the priors' and the simulations' stuff
     "resources": 5,
     "options": 0,  # the options values' shared plumbing: imports nothing of deltacal
     "exceptions": 0,

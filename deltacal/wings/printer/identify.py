@@ -72,14 +72,14 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
                         firmware.step_distance_keys)
     firmware.check_same_printer(firmware.nominal(printer), values, str(request.nominal),
                                 str(request.controller))
+    start = printer.geometry()
+    data, files = read_prints(request, start, Commanded(values, printer.step_distance), printer.name)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence",
                                 workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit,
                                 calibrated_start=firmware.calibrated_from_saved(request.controller))
-    start = printer.geometry()
-    result, data, files = identified_prints(request, start, model, options,
-                                            Commanded(values, printer.step_distance), printer.name)
+    result = fit_prints(request, start, model, options, data, files)
     save_calibration(replace(Calibration.from_result(result), controller=config.record(),
                              measured=measured_record(data, options, result.tolerance_scale)), request.output)
     if result.outliers:
@@ -119,15 +119,12 @@ class Commanded:
     step_distance: np.ndarray | float = 1.0
 
 
-def identified_prints(request: IdentifyRequest, start: DeltaGeometry, model: str | ErrorModel,
-                      options: PrinterFitOptions, commanded: Commanded, name: str
-                      ) -> tuple[IdentificationResult, PrinterMeasurements, MeasuredFiles]:
-    """A printer's measurement files read through its firmware, checked, and identified from ``start``.
+def read_prints(request: IdentifyRequest, start: DeltaGeometry, commanded: Commanded,
+                name: str) -> tuple[PrinterMeasurements, MeasuredFiles]:
+    """A printer's measurement files read through its firmware, checked at ``start`` (the nominal ``name``).
 
     Raises:
-        InputError: a row the nominal printer cannot assemble, or one that does not fit the others
-            (by file and line).
-        IdentificationError: a poor fit (the file holding most of its misfit named).
+        InputError: a row read wrong, or one the nominal printer cannot assemble (by file and line).
     """
     assert request.probe_offset is not None
     paths = [str(p) for p in request.measurements]
@@ -136,17 +133,28 @@ def identified_prints(request: IdentifyRequest, start: DeltaGeometry, model: str
                                height_sigma=request.sigma_height, distance_sigma=request.sigma_distance,
                                trigger_height=files.trigger)
     _check_assembled(start, data, files, name)
+    return data, files
+
+
+def fit_prints(request: IdentifyRequest, start: DeltaGeometry, model: str | ErrorModel,
+               options: PrinterFitOptions, data: PrinterMeasurements, files: MeasuredFiles
+               ) -> IdentificationResult:
+    """A printer's measurements (:func:`read_prints`) identified from ``start``; a misfit row refused.
+
+    Raises:
+        InputError: a row that does not fit the others (by file and line).
+        IdentificationError: a poor fit (the file holding most of its misfit named).
+    """
     found = None
     if not request.accept_poor_fit:
         found = printer_outliers(start, data, model, options)
         if found.indices.size:
             raise _outlier_error(found, data, files)
     try:
-        result = identify_printer(start, data, model, options=options)
+        return identify_printer(start, data, model, options=options)
     except PoorFitError as exc:
         raise IdentificationError(f"{_dominant(exc.result, data, files)}: {exc}{_single(found, files)}; "
                                   "nothing written (--accept-poor-fit keeps such a fit)") from None
-    return result, data, files
 
 
 def _owner_part(result, start: DeltaGeometry, data: PrinterMeasurements, firmware, request: IdentifyRequest

@@ -7,10 +7,10 @@ z = 0), turned into the arms' readings through the firmware's own rotary model; 
 model with each arm's step scale (``rotary_printer``) is identified on the true bed from the nominal
 robot moved into that frame, with a rotary printer kit's tolerances
 (:meth:`~deltacal.geometry.Tolerances.rotary_printer_kit`) scaled by the evidence, as a linear printer's
-(:func:`~deltacal.wings.printer.identify.identified_prints`: the same files, checks and refusals). The
-calibration is written in the robot file's frame {O}, as a rotary robot's; where it holds stays in the
-firmware's frame, where ``compensate`` puts it again (:class:`~deltacal.printer.firmware.config_file.
-RotaryFirmwareConfig`).
+(:func:`~deltacal.wings.printer.identify.read_prints` and ``fit_prints``: the same files, checks
+and refusals). The calibration is written in the robot file's frame {O}, as a rotary robot's; where it
+holds stays in the firmware's frame, where ``compensate`` puts it again
+(:class:`~deltacal.printer.firmware.config_file.RotaryFirmwareConfig`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
 from ...printer.rotary_owner import rotary_owner_lines
 from ..base import Done, check_files, warn
-from ..printer.identify import Commanded, identified_prints
+from ..printer.identify import Commanded, fit_prints, read_prints
 from ..requests import IdentifyRequest
 
 
@@ -70,8 +70,8 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
                                 tolerances=Tolerances.rotary_printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence", workspace=volume,
                                 accept_poor_fit=request.accept_poor_fit)
-    result, _, files = identified_prints(request, start, model, options, Commanded(_Angles(rotary)),
-                                         nominal.name)
+    data, files = read_prints(request, start, Commanded(_Angles(rotary)), nominal.name)
+    result = fit_prints(request, start, model, options, data, files)
     down = np.array([0.0, 0.0, -lift])
     calibration = Calibration.from_result(result)
     holds = calibration.holds
