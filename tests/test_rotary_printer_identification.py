@@ -73,6 +73,17 @@ def _plan(k, nominal, tolerances) -> tuple[np.ndarray, np.ndarray]:
     return probe[:, :2], ends[chosen].reshape(-1, 6)
 
 
+def test_the_planned_object_and_probe_points_are_within_klippers_reach():
+    """The probe grid inside the object's printable radius, the 40 pairs' ends all commandable through
+    Klipper's rotary limits (its check_move), no pair repeated."""
+    k, _ = _nominal()
+    xy, pairs = _planned(KIT)
+    assert len(xy) == 49 and np.max(np.hypot(xy[:, 0], xy[:, 1])) <= OBJECT.radius
+    ends = pairs.reshape(-1, 3)
+    assert pairs.shape == (40, 6) and np.all(k.outside(ends) == 0)
+    assert len({tuple(np.round(p, 6)) for p in pairs}) == 40
+
+
 @functools.cache
 def _planned(tolerances: Tolerances) -> tuple[np.ndarray, np.ndarray]:
     """The probe points and the object's pairs planned for a class of printers (one plan per class)."""
