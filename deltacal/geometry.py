@@ -251,6 +251,23 @@ class Tolerances:
         )
 
     @classmethod
+    def rotary_printer_kit(cls) -> Tolerances:
+        """Errors of a typical rotary Delta printer kit: the prior of a rotary printer's identification.
+
+        The rotary robot's shoulders (axes placed to 0.2 mm, tilted 0.1 deg), balls to 0.05 mm and
+        rods to 0.1 mm as a linear printer kit's, the arms' endstop angles to 0.3 deg and their gear
+        ratios (step angles) to 0.2 %.
+        """
+        return cls(
+            ball_centre=0.05,
+            rod_length=0.1,
+            axis_position=0.2,
+            axis_direction=math.radians(0.1),
+            encoder_offset=math.radians(0.3),
+            joint_scale=0.002,
+        )
+
+    @classmethod
     def bai2015(cls) -> Tolerances:
         """Errors of the size Bai et al. identified on their prototype (Tables 2-4).
 

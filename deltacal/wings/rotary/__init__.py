@@ -23,6 +23,7 @@ from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportReques
 from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
 from .plan import plan_poses
+from .printed import plan_rotary_object
 from .simulate import simulate_rotary
 
 
@@ -43,10 +44,12 @@ class RotaryWing(Wing):
 
     def plan(self, request: PlanRequest, robot: Robot | None = None,
              notify: Callable[[str], None] | None = None) -> Done:
-        """Measurement poses (:func:`.plan.plan_poses`); ``--object`` is a printer's."""
+        """Measurement poses (:func:`.plan.plan_poses`), or (``--object``) a rotary printer's object.
+
+        The object through the firmware's configuration: :func:`.printed.plan_rotary_object`.
+        """
         if request.object:
-            raise UsageError(f"{request.nominal}: --object plans a linear Delta printer's object; this robot "
-                             "file is a rotary Delta's (kind = 'linear' for a printer)")
+            return plan_rotary_object(request, self._robot(request.nominal, robot))
         return plan_poses(request, self._robot(request.nominal, robot), notify)
 
     def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
