@@ -24,6 +24,7 @@ from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
 from .plan import plan_poses
 from .printed import plan_rotary_object
+from .printer_simulate import simulate_rotary_prints
 from .simulate import simulate_rotary
 
 
@@ -53,7 +54,13 @@ class RotaryWing(Wing):
         return plan_poses(request, self._robot(request.nominal, robot), notify)
 
     def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
-        """A tracker's measurements (:func:`.simulate.simulate_rotary`)."""
+        """A tracker's measurements (:func:`.simulate.simulate_rotary`), or a printer's (``--controller``).
+
+        A firmware's configuration given: ``plan --object``'s templates filled through it
+        (:func:`.printer_simulate.simulate_rotary_prints`).
+        """
+        if request.controller is not None:
+            return simulate_rotary_prints(request, self._robot(request.nominal, robot))
         return simulate_rotary(request, self._robot(request.nominal, robot))
 
     def identify(self, request: IdentifyRequest, robot: Robot | None = None) -> Done:
