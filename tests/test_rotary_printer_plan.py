@@ -1,10 +1,11 @@
-"""``plan --object`` and ``simulate`` of a rotary Delta printer (issue 48, deliver 2), through ``deltacal.cli.main``.
+"""``plan --object`` and ``simulate`` of a rotary Delta printer (issue 48, deliver 2), through the CLI's main.
 
 Klipper's example-rotary-delta.cfg imported (its robot file in {O}, the shoulders' centre), its
 ``[workspace]`` radius widened from its ``[delta_calibrate] radius`` of 50 mm to 80 mm (the linear
 object's pads need more than 50 mm: the 50 mm one is refused, said), a ``[probe]`` added to a copy of the
 configuration for the probe program. The plan is in Klipper's bed frame (commanded coordinates); the
-simulation's truth, read back, gives the probe heights and distances of :mod:`deltacal.printer.rotary_simulation`.
+simulation's truth, read back, gives the probe heights and distances of
+:mod:`deltacal.printer.rotary_simulation`.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ def printer(tmp_path_factory):
     robot.write_text(text.replace("radius_mm = 50.0", "radius_mm = 80.0"))
     code = main(["plan", str(robot), "--object", "--controller", str(cfg), "-o", str(folder / "obj")])
     return {"folder": folder, "cfg": cfg, "robot": robot, "code": code,
-            "klipper": rotary_from_config(read_klipper_config(cfg)), "small": folder / "imported" / "printer.toml"}
+            "klipper": rotary_from_config(read_klipper_config(cfg)),
+            "small": folder / "imported" / "printer.toml"}
 
 
 @pytest.fixture(scope="module")
@@ -64,10 +66,10 @@ def simulated(printer):
 
 
 def test_plan_object_of_a_rotary_printer_writes_the_five_files_in_klippers_frame(printer):
-    """Before: refused ('--object plans a linear Delta printer's object'). Now the five files: the probe points
-    inside the printable radius at z = 0 (the bed's frame: commanded coordinates), every planned feature and
-    probe point reached within Klipper's rotary limits, the features standing on the bed (from z = 8 mm up,
-    not at the shoulders' {O} heights)."""
+    """Before: refused ('--object plans a linear Delta printer's object'). Now the five files: the probe
+    points inside the printable radius at z = 0 (the bed's frame: commanded coordinates), every planned
+    feature and probe point reached within Klipper's rotary limits, the features standing on the bed (from
+    z = 8 mm up, not at the shoulders' {O} heights)."""
     assert printer["code"] == 0
     obj = printer["folder"] / "obj"
     for name in FILES:
@@ -124,13 +126,13 @@ def test_simulate_of_a_rotary_printer_with_its_truth_given(printer, simulated, t
     assert main(["simulate", str(printer["robot"]), str(obj / "probe.csv"), "--controller",
                  str(printer["cfg"]), "-o", str(out), "--truth", str(simulated["truth"]),
                  "--sigma-height", "0"]) == 0
-    assert np.abs(read_probe_heights(out).commanded - read_probe_heights(simulated["probe"]).commanded).max() \
-        < 1e-12
+    again, first = read_probe_heights(out).commanded, read_probe_heights(simulated["probe"]).commanded
+    assert np.abs(again - first).max() < 1e-12
     assert not (tmp_path / "p.truth.toml").exists()
 
 
 def test_the_rotary_kit_tolerances_are_the_identification_tests():
-    """The prior of a rotary printer: its kit's tolerances (tests/test_rotary_printer_identification.py's KIT)."""
+    """The prior of a rotary printer: its kit's tolerances (test_rotary_printer_identification.py's KIT)."""
     from tests.test_rotary_printer_identification import KIT
 
     assert Tolerances.rotary_printer_kit() == KIT
