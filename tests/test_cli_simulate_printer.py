@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import copy_object_plan
+from conftest import copy_object_plan, kossel_printer_cfg
 
 from deltacal.cli.main import main
 from deltacal.geometry import Tolerances
@@ -99,8 +99,7 @@ def test_rotary_options_are_refused_for_a_printer(planned, tmp_path, capsys, fla
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize("flag", [["--controller", "printer.cfg"], ["--sigma-height", "0.1"],
-                                  ["--tolerances", "well-built"]])
+@pytest.mark.parametrize("flag", [["--sigma-height", "0.1"], ["--tolerances", "well-built"]])
 def test_printer_options_are_refused_for_a_rotary_robot(planned, tmp_path, capsys, flag):
     poses = tmp_path / "poses.csv"
     assert main(["plan", str(MODELS / "bai2015.toml"), "-o", str(poses)]) == 0
@@ -108,6 +107,19 @@ def test_printer_options_are_refused_for_a_rotary_robot(planned, tmp_path, capsy
     code = main(["simulate", str(MODELS / "bai2015.toml"), str(poses), "--perturb", "1",
                  "-o", str(tmp_path / "m.csv"), *flag])
     assert code == 2 and "applies to a printer's simulation" in _one_line_error(capsys)
+    assert not (tmp_path / "m.csv").exists()
+
+
+def test_a_linear_printers_configuration_is_refused_for_a_rotary_robot(planned, tmp_path, capsys):
+    """``--controller`` of a rotary robot file is a rotary printer's configuration (issue 48): a linear
+    printer's printer.cfg is refused, naming it, nothing written."""
+    poses = tmp_path / "poses.csv"
+    assert main(["plan", str(MODELS / "bai2015.toml"), "-o", str(poses)]) == 0
+    capsys.readouterr()
+    cfg = kossel_printer_cfg(tmp_path / "printer.cfg")
+    code = main(["simulate", str(MODELS / "bai2015.toml"), str(poses), "--perturb", "1",
+                 "-o", str(tmp_path / "m.csv"), "--controller", str(cfg)])
+    assert code == 2 and "not Klipper's configuration of a rotary Delta printer" in _one_line_error(capsys)
     assert not (tmp_path / "m.csv").exists()
 
 

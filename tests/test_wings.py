@@ -90,8 +90,13 @@ def test_the_kinds_own_refusals_come_from_its_wing(tmp_path):
         wings.identify(printer)
     with pytest.raises(UsageError, match="a printer's plan is the object it prints"):
         wings.plan(PlanRequest(KOSSEL, tmp_path / "poses.csv"))
-    with pytest.raises(UsageError, match="--controller applies to a printer's simulation"):
-        wings.simulate(SimulateRequest(ROBOT, ("p.csv",), tmp_path / "m.csv", perturb=1, controller="x.cfg"))
+    with pytest.raises(UsageError, match="--sigma-height applies to a printer's simulation"):
+        wings.simulate(SimulateRequest(ROBOT, ("p.csv",), tmp_path / "m.csv", perturb=1, sigma_height=0.1))
+    linear = kossel_printer_cfg(tmp_path / "printer.cfg")  # a rotary robot's --controller: a rotary printer's
+    probe = tmp_path / "p.csv"
+    probe.write_text("x_mm,y_mm,z_mm\n0,0,\n")
+    with pytest.raises(UsageError, match="not Klipper's configuration of a rotary Delta printer"):
+        wings.simulate(SimulateRequest(ROBOT, (probe,), tmp_path / "m.csv", perturb=1, controller=linear))
 
 
 def test_a_firmware_configuration_is_told_and_read_once(tmp_path, monkeypatch):

@@ -73,18 +73,28 @@ def _with_offset(geometry: DeltaGeometry, offset: np.ndarray) -> DeltaGeometry:
 
 
 def probe_triggers(printer: RotaryPrinter, config: KlipperRotaryDelta, xy: np.ndarray,
-                   max_iter: int = 30) -> np.ndarray:
+                   max_iter: int = 30, trigger_height: np.ndarray | None = None) -> np.ndarray:
     """Commanded nozzle positions at which the true nozzle touches the bed (z = 0) [mm], (N, 2) -> (N, 3).
+
+    Args:
+        printer: The true printer (its tool the point that triggers: the nozzle, or a probe's tip).
+        config: Klipper's values commanding it.
+        xy: Commanded x, y [mm], (N, 2).
+        max_iter: Secant iterations at most.
+        trigger_height: The nozzle's height above the bed at each trigger [mm], (N,) (None: 0, it
+            touches the bed; a paper test's: the paper's thickness).
 
     Raises:
         ConvergenceError: the secant on the commanded z did not converge.
     """
     xy = np.atleast_2d(np.asarray(xy, dtype=float))
+    goal = np.zeros(len(xy)) if trigger_height is None else np.asarray(trigger_height, float).reshape(-1)
 
     def height(z: np.ndarray) -> np.ndarray:
-        return printer.nozzle(config, np.column_stack([xy, z]))[:, 2]
+        return printer.nozzle(config, np.column_stack([xy, z]))[:, 2] - goal
 
-    z0, z1 = np.zeros(len(xy)), np.ones(len(xy))
+    z0 = goal.copy()
+    z1 = z0 + 1.0
     h0, h1 = height(z0), height(z1)
     for _ in range(max_iter):
         slope = np.where(z1 != z0, (h1 - h0) / np.where(z1 != z0, z1 - z0, 1.0), 1.0)

@@ -9,10 +9,13 @@ The probe heights' rows start the information; each step adds the pair that incr
 determinant most (``log(1 + wᵀ A⁻¹ w)``) among the pairs still possible: one feature per site
 (a pair fixes the level of its sites), and no printed feature in the way of a chosen pair.
 
-The rows come from a callable (:data:`RowsFunction`): by default the complete model of the
-printer (54 parameters, :func:`model_rows`), read through the firmware's inverse model of the
-commanded positions; :func:`geometric_rows` is a model-free stand-in (an affine distortion of the
-volume and its change with height) that prefers long pairs in several directions and heights.
+The printer is a :class:`~.target.PrinterToPlan` (a linear Delta printer and its firmware's values,
+or a rotary Delta printer and its firmware's rotary controller), everything in the bed's frame.
+The rows come from a callable (:data:`RowsFunction`): by default the printer's complete model
+(54 parameters: ``printer`` or ``rotary_printer``, :func:`model_rows`), read through the firmware's
+inverse model of the commanded positions; :func:`geometric_rows` is a model-free stand-in (an affine
+distortion of the volume and its change with height) that prefers long pairs in several directions and
+heights.
 Units: mm and rad.
 """
 
@@ -43,6 +46,7 @@ from .object import (
     object_mesh,
     probe_grid,
 )
+from .target import PrinterToPlan, printer_to_plan
 
 #: Rows of the probe heights and of candidate pairs: ``rows(probe (N, 3), pairs (P, 2, 3))`` ->
 #: ``(probe rows (N, n), pair rows (P, n))``, each in units of the parameters' prior σ and of the
@@ -109,23 +113,29 @@ class ObjectPlan:
         return [n for n in self.with_distances.base_names if n not in before]
 
 
-def model_rows(printer: NominalLinearDelta, firmware: FirmwareModel, model: str = "printer",
-               tolerances: Tolerances | None = None) -> RowsFunction:
-    """Rows of the complete model (or ``model``) at the nominal printer, read through the firmware.
+def model_rows(printer: NominalLinearDelta | PrinterToPlan, firmware: FirmwareModel | None = None,
+               model: str | None = None, tolerances: Tolerances | None = None) -> RowsFunction:
+    """Rows of the printer's complete model (or ``model``) at the nominal printer, read through the firmware.
 
     The commanded positions become readings through the firmware's inverse model (what the
     printer does when told to go there); the rows are the identification's
     (:func:`~deltacal.printer.identification.fit.residuals_and_regressor`), scaled by each
-    parameter's build tolerance (``model.prior_sigma``).
+    parameter's build tolerance (``model.prior_sigma``; by default the printer's).
+
+    Args:
+        printer: A linear printer's robot file (with ``firmware``), or a printer to plan for.
+        firmware: The linear printer's firmware values; None for a :class:`~.target.PrinterToPlan`.
+        model: The error model's name (default: the printer's, :attr:`~.target.PrinterToPlan.model`).
+        tolerances: The prior (default: the printer's).
     """
-    geometry = printer.geometry()
-    error_model = get_model(model)
-    prior = error_model.prior_sigma(tolerances or Tolerances.printer_kit())
-    step = printer.step_distance
+    target = printer_to_plan(printer, firmware)
+    geometry = target.geometry()
+    error_model = get_model(model or target.model)
+    prior = error_model.prior_sigma(tolerances or target.tolerances)
 
     def rows(probe: np.ndarray, pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        readings = firmware.inverse(probe, step)
-        ends = firmware.inverse(pairs.reshape(-1, 3), step).reshape(-1, 2, 3)
+        readings = target.readings(probe)
+        ends = target.readings(pairs.reshape(-1, 3)).reshape(-1, 2, 3)
         data = PrinterMeasurements(readings, ends, np.linalg.norm(pairs[:, 0] - pairs[:, 1], axis=1))
         _, W, kind = residuals_and_regressor(geometry, error_model, data)
         W = W * prior
@@ -216,8 +226,8 @@ def select_pairs(rows: np.ndarray, information: np.ndarray, count: int, layout: 
 
 
 def plan_object(
-    printer: NominalLinearDelta,
-    firmware: FirmwareModel,
+    printer: NominalLinearDelta | PrinterToPlan,
+    firmware: FirmwareModel | None = None,
     count: int | None = None,
     probe_count: int = 9,
     caliper: float = CALIPER_RANGE,
@@ -226,8 +236,10 @@ def plan_object(
     """Plan the probe grid, the printed object and the distances to measure on it.
 
     Args:
-        printer: The nominal printer (its robot file, with a ``[workspace]``).
-        firmware: The firmware's model (printer.cfg) the probing and the print are commanded with.
+        printer: The nominal linear printer (its robot file, with a ``[workspace]``), or a printer to
+            plan for (:class:`~.target.PrinterToPlan`: a rotary Delta printer's).
+        firmware: The linear printer's firmware model (printer.cfg) the probing and the print are
+            commanded with; None for a :class:`~.target.PrinterToPlan` (its own).
         count: Distances to measure (at most :data:`MAX_DISTANCES`); None: as many as the object
             offers to measure together, :data:`MAX_DISTANCES` at most.
         probe_count: Probe points across the bed (odd; Klipper's ``round_probe_count``: 7 keeps 29
@@ -239,13 +251,14 @@ def plan_object(
         PlanningError: no workspace, too many distances, a caliper too short (the message gives the
             shortest that would do), a feature out of the firmware's reach, no room for a label.
     """
+    printer = printer_to_plan(printer, firmware)
     if printer.workspace is None:
         raise PlanningError("the printer's robot file has no [workspace]: the printable cylinder is needed")
     if count is not None and not 1 <= count <= MAX_DISTANCES:
         raise PlanningError(f"distances to measure must be 1 to {MAX_DISTANCES}, got {count}")
     probe = probe_grid(printer.workspace.radius, probe_count)
     complete = rows is None
-    rows_of = model_rows(printer, firmware) if rows is None else rows
+    rows_of = model_rows(printer) if rows is None else rows
     try:
         layout, pairs, chosen, information, pair_rows = _chosen(printer, count, caliper, probe, rows_of)
     except CaliperTooShort as exc:
@@ -262,11 +275,11 @@ def plan_object(
                       log_det_probe=log_det_probe,
                       labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius))
     if complete:
-        plan = _with_identifiability(plan, printer, firmware)
+        plan = _with_identifiability(plan, printer)
     return plan
 
 
-def _chosen(printer: NominalLinearDelta, count: int | None, caliper: float, probe: np.ndarray,
+def _chosen(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,
             rows_of: RowsFunction) -> tuple[ObjectLayout, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The object's layout, candidate pairs, chosen ones, the probe's information and the pairs' rows.
 
@@ -289,7 +302,7 @@ def _chosen(printer: NominalLinearDelta, count: int | None, caliper: float, prob
     return layout, pairs, chosen, information, pair_rows
 
 
-def _longer(printer: NominalLinearDelta, count: int | None, caliper: float, probe: np.ndarray,
+def _longer(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,
             rows_of: RowsFunction, short: CaliperTooShort) -> str:
     """What to do when the caliper is too short: fewer distances, or the shortest caliper that works [mm].
 
@@ -319,13 +332,12 @@ def _longer(printer: NominalLinearDelta, count: int | None, caliper: float, prob
     return f": {fewer}a caliper of {high} mm (--caliper {high}; {low} mm is too short)"
 
 
-def _with_identifiability(plan: ObjectPlan, printer: NominalLinearDelta,
-                          firmware: FirmwareModel) -> ObjectPlan:
+def _with_identifiability(plan: ObjectPlan, printer: PrinterToPlan) -> ObjectPlan:
     """The plan with what the probe heights alone, and with the distances, identify (complete model)."""
     geometry = printer.geometry()
-    step = printer.step_distance
-    probe = firmware.inverse(plan.probe, step)
-    ends = firmware.inverse(plan.pair_positions.reshape(-1, 3), step).reshape(-1, 2, 3)
-    alone = measured_combinations(geometry, PrinterMeasurements(probe))
-    both = measured_combinations(geometry, PrinterMeasurements(probe, ends, plan.lengths))
+    probe = printer.readings(plan.probe)
+    ends = printer.readings(plan.pair_positions.reshape(-1, 3)).reshape(-1, 2, 3)
+    model, tolerances = printer.model, printer.tolerances
+    alone = measured_combinations(geometry, PrinterMeasurements(probe), model, tolerances)
+    both = measured_combinations(geometry, PrinterMeasurements(probe, ends, plan.lengths), model, tolerances)
     return replace(plan, probe_only=alone, with_distances=both)

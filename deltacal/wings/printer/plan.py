@@ -17,19 +17,23 @@ complete model and what the object's distances add.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ...exceptions import UsageError
 from ...io import write_stl
 from ...io.atomic import atomic_write_text
 from ...io.paths import check_input, check_output_folder
 from ...printer.files.measurements import write_printed_distances, write_probe_heights
 from ...printer.firmware import config_files
+from ...printer.firmware.base import Firmware
 from ...printer.firmware.config_file import FirmwareConfig, told_firmware
 from ...printer.firmware.probing import PAPER_MM
 from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
 from ...printer.printed.plan import ObjectPlan, plan_object
 from ...printer.printed.sheet import sheet_html
+from ...printer.printed.target import LinearPrinterToPlan, PrinterToPlan
 from ...printer.robot import NominalLinearDelta
 from ..base import Done
 from ..requests import PlanRequest
@@ -41,22 +45,53 @@ MAX_PROBE_GRID = 9
 
 
 def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Done:
-    """``deltacal plan --object``: the object's files written in the folder, what was planned said."""
+    """``deltacal plan --object``: the object's files written in the folder, what was planned said.
+
+    Raises:
+        UsageError: a rotary Delta printer's configuration (``--controller``) for this linear printer.
+    """
+    firmware = object_firmware(request)
     assert request.controller is not None
-    check_input(request.controller)
-    folder = Path(request.output)
-    firmware = told_firmware(request.controller, request.firmware)  # told once
-    read = config_files(request.controller, firmware)  # none overwritten
-    outputs = check_output_folder(folder, OBJECT_FILES, (request.nominal, *read), "plan --object")
+    if firmware.rotary_controller(request.controller) is not None:
+        raise UsageError(f"--controller {request.controller}: a rotary Delta printer's configuration, but "
+                         f"{request.nominal} is a linear Delta printer's robot file: give the printer's own "
+                         "configuration (or the rotary printer's robot file, deltacal import)")
     config = FirmwareConfig.read(firmware, request.controller)
     firmware.check_same_printer(firmware.nominal(printer), config.values, str(request.nominal),
                                 str(request.controller))
+    return write_object_plan(request, firmware, LinearPrinterToPlan(printer, config.values))
+
+
+def object_firmware(request: PlanRequest) -> Firmware[Any]:
+    """The firmware of ``plan --object``'s ``--controller`` (told once), its folder's outputs checked first.
+
+    Raises:
+        UsageError: as :func:`~deltacal.printer.firmware.config_file.told_firmware`; an output that would
+            overwrite an input (:func:`~deltacal.io.paths.check_output_folder`).
+    """
+    assert request.controller is not None
+    check_input(request.controller)
+    firmware = told_firmware(request.controller, request.firmware)  # told once
+    read = config_files(request.controller, firmware)  # none overwritten
+    check_output_folder(Path(request.output), OBJECT_FILES, (request.nominal, *read), "plan --object")
+    return firmware
+
+
+def write_object_plan(request: PlanRequest, firmware: Firmware[Any], printer: PrinterToPlan) -> Done:
+    """The object planned for ``printer`` (in the bed's frame), its five files written, what was planned said.
+
+    The firmware's configuration (``--controller``) tells the probe (its travel, or the paper test by
+    hand) and its live correction (turned off while probing).
+    """
+    assert request.controller is not None
+    folder = Path(request.output)
+    outputs = [folder / name for name in OBJECT_FILES]
     manual = firmware.manual_heights(request.controller)  # no probe: its heights by hand, or none
     # RRF's G30 with M558 P0 asks for each height by hand: its program kept
     travel = firmware.probe_travel(request.controller) if not manual or firmware.probes_by_hand else None
     live = firmware.live_correction(request.controller)  # turned off while the heights are measured
     caliper = request.caliper or CALIPER_RANGE
-    plan = plan_object(printer, config.values, count=request.distances,
+    plan = plan_object(printer, count=request.distances,
                        probe_count=request.probe_grid or MAX_PROBE_GRID, caliper=caliper)
     mesh = plan.labelled_mesh()
     if not folder.exists():
@@ -90,7 +125,7 @@ def plan_printed_object(request: PlanRequest, printer: NominalLinearDelta) -> Do
     return Done(tuple(lines))
 
 
-def _report(plan: ObjectPlan, printer: NominalLinearDelta, mesh, caliper: float, probe: bool) -> str:
+def _report(plan: ObjectPlan, printer: PrinterToPlan, mesh, caliper: float, probe: bool) -> str:
     radius = float(abs(plan.probe[:, :2]).max())
     how = ("run probe.gcode (it homes, then probes at each) and read its console back (deltacal import LOG), "
            "or write the commanded z at which the probe triggered in probe.csv" if probe else

@@ -64,7 +64,7 @@ def simulate_prints(request: SimulateRequest, printer: NominalLinearDelta) -> Do
     xy = template.commanded[:, :2]
     noise = SIGMA_HEIGHT if request.sigma_height is None else request.sigma_height
     robot = f"the true printer ({request.truth})" if request.truth is not None else "the perturbed printer"
-    with _rows_named(str(probe_file), template.lines, xy, robot):
+    with rows_named(str(probe_file), template.lines, xy, robot):
         probe = probe_heights(truth, firmware, step, xy, noise, rng, offset, trigger_height=template.heights)
     _check_travel(firmware, step, probe, str(probe_file), template.lines)
     pairs, measured, balls = None, None, None
@@ -73,7 +73,7 @@ def simulate_prints(request: SimulateRequest, printer: NominalLinearDelta) -> Do
         pairs, balls = printed.pairs, printed.balls or None
         noise = SIGMA_DISTANCE if request.sigma_distance is None else request.sigma_distance
         _check_travel(firmware, step, pairs, str(distance_file), printed.lines)
-        with _rows_named(str(distance_file), printed.lines, pairs, robot):
+        with rows_named(str(distance_file), printed.lines, pairs, robot):
             measured = printed_distances(truth, firmware, step, pairs, noise, rng)
     if request.truth is None:
         save_geometry(truth, truth_path(Path(request.output)))
@@ -116,7 +116,7 @@ def _check_travel(firmware: FirmwareModel, step_distance: np.ndarray | float, co
 
 
 @contextmanager
-def _rows_named(source: str, lines: np.ndarray, rows: np.ndarray, robot: str) -> Iterator[None]:
+def rows_named(source: str, lines: np.ndarray, rows: np.ndarray, robot: str) -> Iterator[None]:
     """A position the firmware or the true printer cannot reach becomes one line naming its row."""
     try:
         yield

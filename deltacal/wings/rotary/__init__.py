@@ -23,6 +23,8 @@ from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportReques
 from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
 from .plan import plan_poses
+from .printed import plan_rotary_object
+from .printer_simulate import simulate_rotary_prints
 from .printing import identify_rotary_printer
 from .simulate import simulate_rotary
 
@@ -44,14 +46,22 @@ class RotaryWing(Wing):
 
     def plan(self, request: PlanRequest, robot: Robot | None = None,
              notify: Callable[[str], None] | None = None) -> Done:
-        """Measurement poses (:func:`.plan.plan_poses`); ``--object`` is a printer's."""
+        """Measurement poses (:func:`.plan.plan_poses`), or (``--object``) a rotary printer's object.
+
+        The object through the firmware's configuration: :func:`.printed.plan_rotary_object`.
+        """
         if request.object:
-            raise UsageError(f"{request.nominal}: --object plans a linear Delta printer's object; this robot "
-                             "file is a rotary Delta's (kind = 'linear' for a printer)")
+            return plan_rotary_object(request, self._robot(request.nominal, robot))
         return plan_poses(request, self._robot(request.nominal, robot), notify)
 
     def simulate(self, request: SimulateRequest, robot: Robot | None = None) -> Done:
-        """A tracker's measurements (:func:`.simulate.simulate_rotary`)."""
+        """A tracker's measurements (:func:`.simulate.simulate_rotary`), or a printer's (``--controller``).
+
+        A firmware's configuration given: ``plan --object``'s templates filled through it
+        (:func:`.printer_simulate.simulate_rotary_prints`).
+        """
+        if request.controller is not None:
+            return simulate_rotary_prints(request, self._robot(request.nominal, robot))
         return simulate_rotary(request, self._robot(request.nominal, robot))
 
     def identify(self, request: IdentifyRequest, robot: Robot | None = None) -> Done:
