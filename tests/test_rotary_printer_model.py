@@ -94,8 +94,8 @@ def test_bed_modes_move_the_printer_rigidly():
         assert np.linalg.norm(moved[:, :, k] - turn) < 0.02 * np.linalg.norm(turn)
     factor = model.prior_factor(Tolerances(joint_scale=0.002), geometry)
     assert factor.shape == (54, 54) and np.allclose(factor, np.tril(factor))
-    with pytest.raises(ValueError, match="calibrated from the same measurements"):
-        model.prior_factor(Tolerances(joint_scale=0.002), geometry, calibrated=True)
+    with pytest.raises(ValueError, match="not a value of Klipper's rotary calibration: arm_length_a"):
+        model.prior_factor(Tolerances(joint_scale=0.002), geometry, calibrated=("arm_length_a",))
 
 
 def test_a_rotary_printers_step_scales_are_kept_in_its_geometry_file(tmp_path):

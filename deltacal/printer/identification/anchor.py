@@ -187,4 +187,4 @@ def prior_factor_of(calibration: Calibration) -> np.ndarray:
         raise ValueError("re-anchoring needs a printer's calibration that recorded its measurements")
     used = scaled_tolerances(Tolerances.printer_kit(), record.tolerance_scale)
     return model.prior_factor(used, calibration.nominal, calibrated_values(record.calibrated_start,
-                                                                           record.distance.size))
+                                                                           record.distance.size, model))

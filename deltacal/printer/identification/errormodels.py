@@ -1,6 +1,7 @@
 """Error models of a Delta printer: a linear one's complete (54), its firmware's (13); a rotary one's (54).
 
-The rotary printer's is :class:`RotaryPrinterModel` (``rotary_printer``).
+The rotary printer's is :class:`RotaryPrinterModel` (``rotary_printer``); the values Klipper's rotary
+calibration fits, as its moves: :func:`rotary_firmware_modes`.
 
 ``printer``: Savoure's complete model carried over to a prismatic chain (Savoure 2006, Eq. 12-22,
 written for the whole family of parallelogram robots): per rod (i, j), in the order (1,1), (1,2),
@@ -28,6 +29,7 @@ firmware calibration can reach; the rest of the complete model is what it leaves
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -256,16 +258,19 @@ FIRMWARE_FREE = (1.0, 0.005, 0.005, 1.0, 1.0, 1.0, 10.0, 10.0, 10.0)
 HEIGHTS_VALUES = ("delta_radius", "angle_a", "angle_b", "endstop_a", "endstop_b", "endstop_c")
 
 
-def calibrated_values(calibrated: bool, distances: int) -> tuple[str, ...]:
+def calibrated_values(calibrated: bool, distances: int, model: ErrorModel | None = None) -> tuple[str, ...]:
     """The firmware values a start ``calibrated`` from measurements with ``distances`` distances fitted.
 
     None when not calibrated; with distances, :data:`FIRMWARE_VALUES` (Klipper's extended calibration);
     from heights alone, :data:`HEIGHTS_VALUES`: the arms keep their build tolerance's prior (7 heights
     cannot tell 9 wide values apart: the endstops' σ was ±2.6 mm, the bed's height known nowhere).
+    A model that says what its printer's firmware fits (``firmware_calibrates``: with distances, from
+    heights alone) gives its own: a rotary printer's :data:`ROTARY_VALUES`, :data:`ROTARY_HEIGHTS_VALUES`.
     """
     if not calibrated:
         return ()
-    return FIRMWARE_VALUES if distances else HEIGHTS_VALUES
+    extended, heights = getattr(model, "firmware_calibrates", (FIRMWARE_VALUES, HEIGHTS_VALUES))
+    return tuple(extended if distances else heights)
 
 
 def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
@@ -286,6 +291,72 @@ def firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
 #: The turn a rotary printer's ``scale{i}`` parameter is given per [rad]: its value is the error over it.
 SCALE_TURN_RAD = float(np.radians(100.0))
 
+#: What Klipper's rotary ``DELTA_CALIBRATE`` fits (``RotaryDeltaCalibration.coordinate_descent_params``):
+#: the basic method's shoulder height and endstops, the extended's shoulder radius and arms A and B's
+#: angles too [mm, mm, mm, mm, mm, rad, rad]; and their priors' σ in a rotary printer's fit, wide as a
+#: linear printer's (:data:`FIRMWARE_FREE`: Klipper fitted them to the very measurements the fit takes).
+ROTARY_VALUES = ("shoulder_height", "endstop_a", "endstop_b", "endstop_c", "shoulder_radius", "angle_a",
+                 "angle_b")
+ROTARY_FREE = (10.0, 10.0, 10.0, 10.0, 1.0, 0.005, 0.005)
+#: What the basic method fits (probe heights alone).
+ROTARY_HEIGHTS_VALUES = ROTARY_VALUES[:4]
+#: The step of the finite differences of :func:`rotary_firmware_modes` [mm, rad].
+_ROTARY_STEP = 1e-5
+
+
+def _rotary_value_moved(geometry: DeltaGeometry, name: str, step: float) -> DeltaGeometry:
+    """A rotary printer with one of :data:`ROTARY_VALUES` changed by ``step`` as Klipper's model changes it.
+
+    The shoulders raised (``shoulder_height``) or moved out along their radial (``shoulder_radius``); an
+    arm and its effector balls turned about the vertical through the centre (``angle_a``); an arm's
+    endstop angle (its encoder offset) turned as a nozzle at the bed's centre, half a shoulder's reach up,
+    rises by ``step`` [mm] with that arm alone (``endstop_a``: Klipper's ``position_endstop``).
+    """
+    axis = np.array(geometry.axis_point, dtype=float)
+    if name == "shoulder_height":
+        axis[:, 2] += step
+        return replace(geometry, axis_point=axis)
+    if name == "shoulder_radius":
+        return replace(geometry, axis_point=axis + step * geometry.radial)
+    i = _TOWERS.index(name[-1])
+    if name.startswith("angle"):
+        c, s = np.cos(step), np.sin(step)
+        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        azimuth, direction = np.array(geometry.limb_azimuth, dtype=float), np.array(geometry.axis_direction)
+        plate = np.array(geometry.plate_ball, dtype=float)
+        azimuth[i] += step
+        axis[i], direction[i], plate[i] = turn @ axis[i], turn @ direction[i], plate[i] @ turn.T
+        return replace(geometry, limb_azimuth=azimuth, axis_point=axis, axis_direction=direction,
+                       plate_ball=plate)
+    reach = float(np.mean(np.linalg.norm(geometry.axis_point[:, :2], axis=1)))
+    centre = np.array([[0.0, 0.0, 0.5 * reach], [0.0, 0.0, 0.5 * reach + 1.0]])
+    rate = np.diff(exact.inverse(geometry, centre), axis=0)[0, i]  # the arm's turn per mm of the nozzle
+    offset = np.array(geometry.encoder_offset, dtype=float)
+    offset[i] -= rate * step
+    return replace(geometry, encoder_offset=offset)
+
+
+def rotary_firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndarray:
+    """The parameters that move a rotary printer as each of Klipper's rotary calibrated values does, (n, 7).
+
+    Per unit of each of :data:`ROTARY_VALUES`: the least-squares parameters whose plate displacement
+    (:meth:`~deltacal.errormodels.ErrorModel.sensitivity`) is that value's at the readings of
+    :func:`bed_modes` (central differences of the exact kinematics, the printer changed as Klipper's
+    model changes with the value: :func:`_rotary_value_moved`).
+    """
+    q = _readings(geometry)
+    pose = exact.forward(geometry, q)
+    S = model.sensitivity(geometry, q, pose).reshape(-1, model.size)
+    F = np.zeros((len(q), 6, len(ROTARY_VALUES)))
+    for k, name in enumerate(ROTARY_VALUES):
+        up = exact.forward(_rotary_value_moved(geometry, name, _ROTARY_STEP), q, start=pose)
+        down = exact.forward(_rotary_value_moved(geometry, name, -_ROTARY_STEP), q, start=pose)
+        turn = np.einsum("nij,nkj->nik", up.rotation, down.rotation)  # R+ R-ᵀ
+        F[:, :3, k] = (up.position - down.position) / (2.0 * _ROTARY_STEP)
+        F[:, 3:, k] = 0.5 * np.stack([turn[:, 2, 1] - turn[:, 1, 2], turn[:, 0, 2] - turn[:, 2, 0],
+                                      turn[:, 1, 0] - turn[:, 0, 1]], axis=1) / (2.0 * _ROTARY_STEP)
+    return np.linalg.lstsq(S, F.reshape(-1, len(ROTARY_VALUES)), rcond=None)[0]
+
 
 class RotaryPrinterModel(ErrorModel):
     """The complete model of a rotary Delta printer (54 parameters): Savoure's 51 and each arm's step scale.
@@ -304,6 +375,8 @@ class RotaryPrinterModel(ErrorModel):
     name = "rotary_printer"
     chain = REVOLUTE
     tilts_plate = True
+    #: What Klipper's rotary calibration fits: with distances (extended), from heights alone (basic).
+    firmware_calibrates = (ROTARY_VALUES, ROTARY_HEIGHTS_VALUES)
 
     def __init__(self) -> None:
         self._complete = CompleteModel()
@@ -348,14 +421,27 @@ class RotaryPrinterModel(ErrorModel):
 
     def prior_factor(self, tolerances: Tolerances, geometry: DeltaGeometry,
                      calibrated: bool | Sequence[str] = False) -> np.ndarray:
-        """P with ``Σ = P Pᵀ``: the build tolerances, the bed's place (:data:`BED_TILT`, :data:`BED_HEIGHT`).
+        """P with ``Σ = P Pᵀ``: the build tolerances, the bed's place, Klipper's calibrated values.
 
-        The bed's tilt and height are the printer moved rigidly against it (:func:`bed_modes`).
+        The bed's tilt and height (:data:`BED_TILT`, :data:`BED_HEIGHT`) are the printer moved rigidly
+        against it (:func:`bed_modes`). When the start is Klipper's values ``calibrated`` from the very
+        measurements identified (a saved rotary ``DELTA_CALIBRATE``), the values its calibration fitted
+        take wide priors (:data:`ROTARY_FREE`) along their own moves (:func:`rotary_firmware_modes`), as
+        a linear printer's (:meth:`PrinterModel.prior_factor`). ``calibrated``: True for all of
+        :data:`ROTARY_VALUES`, or the names of those fitted (the basic method's
+        :data:`ROTARY_HEIGHTS_VALUES`).
 
         Raises:
-            ValueError: a start ``calibrated`` from the measurements (not modelled for a rotary printer).
+            ValueError: a name that is not one of :data:`ROTARY_VALUES`.
         """
-        if calibrated:
-            raise ValueError("a rotary printer's start calibrated from the same measurements is not modelled")
         modes = bed_modes(self, geometry) * np.array([BED_TILT, BED_TILT, BED_HEIGHT])
-        return np.linalg.cholesky(np.diag(self.prior_sigma(tolerances) ** 2) + modes @ modes.T)
+        cov = np.diag(self.prior_sigma(tolerances) ** 2) + modes @ modes.T
+        names = ROTARY_VALUES if calibrated is True else tuple(calibrated or ())
+        unknown = [n for n in names if n not in ROTARY_VALUES]
+        if unknown:
+            raise ValueError(f"not a value of Klipper's rotary calibration: {', '.join(unknown)}")
+        if names:
+            kept = [ROTARY_VALUES.index(n) for n in names]
+            firmware = rotary_firmware_modes(self, geometry)[:, kept] * np.array(ROTARY_FREE)[kept]
+            cov = cov + firmware @ firmware.T
+        return np.linalg.cholesky(cov)

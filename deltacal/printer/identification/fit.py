@@ -316,7 +316,7 @@ def identify_printer(
     given = options.tolerances or Tolerances.printer_kit()
     scale, noise, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
-    calibrated = calibrated_values(options.calibrated_start, data.distance.size)
+    calibrated = calibrated_values(options.calibrated_start, data.distance.size, error_model)
     factor = error_model.prior_factor(used, start, calibrated)  # the prior's Σ: factor factorᵀ
     taken = with_noise(data, noise)  # the measurements' σ: the given times each kind's s0
     measured = measured_combinations(start, taken, error_model, used)
@@ -501,7 +501,7 @@ def _tolerance_scale(start: DeltaGeometry, data: PrinterMeasurements, error_mode
     """
     asked = options.tolerance_scale != "evidence"
     start_scale = float(options.tolerance_scale) if asked else 1.0
-    calibrated = calibrated_values(options.calibrated_start, data.distance.size)
+    calibrated = calibrated_values(options.calibrated_start, data.distance.size, error_model)
     factor = error_model.prior_factor(scaled_tolerances(given, start_scale), start, calibrated)
     total, _, r, W, _ = _map_fit(start, data, error_model, factor, options.method)
     _, _, kind = residuals_and_regressor(start, error_model, data)
@@ -582,8 +582,8 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
     def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)
         scale, noise, _ = _tolerance_scale(start, subset, error_model, given, options)
-        factor = error_model.prior_factor(scaled_tolerances(given, scale), start,
-                                          calibrated_values(options.calibrated_start, data.distance.size))
+        calibrated = calibrated_values(options.calibrated_start, data.distance.size, error_model)
+        factor = error_model.prior_factor(scaled_tolerances(given, scale), start, calibrated)
         total, geometry = _map_fit(start, with_noise(subset, noise), error_model, factor, options.method)[:2]
         r, W, _ = residuals_and_regressor(geometry, error_model, data)
         return r, W @ factor, solve_triangular(factor, total, lower=True)

@@ -8,7 +8,12 @@ model with each arm's step scale (``rotary_printer``) is identified on the true 
 robot moved into that frame, with a rotary printer kit's tolerances
 (:meth:`~deltacal.geometry.Tolerances.rotary_printer_kit`) scaled by the evidence, as a linear printer's
 (:func:`~deltacal.wings.printer.identify.read_prints` and ``fit_prints``: the same files, checks
-and refusals). The calibration is written in the robot file's frame {O}, as a rotary robot's; where it
+and refusals). A configuration whose SAVE_CONFIG block holds the measurements Klipper's rotary
+calibration was fitted to (``deltacal import`` writes them as the measurements' files) is a start
+calibrated from the same data: the values that calibration fits take wide priors
+(:meth:`~deltacal.printer.identification.errormodels.RotaryPrinterModel.prior_factor`) and the
+correction along the bed follows what the measurements determine (``[holds.along_bed]``), as a linear
+printer's. The calibration is written in the robot file's frame {O}, as a rotary robot's; where it
 holds stays in the firmware's frame, where ``compensate`` puts it again
 (:class:`~deltacal.printer.firmware.config_file.RotaryFirmwareConfig`).
 """
@@ -66,11 +71,12 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
     start = rotary.in_bed_frame(robot)
     ws = nominal.workspace
     volume = None if ws is None else Workspace(ws.radius, ws.height, ws.top_z + lift)
+    data, files = read_prints(request, start, Commanded(_Angles(rotary)), nominal.name)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
                                 tolerances=Tolerances.rotary_printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence", workspace=volume,
-                                accept_poor_fit=request.accept_poor_fit)
-    data, files = read_prints(request, start, Commanded(_Angles(rotary)), nominal.name)
+                                accept_poor_fit=request.accept_poor_fit,
+                                calibrated_start=firmware.calibrated_from_saved(request.controller))
     result = fit_prints(request, start, model, options, data, files)
     down = np.array([0.0, 0.0, -lift])
     calibration = Calibration.from_result(result)

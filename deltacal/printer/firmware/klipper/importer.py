@@ -31,7 +31,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ....exceptions import InputError
 from ...files.importer import (
     OUTPUT_FILES,
     ImportedValues,
@@ -44,7 +43,7 @@ from ...files.importer import (
 from ...files.measurements import write_printed_distances, write_probe_heights
 from .config import STEPPERS, KlipperConfig, klipper_from_config, read_klipper_config
 from .model import DEFAULT_ANGLES_DEG, KlipperDelta
-from .saved import SavedCalibration, read_saved_calibration
+from .saved import SavedCalibration, read_saved_calibration, saved_positions
 
 
 @dataclass(frozen=True)
@@ -89,23 +88,15 @@ def import_klipper(path: str | Path, effector_radius: float | None = None, rod_s
     klipper = klipper_from_config(config)
     measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
     saved = read_saved_calibration(config)
-    probe = _positions(klipper, saved.height_steps, config, "height")
-    ends = _positions(klipper, saved.pair_steps.reshape(-1, 3), config, "distance")
+    def positions(steps: np.ndarray) -> np.ndarray:
+        return klipper.positions(steps, check=False)
+
+    probe = saved_positions(positions, saved.height_steps, config, "height")
+    ends = saved_positions(positions, saved.pair_steps.reshape(-1, 3), config, "distance")
     values = _values(config, klipper)
     text = printer_file_text(values, measured)
     return ImportedPrinter(text, klipper, saved, probe, ends.reshape(-1, 6), measured.defaults, values,
                            measured)
-
-
-def _positions(klipper: KlipperDelta, steps: np.ndarray, config: KlipperConfig, what: str) -> np.ndarray:
-    """Klipper's nozzle positions at steps below the endstops; steps no rods meet are named."""
-    positions = klipper.positions(steps, check=False)
-    bad = np.flatnonzero(~np.all(np.isfinite(positions), axis=1))
-    if bad.size:
-        raise InputError(f"the saved {what} at steps {steps[bad[0]].tolist()} is out of the reach of this "
-                         "configuration's values (another printer's measurements?)", config.source,
-                         "section [delta_calibrate]")
-    return positions
 
 
 def _values(config: KlipperConfig, klipper: KlipperDelta) -> ImportedValues:

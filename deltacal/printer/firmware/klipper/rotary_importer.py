@@ -16,7 +16,12 @@ the shoulders' centre, z up):
 
 A robot file holds one arm length and one rod length: arms that the configuration gives different
 lengths are refused, naming the key. The measurements a SAVE_CONFIG block's ``[delta_calibrate]``
-holds are not imported for a rotary printer (said in a line). Units: mm and deg in the file.
+holds (:mod:`.saved`: Klipper's rotary ``DELTA_CALIBRATE`` and ``DELTA_ANALYZE``) are written as the
+linear printer's (:mod:`.importer`): ``probe.csv``, the commanded positions (in Klipper's frame, the
+bed's) of each ``heightN_pos`` and ``manual_heightN_pos`` through the configuration's own values
+(Klipper's ``get_position_from_stable``: each arm's endstop angle less its steps times its step
+angle) with the trigger height ``heightN``; ``distances.csv``, those of ``distanceN_pos1`` and
+``distanceN_pos2`` with ``distanceN``. Units: mm and deg in the file.
 """
 
 from __future__ import annotations
@@ -31,9 +36,11 @@ from ....io.atomic import atomic_write_text
 from ....io.robot import load_nominal
 from ....io.toml import toml_value
 from ...files.importer import MEASURED_OPTIONS, OUTPUT_FILES, Measured, PrinterImport, check_stale_outputs
+from ...files.measurements import write_printed_distances, write_probe_heights
 from .config import KlipperConfig
 from .rotary_config import rotary_from_config
 from .rotary_model import KlipperRotaryDelta
+from .saved import SavedCalibration, read_saved_calibration, saved_positions
 
 
 @dataclass(frozen=True)
@@ -44,13 +51,17 @@ class ImportedRotary:
         text: The robot file's text.
         klipper: Klipper's model of the configuration.
         measured: What the configuration does not say (given or defaults).
-        saved: Whether its SAVE_CONFIG block holds ``[delta_calibrate]`` measurements (not imported).
+        saved: The measurements its SAVE_CONFIG block's ``[delta_calibrate]`` holds.
+        probe: Commanded nozzle positions of the saved heights in Klipper's frame [mm], (N, 3).
+        pairs: Commanded positions of the saved distances' ends ``x1..z2`` [mm], (M, 6).
     """
 
     text: str
     klipper: KlipperRotaryDelta
     measured: Measured
-    saved: bool
+    saved: SavedCalibration
+    probe: np.ndarray
+    pairs: np.ndarray
 
 
 def import_rotary(config: KlipperConfig, effector_radius: float | None = None,
@@ -58,7 +69,8 @@ def import_rotary(config: KlipperConfig, effector_radius: float | None = None,
     """The rotary robot file of a ``kinematics: rotary_delta`` configuration already read.
 
     Raises:
-        InputError: the configuration's first problem, arms of different lengths, or no printable volume.
+        InputError: the configuration's first problem, arms of different lengths, no printable volume, or
+            a saved measurement out of the values' reach.
     """
     klipper = rotary_from_config(config)
     for key, values in (("upper_arm_length", klipper.upper_arm), ("lower_arm_length", klipper.lower_arm)):
@@ -68,9 +80,15 @@ def import_rotary(config: KlipperConfig, effector_radius: float | None = None,
                              "file holds one length, per-arm lengths are not imported yet", config.source,
                              f"sections [stepper_a..c], key {key}")
     measured = Measured.given(effector_radius, rod_spacing, nozzle_drop)
-    saved = any(key.startswith(("height", "manual_height", "distance"))
-                for key in config.sections.get("delta_calibrate", {}))
-    return ImportedRotary(_robot_text(config, klipper, measured), klipper, measured, saved)
+    text = _robot_text(config, klipper, measured)
+    saved = read_saved_calibration(config)
+
+    def positions(steps: np.ndarray) -> np.ndarray:
+        return klipper.step_positions(steps, check=False)
+
+    probe = saved_positions(positions, saved.height_steps, config, "height")
+    ends = saved_positions(positions, saved.pair_steps.reshape(-1, 3), config, "distance")
+    return ImportedRotary(text, klipper, measured, saved, probe, ends.reshape(-1, 6))
 
 
 def printable_radius(config: KlipperConfig, klipper: KlipperRotaryDelta) -> tuple[float, str]:
@@ -121,14 +139,20 @@ def _robot_text(config: KlipperConfig, klipper: KlipperRotaryDelta, measured: Me
 
 
 def write_rotary_import(imported: ImportedRotary, source: str | Path, out_dir: str | Path) -> PrinterImport:
-    """Write ``printer.toml`` (checked by the robot file's own reader first) and say what was written.
+    """Write ``printer.toml`` (its reader checks it first), the saved measurements; say what was written.
+
+    ``probe.csv`` and ``distances.csv`` when the SAVE_CONFIG block holds such measurements.
 
     Raises:
         InputError: the robot file's reader refuses it (a workspace out of the arms' reach).
-        UsageError: the folder holds ``probe.csv`` or ``distances.csv`` (:func:`check_stale_outputs`).
+        UsageError: the folder holds ``probe.csv`` or ``distances.csv`` this import does not write
+            (:func:`check_stale_outputs`).
     """
     out = Path(out_dir)
-    check_stale_outputs(out, OUTPUT_FILES[:1], "a rotary printer's import writes no measurements")
+    saved = imported.saved
+    writes = [OUTPUT_FILES[0]] + [name for name, rows in zip(OUTPUT_FILES[1:], (saved.height, saved.distance),
+                                                             strict=True) if rows.size]
+    check_stale_outputs(out, writes, "its SAVE_CONFIG block holds no [delta_calibrate] measurements of them")
     path = out / OUTPUT_FILES[0]
     written = atomic_write_text(path, imported.text)
     try:
@@ -144,7 +168,17 @@ def write_rotary_import(imported: ImportedRotary, source: str | Path, out_dir: s
     said = [f"wrote {written}: Klipper's rotary_delta model of {source} (shoulder_radius "
             f"{imported.klipper.shoulder_radius:g} mm, bed at z = {bed:g}"
             f" mm){defaults}"]
-    if imported.saved:
-        said.append("its SAVE_CONFIG block's [delta_calibrate] measurements are not imported for a rotary "
-                    "printer (not yet): no probe.csv, no distances.csv")
-    return PrinterImport((written,), tuple(said))
+    files = [written]
+    if saved.empty:
+        said.append("no [delta_calibrate] measurements in its SAVE_CONFIG block: no probe.csv, no "
+                    "distances.csv")
+    if saved.height.size:
+        files.append(write_probe_heights(out / OUTPUT_FILES[1], imported.probe[:, :2], imported.probe[:, 2],
+                                         trigger_height=saved.height))
+    if saved.distance.size:
+        files.append(write_printed_distances(out / OUTPUT_FILES[2], imported.pairs, saved.distance))
+    for file in files[1:]:
+        rows = saved.height.size if file.name == OUTPUT_FILES[1] else saved.distance.size
+        said.append(f"wrote {file}: {rows} rows saved by Klipper's rotary DELTA_CALIBRATE / DELTA_ANALYZE "
+                    "(commanded positions in Klipper's frame through its values)")
+    return PrinterImport(tuple(files), tuple(said))

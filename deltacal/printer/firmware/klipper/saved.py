@@ -18,6 +18,7 @@ not depend on the configuration's values. Units: mm and steps.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -85,6 +86,30 @@ def read_saved_calibration(config: KlipperConfig) -> SavedCalibration:
     return SavedCalibration(np.array(steps, dtype=float).reshape(-1, 3), np.array(heights, dtype=float),
                             np.array(manual, dtype=bool), tuple(keys),
                             np.array(pairs, dtype=float).reshape(-1, 2, 3), np.array(distance, dtype=float))
+
+
+def saved_positions(positions: Callable[[np.ndarray], np.ndarray], steps: np.ndarray, config: KlipperConfig,
+                    what: str) -> np.ndarray:
+    """Commanded nozzle positions of saved stable positions through the configuration's values [mm], (N, 3).
+
+    Args:
+        positions: The configuration's model: steps below the endstops -> nozzle positions, NaN rows where
+            the arms or rods do not meet (``KlipperDelta.positions``, ``KlipperRotaryDelta.step_positions``
+            with ``check=False``).
+        steps: The stable positions, (N, 3).
+        config: The configuration (named in a refusal).
+        what: ``"height"`` or ``"distance"``.
+
+    Raises:
+        InputError: steps out of the values' reach (another printer's measurements?), naming the first.
+    """
+    out = positions(steps)
+    bad = np.flatnonzero(~np.all(np.isfinite(out), axis=1))
+    if bad.size:
+        raise InputError(f"the saved {what} at steps {steps[bad[0]].tolist()} is out of the reach of this "
+                         "configuration's values (another printer's measurements?)", config.source,
+                         f"section [{SECTION}]")
+    return out
 
 
 def _stable(config: KlipperConfig, key: str) -> list[float]:
