@@ -201,8 +201,8 @@ def test_klippers_own_rotary_delta_calibrate_test_passes_with_the_module(klipper
         _, truth = _truth(tmp_path)
         save_geometry(truth, tmp_path / "truth.toml")
         cfg = str(tmp_path / "rotary_delta_calibrate.cfg")
-        assert main(["export", str(tmp_path / "truth.toml"), "--controller", "klipper", "--config", cfg, "--live",
-                     "-o", str(tmp_path / "live")]) == 0
+        assert main(["export", str(tmp_path / "truth.toml"), "--controller", "klipper", "--config", cfg,
+                     "--live", "-o", str(tmp_path / "live")]) == 0
     config = (own / "rotary_delta_calibrate.cfg").read_text()
     marker = "#*# <---------------------- SAVE_CONFIG"
     head, saved = config.split(marker, 1)  # the include before Klipper's saved block
