@@ -19,7 +19,7 @@ from ...geometry import Workspace
 from ...io import load_nominal, save_controller
 from ...kinematics.workspace import default_workspace
 from ...printer.firmware.base import Firmware
-from ...printer.firmware.config_file import refuse_deltacal_file
+from ...printer.firmware.config_file import RotaryFirmwareConfig, refuse_deltacal_file
 from ...report.accuracy import GRID, workspace_slices
 from ..base import Done
 from ..requests import ExportRequest
@@ -63,14 +63,13 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
     ``[workspace]``, else the configuration's own printable volume; written to ``-o``, what they leave said.
 
     Raises:
-        UsageError: no ``--config``, ``--live`` or ``--keep-rotation-distance``, or a configuration that is
+        UsageError: no ``--config``, ``--keep-rotation-distance``, or a configuration that is
             not of a rotary Delta printer (a linear Delta's).
         InputError: a file's first problem, a target out of the firmware's reach.
     """
     given = f"--controller {firmware.name}"
-    if request.live or request.keep_rotation_distance:
-        option = "--live" if request.live else "--keep-rotation-distance"
-        raise UsageError(f"{option} applies to a linear Delta printer's calibration; "
+    if request.keep_rotation_distance:
+        raise UsageError("--keep-rotation-distance applies to a linear Delta printer's calibration; "
                          f"{request.calibration} is a rotary Delta's calibration")
     if request.config is None:
         raise UsageError(f"{given}: {request.calibration} is a rotary Delta's calibration; "
@@ -78,18 +77,43 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
                          f"give --config {firmware.config_file} (or --controller offsets|limbs)")
     assert request.output is not None
     refuse_deltacal_file(request.config, "--config")
+    if request.live:
+        return _export_rotary_live(firmware, request, calibration)
     volume, where = None, ""
     if request.robot is not None:
         volume = load_nominal(request.robot).workspace
         where = "" if volume is None else f" of {request.robot}"
     values = firmware.rotary_export(request.config, calibration, request.calibration, volume, where)
     if values is None:
-        raise UsageError(f"--config {request.config} is not {firmware.title}'s configuration of a rotary "
-                         f"Delta printer, but {request.calibration} is a rotary Delta's calibration: give "
-                         "the rotary printer's")
+        raise _not_rotary(firmware, request)
     values.save(request.output)
     return Done((f"wrote the {firmware.title} rotary values that best fit {request.calibration} to "
                  f"{request.output}", *values.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
+
+
+def _not_rotary(firmware: Firmware[Any], request: ExportRequest) -> UsageError:
+    """The refusal of a ``--config`` that is not the firmware's configuration of a rotary Delta printer."""
+    return UsageError(f"--config {request.config} is not {firmware.title}'s configuration of a rotary Delta "
+                      f"printer, but {request.calibration} is a rotary Delta's calibration: give the rotary "
+                      "printer's")
+
+
+def _export_rotary_live(firmware: Firmware[Any], request: ExportRequest, calibration: Calibration) -> Done:
+    """``export --live`` of a rotary printer: the correction the firmware runs itself, through ``--config``.
+
+    The calibration moved into the firmware's frame (the bed's) as ``compensate`` moves it
+    (:meth:`~deltacal.printer.firmware.config_file.RotaryFirmwareConfig.anchor`), then
+    :meth:`~deltacal.printer.firmware.base.Firmware.export_live` with the configuration's rotary values.
+    """
+    assert request.config is not None and request.output is not None
+    rotary = firmware.rotary_controller(request.config)
+    if rotary is None:
+        raise _not_rotary(firmware, request)
+    anchored, said = RotaryFirmwareConfig(firmware, rotary, str(request.config)).anchor(calibration,
+                                                                                        request.calibration)
+    lines = firmware.export_live(anchored, request.config, request.output, str(request.calibration),
+                                 request.sigma_bound)
+    return Done((*said, *lines))
 
 
 def _start(calibration: Calibration, request: ExportRequest) -> tuple[Controller, Workspace, np.ndarray, str]:

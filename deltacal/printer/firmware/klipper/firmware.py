@@ -167,8 +167,13 @@ class Klipper(Firmware[KlipperDelta]):
 
     def export_live(self, calibration: Calibration, config: str | Path, folder: str | Path,
                     source: str = "", sigma_bound: float = DEFAULT_BOUND) -> tuple[str, ...]:
-        """The module ``deltacal_geometry.py`` and its section (:func:`~.live.export.export_live`)."""
-        return export_live(calibration, config, folder, source, bound=sigma_bound).lines
+        """The module ``deltacal_geometry.py`` and its section (:func:`~.live.export.export_live`).
+
+        A ``kinematics: rotary_delta`` configuration's through Klipper's rotary kinematics
+        (:meth:`rotary_controller`; the calibration in its frame, the bed's).
+        """
+        return export_live(calibration, config, folder, source, bound=sigma_bound,
+                           rotary=self.rotary_controller(config)).lines
 
     def own_calibrations(self, model: KlipperDelta, measuring: Measuring,
                          radius: float) -> dict[str, KlipperDelta]:

@@ -1,4 +1,4 @@
-"""deltacal's correction of a linear Delta printer, applied by Klipper to every move (a Klipper extra).
+"""deltacal's correction of a Delta printer (linear or rotary) applied by Klipper to every move (an extra).
 
 Written by deltacal (``deltacal export CAL.toml --controller klipper --config printer.cfg --live
 -o OUTDIR``), with ``deltacal_geometry.cfg``, the ``[deltacal_geometry]`` section of the data. To
@@ -11,26 +11,24 @@ it holds no code of Klipper's.
 What it does, move by move: a move's program point x is sent to Klipper's kinematics as
 ``x + w(x) c(x)``, the correction interpolated (Catmull-Rom, tricubic) from its values at the
 nodes of a regular grid (deltacal computed them exactly: the command that puts the identified
-printer's nozzle on x through Klipper's own model), times its weight where the calibration holds:
-from the sigma of the correction (interpolated trilinearly from the calibration's sigma grid, in radius,
-azimuth and height), the horizontal and the vertical part each weighted as deltacal's offline
-route weights them (1 where the sigma is at most half the bound, 0 from the bound on, a smooth step
-between; the horizontal part also only as far as it stands out of its sigma). A long move is cut into
-segments short enough that the nozzle stays on the straight line. A move Klipper's limits refuse
-(its program point, as Klipper's kinematics check it; or a corrected point of it) is refused whole,
-before any segment is made, in Klipper's words for the program point. Beyond the printer's reach the
-correction is 0 (the grid's values fall to 0 there). Klipper's position reports (``get_position``)
-are the program's coordinates: the command is inverted by fixed-point iteration, and a position
-outside the grid (Klipper asks for made-up ones while homing) is returned as it is; it never raises.
+printer's nozzle on x through Klipper's own model), times its weight where the calibration holds
+(from the correction's sigma, interpolated trilinearly from the calibration's sigma grid, as
+deltacal's offline route weights it; a calibration without one, a rotary Delta's: 1). A long move
+is cut into segments short enough that the nozzle stays on the straight line. A move Klipper's
+limits refuse (its program point, as Klipper's kinematics check it; or a corrected point of it) is
+refused whole, before any segment is made, in Klipper's words for the program point. Beyond the
+printer's reach the correction is 0. Klipper's position reports (``get_position``) are the
+program's coordinates: the command is inverted by fixed-point iteration (a position outside the
+grid, made up while homing, is returned as it is); it never raises.
 
 Where it sits: a move transform (``gcode_move.set_move_transform``) registered while the
 configuration is read, over ``bed_mesh`` (or ``bed_tilt``), which it loads first when the
 configuration has it; ``skew_correction`` and ``z_thermal_adjust`` (registered at connect) and
-``exclude_object`` (at run time) go over it. At connect it reads Klipper's delta values from the
-kinematics and refuses to start if they are not those the correction was computed for. A program
-already corrected by deltacal (its first line is the marker ``; corrected by deltacal ...``) is
-refused when the marker line reaches Klipper's G-code dispatcher (a comment line: Klipper's
-dispatcher hands it to its default handler, which this module wraps).
+``exclude_object`` (at run time) go over it. At connect it reads Klipper's values from the
+kinematics (``delta`` or ``rotary_delta``: the section's ``kinematics``) and refuses to start if they
+are not those the correction was computed for. A program already corrected by deltacal (its first
+line is the marker ``; corrected by deltacal ...``) is refused when the marker line reaches
+Klipper's G-code dispatcher (a comment line: its default handler, which this module wraps).
 """
 
 import base64
@@ -103,16 +101,10 @@ def _cell(nodes, value):
 class SigmaGrid:
     """The sigma of the correction on the calibration's cylindrical grid, and the weights it gives.
 
-    deltacal.holds.WhereItHolds's interpolation (trilinear in radius, azimuth and height, held at
-    the grid's edges) and weights (``weights``), in standard-library Python.
-
-    Args:
-        radius: The grid's radii, increasing from 0 [mm].
-        azimuth: Its azimuths, evenly over a turn [rad].
-        height: Its heights, increasing [mm].
-        sigma: The sigma of the correction's horizontal part at each node (radius slowest, height
-            fastest), then of its vertical part [mm].
-        bound: The sigma of a correction accepted [mm] (inf: every correction wholly applied).
+    deltacal.holds.WhereItHolds's interpolation (trilinear in radius, azimuth and height, held at the
+    grid's edges) and weights. ``radius`` (increasing from 0), ``azimuth`` (evenly over a turn [rad]),
+    ``height``: the nodes; ``sigma``: the horizontal part's at each node (radius slowest, height
+    fastest), then the vertical's; ``bound``: the sigma of a correction accepted (inf: all) [mm].
     """
 
     def __init__(self, radius, azimuth, height, sigma, bound):
@@ -127,11 +119,7 @@ class SigmaGrid:
         self._heights = {}
 
     def sigma(self, x, y, z):
-        """The sigma of the correction's horizontal and vertical parts at (x, y, z) [mm].
-
-        The 8 nodes around the point's cell are kept per cell (a print's moves stay in few cells),
-        and interpolated to the point's height, kept per cell and height (a layer's points share it).
-        """
+        """The sigma of the correction's horizontal and vertical parts at (x, y, z) [mm] (cells kept)."""
         ir, fr = _cell(self.radius, math.hypot(x, y))
         count, step = len(self.azimuth), self.step
         phi = math.atan2(y, x) % (2.0 * math.pi)
@@ -192,19 +180,11 @@ def catmull_rom(t):
 class CorrectionGrid:
     """The correction at the nodes of a regular grid, and its interpolation [mm].
 
-    Args:
-        origin: The first node (x, y, z).
-        step: The nodes' spacing.
-        shape: Nodes along x, y and z.
-        values: The correction's 3 components at each node, x slowest, the component fastest, in
-            units of ``scale`` [mm].
-        curvature: The bound of the correction's second derivative [1/mm] at radius k x step
-            (non-decreasing in k) and height j (the z nodes): ``curvature[k][j]``, for the splitting
-            of moves.
-        scale: The unit of ``values`` [mm].
-        holds: Where the calibration holds (:class:`SigmaGrid`), or None: the correction applied wholly.
-        cells: The bound of the correction's second derivative [1/mm] in each cell of the grid (from
-            node (i, j, k) to (i+1, j+1, k+1); i slowest, k fastest), or None: ``curvature`` alone.
+    ``origin`` the first node, ``step`` the spacing, ``shape`` nodes along x, y, z; ``values`` the 3
+    components at each node (x slowest, the component fastest) in units of ``scale``; ``curvature``:
+    the bound of the second derivative [1/mm] per ring k x step (non-decreasing) and z node,
+    ``cells`` per cell of the grid (i slowest; None: ``curvature`` alone), to split moves; ``holds``:
+    the :class:`SigmaGrid`, or None: the correction applied wholly.
     """
 
     def __init__(self, origin, step, shape, values, curvature, scale=1.0, holds=None, cells=None):
@@ -227,11 +207,10 @@ class CorrectionGrid:
         self._free = {}
 
     def at(self, x, y, z):
-        """The correction at (x, y, z), or None beyond the grid (none there).
+        """The correction at (x, y, z), or None beyond the grid.
 
-        The 64 nodes around the point's cell are contracted along z first, for its height: the 16
-        values per component left are kept per cell and height, so that the next points of a layer in
-        the same cell (most of a print's moves) cost 8 weights and 3 sums of 16 products.
+        The 64 nodes around the point's cell are contracted along z for its height and kept, so that a
+        layer's next points in the cell cost 8 weights and 3 sums of 16 products.
         """
         u = (x - self.x0) * self.inverse_step
         v = (y - self.y0) * self.inverse_step
@@ -281,11 +260,7 @@ class CorrectionGrid:
         return cell
 
     def correction(self, x, y, z):
-        """The correction applied at (x, y, z): interpolated, then weighted where the calibration holds.
-
-        Its horizontal part times its weight, its vertical part times its own (:class:`SigmaGrid`);
-        None beyond the grid.
-        """
+        """The correction applied at (x, y, z): interpolated, each part weighted (None beyond the grid)."""
         c = self.at(x, y, z)
         if c is None or self.holds is None:
             return c
@@ -300,10 +275,7 @@ class CorrectionGrid:
         return x + c[0], y + c[1], z + c[2]
 
     def program_point(self, x, y, z):
-        """The program point whose command is (x, y, z): fixed-point iteration; never raises.
-
-        Where the iteration leaves the grid or does not settle (no such point), (x, y, z) as it is.
-        """
+        """The program point whose command is (x, y, z) (fixed-point iteration), else it; never raises."""
         try:
             px, py, pz = x, y, z
             for _ in range(INVERSE_ITERATIONS):
@@ -324,10 +296,8 @@ class CorrectionGrid:
     def segments(self, start, end, tolerance):
         """Segments to cut a move into so that the nozzle stays within ``tolerance`` of the line.
 
-        The chord of a segment of length s departs from the correction by s^2 K / 8 at most, K the
-        bound of the correction's second derivative at the move's larger radius (a straight line's
-        radius is largest at one of its ends), over the layers of its heights. At most
-        :data:`MOST_SEGMENTS`; 1 for a move between points that are not numbers (its length is not).
+        A segment of length s leaves its chord by s^2 K / 8 at most, K the curvature bound of the
+        move's larger radius and heights (or cells). At most :data:`MOST_SEGMENTS`; 1 for a length NaN.
         """
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         length = math.sqrt(dx * dx + dy * dy + dz * dz)
@@ -374,6 +344,7 @@ class DeltacalGeometry:
         self.printer = printer = config.get_printer()
         self.name = config.get_name()
         self.grid, self.values, self.volume = read_section(config)
+        self.kind, (self.keys, self.limits_kind) = kinematics_of(config)
         self.calibration = config.get("calibration")
         self.tolerance = read_float(config, "split_tolerance", above=0.0, default=0.01)
         self.error_text = config.get("sampling_error", "")
@@ -404,13 +375,14 @@ class DeltacalGeometry:
         if self.next_transform is None:  # nothing under it: the toolhead (made after the sections)
             self.next_transform = toolhead
         kinematics = toolhead.get_kinematics()
-        if not hasattr(kinematics, "get_calibration") or not hasattr(kinematics, "get_status"):
-            raise self.printer.config_error("deltacal_geometry: the printer's kinematics is not Klipper's "
-                                            "delta: the correction is a linear Delta printer's")
-        calibration = kinematics.get_calibration()
+        calibration = getattr(kinematics, "get_calibration", lambda: None)()
+        klipper = klipper_values(calibration, self.keys) if hasattr(kinematics, "get_status") else None
+        if klipper is None:
+            raise self.printer.config_error(f"deltacal_geometry: the printer's kinematics is not Klipper's "
+                                            f"{self.kind}: the correction was computed for its values")
         status = kinematics.get_status(self.printer.get_reactor().monotonic())
-        check_values(self.values, klipper_values(calibration), self.printer.config_error)
-        self.limits = Limits(calibration, status, getattr(kinematics, "home_position", None))
+        check_values(self.values, klipper, self.printer.config_error, self.keys)
+        self.limits = self.limits_kind(calibration, status, getattr(kinematics, "home_position", None))
         check_volume(self.volume, self.limits, self.printer.config_error)
         self.kinematics = kinematics
 
@@ -426,8 +398,8 @@ class DeltacalGeometry:
     def move(self, newpos, speed):
         """Send a move, corrected and cut into segments so that the nozzle follows its straight line.
 
-        A move Klipper's limits refuse is refused whole before any segment is made: its program's
-        point as Klipper refuses it (:meth:`Limits.refusal`), then its corrected points.
+        Refused whole before any segment is made: its program point as Klipper refuses it, then its
+        corrected points.
         """
         if not self.enabled:
             self.next_transform.move(newpos, speed)
@@ -508,13 +480,10 @@ class DeltacalGeometry:
 
 
 class Limits:
-    """Klipper's delta limits on a move's end (its kinematics' ``check_move``), from its live values.
+    """Klipper's delta limits on a move's end (``check_move``), from its kinematics' live values.
 
-    Args:
-        calibration: Klipper's ``kinematics.get_calibration()``.
-        status: Its ``kinematics.get_status()``.
-        home: Its home position (x, y, z), where a move down from above its top is let through, or
-            None (none such).
+    ``calibration``, ``status``: its ``get_calibration()``, ``get_status()``; ``home``: its home position (a
+    move down from above the top there is let through), or None.
     """
 
     def __init__(self, calibration, status, home=None):
@@ -528,21 +497,16 @@ class Limits:
 
     @staticmethod
     def moves_nozzle(start, end):
-        """Whether Klipper checks a move from ``start`` to ``end``: its nozzle moves (or is not a number).
-
-        Klipper's arithmetic (its ``Move``: squares as products, so that a huge move's length is inf).
-        """
+        """Whether Klipper checks a move: its nozzle moves (Klipper's ``Move`` arithmetic), or NaN."""
         dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
         return not math.sqrt(dx * dx + dy * dy + dz * dz) < KLIPPER_LEAST_MOVE
 
     def refusal(self, end, homed):
         """Klipper's refusal of a move of the nozzle to ``end``, in its words, or "" (none).
 
-        As its kinematics' ``check_move`` and its toolhead's ``move_error`` say it: "Must home
-        first" before homing, "Move out of range" for an end its limits refuse (not the move down
-        from above its top at its home position), with the end's coordinates. An end that is not a
-        number is out of range (Klipper's comparisons would let it through); so is one far above the
-        top, where Klipper's taper has no radius (Klipper raises there).
+        As ``check_move`` and ``move_error`` say it: "Must home first", "Move out of range" (not the
+        move down from above the top at home), with the end's coordinates; an end that is not a
+        number, or far above the top (Klipper raises there), is out of range.
         """
         x, y, z = end[0], end[1], end[2]
         if not homed:
@@ -558,8 +522,7 @@ class Limits:
         """Whether Klipper's limits refuse the end (x, y, z) of a move (its ``check_move``'s arithmetic)."""
         limit_xy2 = self.max_xy * self.max_xy
         if z > self.limit_z:
-            above = z - self.limit_z
-            allowed = self.radius - math.sqrt(max(self.arm * self.arm - (self.arm - above) ** 2, 0.0))
+            allowed = self.taper(z)
             limit_xy2 = min(limit_xy2, allowed * allowed)
         if x * x + y * y > limit_xy2 or z > self.max_z or z < self.min_z:
             home = self.home
@@ -575,25 +538,74 @@ class Limits:
             return f"above {self.max_z:g}, the lowest position_endstop: lower the move"
         xy = math.hypot(x, y)
         if xy > self.max_xy:
-            return (f"radius {xy:.4f} beyond Klipper's {self.max_xy:.4f}: set [printer] print_radius: "
-                    f"{math.ceil(xy * 100.0) / 100.0:.2f} (if the arms reach it), or keep the move nearer "
-                    "the centre")
-        if z > self.limit_z:
-            above = z - self.limit_z
-            allowed = self.radius - math.sqrt(max(self.arm * self.arm - (self.arm - above) ** 2, 0.0))
-            if xy > allowed:
-                return (f"radius {xy:.4f} beyond Klipper's taper near the top ({allowed:.4f} at this Z): "
-                        "lower the move or bring it nearer the centre")
+            return f"radius {xy:.4f} beyond Klipper's {self.max_xy:.4f}: {self.admits_radius(xy)}"
+        if z > self.limit_z and xy > self.taper(z):
+            return (f"radius {xy:.4f} beyond Klipper's taper near the top ({self.taper(z):.4f} at this Z): "
+                    "lower the move or bring it nearer the centre")
         return ""
 
+    def taper(self, z):
+        """The radius Klipper allows at a height z above ``limit_z`` (delta.py's arithmetic)."""
+        above = z - self.limit_z
+        return self.radius - math.sqrt(max(self.arm * self.arm - (self.arm - above) ** 2, 0.0))
 
-#: The section's Klipper values: its key -> (Klipper's section, Klipper's key).
-VALUE_KEYS = {"delta_radius": ("printer", "delta_radius")}
-for _tower in TOWERS:
-    VALUE_KEYS.update({f"angle_{_tower}": (f"stepper_{_tower}", "angle"),
-                       f"arm_length_{_tower}": (f"stepper_{_tower}", "arm_length"),
-                       f"position_endstop_{_tower}": (f"stepper_{_tower}", "position_endstop"),
-                       f"step_distance_{_tower}": (f"stepper_{_tower}", "rotation_distance")})
+    @staticmethod
+    def admits_radius(xy):
+        """What admits a point at radius xy beyond Klipper's: the key to set."""
+        return (f"set [printer] print_radius: {math.ceil(xy * 100.0) / 100.0:.2f} (if the arms reach it), or "
+                "keep the move nearer the centre")
+
+
+class RotaryLimits(Limits):
+    """Klipper's rotary delta limits (rotary_delta.py's ``check_move``): above ``limit_z``, max_z - Z."""
+
+    def __init__(self, calibration, status, home=None):
+        self.max_xy = float(status["axis_maximum"][0])
+        self.min_z = float(status["axis_minimum"][2])
+        self.max_z = float(status["axis_maximum"][2])
+        self.limit_z = min(float(calibration.elbow_coord(k, angle)[2]) - float(lower) for k, (angle, lower)
+                           in enumerate(zip(calibration.abs_endstops, calibration.lower_arms)))  # noqa: B905
+        self.home = None if home is None else tuple(float(v) for v in home[:3])
+
+    def taper(self, z):
+        """The radius Klipper allows at a height z above ``limit_z``: ``max_z - z``."""
+        return self.max_z - z
+
+    @staticmethod
+    def admits_radius(xy):
+        """No key: the arms' reach."""
+        return ("the arms' reach, min(shoulder_radius + upper_arm_length, lower_arm_length - "
+                "shoulder_radius): no key admits it: keep the move nearer the centre")
+
+
+def value_keys(printer, steppers):
+    """Section key -> (Klipper's section, key, calibration attribute, index): of [printer], per stepper."""
+    keys = {key: ("printer", key, attribute, None) for key, attribute in printer}
+    for k, tower in enumerate(TOWERS):
+        keys.update({f"{key}_{tower}": (f"stepper_{tower}", option, attribute, k)
+                     for key, option, attribute in steppers})
+    return keys
+
+
+_STEPPER = (("angle", "angle", "angles"), ("position_endstop", "position_endstop", "endstops"))
+#: The linear delta's values (``kinematics: delta``), and the rotary delta's (``rotary_delta``).
+VALUE_KEYS = value_keys((("delta_radius", "radius"),), (*_STEPPER, ("arm_length", "arm_length", "arms"),
+                                                         ("step_distance", "rotation_distance", "stepdists")))
+ROTARY_VALUE_KEYS = value_keys(
+    (("shoulder_radius", "shoulder_radius"), ("shoulder_height", "shoulder_height")),
+    (*_STEPPER, ("upper_arm_length", "upper_arm_length", "upper_arms"),
+     ("lower_arm_length", "lower_arm_length", "lower_arms"), ("step_distance", "gear_ratio", "stepdists")))
+#: The kinematics a section is computed for (its ``kinematics``): its values and its limits.
+KINEMATICS = {"delta": (VALUE_KEYS, Limits), "rotary_delta": (ROTARY_VALUE_KEYS, RotaryLimits)}
+
+
+def kinematics_of(config):
+    """The section's ``kinematics`` (delta if missing), its values and limits; refused naming the key."""
+    kind = config.get("kinematics", "delta")
+    if kind not in KINEMATICS:
+        raise config.error(f"deltacal_geometry: key kinematics: {kind!r}: this module serves "
+                           f"{' and '.join(KINEMATICS)}")
+    return kind, KINEMATICS[kind]
 
 
 #: The section's keys of the volume the correction covers.
@@ -601,16 +613,12 @@ VOLUME_KEYS = ("build_radius", "minimum_z", "maximum_z", "coverage_margin")
 
 
 def read_section(config):
-    """The section's grid, the Klipper values it was computed for, and the volume it covers.
-
-    Raises:
-        config.error: naming the key of the first value missing or wrong.
-    """
+    """The section's grid, its Klipper values and the volume it covers (config.error: the first bad key)."""
     kind = config.get("format")
     if kind != FORMAT:
         raise config.error(f"deltacal_geometry: format {kind!r}: this module reads {FORMAT!r}; copy the "
                            "deltacal_geometry.py written with this section into klippy/extras/")
-    values = {key: read_float(config, key) for key in VALUE_KEYS}
+    values = {key: read_float(config, key) for key in kinematics_of(config)[1][0]}
     volume = {key: read_float(config, key) for key in VOLUME_KEYS}
     origin = config.getfloatlist("grid_origin", count=3)
     finite(origin, "grid_origin", config.error)
@@ -644,11 +652,7 @@ def read_cells(config, shape):
 
 
 def read_holds(config):
-    """Where the calibration holds (:class:`SigmaGrid`), or None: the section has no sigma grid.
-
-    Raises:
-        config.error: naming the key of the first value missing or wrong.
-    """
+    """Where the calibration holds (:class:`SigmaGrid`), or None (no sigma grid); config.error: the key."""
     bound = read_float(config, "sigma_bound", above=0.0, infinite=True)
     unit = read_float(config, "correction_unit", above=0.0)
     if bound < unit:  # 0.5 bound may be 0: the weights would divide by it
@@ -682,14 +686,10 @@ def read_holds(config):
 
 
 def read_float(config, key, above=None, default=None, infinite=False):
-    """The section's number under ``key``: Klipper's ``getfloat``, then refused if it is not finite.
+    """The section's number under ``key``: Klipper's ``getfloat``, refused (config.error) if not finite.
 
-    Klipper's ``getfloat`` reads ``nan`` and ``inf`` and passes them through its bounds (every
-    comparison with NaN is false). ``infinite``: inf is a value (not -inf, not NaN). ``default``: the
-    value when the key is missing (None: it must be there).
-
-    Raises:
-        config.error: naming the key and the value.
+    Klipper's ``getfloat`` passes ``nan`` and ``inf`` through its bounds. ``infinite``: inf is a value;
+    ``default``: the value when the key is missing (None: it must be there).
     """
     if default is None:
         value = config.getfloat(key, above=above)
@@ -754,20 +754,20 @@ def decode_floats(text, error, key):
     return values
 
 
-def klipper_values(calibration):
-    """The section's values from Klipper's delta calibration (``kinematics.get_calibration()``)."""
-    values = {"delta_radius": calibration.radius}
-    for k, tower in enumerate(TOWERS):
-        values[f"angle_{tower}"] = calibration.angles[k]
-        values[f"arm_length_{tower}"] = calibration.arms[k]
-        values[f"position_endstop_{tower}"] = calibration.endstops[k]
-        values[f"step_distance_{tower}"] = calibration.stepdists[k]
-    return values
+def klipper_values(calibration, keys=VALUE_KEYS):
+    """The section's values from Klipper's calibration (``kinematics.get_calibration()``), or None (not its).
+
+    None when the calibration lacks an attribute of ``keys`` (another kinematics').
+    """
+    if not all(hasattr(calibration, attribute) for _, _, attribute, _ in keys.values()):
+        return None
+    return {key: getattr(calibration, attribute) if k is None else getattr(calibration, attribute)[k]
+            for key, (_, _, attribute, k) in keys.items()}
 
 
-def check_values(ours, klipper, error):
+def check_values(ours, klipper, error, keys=VALUE_KEYS):
     """Refuse Klipper's values if any is not the one the correction was computed for (``error``)."""
-    for key, (section, option) in VALUE_KEYS.items():
+    for key, (section, option, _, _) in keys.items():
         now, then = float(klipper[key]), ours[key]
         if abs(now - then) > SAME_VALUE * max(1.0, abs(then)):
             what = " (its step distance)" if key.startswith("step_distance") else ""

@@ -17,6 +17,7 @@ import math
 import re
 import zlib
 from dataclasses import dataclass
+from functools import singledispatch
 from importlib import resources
 from pathlib import Path
 
@@ -26,8 +27,11 @@ from .....calibration import Calibration
 from .....exceptions import InputError, UsageError
 from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....io.atomic import atomic_write_text
-from ..config import LIVE_OFF, LIVE_SECTION, LIVE_SECTION_FILE, load_klipper
+from ..config import LIVE_OFF, LIVE_SECTION, LIVE_SECTION_FILE, load_klipper, read_klipper_config
 from ..model import KlipperController, KlipperDelta
+from ..rotary_controller import KlipperRotaryController
+from ..rotary_importer import printable_radius
+from ..rotary_model import KlipperRotaryDelta
 from .deltacal_geometry import FORMAT, TOWERS
 from .field import (
     COVERAGE_NODES,
@@ -35,6 +39,7 @@ from .field import (
     TRUST_NODES,
     CorrectionField,
     LiveVolume,
+    RotaryLiveVolume,
     SamplingError,
     correction_field,
     curvature_bounds,
@@ -82,17 +87,21 @@ def module_text() -> str:
 
 
 def export_live(calibration: Calibration, config: str | Path, folder: str | Path, source: str = "",
-                step: float = DEFAULT_STEP_MM, bound: float = DEFAULT_BOUND) -> LiveExport:
+                step: float = DEFAULT_STEP_MM, bound: float = DEFAULT_BOUND,
+                rotary: KlipperRotaryController | None = None) -> LiveExport:
     """Compute the live correction of ``calibration`` for Klipper's values in ``config``; write both files.
 
     Args:
-        calibration: The printer's calibration (its readings count in its ``step_distance``).
+        calibration: The printer's calibration (a linear printer's readings count in its
+            ``step_distance``; a rotary printer's in Klipper's frame, the bed's, as ``compensate`` moves it).
         config: The ``printer.cfg`` the printer runs.
         folder: The output folder (made if missing; its parent must exist).
         source: The calibration's file, for the section and the messages.
         step: The grid's spacing [mm].
         bound: The σ of a correction accepted [mm] where the calibration knows where it holds (the
             offline route's ``--sigma-bound``; ``math.inf``: the whole correction everywhere).
+        rotary: Klipper's rotary_delta of ``config`` as the controller (a rotary printer's), or None: a
+            linear one's ``config``.
 
     Raises:
         UsageError: a bound below the correction's resolution (:data:`VALUE_UNIT_MM`: the weights
@@ -103,13 +112,19 @@ def export_live(calibration: Calibration, config: str | Path, folder: str | Path
         raise UsageError(f"--sigma-bound {float(bound)!r}: below {VALUE_UNIT_MM:g} mm, the resolution of "
                          "the correction the section writes (its correction_unit), a bound the weights "
                          f"cannot use; give {VALUE_UNIT_MM:g} or more (inf: the whole correction everywhere)")
-    klipper = load_klipper(config)
-    steps = calibration.geometry.step_distance
-    if steps is None:
-        raise InputError("no step_distance_mm: the step distance the printer's readings count in is not "
-                         "known (identify the printer again)", source, "key geometry.step_distance_mm")
-    controller = KlipperController(klipper, steps)
-    volume = LiveVolume.of(klipper)
+    klipper: KlipperDelta | KlipperRotaryDelta
+    controller: KlipperController | KlipperRotaryController
+    if rotary is None:
+        klipper = load_klipper(config)
+        steps = calibration.geometry.step_distance
+        if steps is None:
+            raise InputError("no step_distance_mm: the step distance the printer's readings count in is not "
+                             "known (identify the printer again)", source, "key geometry.step_distance_mm")
+        controller, volume = KlipperController(klipper, steps), LiveVolume.of(klipper)
+    else:
+        klipper, controller = rotary.firmware, rotary
+        printable = printable_radius(read_klipper_config(config), klipper)[0]
+        volume = RotaryLiveVolume.of_rotary(klipper, printable)
     field = correction_field(calibration, controller, volume, step, bound)
     error = sampling_error(field, calibration, controller)
     lines = _summary(field, error, klipper)
@@ -123,7 +138,8 @@ def export_live(calibration: Calibration, config: str | Path, folder: str | Path
     return LiveExport(field, error, files, said)
 
 
-def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta) -> tuple[str, ...]:
+def _summary(field: CorrectionField, error: SamplingError,
+             klipper: KlipperDelta | KlipperRotaryDelta) -> tuple[str, ...]:
     """The lines the export prints (and the section keeps as comments)."""
     v = field.volume
     nx, ny, nz = field.shape
@@ -134,9 +150,8 @@ def _summary(field: CorrectionField, error: SamplingError, klipper: KlipperDelta
              "own command there",
              f"sampling error against the exact correction at {error.points} points of the volume"
              f"{_held(field)}: max "
-             f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm (where Klipper moves at "
-             f"full speed), {error.max:.4f} mm out to the rim (Klipper's model nears a flat rod there); RMS "
-             f"{error.rms:.5f} mm"]
+             f"{error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm ({v.inner}), "
+             f"{error.max:.4f} mm out to the rim ({v.rim}); RMS {error.rms:.5f} mm"]
     limits = _limits_note(field)
     if limits:
         lines.append(limits)
@@ -183,20 +198,47 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
-def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperDelta, source: str,
-                 notes: tuple[str, ...] = ()) -> str:
+@singledispatch
+def klipper_keys(klipper: object) -> dict[str, str]:
+    """The section's keys of Klipper's values the correction was computed for: its kinematics, its values.
+
+    The module's :data:`~.deltacal_geometry.VALUE_KEYS` (linear, ``kinematics: delta``) or
+    :data:`~.deltacal_geometry.ROTARY_VALUE_KEYS` (``rotary_delta``), exact; angles in degrees.
+    """
+    raise TypeError(f"no live section for {type(klipper).__name__}")
+
+
+@klipper_keys.register
+def _linear_keys(klipper: KlipperDelta) -> dict[str, str]:
+    values = {"delta_radius": klipper.delta_radius}
+    for k, tower in enumerate(TOWERS):
+        values |= {f"angle_{tower}": math.degrees(klipper.angle[k]),
+                   f"arm_length_{tower}": klipper.arm_length[k],
+                   f"position_endstop_{tower}": klipper.position_endstop[k],
+                   f"step_distance_{tower}": klipper.step_distance[k]}
+    return {"kinematics": "delta", **{key: _number(value) for key, value in values.items()}}
+
+
+@klipper_keys.register
+def _rotary_keys(klipper: KlipperRotaryDelta) -> dict[str, str]:
+    values = {"shoulder_radius": klipper.shoulder_radius, "shoulder_height": klipper.shoulder_height}
+    for k, tower in enumerate(TOWERS):
+        values |= {f"angle_{tower}": math.degrees(klipper.angle[k]),
+                   f"upper_arm_length_{tower}": klipper.upper_arm[k],
+                   f"lower_arm_length_{tower}": klipper.lower_arm[k],
+                   f"position_endstop_{tower}": klipper.position_endstop[k],
+                   f"step_distance_{tower}": klipper.step_distance[k]}
+    return {"kinematics": "rotary_delta", **{key: _number(value) for key, value in values.items()}}
+
+
+def section_text(field: CorrectionField, error: SamplingError, klipper: KlipperDelta | KlipperRotaryDelta,
+                 source: str, notes: tuple[str, ...] = ()) -> str:
     """The ``[deltacal_geometry]`` section (see the module's documentation for its keys)."""
     name = re.sub(r"[#;\x00-\x1f]", "?", Path(source).name) if source else "?"
     v = field.volume
     keys = {"format": FORMAT, "calibration": name,
             "sampling_error": f"max {error.max_full_speed:.4f} mm within radius {v.slow_radius:.2f} mm, "
-                              f"{error.max:.4f} mm to the rim",
-            "delta_radius": _number(klipper.delta_radius)}
-    for k, tower in enumerate(TOWERS):
-        keys |= {f"angle_{tower}": _number(math.degrees(klipper.angle[k])),
-                 f"arm_length_{tower}": _number(klipper.arm_length[k]),
-                 f"position_endstop_{tower}": _number(klipper.position_endstop[k]),
-                 f"step_distance_{tower}": _number(klipper.step_distance[k])}
+                              f"{error.max:.4f} mm to the rim", **klipper_keys(klipper)}
     keys |= {"build_radius": _number(v.radius), "minimum_z": _number(v.min_z), "maximum_z": _number(v.max_z),
              "coverage_margin": _number(COVERAGE_NODES * field.step),
              "split_tolerance": f"{SPLIT_TOLERANCE_MM:g}",

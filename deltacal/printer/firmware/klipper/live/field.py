@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt, maximum_filter
@@ -43,6 +44,7 @@ from .....exceptions import AssemblyError, GeometryError, UnreachableError
 from .....holds import DEFAULT_BOUND, WhereItHolds
 from .....kinematics import exact
 from ..model import SLOW_RATIO, KlipperDelta
+from ..rotary_model import KlipperRotaryDelta
 
 #: The grid's default spacing [mm] (its sampling error is measured and said at every export).
 DEFAULT_STEP_MM = 10.0
@@ -78,7 +80,11 @@ class LiveVolume:
         delta_radius: ``delta_radius`` [mm] (the taper's).
         arm: The shortest ``arm_length`` [mm] (the taper's).
         slow_radius: Where Klipper halves a move's speed (a tower 3 times faster than XY) [mm].
+        inner: What ``slow_radius`` is, in words; rim: what the correction does beyond it.
     """
+
+    inner: ClassVar[str] = "where Klipper moves at full speed"
+    rim: ClassVar[str] = "Klipper's model nears a flat rod there"
 
     radius: float
     min_z: float
@@ -104,10 +110,13 @@ class LiveVolume:
         """Which points Klipper admits as a move's end, (N, 3) -> (N,) bool (its taper included)."""
         radius = np.hypot(points[:, 0], points[:, 1])
         z = points[:, 2]
-        above = np.maximum(z - self.limit_z, 0.0)
-        taper = self.delta_radius - np.sqrt(np.maximum(self.arm**2 - (self.arm - above) ** 2, 0.0))
-        allowed = np.where(z > self.limit_z, np.minimum(self.radius, taper), self.radius)
+        allowed = np.where(z > self.limit_z, np.minimum(self.radius, self.taper(z)), self.radius)
         return (z >= self.min_z) & (z <= self.max_z) & (radius <= allowed)
+
+    def taper(self, z: np.ndarray) -> np.ndarray:
+        """The radius Klipper allows at heights z above ``limit_z`` (``delta.py``'s taper) [mm]."""
+        above = np.maximum(z - self.limit_z, 0.0)
+        return self.delta_radius - np.sqrt(np.maximum(self.arm**2 - (self.arm - above) ** 2, 0.0))
 
     def sample(self, count: int, rng: np.random.Generator) -> np.ndarray:
         """``count`` points spread uniformly over what Klipper admits, (count, 3) [mm]."""
@@ -119,6 +128,28 @@ class LiveVolume:
             points = np.column_stack([r * np.cos(a), r * np.sin(a), z])
             found.append(points[self.admits(points)])
         return np.concatenate(found)[:count]
+
+
+@dataclass(frozen=True)
+class RotaryLiveVolume(LiveVolume):
+    """The volume of Klipper's rotary delta (``rotary_delta.py``'s ``check_move``).
+
+    Above ``limit_z`` the radius at most ``max_z − Z``; ``delta_radius`` and ``arm`` unused (0);
+    ``slow_radius`` the printable radius (Klipper's rotary delta has no slower rim).
+    """
+
+    inner: ClassVar[str] = "the printable radius"
+    rim: ClassVar[str] = "the arms near their reach there"
+
+    @classmethod
+    def of_rotary(cls, klipper: KlipperRotaryDelta, printable: float) -> RotaryLiveVolume:
+        """The volume of Klipper's rotary values (its ``max_xy``, ``minimum_z_position`` to its top)."""
+        return cls(klipper.max_radius, klipper.minimum_z_position, klipper.max_z, klipper.limit_z, 0.0, 0.0,
+                   min(printable, klipper.max_radius))
+
+    def taper(self, z: np.ndarray) -> np.ndarray:
+        """The radius Klipper allows at heights z above ``limit_z``: ``max_z − Z`` [mm]."""
+        return self.max_z - z
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,6 +316,10 @@ def correction_field(calibration: Calibration, controller: CommandModel, volume:
     known = np.all(np.isfinite(values), axis=1)
     values[asked & ~known] = _continuation(calibration, controller, flat[asked & ~known])
     continued = _continued(values.reshape(*shape, 3), np.all(np.isfinite(values), axis=1).reshape(shape))
+    if np.any(known):  # extrapolated from a steep rim (a rotary Delta's reach) no larger than what is known
+        largest = np.max(np.abs(values[known]), axis=0)
+        clipped = np.clip(continued, -largest, largest)
+        continued = np.where(known.reshape(shape)[..., None], continued, clipped)
     apart = distance_transform_edt(~known.reshape(shape)) if np.any(known) else np.full(shape, np.inf)
     held = _ramp(beyond.reshape(shape)) * _ramp(apart)
     refused = int(np.sum(asked & ~known & (beyond <= TRUST_NODES)))
