@@ -37,10 +37,12 @@ SIGMA_HEIGHT = 0.01
 SIGMA_DISTANCE = 0.02
 
 
-def simulate_prints(request: SimulateRequest, printer: NominalLinearDelta) -> Done:
-    """``deltacal simulate`` of a printer: the filled templates (and the true printer) written."""
-    probe_file, distance_file = request.check_printer()
-    assert request.controller is not None
+def checked_outputs(request: SimulateRequest) -> list[Path]:
+    """A printer's simulation's inputs checked, and its outputs (filled files, the truth unless given).
+
+    Raises:
+        UsageError: a missing input, an output that would overwrite an input, outputs not distinct.
+    """
     inputs = [request.nominal, request.controller, *request.poses, request.truth]
     check_inputs(inputs)
     outputs = [Path(request.output)]
@@ -52,6 +54,14 @@ def simulate_prints(request: SimulateRequest, printer: NominalLinearDelta) -> Do
         check_output(path, inputs)
     if len({p.resolve() for p in outputs}) != len(outputs):
         raise UsageError(f"the outputs {', '.join(map(str, outputs))} must be different files")
+    return outputs
+
+
+def simulate_prints(request: SimulateRequest, printer: NominalLinearDelta) -> Done:
+    """``deltacal simulate`` of a printer: the filled templates (and the true printer) written."""
+    probe_file, distance_file = request.check_printer()
+    assert request.controller is not None
+    checked_outputs(request)
     config = read_firmware_config(request.controller, request.firmware)
     firmware = config.values
     config.firmware.check_same_printer(config.firmware.nominal(printer), firmware, str(request.nominal),

@@ -22,7 +22,6 @@ import numpy as np
 from ...exceptions import InputError, UsageError
 from ...geometry import DeltaGeometry, NominalDelta, Tolerances
 from ...io import data_row, load_geometry, save_geometry
-from ...io.paths import check_inputs, check_output
 from ...printer.files.measurements import (
     read_printed_distances,
     read_probe_heights,
@@ -35,7 +34,7 @@ from ...printer.firmware.klipper.rotary_model import KlipperRotaryDelta
 from ...printer.rotary_simulation import RotaryPrinter, printed_distances, probe_triggers
 from ...simulation import truth_path
 from ..base import Done
-from ..printer.simulate import SIGMA_DISTANCE, SIGMA_HEIGHT, rows_named
+from ..printer.simulate import SIGMA_DISTANCE, SIGMA_HEIGHT, checked_outputs, rows_named
 from ..requests import SimulateRequest
 from .printed import rotary_controller_of
 
@@ -54,17 +53,7 @@ def simulate_rotary_prints(request: SimulateRequest, robot: NominalDelta) -> Don
     if request.tolerances is not None:
         raise UsageError(f"--tolerances {request.tolerances}: a linear printer's classes; a rotary printer's "
                          "truth is drawn at a rotary printer kit's (Tolerances.rotary_printer_kit)")
-    inputs = [request.nominal, request.controller, *request.poses, request.truth]
-    check_inputs(inputs)
-    outputs = [Path(request.output)]
-    if request.distances_output is not None:
-        outputs.append(Path(request.distances_output))
-    if request.truth is None:
-        outputs.append(truth_path(Path(request.output)))
-    for path in outputs:
-        check_output(path, inputs)
-    if len({p.resolve() for p in outputs}) != len(outputs):
-        raise UsageError(f"the outputs {', '.join(map(str, outputs))} must be different files")
+    checked_outputs(request)
     firmware = told_firmware(request.controller, request.firmware)
     controller = rotary_controller_of(firmware, request.controller, request.nominal)
     values = _klipper_values(controller, request.controller)
