@@ -113,16 +113,37 @@ def test_compensate_through_the_cli_beats_klippers_extended_calibration(route, t
 
 
 def test_a_linear_printer_cfg_for_a_rotary_robot_file_is_refused(tmp_path, capsys):
-    """One line naming the configuration, nothing written."""
+    """One line naming the configuration (as plan and simulate say it), nothing written."""
     assert main(["import", str(EXAMPLE), "-o", str(tmp_path / "imp"), *MEASURED]) == 0
     write_probe_heights(tmp_path / "probe.csv", np.zeros((7, 2)), np.zeros(7))
     linear = EXAMPLE.parents[1] / "example-delta.cfg"
     capsys.readouterr()
     assert main(["identify", str(tmp_path / "imp" / "printer.toml"), str(tmp_path / "probe.csv"),
-                 "--controller", str(linear), "-o", str(tmp_path / "cal.toml")]) == 1
+                 "--controller", str(linear), "-o", str(tmp_path / "cal.toml")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "example-delta.cfg" in err and "rotary" in err, err
     assert not (tmp_path / "cal.toml").exists()
+
+
+def test_another_rotary_printers_configuration_is_refused(tmp_path, capsys):
+    """The example's configuration with its upper arms 200 mm (170 in the imported robot file): another
+    printer, refused naming the key, the arm and both files, by identify, plan and simulate; nothing
+    written."""
+    assert main(["import", str(EXAMPLE), "-o", str(tmp_path / "imp"), *MEASURED]) == 0
+    other = tmp_path / "other.cfg"
+    other.write_text(EXAMPLE.read_text().replace("upper_arm_length: 170.000", "upper_arm_length: 200.000"))
+    assert other.read_text() != EXAMPLE.read_text()
+    write_probe_heights(tmp_path / "probe.csv", np.zeros((7, 2)), np.zeros(7))
+    robot = str(tmp_path / "imp" / "printer.toml")
+    capsys.readouterr()
+    for args in (["identify", robot, str(tmp_path / "probe.csv"), "--controller", str(other), "-o",
+                  str(tmp_path / "cal.toml")],
+                 ["plan", robot, "--object", "--controller", str(other), "-o", str(tmp_path / "obj")]):
+        assert main(args) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1, err
+        assert "upper_arm_length (arm A) is 170 mm" in err and "200 mm in" in err and "other.cfg" in err, err
+    assert not (tmp_path / "cal.toml").exists() and not (tmp_path / "obj").exists()
 
 
 @pytest.mark.slow

@@ -67,7 +67,7 @@ def check_step_distance(step_distance: np.ndarray | float, config_steps: np.ndar
 
 
 def check_same_values(name: str, ours: np.ndarray, theirs: np.ndarray, tolerance: np.ndarray | float,
-                      our_source: str, their_source: str, unit: str = "mm") -> None:
+                      our_source: str, their_source: str, unit: str = "mm", part: str = "tower") -> None:
     """Refuse two sets of values of one printer further apart than ``tolerance``.
 
     Args:
@@ -78,6 +78,7 @@ def check_same_values(name: str, ours: np.ndarray, theirs: np.ndarray, tolerance
         our_source: The first file and where in it the values come from, for the message.
         their_source: The second.
         unit: The values' unit.
+        part: What each of three values belongs to (``tower``; a rotary printer's ``arm``).
 
     Raises:
         InputError: naming both values and where they come from.
@@ -89,7 +90,7 @@ def check_same_values(name: str, ours: np.ndarray, theirs: np.ndarray, tolerance
     if not np.any(apart > 0.0):
         return
     k = int(np.argmax(apart))
-    tower = f" (tower {'ABC'[k]})" if a.size == 3 else ""
+    tower = f" ({part} {'ABC'[k]})" if a.size == 3 else ""
     raise InputError(f"{name}{tower} is {a[k]:.6g} {unit} in {our_source} but {b[k]:.6g} {unit} in "
                      f"{their_source}: further apart than any build could be ({tol[k]:.3g} {unit}): "
                      "the files of different printers")

@@ -20,7 +20,7 @@ from typing import Any, Generic, Protocol, TypeVar
 import numpy as np
 
 from ...controller.targets import CommandModel
-from ...geometry import DeltaGeometry
+from ...geometry import DeltaGeometry, NominalDelta
 from ...kinematics.closed_form import VirtualDelta
 from ...towers import per_tower
 
@@ -139,3 +139,6 @@ class RotaryFirmwareController(CommandModel, Protocol):
 
     def bed_height(self, geometry: DeltaGeometry) -> float:
         """How far the firmware's bed is below the robot's {O} [mm]."""
+
+    def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
+        """Refuse a rotary robot file of another printer than the configuration's values (one line)."""

@@ -30,24 +30,28 @@ def plan_rotary_object(request: PlanRequest, robot: NominalDelta) -> Done:
         UsageError: a linear Delta printer's configuration (or a firmware that runs no rotary Delta).
     """
     firmware = object_firmware(request)
-    controller = rotary_controller_of(firmware, request.controller, request.nominal)
+    controller = rotary_controller_of(firmware, request.controller, request.nominal, robot)
     return write_object_plan(request, firmware, RotaryPrinterToPlan(robot, controller))
 
 
-def rotary_controller_of(firmware: Firmware[Any], config: Any, robot: Any) -> RotaryFirmwareController:
+def rotary_controller_of(firmware: Firmware[Any], config: Any, robot_path: Any,
+                         robot: NominalDelta) -> RotaryFirmwareController:
     """The firmware's rotary controller of the configuration ``config``; a linear printer's refused.
 
     Args:
         firmware: The firmware told of ``config``.
         config: The configuration (``--controller``).
-        robot: The rotary robot file, for the message.
+        robot_path: The rotary robot file, for the messages.
+        robot: The robot it holds: another printer's than the configuration's values is refused.
 
     Raises:
         UsageError: ``config`` configures a linear Delta printer (or the firmware runs no rotary Delta).
+        InputError: the robot file and the configuration are of different printers, naming the value.
     """
     controller = firmware.rotary_controller(config)
     if controller is None:
         raise UsageError(f"--controller {config}: not {firmware.title}'s configuration of a rotary Delta "
-                         f"printer (a linear Delta's?), but {robot} is a rotary Delta's robot file: give the "
-                         "rotary printer's configuration (kinematics: rotary_delta)")
+                         f"printer (a linear Delta's?), but {robot_path} is a rotary Delta's robot file: "
+                         "give the rotary printer's configuration (kinematics: rotary_delta)")
+    controller.check_same_printer(robot, str(robot_path), str(config))
     return controller

@@ -55,7 +55,7 @@ def simulate_rotary_prints(request: SimulateRequest, robot: NominalDelta) -> Don
                          "truth is drawn at a rotary printer kit's (Tolerances.rotary_printer_kit)")
     checked_outputs(request)
     firmware = told_firmware(request.controller, request.firmware)
-    controller = rotary_controller_of(firmware, request.controller, request.nominal)
+    controller = rotary_controller_of(firmware, request.controller, request.nominal, robot)
     values = _klipper_values(controller, request.controller)
     truth = _truth(request, robot, controller)
     rng = np.random.default_rng(request.seed)

@@ -26,10 +26,9 @@ from typing import Any
 import numpy as np
 
 from ...calibration import Calibration
-from ...exceptions import InputError
 from ...geometry import NominalDelta, Tolerances, Workspace
 from ...io import save_calibration
-from ...printer.firmware.config_file import RotaryFirmwareConfig, settings_read, told_firmware
+from ...printer.firmware.config_file import told_firmware
 from ...printer.firmware.controller import RotaryFirmwareController
 from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
@@ -37,6 +36,7 @@ from ...printer.rotary_owner import rotary_owner_lines
 from ..base import Done, check_files, warn
 from ..printer.identify import Commanded, fit_prints, read_prints
 from ..requests import IdentifyRequest
+from .printed import rotary_controller_of
 
 
 @dataclass(frozen=True)
@@ -60,12 +60,7 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
     assert request.controller is not None
     check_files([request.nominal, request.controller, *map(str, request.measurements)], request.output)
     firmware = told_firmware(request.controller, request.firmware)
-    config = settings_read(firmware, request.controller)
-    if not isinstance(config, RotaryFirmwareConfig):
-        raise InputError(f"a linear Delta printer's settings, and {request.nominal} is a rotary Delta's "
-                         "robot file: give the rotary configuration it was imported from",
-                         str(request.controller))
-    rotary = config.rotary
+    rotary = rotary_controller_of(firmware, request.controller, request.nominal, nominal)
     robot = nominal.geometry()
     lift = rotary.bed_height(robot)
     start = rotary.in_bed_frame(robot)

@@ -21,8 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ....geometry import DeltaGeometry
+from ....geometry import DeltaGeometry, NominalDelta
 from ....kinematics.closed_form import VirtualDelta
+from ...files.same_printer import LENGTH_RTOL, check_same_values
 from ..controller import NozzleCommands
 from .rotary_model import KlipperRotaryDelta
 
@@ -41,6 +42,26 @@ class KlipperRotaryController(NozzleCommands):
     def virtual(self) -> VirtualDelta:
         """Klipper's model as a revolute :class:`VirtualDelta` in its frame, readings ``q = −θ``."""
         return self.firmware.virtual
+
+    def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
+        """Refuse a rotary robot file of another printer than these values, naming the first value apart.
+
+        The robot file ``deltacal import`` writes of a configuration holds its shoulder radius (its
+        ``base_radius_mm`` less its ``plate_radius_mm``) and its arms (``arm_length_mm``, ``rod_length_mm``):
+        each within :data:`~...files.same_printer.LENGTH_RTOL` of the configuration's, as a linear
+        printer's radius and arms are checked.
+
+        Raises:
+            InputError: one line naming the value (Klipper's key), both files and both values.
+        """
+        k = self.firmware
+        radius = robot.base_radius - robot.plate_radius
+        check_same_values("shoulder_radius", np.array(radius), np.array(k.shoulder_radius),
+                          LENGTH_RTOL * radius, our_source, their_source)
+        for key, ours, theirs in (("upper_arm_length", robot.arm_length, k.upper_arm),
+                                  ("lower_arm_length", robot.rod_length, k.lower_arm)):
+            check_same_values(key, np.full(3, ours), theirs, LENGTH_RTOL * ours, our_source, their_source,
+                              part="arm")
 
     def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """The readings ``q = −θ`` Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [rad]."""
