@@ -178,6 +178,15 @@ class WhereItHolds:
         return (np.linspace(0.0, radius, GRID_RADII), 2.0 * np.pi * np.arange(GRID_AZIMUTHS) / GRID_AZIMUTHS,
                 grid_heights(top))
 
+    @property
+    def printable_radius(self) -> float:
+        """The printable radius [mm]: the grid's first :data:`GRID_RADII` radii span it (:meth:`grid`).
+
+        The rings beyond, if any, go out to where the controller still moves the nozzle (a rotary
+        printer's: :func:`~deltacal.printer.identification.where.where_it_holds`'s ``reach``).
+        """
+        return float(self.radius[min(GRID_RADII, self.radius.size) - 1])
+
     @staticmethod
     def nodes(radius: np.ndarray, azimuth: np.ndarray, height: np.ndarray) -> np.ndarray:
         """The grid's points, in the order of the σ arrays (radius, azimuth, height) [mm], (R·A·Z, 3)."""

@@ -220,7 +220,7 @@ def printers_in_frame(geometry: DeltaGeometry, holds: WhereItHolds,
     The identified printer (:func:`aligned_to_controller`), then, when the calibration has one,
     :attr:`WhereItHolds.along_bed <deltacal.holds.WhereItHolds.along_bed>` (one printer: both).
     """
-    radius = float(holds.radius[-1])
+    radius = holds.printable_radius  # the first layer that fixes the frame along the bed
     return [aligned_to_controller(g, controller, radius)
             for g in (geometry, holds.along_bed) if g is not None]
 

@@ -142,3 +142,7 @@ class RotaryFirmwareController(CommandModel, Protocol):
 
     def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
         """Refuse a rotary robot file of another printer than the configuration's values (one line)."""
+
+    @property
+    def reach_radius(self) -> float:
+        """The radius out to which the firmware commands the nozzle [mm]."""

@@ -65,7 +65,7 @@ def comparison_points(calibration: Calibration) -> np.ndarray:
     """Where two controllers of a calibration are compared: the first layer's points at three heights [mm]."""
     holds = calibration.where_held()
     assert holds is not None  # where_held refuses a printer's calibration without [holds]
-    radius, top = float(holds.radius[-1]), float(max(holds.measured_top, holds.height[1]))
+    radius, top = holds.printable_radius, float(max(holds.measured_top, holds.height[1]))
     layer = bed_points(radius)
     return np.concatenate([layer + [0.0, 0.0, f * top] for f in SHIFT_LAYERS])
 

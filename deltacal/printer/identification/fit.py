@@ -231,6 +231,8 @@ class PrinterFitOptions:
         calibrated_start: The start is the firmware's values calibrated from these very
             measurements (a saved ``DELTA_CALIBRATE``): the directions of the values its own
             calibration fits take wide priors (:meth:`~.errormodels.PrinterModel.prior_factor`).
+        reach: The controller's radius where it reaches beyond the workspace's [mm], or None: where
+            the calibration's σ is given out to it (:func:`~.where.where_it_holds`).
 
     Raises:
         ValueError: a method or scale out of its range (the message names the field and value).
@@ -243,6 +245,7 @@ class PrinterFitOptions:
     workspace: Workspace | None = None
     accept_poor_fit: bool = False
     calibrated_start: bool = False
+    reach: float | None = None
 
     def __post_init__(self) -> None:
         if self.method not in get_args(Method):
@@ -266,6 +269,7 @@ class PrinterFitOverrides(TypedDict, total=False):
     workspace: Workspace | None
     accept_poor_fit: bool
     calibrated_start: bool
+    reach: float | None
 
 
 def identify_printer(
@@ -356,7 +360,8 @@ def identify_printer(
         residual_after=r * np.asarray(data.sigma)[kind],
         independent_rows=r.size, columns=build_columns(error_model).columns,
         hints=tuple(hints), warnings=tuple(warnings),
-        holds=replace(where_it_holds(geometry, error_model, cov, volume, measured_top(geometry, data)),
+        holds=replace(where_it_holds(geometry, error_model, cov, volume, measured_top(geometry, data),
+                                     options.reach),
                       values=firmware_determination(geometry, error_model, cov, build, volume),
                       along_bed=error_model.apply(start, determined_values(total, W, factor))
                       if options.calibrated_start else None),

@@ -123,8 +123,12 @@ def correction_covariance(geometry: DeltaGeometry, model: ErrorModel, covariance
     return out
 
 
+#: Rings of the grid beyond the printable radius, out to the controller's reach, at most.
+REACH_RINGS = 4
+
+
 def where_it_holds(geometry: DeltaGeometry, model: ErrorModel, covariance: np.ndarray, workspace: Workspace,
-                   measured_top: float = 0.0) -> WhereItHolds:
+                   measured_top: float = 0.0, reach: float | None = None) -> WhereItHolds:
     """The σ of the nozzle correction on the grid of :class:`~deltacal.holds.WhereItHolds` over the volume.
 
     Args:
@@ -133,8 +137,15 @@ def where_it_holds(geometry: DeltaGeometry, model: ErrorModel, covariance: np.nd
         covariance: Its parameters' covariance (the model's order), (n, n).
         workspace: The printable cylinder (its radius; heights from the bed to its top).
         measured_top: The highest nozzle height a measurement was made at [mm].
+        reach: The controller's radius, when it commands the nozzle beyond the printable one [mm]: the
+            grid goes on out to it (:data:`REACH_RINGS` rings), so that a target there has the σ the
+            model gives it, not the printable radius's edge's (a rotary printer's arms reach far beyond
+            the bed a calibration measured). The frame along the bed stays the printable radius's.
     """
     radius, azimuth, height = WhereItHolds.grid(workspace.radius, workspace.top_z)
+    if reach is not None and reach > workspace.radius:
+        rings = min(REACH_RINGS, int(np.ceil((reach - workspace.radius) / np.diff(radius)[-1])))
+        radius = np.concatenate([radius, np.linspace(workspace.radius, reach, rings + 1)[1:]])
     cov = correction_covariance(geometry, model, covariance, WhereItHolds.nodes(radius, azimuth, height),
                                 workspace.radius)
     horizontal = np.sqrt(np.clip(np.linalg.eigvalsh(np.nan_to_num(cov[:, :2, :2]))[:, -1], 0.0, None))

@@ -71,7 +71,8 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
                                 tolerances=Tolerances.rotary_printer_kit(),
                                 tolerance_scale=request.tolerance_scale or "evidence", workspace=volume,
                                 accept_poor_fit=request.accept_poor_fit,
-                                calibrated_start=firmware.calibrated_from_saved(request.controller))
+                                calibrated_start=firmware.calibrated_from_saved(request.controller),
+                                reach=rotary.reach_radius)  # σ out to where Klipper moves the nozzle
     result = fit_prints(request, start, model, options, data, files)
     down = np.array([0.0, 0.0, -lift])
     calibration = Calibration.from_result(result)

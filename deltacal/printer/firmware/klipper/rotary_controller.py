@@ -43,6 +43,11 @@ class KlipperRotaryController(NozzleCommands):
         """Klipper's model as a revolute :class:`VirtualDelta` in its frame, readings ``q = −θ``."""
         return self.firmware.virtual
 
+    @property
+    def reach_radius(self) -> float:
+        """Klipper's ``max_xy`` [mm] (:attr:`~.rotary_model.KlipperRotaryDelta.max_radius`)."""
+        return self.firmware.max_radius
+
     def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
         """Refuse a rotary robot file of another printer than these values, naming the first value apart.
 
