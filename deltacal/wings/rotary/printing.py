@@ -54,7 +54,9 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
     """``deltacal identify`` of a rotary Delta printer: the calibration file written, the report said.
 
     Raises:
-        InputError: a linear Delta's configuration, or the measurements' own refusals (by file and line).
+        UsageError: a linear Delta's configuration (:func:`.printed.rotary_controller_of`).
+        InputError: another printer's configuration (naming the value), or the measurements' own
+            refusals (by file and line).
     """
     model = request.printer_model("rotary_printer")
     assert request.controller is not None
