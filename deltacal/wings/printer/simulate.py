@@ -142,11 +142,17 @@ def rows_named(source: str, lines: np.ndarray, rows: np.ndarray, robot: str) -> 
 
 def _said(request: SimulateRequest, probes: int, distances: int | None) -> tuple[str, ...]:
     """What was written."""
+    tolerances = request.tolerances or "printer-kit"
+    return simulated_lines(request, probes, distances, f"true printer (seed {request.perturb}, {tolerances} "
+                                                       "tolerances, on its true bed)")
+
+
+def simulated_lines(request: SimulateRequest, probes: int, distances: int | None,
+                    truth: str) -> tuple[str, ...]:
+    """What a printer's simulation wrote: the filled files, then ``truth`` (its words) unless given."""
     line = f"simulated {probes} probe heights -> {request.output}"
     if distances is not None:
         line += f"; {distances} distances -> {request.distances_output}"
     if request.truth is not None:
         return (line,)
-    tolerances = request.tolerances or "printer-kit"
-    return (line, f"true printer (seed {request.perturb}, {tolerances} tolerances, on its true bed) -> "
-                  f"{truth_path(Path(request.output))}")
+    return (line, f"{truth} -> {truth_path(Path(request.output))}")

@@ -34,7 +34,7 @@ from ...printer.firmware.klipper.rotary_model import KlipperRotaryDelta
 from ...printer.rotary_simulation import RotaryPrinter, printed_distances, probe_triggers
 from ...simulation import truth_path
 from ..base import Done
-from ..printer.simulate import SIGMA_DISTANCE, SIGMA_HEIGHT, checked_outputs, rows_named
+from ..printer.simulate import SIGMA_DISTANCE, SIGMA_HEIGHT, checked_outputs, rows_named, simulated_lines
 from ..requests import SimulateRequest
 from .printed import rotary_controller_of
 
@@ -132,10 +132,5 @@ def _check_reach(values: KlipperRotaryDelta, commanded: np.ndarray, source: str,
 
 def _said(request: SimulateRequest, probes: int, distances: int | None) -> tuple[str, ...]:
     """What was written."""
-    line = f"simulated {probes} probe heights -> {request.output}"
-    if distances is not None:
-        line += f"; {distances} distances -> {request.distances_output}"
-    if request.truth is not None:
-        return (line,)
-    return (line, f"true rotary printer (seed {request.perturb}, rotary printer kit tolerances, in the bed's "
-                  f"frame) -> {truth_path(Path(request.output))}")
+    return simulated_lines(request, probes, distances, f"true rotary printer (seed {request.perturb}, rotary "
+                                                       "printer kit tolerances, in the bed's frame)")
