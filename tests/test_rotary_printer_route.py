@@ -206,3 +206,27 @@ def test_beyond_the_measured_bed_the_rim_is_not_corrected(route):
     assert np.all(sent.weights == 0.0) and np.max(np.abs(sent.commands - rim)) == 0.0
     centre = weighted_targets(moved, controller, np.array([[0.0, 0.0, 0.2]]))
     assert np.all(centre.weights[0] > 0.5)  # the measured bed corrected
+
+
+@pytest.mark.slow
+def test_the_calibration_records_its_configuration_and_refuses_changed_values(route, tmp_path, capsys):
+    """identify records Klipper's rotary values (``[controller]``); compensate through the same file goes
+    through; through a copy with a changed endstop it is refused naming the key (a rotary printer's
+    calibration is not re-anchored), nothing written."""
+    calibration = load_calibration(route["cal"])
+    assert calibration.controller is not None and calibration.controller.firmware == "klipper"
+    assert calibration.controller.values["stepper_a.upper_arm_length"] == 170.0
+    targets = tmp_path / "t.csv"
+    np.savetxt(targets, VOLUME[:5], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
+    assert main(["compensate", str(route["cal"]), str(targets), "--controller", str(EXAMPLE), "-o",
+                 str(tmp_path / "same.csv")]) == 0
+    moved = tmp_path / "moved.cfg"
+    text = EXAMPLE.read_text()
+    moved.write_text(text.replace("position_endstop: 252", "position_endstop: 252.5", 1))
+    assert moved.read_text() != text
+    capsys.readouterr()
+    assert main(["compensate", str(route["cal"]), str(targets), "--controller", str(moved), "-o",
+                 str(tmp_path / "out.csv")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "stepper_a.position_endstop 252 -> 252.5" in err, err
+    assert "not re-anchored" in err and not (tmp_path / "out.csv").exists()

@@ -239,13 +239,34 @@ class RotaryFirmwareConfig:
         """The firmware's reading of G-code with this configuration (its home the rotary model's)."""
         return self.firmware.dialect(self.path, self.rotary.firmware)
 
+    def record(self) -> ControllerRecord:
+        """What a rotary printer's calibration records of this configuration (``[controller]``)."""
+        with warnings.catch_warnings():  # the configuration's warnings were said when it was read
+            warnings.simplefilter("ignore")
+            files = self.firmware.config_files(self.path)
+        return ControllerRecord(self.firmware.name, self.path, files_digest(files), self.rotary.values_read())
+
     def anchor(self, calibration: Calibration, source: str | Path) -> tuple[Calibration, tuple[str, ...]]:
         """A rotary robot's calibration moved into the firmware's frame (the bed's), and what to say.
 
         Its geometry and its nominal robot both move up by the firmware's bed height below {O}, the
         nominal robot's nozzle drop placing the bed (a geometry file: its own), so that targets and
-        commands are the firmware's coordinates, as G-code gives them.
+        commands are the firmware's coordinates, as G-code gives them. A rotary printer's calibration
+        that recorded its controller (``[controller]``) is refused through another firmware or through
+        changed values (naming the keys): it is not re-anchored (a linear printer's is), it is identified
+        again.
+
+        Raises:
+            InputError: another firmware, or values changed since the calibration was identified.
         """
+        recorded_firmware(calibration, source, self.firmware, self.path)
+        record = calibration.controller
+        changes = [] if record is None else record.changes(self.rotary.values_read())
+        if record is not None and changes:
+            raise InputError(f"values changed since {source} was identified with {record.source}: "
+                             f"{changes_in_words(changes)}; a rotary printer's calibration is not "
+                             f"re-anchored to new values: identify it again through {self.path} (or give "
+                             f"{record.source})", self.path)
         nominal = calibration.nominal
         lift = self.rotary.bed_height(nominal)
         holds = calibration.holds  # a rotary printer's: its grid in the firmware's frame, its printer in {O}

@@ -146,3 +146,6 @@ class RotaryFirmwareController(CommandModel, Protocol):
     @property
     def reach_radius(self) -> float:
         """The radius out to which the firmware commands the nozzle [mm]."""
+
+    def values_read(self) -> dict[str, float]:
+        """Every value of the configuration that moves the nozzle, by the firmware's keys (a record's)."""

@@ -28,7 +28,7 @@ import numpy as np
 from ...calibration import Calibration
 from ...geometry import NominalDelta, Tolerances, Workspace
 from ...io import save_calibration
-from ...printer.firmware.config_file import told_firmware
+from ...printer.firmware.config_file import RotaryFirmwareConfig, told_firmware
 from ...printer.firmware.controller import RotaryFirmwareController
 from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
@@ -82,7 +82,8 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
     if holds is not None and holds.along_bed is not None:
         holds = replace(holds, along_bed=holds.along_bed.moved_rigidly(np.eye(3), down))
     calibration = replace(calibration, geometry=calibration.geometry.moved_rigidly(np.eye(3), down),
-                          nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds)
+                          nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds,
+                          controller=RotaryFirmwareConfig(firmware, rotary, str(request.controller)).record())
     save_calibration(calibration, request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "

@@ -48,6 +48,19 @@ class KlipperRotaryController(NozzleCommands):
         """Klipper's ``max_xy`` [mm] (:attr:`~.rotary_model.KlipperRotaryDelta.max_radius`)."""
         return self.firmware.max_radius
 
+    def values_read(self) -> dict[str, float]:
+        """Klipper's rotary values by ``section.key`` (angles in deg, step distances in rad per step)."""
+        k = self.firmware
+        values = {"printer.shoulder_radius": float(k.shoulder_radius),
+                  "printer.shoulder_height": float(k.shoulder_height)}
+        for i, arm in enumerate("abc"):
+            values |= {f"stepper_{arm}.angle": float(np.degrees(k.angle[i])),
+                       f"stepper_{arm}.upper_arm_length": float(k.upper_arm[i]),
+                       f"stepper_{arm}.lower_arm_length": float(k.lower_arm[i]),
+                       f"stepper_{arm}.position_endstop": float(k.position_endstop[i]),
+                       f"stepper_{arm}.step_distance": float(k.step_distance[i])}
+        return values
+
     def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
         """Refuse a rotary robot file of another printer than these values, naming the first value apart.
 
