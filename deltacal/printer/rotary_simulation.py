@@ -24,11 +24,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..exceptions import ConvergenceError
 from ..geometry import DeltaGeometry
 from ..kinematics import exact
 from .firmware.klipper.rotary_model import KlipperRotaryDelta
-from .simulation import PROBE_TOLERANCE
+from .simulation import trigger_zeros
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,17 +92,7 @@ def probe_triggers(printer: RotaryPrinter, config: KlipperRotaryDelta, xy: np.nd
     def height(z: np.ndarray) -> np.ndarray:
         return printer.nozzle(config, np.column_stack([xy, z]))[:, 2] - goal
 
-    z0 = goal.copy()
-    z1 = z0 + 1.0
-    h0, h1 = height(z0), height(z1)
-    for _ in range(max_iter):
-        slope = np.where(z1 != z0, (h1 - h0) / np.where(z1 != z0, z1 - z0, 1.0), 1.0)
-        z2 = z1 - np.divide(h1, slope, out=np.zeros_like(h1), where=slope != 0.0)
-        if np.max(np.abs(z2 - z1)) < PROBE_TOLERANCE:
-            return np.column_stack([xy, z2])
-        z0, h0, z1 = z1, h1, z2
-        h1 = height(z1)
-    raise ConvergenceError(f"probe heights did not converge in {max_iter} iterations", float("nan"))
+    return np.column_stack([xy, trigger_zeros(height, goal.copy(), max_iter)])
 
 
 def printed_distances(printer: RotaryPrinter, config: KlipperRotaryDelta, pairs: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ printers). Units: mm, rad (degrees where named).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -176,7 +177,19 @@ def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: 
     def height(z: np.ndarray) -> np.ndarray:
         return nozzle_positions(truth, firmware, step_distance, np.column_stack([xy, z]), tip)[:, 2] - goal
 
-    z0 = goal - np.asarray(probe_offset, dtype=float)[2]
+    z1 = trigger_zeros(height, goal - np.asarray(probe_offset, dtype=float)[2], max_iter)
+    return np.column_stack([xy, z1 + rng.normal(0.0, sigma_mm, len(xy)) if sigma_mm > 0.0 else z1])
+
+
+def trigger_zeros(height: Callable[[np.ndarray], np.ndarray], z0: np.ndarray,
+                  max_iter: int = 30) -> np.ndarray:
+    """The commanded z at which ``height`` (the probe tip above its trigger) is 0, each point's: a secant.
+
+    From ``z0`` and ``z0 + 1``, to :data:`PROBE_TOLERANCE`; a point already there (equal heights) stays.
+
+    Raises:
+        ConvergenceError: not converged in ``max_iter`` iterations.
+    """
     z1 = z0 + 1.0
     h0, h1 = height(z0), height(z1)
     for _ in range(max_iter):
@@ -184,13 +197,10 @@ def probe_heights(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: 
         # a point already on the bed has h1 = h0: it stays (no 0 / 0)
         z2 = z1 - np.divide(h1, slope, out=np.zeros_like(h1), where=slope != 0.0)
         if np.max(np.abs(z2 - z1)) < PROBE_TOLERANCE:
-            z1 = z2
-            break
+            return z2
         z0, h0, z1 = z1, h1, z2
         h1 = height(z1)
-    else:
-        raise ConvergenceError(f"probe heights did not converge in {max_iter} iterations", float("nan"))
-    return np.column_stack([xy, z1 + rng.normal(0.0, sigma_mm, len(xy)) if sigma_mm > 0.0 else z1])
+    raise ConvergenceError(f"probe heights did not converge in {max_iter} iterations", float("nan"))
 
 
 def printed_distances(truth: DeltaGeometry, firmware: FirmwareModel, step_distance: np.ndarray | float,
