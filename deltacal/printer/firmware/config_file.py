@@ -251,32 +251,97 @@ class RotaryFirmwareConfig:
 
         Its geometry and its nominal robot both move up by the firmware's bed height below {O}, the
         nominal robot's nozzle drop placing the bed (a geometry file: its own), so that targets and
-        commands are the firmware's coordinates, as G-code gives them. A rotary printer's calibration
-        that recorded its controller (``[controller]``) is refused through another firmware or through
-        changed values (naming the keys): it is not re-anchored (a linear printer's is), it is identified
-        again.
+        commands are the firmware's coordinates, as G-code gives them. Another firmware than the one a
+        calibration recorded (``[controller]``) is refused. Values changed since: the calibration is
+        put in the bed's frame as the recorded values placed it (the bed is where it was measured),
+        then re-anchored (:func:`rotary_reanchored_to`), said in one line naming each changed key
+        (recorded -> now), unless the recorded values are of another printer
+        (:meth:`~deltacal.printer.firmware.controller.RotaryFirmwareController.check_same_values`:
+        refused naming the key).
 
         Raises:
-            InputError: another firmware, or values changed since the calibration was identified.
+            InputError: another firmware or printer, naming it; a calibration with no measurements
+                recorded, or one whose re-anchoring failed, through changed values.
         """
         recorded_firmware(calibration, source, self.firmware, self.path)
         record = calibration.controller
         changes = [] if record is None else record.changes(self.rotary.values_read())
-        if record is not None and changes:
-            raise InputError(f"values changed since {source} was identified with {record.source}: "
-                             f"{changes_in_words(changes)}; a rotary printer's calibration is not "
-                             f"re-anchored to new values: identify it again through {self.path} (or give "
-                             f"{record.source})", self.path)
+        if record is None or not changes:
+            said_frame = self._frame(calibration, source, self.rotary)
+            return in_firmware_frame(calibration, self.rotary), (said_frame,)
+        recorded = self.rotary.with_values(record.values)
+        self.rotary.check_same_values(recorded, f"{source}'s recorded controller {record.source}", self.path)
+        said = f"{self.path}: values changed since {source} was identified with {record.source}: " \
+               f"{changes_in_words(changes)}; "
+        again = f"measure the printer again and identify through {self.path} (or give {record.source})"
+        if calibration.measured is None:
+            raise InputError(f"{said}{source} records no measurements to re-anchor with: {again}", self.path)
+        placed, frame = in_firmware_frame(calibration, recorded), self._frame(calibration, source, recorded)
+        try:
+            moved = rotary_reanchored_to(placed, recorded, self.rotary)
+        except (ValueError, ConvergenceError, AssemblyError) as exc:
+            raise InputError(f"{said}re-anchoring {source} to these values failed ({exc}): {again}",
+                             self.path) from None
+        if moved is None:
+            return placed, (said + "they move no nozzle: the calibration is used as identified", frame)
+        return moved, (said + f"re-anchored: what its measurements determine is kept, the rest follows "
+                       f"{self.path}; if the printer itself changed (arms, probe, effector), measure it "
+                       "again and identify", frame)
+
+    def _frame(self, calibration: Calibration, source: str | Path, rotary: RotaryFirmwareController) -> str:
+        """Where the firmware's frame is in the calibration's {O}, ``rotary``'s values placing its bed."""
         nominal = calibration.nominal
-        lift = self.rotary.bed_height(nominal)
-        holds = calibration.holds  # a rotary printer's: its grid in the firmware's frame, its printer in {O}
-        if holds is not None and holds.along_bed is not None:
-            holds = replace(holds, along_bed=self.rotary.in_bed_frame(holds.along_bed, nominal))
-        moved = replace(calibration, geometry=self.rotary.in_bed_frame(calibration.geometry, nominal),
-                        nominal=self.rotary.in_bed_frame(nominal), holds=holds)
-        return moved, (f"{self.path}: targets and commands in {self.firmware.title}'s frame: its bed (z = 0) "
-                       f"at z = {-lift:g} mm in {source}'s frame (shoulder height + nozzle drop "
-                       f"{-float(nominal.tool[2]):g} mm)",)
+        return (f"{self.path}: targets and commands in {self.firmware.title}'s frame: its bed (z = 0) at z = "
+                f"{-rotary.bed_height(nominal):g} mm in {source}'s frame (shoulder height + nozzle drop "
+                f"{-float(nominal.tool[2]):g} mm)")
+
+
+def in_firmware_frame(calibration: Calibration, rotary: RotaryFirmwareController) -> Calibration:
+    """A rotary printer's calibration (in {O}) moved up into a firmware's frame by its values' bed height.
+
+    Its geometry, nominal robot and where it holds along the bed, by the nominal robot's nozzle drop
+    (:meth:`~deltacal.printer.firmware.controller.RotaryFirmwareController.in_bed_frame`); where it
+    holds is in the firmware's frame already.
+    """
+    nominal = calibration.nominal
+    holds = calibration.holds
+    if holds is not None and holds.along_bed is not None:
+        holds = replace(holds, along_bed=rotary.in_bed_frame(holds.along_bed, nominal))
+    return replace(calibration, geometry=rotary.in_bed_frame(calibration.geometry, nominal),
+                   nominal=rotary.in_bed_frame(nominal), holds=holds)
+
+
+def rotary_reanchored_to(calibration: Calibration, recorded: RotaryFirmwareController,
+                         now: RotaryFirmwareController) -> Calibration | None:
+    """A rotary printer's calibration (in the bed's frame) re-anchored from its recorded values to ``now``.
+
+    A rotary firmware's reading of an arm is its angle, counted from the endstop angle its values
+    give: the recorded readings are counted again as ``now`` counts the same steps
+    (:meth:`~deltacal.printer.firmware.controller.RotaryFirmwareController.recounted`); the start
+    moves from the printer the recorded values' forward model describes, in their readings, to the
+    one ``now``'s describes, in its own
+    (:func:`~deltacal.printer.identification.anchor.controller_shift`); the measurements are
+    identified again from it (:func:`~deltacal.printer.identification.anchor.reanchored`), where it
+    holds given out to ``now``'s reach. None when the two put the nozzle alike at every arm position
+    compared (the same steps through both).
+    """
+    record = calibration.measured
+    assert record is not None
+
+    def before(q: np.ndarray) -> np.ndarray:
+        return recorded.forward(q, check=False)
+
+    def same_steps(q: np.ndarray) -> np.ndarray:
+        return now.forward(now.recounted(q, recorded), check=False)
+
+    def after(q: np.ndarray) -> np.ndarray:
+        return now.forward(q, check=False)
+
+    if same_commands(calibration, before, same_steps):
+        return None
+    counted = replace(record, probe=now.recounted(record.probe, recorded),
+                      pairs=now.recounted(record.pairs.reshape(-1, 3), recorded).reshape(record.pairs.shape))
+    return reanchored(calibration, controller_shift(calibration, before, after), counted, now.reach_radius)
 
 
 def settings_read(firmware: Firmware[Any], path: str | Path) -> FirmwareConfig | RotaryFirmwareConfig:

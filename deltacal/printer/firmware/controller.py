@@ -13,6 +13,7 @@ over its own model; a firmware's model of a rotary Delta printer is a :class:`Ro
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any, Generic, Protocol, TypeVar
@@ -149,3 +150,12 @@ class RotaryFirmwareController(CommandModel, Protocol):
 
     def values_read(self) -> dict[str, float]:
         """Every value of the configuration that moves the nozzle, by the firmware's keys (a record's)."""
+
+    def with_values(self, values: Mapping[str, float]) -> RotaryFirmwareController:
+        """The controller of these values by the firmware's keys (a record's), the others this one's."""
+
+    def check_same_values(self, other: RotaryFirmwareController, other_source: str, source: str) -> None:
+        """Refuse ``other``'s values (``other_source``'s) of another printer than these (``source``'s)."""
+
+    def recounted(self, readings: np.ndarray, counted_by: RotaryFirmwareController) -> np.ndarray:
+        """The readings these values count where ``counted_by``'s count ``readings`` (the same steps)."""

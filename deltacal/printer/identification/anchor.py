@@ -24,11 +24,12 @@ from dataclasses import replace
 import numpy as np
 
 from ...calibration import Calibration
+from ...errormodels.base import ErrorModel
 from ...exceptions import AssemblyError
 from ...geometry import DeltaGeometry, Tolerances, Workspace
 from ...holds import bed_points
 from ...measured_record import MeasuredRecord
-from .errormodels import PrinterModel, calibrated_values
+from .errormodels import PrinterModel, RotaryPrinterModel, calibrated_values
 from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
 from .where import point_rows, readings_at
 
@@ -140,13 +141,19 @@ def controller_shift(calibration: Calibration, recorded: Callable[[np.ndarray], 
                                                                                      points)
 
 
-def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> Calibration:
+def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray,
+               measured: MeasuredRecord | None = None, reach: float | None = None) -> Calibration:
     """The calibration's measurements identified again from another start: the prior's centre moved.
 
     Args:
         calibration: A printer's calibration that recorded its measurements (``measured``).
         start: The new start: a nominal printer (another robot file's, of the same step distance), or
             Δm, the move of the calibration's nominal in the model's parameters (:func:`controller_shift`).
+        measured: The measurements to identify (by default the calibration's): a rotary printer's
+            readings counted again by the controller now given (its arms' angles count from its
+            endstop angles), the fit's choices the record's.
+        reach: The radius out to which where it holds is given (a rotary printer's firmware's reach:
+            :class:`~.fit.PrinterFitOptions`); None: the measured volume's.
 
     The fit's choices are the record's (the tolerances' scale as taken, the method, a start the
     firmware calibrated from the same data): only the prior's centre moves, never its width, so a
@@ -162,7 +169,7 @@ def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> C
         ValueError: a calibration without its measurements (written before they were recorded), or a
             start of another step distance.
     """
-    record = calibration.measured
+    record = calibration.measured if measured is None else measured
     if record is None:
         raise ValueError("the calibration records no measurements: it cannot be re-anchored")
     ws = record.workspace
@@ -171,9 +178,10 @@ def reanchored(calibration: Calibration, start: DeltaGeometry | np.ndarray) -> C
     elif not np.array_equal(np.asarray(start.step_distance), np.asarray(calibration.nominal.step_distance)):
         raise ValueError("a start of another step distance than the calibration's readings count in")
     options = PrinterFitOptions(method="linear" if record.method == "linear" else "iterated",
-                                tolerances=Tolerances.printer_kit(), tolerance_scale=record.tolerance_scale,
+                                tolerances=kit_tolerances(calibration.model),
+                                tolerance_scale=record.tolerance_scale,
                                 workspace=None if ws is None else Workspace(*ws), accept_poor_fit=True,
-                                calibrated_start=record.calibrated_start)
+                                calibrated_start=record.calibrated_start, reach=reach)
     result = identify_printer(start, measurements_of(record), calibration.model, options=options)
     return replace(Calibration.from_result(result), controller=calibration.controller, measured=record,
                    source=calibration.source)
@@ -183,8 +191,19 @@ def prior_factor_of(calibration: Calibration) -> np.ndarray:
     """L with ``Σ₀ = L Lᵀ``: the fit's prior at the calibration's nominal (its record's scale, start)."""
     record = calibration.measured
     model = calibration.model
-    if record is None or not isinstance(model, PrinterModel):
+    if record is None or not isinstance(model, PrinterModel | RotaryPrinterModel):
         raise ValueError("re-anchoring needs a printer's calibration that recorded its measurements")
-    used = scaled_tolerances(Tolerances.printer_kit(), record.tolerance_scale)
+    used = scaled_tolerances(model.kit_tolerances(), record.tolerance_scale)
     return model.prior_factor(used, calibration.nominal, calibrated_values(record.calibrated_start,
                                                                            record.distance.size, model))
+
+
+def kit_tolerances(model: ErrorModel) -> Tolerances:
+    """The build tolerances a printer model's fit takes (its own: a linear or a rotary printer kit's).
+
+    Raises:
+        ValueError: a model that is not a printer's (a robot's calibration is not re-anchored).
+    """
+    if not isinstance(model, PrinterModel | RotaryPrinterModel):
+        raise ValueError(f"model {model.name!r} is not a printer's: it is not re-anchored")
+    return model.kit_tolerances()

@@ -120,6 +120,11 @@ class PrinterModel(ErrorModel):
         """Each parameter is one elementary move (a constant matrix)."""
         return self._moves
 
+    @staticmethod
+    def kit_tolerances() -> Tolerances:
+        """The build tolerances its fit takes (a linear printer kit's: :meth:`Tolerances.printer_kit`)."""
+        return Tolerances.printer_kit()
+
     def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
         """σ of each parameter before any measurement, from the build tolerances (n,).
 
@@ -408,6 +413,11 @@ class RotaryPrinterModel(ErrorModel):
         scales = np.zeros((N_ELEMENTARY, 3))
         scales[[joint_scale_index(i) for i in range(3)], range(3)] = 1.0 / SCALE_TURN_RAD
         return np.hstack([self._complete.moves(geometry), scales])
+
+    @staticmethod
+    def kit_tolerances() -> Tolerances:
+        """Its fit's build tolerances (a rotary kit's: :meth:`Tolerances.rotary_printer_kit`)."""
+        return Tolerances.rotary_printer_kit()
 
     def prior_sigma(self, tolerances: Tolerances) -> np.ndarray:
         """σ of each parameter from the build tolerances alone (n,); the bed's place: :meth:`prior_factor`.

@@ -30,6 +30,7 @@ from ...geometry import NominalDelta, Tolerances, Workspace
 from ...io import save_calibration
 from ...printer.firmware.config_file import RotaryFirmwareConfig, told_firmware
 from ...printer.firmware.controller import RotaryFirmwareController
+from ...printer.identification.anchor import measured_record
 from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
 from ...printer.rotary_owner import rotary_owner_lines
@@ -83,7 +84,8 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
         holds = replace(holds, along_bed=holds.along_bed.moved_rigidly(np.eye(3), down))
     calibration = replace(calibration, geometry=calibration.geometry.moved_rigidly(np.eye(3), down),
                           nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds,
-                          controller=RotaryFirmwareConfig(firmware, rotary, str(request.controller)).record())
+                          controller=RotaryFirmwareConfig(firmware, rotary, str(request.controller)).record(),
+                          measured=measured_record(data, options, result.tolerance_scale))
     save_calibration(calibration, request.output)
     if result.outliers:
         warn([f"{files.where(k)} does not fit the other measurements (see the report): check it, or "

@@ -17,14 +17,16 @@ import`` writes the robot file). Units: mm and rad.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ....geometry import DeltaGeometry, NominalDelta
 from ....kinematics.closed_form import VirtualDelta
-from ...files.same_printer import LENGTH_RTOL, check_same_values
-from ..controller import NozzleCommands
+from ...files.same_printer import LENGTH_RTOL, STEP_DISTANCE_RTOL, check_same_values
+from ..controller import NozzleCommands, RotaryFirmwareController
 from .rotary_model import KlipperRotaryDelta
 
 
@@ -61,6 +63,63 @@ class KlipperRotaryController(NozzleCommands):
                        f"stepper_{arm}.step_distance": float(k.step_distance[i])}
         return values
 
+    def with_values(self, values: Mapping[str, float]) -> KlipperRotaryController:
+        """Klipper's rotary model with the values given by ``section.key`` (:meth:`values_read`'s), else ours.
+
+        Its limits (``minimum_z_position``) and name are this configuration's.
+        """
+        k = self.firmware
+
+        def arms(key: str, now: np.ndarray, unit: float = 1.0) -> np.ndarray:
+            return np.array([values.get(f"stepper_{arm}.{key}", now[i] / unit) * unit
+                             for i, arm in enumerate("abc")])
+
+        return KlipperRotaryController(replace(
+            k, shoulder_radius=float(values.get("printer.shoulder_radius", k.shoulder_radius)),
+            shoulder_height=float(values.get("printer.shoulder_height", k.shoulder_height)),
+            angle=arms("angle", k.angle, math.pi / 180.0), upper_arm=arms("upper_arm_length", k.upper_arm),
+            lower_arm=arms("lower_arm_length", k.lower_arm),
+            position_endstop=arms("position_endstop", k.position_endstop),
+            step_distance=arms("step_distance", k.step_distance)))
+
+    def recounted(self, readings: np.ndarray, counted_by: RotaryFirmwareController) -> np.ndarray:
+        """The readings these values count where ``counted_by``'s count ``readings``: the same steps [rad].
+
+        An arm's steps from its endstop are what it did (``(θ_end − θ) / d``, ``θ = −q``); each set of
+        values counts them from its own endstop angle in its own step angle: ``q' = n d' − θ'_end``.
+        """
+        other = counted_by.firmware
+        assert isinstance(other, KlipperRotaryDelta)  # the recorded values are Klipper's (its record's)
+        steps = (other.endstop_angles + np.asarray(readings, dtype=float)) / other.step_distance
+        return steps * self.firmware.step_distance - self.firmware.endstop_angles
+
+    def check_same_values(self, other: RotaryFirmwareController, other_source: str, source: str) -> None:
+        """Refuse ``other``'s values (``other_source``'s) of another printer than these (``source``'s).
+
+        Each length within :data:`~...files.same_printer.LENGTH_RTOL` of these (as
+        :meth:`check_same_printer`), each arm's step angle within
+        :data:`~...files.same_printer.STEP_DISTANCE_RTOL` (a gear ratio).
+
+        Raises:
+            InputError: one line naming the value (Klipper's key), both sources and both values.
+        """
+        k = other.firmware
+        assert isinstance(k, KlipperRotaryDelta)
+        self._check_lengths(k.shoulder_radius, k.upper_arm, k.lower_arm, other_source, source)
+        check_same_values("step_distance", k.step_distance, self.firmware.step_distance,
+                          STEP_DISTANCE_RTOL * k.step_distance, other_source, source, unit="rad", part="arm")
+
+    def _check_lengths(self, radius: float, upper: np.ndarray, lower: np.ndarray, our_source: str,
+                       their_source: str) -> None:
+        """Refuse a shoulder radius or arms (``our_source``'s) beyond a build's from these values'."""
+        k = self.firmware
+        check_same_values("shoulder_radius", np.array(radius), np.array(k.shoulder_radius),
+                          LENGTH_RTOL * radius, our_source, their_source)
+        for key, ours, theirs in (("upper_arm_length", upper, k.upper_arm),
+                                  ("lower_arm_length", lower, k.lower_arm)):
+            check_same_values(key, np.broadcast_to(ours, (3,)), theirs, LENGTH_RTOL * np.asarray(ours),
+                              our_source, their_source, part="arm")
+
     def check_same_printer(self, robot: NominalDelta, our_source: str, their_source: str) -> None:
         """Refuse a rotary robot file of another printer than these values, naming the first value apart.
 
@@ -72,14 +131,8 @@ class KlipperRotaryController(NozzleCommands):
         Raises:
             InputError: one line naming the value (Klipper's key), both files and both values.
         """
-        k = self.firmware
-        radius = robot.base_radius - robot.plate_radius
-        check_same_values("shoulder_radius", np.array(radius), np.array(k.shoulder_radius),
-                          LENGTH_RTOL * radius, our_source, their_source)
-        for key, ours, theirs in (("upper_arm_length", robot.arm_length, k.upper_arm),
-                                  ("lower_arm_length", robot.rod_length, k.lower_arm)):
-            check_same_values(key, np.full(3, ours), theirs, LENGTH_RTOL * ours, our_source, their_source,
-                              part="arm")
+        self._check_lengths(robot.base_radius - robot.plate_radius, np.full(3, robot.arm_length),
+                            np.full(3, robot.rod_length), our_source, their_source)
 
     def inverse(self, targets: np.ndarray, check: bool = True) -> np.ndarray:
         """The readings ``q = −θ`` Klipper commands for nozzle targets [mm], (N, 3) -> (N, 3) [rad]."""
