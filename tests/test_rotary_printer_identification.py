@@ -14,6 +14,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -21,6 +22,8 @@ import pytest
 from deltacal.calibration import Calibration
 from deltacal.controller import corrected_targets
 from deltacal.geometry import Tolerances, Workspace
+from deltacal.holds import in_plane_motion
+from deltacal.identification.result import IdentificationResult
 from deltacal.printer.firmware.fitting import printable_grid
 from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.rotary_calibrate import klipper_rotary_basic, klipper_rotary_extended
@@ -29,6 +32,7 @@ from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryCon
 from deltacal.printer.firmware.klipper.rotary_fit import fit_klipper_rotary
 from deltacal.printer.identification.errormodels import RotaryPrinterModel
 from deltacal.printer.identification.fit import PrinterMeasurements, identify_printer, residuals_and_regressor
+from deltacal.printer.identification.where import correction_sensitivity
 from deltacal.printer.printed.object import blocking, candidate_pairs, object_layout, probe_grid
 from deltacal.printer.printed.plan import select_pairs
 from deltacal.printer.robot import less_bed_motion
@@ -91,12 +95,21 @@ def _planned(tolerances: Tolerances) -> tuple[np.ndarray, np.ndarray]:
     return _plan(k, nominal, tolerances)
 
 
+class _Identified(NamedTuple):
+    """A simulated printer, what was measured of it and what deltacal identified from it."""
+
+    printer: RotaryPrinter
+    probe: np.ndarray
+    pairs: np.ndarray
+    distances: np.ndarray
+    result: IdentificationResult
+    calibration: Calibration
+
+
 @functools.cache
-def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]]:
-    """3-D max over the volume, raw and less the motion along the bed no measurement sees [mm]: Klipper's
-    nominal values, its basic and extended calibrations, ours (the calibration as ``compensate`` uses it:
-    put in Klipper's frame along the bed, each correction weighted where it holds) and the values ours
-    exports (``fit_klipper_rotary``)."""
+def _identified(tolerances: Tolerances, seed: int) -> _Identified:
+    """The bed frame's truth (every error of the complete model, the arms' gear ratios), measured as
+    Klipper measures (the probe's σ 0.01 mm, the caliper's 0.02 mm), identified from the nominal start."""
     k, nominal = _nominal()
     rng = np.random.default_rng(seed)
     truth = nominal.perturbed(tolerances, rng)
@@ -108,16 +121,29 @@ def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]
     data = PrinterMeasurements(printer.readings(k, probe), np.stack(
         [printer.readings(k, pairs[:, :3]), printer.readings(k, pairs[:, 3:])], axis=1), distances)
     result = identify_printer(nominal, data, RotaryPrinterModel(), tolerances=tolerances)
-    calibration = Calibration.from_result(result)
+    return _Identified(printer, probe, pairs, distances, result, Calibration.from_result(result))
+
+
+@functools.cache
+def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]]:
+    """3-D max over the volume, raw and less the motion along the bed no measurement sees [mm]: Klipper's
+    nominal values, its basic and extended calibrations, ours (the calibration as ``compensate`` uses it:
+    put in Klipper's frame along the bed, each correction weighted where it holds), ours with the whole
+    correction everywhere (the identified printer's own error) and the values ours exports
+    (``fit_klipper_rotary``)."""
+    k, nominal = _nominal()
+    printer, probe, pairs, distances, result, calibration = _identified(tolerances, seed)
     assert calibration.holds is not None  # where it holds, as a linear printer's
     controller = KlipperRotaryController(k)
     ours = printer.nozzle(k, corrected_targets(calibration, controller, VOLUME).commands) - VOLUME
+    whole = printer.nozzle(k, corrected_targets(calibration, controller, VOLUME, bound=math.inf).commands)
+    whole = whole - VOLUME
     lift = np.array([0.0, 0.0, -k.base_height(EFFECTOR[2])])  # the bed frame's printer into {O}
     exported = fit_klipper_rotary(result.geometry.moved_rigidly(np.eye(3), lift), k, OBJECT,
                                   nozzle_drop_of=nominal.moved_rigidly(np.eye(3), lift)).values
     errors = {"nominal": nozzle_errors(printer, k, VOLUME), "basic": nozzle_errors(
         printer, klipper_rotary_basic(k, probe), VOLUME), "extended": nozzle_errors(
-        printer, klipper_rotary_extended(k, probe, pairs, distances), VOLUME), "ours": ours,
+        printer, klipper_rotary_extended(k, probe, pairs, distances), VOLUME), "ours": ours, "whole": whole,
         "exported": nozzle_errors(printer, exported, VOLUME)}
     return {name: (float(np.linalg.norm(e, axis=1).max()),
                    float(np.linalg.norm(less_bed_motion(VOLUME, e)[0], axis=1).max()))
@@ -127,9 +153,11 @@ def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]
 PRINTERS = [("kit", KIT, 200), ("kit", KIT, 201), ("kit", KIT, 202),
             ("well built", WELL_BUILT, 200), ("well built", WELL_BUILT, 201), ("well built", WELL_BUILT, 202)]
 #: Where the issue's 1/3 is not reached (measured, less the motion along the bed).
-NOT_A_THIRD = {("well built", 200): "ours 0.032 mm against Klipper's extended 0.043 (0.74)",
-               ("well built", 201): "ours 0.031 mm against Klipper's extended 0.087 (0.36; 0.025 with the "
-                                    "whole correction everywhere)"}
+NOT_A_THIRD = {("well built", 200): "ours 0.032 mm against Klipper's extended 0.043 (0.74): below what the "
+                                    "measurements determine (the posterior's expected max 0.019 mm, the "
+                                    "whole correction 0.021, the bound 0.0145)",
+               ("well built", 201): "ours 0.032 mm against Klipper's extended 0.086 (0.38): the whole "
+                                    "correction meets it (0.026 mm), the weighting along the bed does not"}
 
 
 def _marked(p: tuple) -> object:
@@ -149,7 +177,7 @@ def test_identified_rotary_printers_a_third_of_klippers_extended_calibration(lab
     max over r <= 50, z 0.2..100 mm less the shift along the bed and turn about its normal no probe or
     caliper sees (the printer's convention: the part is the same part). The issue's bound: ours at most a
     third of Klipper's extended calibration's on the same data. Measured, ours / Klipper's extended [mm]:
-    kits 0.044 / 0.167, 0.042 / 0.310, 0.035 / 0.466; well built 0.032 / 0.043, 0.031 / 0.087, 0.025 / 0.105
+    kits 0.044 / 0.167, 0.042 / 0.310, 0.035 / 0.466; well built 0.032 / 0.043, 0.032 / 0.086, 0.025 / 0.105
     (docs/printers.md, "Rotary Delta printers")."""
     figures = _figures(tolerances, seed)
     assert figures["ours"][1] <= figures["extended"][1] / 3.0, figures
@@ -163,3 +191,47 @@ def test_the_exported_rotary_values_never_worse_than_klippers(label, tolerances,
     model) never worse than Klipper's extended calibration's, 3-D max less the motion along the bed."""
     figures = _figures(tolerances, seed)
     assert figures["exported"][1] <= figures["extended"][1], figures
+
+
+def _posterior_maxima(identified: _Identified, draws: int = 2000) -> np.ndarray:
+    """The whole correction's 3-D max over the volume (less the motion along the bed) on printers drawn from
+    the calibration's posterior [mm], (draws,): parameter errors δθ ~ N(0, Σ) (the identification's
+    covariance), the corrected nozzle moved by J' δθ (the nozzle's sensitivity in the controller's frame,
+    :func:`~deltacal.printer.identification.where.correction_sensitivity`, to first order)."""
+    result = identified.result
+    assert identified.calibration.holds is not None
+    covariance = result.correlation * np.outer(result.sigma, result.sigma)
+    J, reached = correction_sensitivity(result.geometry, RotaryPrinterModel(), VOLUME,
+                                        identified.calibration.holds.printable_radius)
+    assert reached.all()
+    value, vector = np.linalg.eigh(covariance)
+    root = vector * np.sqrt(np.clip(value, 0.0, None))
+    drawn = root @ np.random.default_rng(0).standard_normal((len(value), draws))
+    errors = J.reshape(-1, J.shape[2]) @ drawn
+    A = in_plane_motion(VOLUME).reshape(-1, 3)
+    errors = errors - A @ np.linalg.lstsq(A, errors, rcond=None)[0]
+    return np.linalg.norm(errors.reshape(len(VOLUME), 3, draws), axis=1).max(axis=0)
+
+
+@pytest.mark.long
+@pytest.mark.slow
+@pytest.mark.parametrize(("seed", "within_reach"), [(200, False), (201, True)], ids=["200", "201"])
+def test_the_well_built_third_is_below_what_the_measurements_determine(seed, within_reach):
+    """Issue 48's third on the two well-built printers that miss it, against the noise floor: the 3-D max
+    (less the motion along the bed) the whole correction leaves on printers drawn from the calibration's
+    posterior (49 probe heights σ 0.01 mm, 40 distances σ 0.02 mm). The posterior is honest: the identified
+    printer's own error is a likely draw (between its 5th and 95th percentiles). Measured [mm]: well built
+    200: the bound (Klipper's extended / 3) 0.0145, the posterior's expected max 0.0193 (median 0.0187,
+    P(max <= bound) 0.20), the whole correction 0.021 (its 67th percentile): below what the measurements
+    determine. Well built 201: bound 0.0287, expected max 0.0213 (P 0.88), the whole correction 0.026 (81st
+    percentile) meets it, the correction as weighted (along the bed, what stands out of its σ) 0.032 does
+    not. More distances (the object's layout gives 54) leave 200's expected max at 0.019; a 15 x 15 probe
+    mesh (149 points) lowers it to 0.0165 and Klipper's extended's third with it, to 0.0124."""
+    figures = _figures(WELL_BUILT, seed)
+    bound, whole = figures["extended"][1] / 3.0, figures["whole"][1]
+    maxima = _posterior_maxima(_identified(WELL_BUILT, seed))
+    assert 0.05 < np.mean(maxima <= whole) < 0.95, (whole, np.percentile(maxima, [5, 50, 95]))
+    if within_reach:
+        assert np.mean(maxima) <= bound and whole <= bound < figures["ours"][1], (figures, np.mean(maxima))
+    else:
+        assert np.mean(maxima) > bound and whole > bound, (figures, np.mean(maxima))
