@@ -9,7 +9,9 @@ probe points and the object's pairs that ``tests/test_rotary_printer_identificat
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -219,6 +221,9 @@ def test_the_calibration_records_its_configuration_and_measurements(route, tmp_p
     assert calibration.controller.values["stepper_a.upper_arm_length"] == 170.0
     record = calibration.measured
     assert record is not None and record.probe.shape == (49, 3) and record.pairs.shape == (40, 2, 3)
+    measured = tomllib.loads(Path(route["cal"]).read_text())["measured"]  # the arms' angles in degrees
+    assert "probe_readings_mm" not in measured and "pair_readings_mm" not in measured
+    assert np.allclose(np.radians(measured["probe_readings_deg"]), record.probe, rtol=0.0, atol=1e-12)
     targets = tmp_path / "t.csv"
     np.savetxt(targets, VOLUME[:5], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
     same = tmp_path / "same.cfg"

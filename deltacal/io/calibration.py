@@ -17,6 +17,7 @@ from typing import cast, get_args
 import numpy as np
 
 from ..calibration import BaseParameter, BaseUnit, Calibration, FrameRecord, kind_of
+from ..chains import Chain
 from ..compensation import LinearCalibration
 from ..controller_record import ControllerRecord
 from ..errormodels import get_model
@@ -124,7 +125,7 @@ def calibration_to_dict(calibration: Calibration) -> dict:
     if cal.controller is not None:
         data["controller"] = controller_to_dict(cal.controller)
     if cal.measured is not None:
-        data["measured"] = measured_to_dict(cal.measured)
+        data["measured"] = measured_to_dict(cal.measured, cal.geometry.chain)
     if cal.frames:
         # pose of {O} in each station's frame {T}: y_T = R(rotation) y_O + translation
         data["instrument"] = {
@@ -209,17 +210,28 @@ def controller_from_dict(data: Mapping, source: str) -> ControllerRecord | None:
                             {str(key): values.number(str(key)) for key in raw})
 
 
-#: ``[measured]`` keys: the readings and distances, the σ given, the fit's choices.
-MEASURED_KEYS = ("probe_readings_mm", "trigger_height_mm", "pair_readings_mm", "distance_mm",
-                 "probe_offset_mm",
-                 "height_sigma_mm", "distance_sigma_mm", "tolerance_scale", "calibrated_start", "method",
-                 "workspace_mm")
+#: ``[measured]`` keys but the readings': the distances, the σ given, the fit's choices.
+MEASURED_KEYS = ("trigger_height_mm", "distance_mm", "probe_offset_mm", "height_sigma_mm",
+                 "distance_sigma_mm", "tolerance_scale", "calibrated_start", "method", "workspace_mm")
 
 
-def measured_to_dict(record: MeasuredRecord) -> dict:
-    """A calibration's ``[measured]`` table (each pair's readings as one row of 6)."""
-    out = {"probe_readings_mm": record.probe.tolist(), "trigger_height_mm": record.trigger_height.tolist(),
-           "pair_readings_mm": record.pairs.reshape(-1, 6).tolist(), "distance_mm": record.distance.tolist(),
+def readings_keys(chain: Chain) -> tuple[str, str]:
+    """``[measured]``'s keys of the probe's and the pairs' readings, in the chain's file unit.
+
+    ``probe_readings_mm`` and ``pair_readings_mm`` for a linear printer's carriages, ``..._deg`` for a
+    rotary printer's arms (:attr:`~deltacal.chains.ChainWords.reading_unit`).
+    """
+    unit = chain.words.reading_unit
+    return f"probe_readings_{unit}", f"pair_readings_{unit}"
+
+
+def measured_to_dict(record: MeasuredRecord, chain: Chain) -> dict:
+    """A calibration's ``[measured]`` table (each pair's readings as one row of 6, in the chain's unit)."""
+    probe_key, pairs_key = readings_keys(chain)
+    out = {probe_key: chain.reading_to_file(record.probe).tolist(),
+           "trigger_height_mm": record.trigger_height.tolist(),
+           pairs_key: chain.reading_to_file(record.pairs).reshape(-1, 6).tolist(),
+           "distance_mm": record.distance.tolist(),
            "probe_offset_mm": record.probe_offset.tolist(), "height_sigma_mm": float(record.height_sigma),
            "distance_sigma_mm": float(record.distance_sigma),
            "tolerance_scale": float(record.tolerance_scale),
@@ -229,19 +241,24 @@ def measured_to_dict(record: MeasuredRecord) -> dict:
     return out
 
 
-def measured_from_dict(data: Mapping, source: str) -> MeasuredRecord | None:
-    """The ``[measured]`` table of a calibration file, checked; None when it has none (an older file)."""
+def measured_from_dict(data: Mapping, source: str, chain: Chain) -> MeasuredRecord | None:
+    """The ``[measured]`` table of a calibration file, checked; None when it has none (an older file).
+
+    Its readings in ``chain``'s file unit (:func:`readings_keys`: the calibration's geometry's chain).
+    """
     if "measured" not in data:
         return None
     t = TomlTable(data, source).table("measured")
     assert t is not None
-    t.check_unknown(MEASURED_KEYS)
+    probe_key, pairs_key = readings_keys(chain)
+    t.check_unknown((probe_key, pairs_key, *MEASURED_KEYS))
 
     def rows(key: str, width: int) -> np.ndarray:
         raw = t.raw(key)
-        return t.array_value(key, raw, (len(raw) if isinstance(raw, list) else -1, width))
+        return chain.reading_from_file(t.array_value(key, raw, (len(raw) if isinstance(raw, list) else -1,
+                                                                width)))
 
-    probe, pairs = rows("probe_readings_mm", 3), rows("pair_readings_mm", 6)
+    probe, pairs = rows(probe_key, 3), rows(pairs_key, 6)
     trigger, distance = t.vector("trigger_height_mm", (len(probe),)), t.vector("distance_mm", (len(pairs),))
     flag = t.raw("calibrated_start")
     if not isinstance(flag, bool):
@@ -330,8 +347,9 @@ def load_calibration(path: str | Path) -> Calibration:
     except ValueError as exc:
         raise cal.error("model", str(exc)) from None
     base = _base_parameters(cal, model, source)
+    geometry = geometry_from_dict(data["geometry"], source, "geometry.")
     calibration = Calibration(
-        geometry=geometry_from_dict(data["geometry"], source, "geometry."),
+        geometry=geometry,
         nominal=geometry_from_dict(data["nominal"], source, "nominal."),
         model=model, base=base, correlation=_correlation(cal, len(base)),
         method=_method(cal),
@@ -347,7 +365,7 @@ def load_calibration(path: str | Path) -> Calibration:
         outlier_rows=_names(cal, "outlier_rows", int, "an array of row numbers"),
         frames=_frames(data, source), source=source, compliance_sigma=_compliance_sigma(data, source),
         holds=holds_from_dict(data, source), controller=controller_from_dict(data, source),
-        measured=measured_from_dict(data, source),
+        measured=measured_from_dict(data, source, geometry.chain),
     )
     calibration.check()
     return calibration
