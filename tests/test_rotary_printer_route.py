@@ -335,3 +335,48 @@ def test_through_recalibrated_values_never_worse_than_their_own(route, recalibra
                                                               VOLUME).commands)
     assert np.all(ours <= own + 0.005), (ours, own)
     assert ours.max() <= recorded.max() + 0.01, (ours, recorded)
+
+
+def _exported_error(printer, config, out):
+    """3-D max over VOLUME less the motion along the bed [mm] of the true printer run by Klipper with the
+    values of ``out`` pasted over ``config``."""
+    pasted = out.with_suffix(".pasted.cfg")
+    pasted.write_text(config.read_text() + "\n" + out.read_text())
+    k = rotary_from_config(read_klipper_config(pasted))
+    less = less_bed_motion(VOLUME, nozzle_errors(printer, k, VOLUME))[0]
+    return float(np.max(np.linalg.norm(less, axis=1)))
+
+
+@pytest.mark.slow
+def test_plain_export_through_changed_values_is_re_anchored(route, tmp_path, capsys):
+    """``export CAL --controller klipper --config moved.cfg`` (the endstops 0.5 mm up since the calibration
+    was identified: stepper_a's, which B and C take): exit 0, one line naming the key changed and that it
+    was re-anchored, and the values written serve the same printer: run by Klipper on it, within 0.01 mm
+    of those exported through the configuration identified with (3-D max over r <= 50, z 0.2..100 mm less
+    the motion along the bed, measured: 0.1024 against 0.1022 mm). Before, the calibration's readings
+    were taken as counted from moved.cfg's endstop angles and the values written left 1.946 mm (moved.cfg's
+    own 2.854). Through the configuration identified with: the bytes the export writes of the calibration
+    as it is (its Klipper values fitted straight, as before)."""
+    klipper = firmware_named("klipper")
+    assert klipper is not None
+    moved = tmp_path / "moved.cfg"
+    text = EXAMPLE.read_text()
+    moved.write_text(text.replace("position_endstop: 252", "position_endstop: 252.5", 1))
+    assert moved.read_text() != text
+    cal = str(route["cal"])
+    capsys.readouterr()
+    for cfg, out in ((EXAMPLE, "same.cfg"), (moved, "out.cfg")):
+        assert main(["export", cal, "--controller", "klipper", "--config", str(cfg), "-o",
+                     str(tmp_path / out)]) == 0
+    said, err = capsys.readouterr()
+    lines = [line for line in said.splitlines() if "values changed" in line]
+    assert len(lines) == 1 and "stepper_a.position_endstop 252 -> 252.5" in lines[0] and err == "", said
+    assert "re-anchored" in lines[0] and lines[0].startswith(f"{moved}: "), lines
+    values = klipper.rotary_export(EXAMPLE, load_calibration(cal), cal)
+    assert values is not None
+    values.save(tmp_path / "before.cfg")
+    assert (tmp_path / "same.cfg").read_bytes() == (tmp_path / "before.cfg").read_bytes()
+    printer = route["printer"]
+    same = _exported_error(printer, EXAMPLE, tmp_path / "same.cfg")
+    ours = _exported_error(printer, moved, tmp_path / "out.cfg")
+    assert abs(ours - same) <= 0.01, (ours, same)

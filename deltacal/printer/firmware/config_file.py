@@ -32,6 +32,9 @@ from .base import Firmware, FirmwareModel, RotaryFirmwareController
 if TYPE_CHECKING:
     from ...calibration import Calibration
 
+#: A recorded value changed: its key, the recorded value and the one now (None: no such key).
+Change = tuple[str, float | None, float | None]
+
 
 def firmware_names() -> tuple[str, ...]:
     """The names ``--firmware`` takes (and ``export --controller``), in the firmwares' order."""
@@ -263,12 +266,40 @@ class RotaryFirmwareConfig:
             InputError: another firmware or printer, naming it; a calibration with no measurements
                 recorded, or one whose re-anchoring failed, through changed values.
         """
-        recorded_firmware(calibration, source, self.firmware, self.path)
-        record = calibration.controller
-        changes = [] if record is None else record.changes(self.rotary.values_read())
-        if record is None or not changes:
+        changes = self._changes(calibration, source)
+        if not changes:
             said_frame = self._frame(calibration, source, self.rotary)
             return in_firmware_frame(calibration, self.rotary), (said_frame,)
+        recorded, placed, said = self._reanchored(calibration, source, changes)
+        return placed, (said, self._frame(calibration, source, recorded))
+
+    def anchor_in_own_frame(self, calibration: Calibration, source: str | Path
+                            ) -> tuple[Calibration, tuple[str, ...]]:
+        """The calibration as :meth:`anchor` re-anchors it, left in its own frame {O} (``export``'s).
+
+        The same values as recorded (or none recorded): the calibration itself, nothing said (the
+        firmware's export puts it in its frame, and says where). Values changed: re-anchored in the
+        bed's frame as :meth:`anchor` does, then moved back down by these values' bed height
+        (:func:`out_of_firmware_frame`), so that an export moving it up by them finds it there; the
+        one line said. Refused as :meth:`anchor` refuses.
+        """
+        changes = self._changes(calibration, source)
+        if not changes:
+            return calibration, ()
+        _, placed, said = self._reanchored(calibration, source, changes)
+        return out_of_firmware_frame(placed, self.rotary), (said,)
+
+    def _changes(self, calibration: Calibration, source: str | Path) -> list[Change]:
+        """The recorded values these change (none: the same, or none recorded); another firmware refused."""
+        recorded_firmware(calibration, source, self.firmware, self.path)
+        record = calibration.controller
+        return [] if record is None else list(record.changes(self.rotary.values_read()))
+
+    def _reanchored(self, calibration: Calibration, source: str | Path, changes: list[Change]
+                    ) -> tuple[RotaryFirmwareController, Calibration, str]:
+        """The recorded values' controller, the calibration re-anchored to these (bed frame), what to say."""
+        record = calibration.controller
+        assert record is not None
         recorded = self.rotary.with_values(record.values)
         self.rotary.check_same_values(recorded, f"{source}'s recorded controller {record.source}", self.path)
         said = f"{self.path}: values changed since {source} was identified with {record.source}: " \
@@ -276,17 +307,17 @@ class RotaryFirmwareConfig:
         again = f"measure the printer again and identify through {self.path} (or give {record.source})"
         if calibration.measured is None:
             raise InputError(f"{said}{source} records no measurements to re-anchor with: {again}", self.path)
-        placed, frame = in_firmware_frame(calibration, recorded), self._frame(calibration, source, recorded)
+        placed = in_firmware_frame(calibration, recorded)
         try:
             moved = rotary_reanchored_to(placed, recorded, self.rotary)
         except (ValueError, ConvergenceError, AssemblyError) as exc:
             raise InputError(f"{said}re-anchoring {source} to these values failed ({exc}): {again}",
                              self.path) from None
         if moved is None:
-            return placed, (said + "they move no nozzle: the calibration is used as identified", frame)
-        return moved, (said + f"re-anchored: what its measurements determine is kept, the rest follows "
-                       f"{self.path}; if the printer itself changed (arms, probe, effector), measure it "
-                       "again and identify", frame)
+            return recorded, placed, said + "they move no nozzle: the calibration is used as identified"
+        return recorded, moved, said + (f"re-anchored: what its measurements determine is kept, the rest "
+                                        f"follows {self.path}; if the printer itself changed (arms, probe, "
+                                        "effector), measure it again and identify")
 
     def _frame(self, calibration: Calibration, source: str | Path, rotary: RotaryFirmwareController) -> str:
         """Where the firmware's frame is in the calibration's {O}, ``rotary``'s values placing its bed."""
@@ -309,6 +340,20 @@ def in_firmware_frame(calibration: Calibration, rotary: RotaryFirmwareController
         holds = replace(holds, along_bed=rotary.in_bed_frame(holds.along_bed, nominal))
     return replace(calibration, geometry=rotary.in_bed_frame(calibration.geometry, nominal),
                    nominal=rotary.in_bed_frame(nominal), holds=holds)
+
+
+def out_of_firmware_frame(calibration: Calibration, rotary: RotaryFirmwareController) -> Calibration:
+    """A rotary printer's calibration in a firmware's frame moved back down into {O} by its bed height.
+
+    The inverse of :func:`in_firmware_frame` (the bed height of the calibration's nominal robot's
+    nozzle drop, which the move keeps): its geometry, nominal robot and where it holds along the bed.
+    """
+    down = np.array([0.0, 0.0, -rotary.bed_height(calibration.nominal)])
+    holds = calibration.holds
+    if holds is not None and holds.along_bed is not None:
+        holds = replace(holds, along_bed=holds.along_bed.moved_rigidly(np.eye(3), down))
+    return replace(calibration, geometry=calibration.geometry.moved_rigidly(np.eye(3), down),
+                   nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds)
 
 
 def rotary_reanchored_to(calibration: Calibration, recorded: RotaryFirmwareController,

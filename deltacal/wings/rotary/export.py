@@ -59,13 +59,17 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
     """``export --controller FIRMWARE --config printer.cfg``: the firmware's values of a rotary printer.
 
     Fitted to the calibration from the configuration's values
-    (:meth:`~deltacal.printer.firmware.base.Firmware.rotary_export`), over ``--robot``'s
+    (:meth:`~deltacal.printer.firmware.base.Firmware.rotary_export`), the calibration re-anchored first
+    where the values changed since it was identified, as ``compensate`` and ``--live`` re-anchor it
+    (:meth:`~deltacal.printer.firmware.config_file.RotaryFirmwareConfig.anchor_in_own_frame`: in {O},
+    where the export takes it), over ``--robot``'s
     ``[workspace]``, else the configuration's own printable volume; written to ``-o``, what they leave said.
 
     Raises:
         UsageError: no ``--config``, ``--keep-rotation-distance``, or a configuration that is
             not of a rotary Delta printer (a linear Delta's).
-        InputError: a file's first problem, a target out of the firmware's reach.
+        InputError: a file's first problem, a target out of the firmware's reach; values of another
+            printer or firmware than the calibration recorded, or a re-anchoring that failed.
     """
     given = f"--controller {firmware.name}"
     if request.keep_rotation_distance:
@@ -79,6 +83,11 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
     refuse_deltacal_file(request.config, "--config")
     if request.live:
         return _export_rotary_live(firmware, request, calibration)
+    rotary = firmware.rotary_controller(request.config)
+    if rotary is None:
+        raise _not_rotary(firmware, request)
+    calibration, said = RotaryFirmwareConfig(firmware, rotary, str(request.config)).anchor_in_own_frame(
+        calibration, request.calibration)
     volume, where = None, ""
     if request.robot is not None:
         volume = load_nominal(request.robot).workspace
@@ -87,7 +96,7 @@ def export_firmware_rotary(firmware: Firmware[Any], request: ExportRequest, cali
     if values is None:
         raise _not_rotary(firmware, request)
     values.save(request.output)
-    return Done((f"wrote the {firmware.title} rotary values that best fit {request.calibration} to "
+    return Done((*said, f"wrote the {firmware.title} rotary values that best fit {request.calibration} to "
                  f"{request.output}", *values.lines, f"to apply: {firmware.apply_note_for(request.config)}"))
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from ...calibration import Calibration
 from ...geometry import NominalDelta, Tolerances, Workspace
 from ...io import save_calibration
-from ...printer.firmware.config_file import RotaryFirmwareConfig, told_firmware
+from ...printer.firmware.config_file import RotaryFirmwareConfig, out_of_firmware_frame, told_firmware
 from ...printer.firmware.controller import RotaryFirmwareController
 from ...printer.identification.anchor import measured_record
 from ...printer.identification.fit import PrinterFitOptions
@@ -77,13 +77,7 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
                                 calibrated_start=firmware.calibrated_from_saved(request.controller),
                                 reach=rotary.reach_radius)  # σ out to where Klipper moves the nozzle
     result = fit_prints(request, start, model, options, data, files)
-    down = np.array([0.0, 0.0, -lift])
-    calibration = Calibration.from_result(result)
-    holds = calibration.holds
-    if holds is not None and holds.along_bed is not None:
-        holds = replace(holds, along_bed=holds.along_bed.moved_rigidly(np.eye(3), down))
-    calibration = replace(calibration, geometry=calibration.geometry.moved_rigidly(np.eye(3), down),
-                          nominal=calibration.nominal.moved_rigidly(np.eye(3), down), holds=holds,
+    calibration = replace(out_of_firmware_frame(Calibration.from_result(result), rotary),
                           controller=RotaryFirmwareConfig(firmware, rotary, str(request.controller)).record(),
                           measured=measured_record(data, options, result.tolerance_scale))
     save_calibration(calibration, request.output)
