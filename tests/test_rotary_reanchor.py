@@ -34,6 +34,23 @@ from tests.test_rotary_printer_route import _layers
 
 #: The issue-46 bound, applied to a rotary printer: re-anchored, never worse than the values' own + this [mm].
 WORSE = 0.005
+
+
+def test_an_arms_readings_are_counted_again_from_the_new_endstop_angle():
+    """Re-anchoring counts the recorded steps in the values now given: arm A's endstop 0.5 mm up moves its
+    endstop angle, so its readings of the same steps move by that angle's change; arms B and C, whose values
+    did not change, read the same; counted back by the first values, the readings are the recorded ones."""
+    k, _ = _nominal()
+    before = KlipperRotaryController(k)
+    after = before.with_values({"stepper_a.position_endstop": float(k.position_endstop[0]) + 0.5})
+    q = np.random.default_rng(46).uniform(-0.8, 0.2, (20, 3))
+    recounted = after.recounted(q, before)
+    moved = after.firmware.endstop_angles - k.endstop_angles
+    assert abs(moved[0]) > 1e-4 and np.all(moved[1:] == 0.0)
+    assert np.allclose(recounted - q, -moved, rtol=0.0, atol=1e-12)
+    assert np.allclose(before.recounted(recounted, after), q, rtol=0.0, atol=1e-12)
+
+
 @functools.cache
 def _calibrated(tolerances: Tolerances, seed: int) -> Calibration:
     """The printer's measurements identified as ``deltacal identify`` does through the example's values, in
