@@ -11,6 +11,8 @@ simulation's truth, read back, gives the probe heights and distances of
 from __future__ import annotations
 
 import csv
+import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,6 +24,7 @@ from deltacal.io import load_geometry, load_nominal
 from deltacal.printer.files.measurements import read_printed_distances, read_probe_heights
 from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
+from deltacal.printer.printed.object import tallest_fitting
 from deltacal.printer.rotary_simulation import RotaryPrinter, printed_distances, probe_triggers
 from tests.test_klipper_rotary import EXAMPLE
 
@@ -179,11 +182,33 @@ def test_a_rotary_printers_simulation_refuses_tolerance_classes(printer, tmp_pat
     assert not list(tmp_path.iterdir())
 
 
-def test_the_configurations_own_radius_is_too_small_for_the_object(printer, tmp_path, capsys):
-    """The example's [delta_calibrate] radius of 50 mm: the object's pads do not fit; one line, nothing
+def test_the_configurations_own_radius_plans_a_lower_object(printer, tmp_path, capsys):
+    """The example's [delta_calibrate] radius of 50 mm: the pads of the caliper's tallest balls (118 mm, 22.5
+    mm across) do not fit (before: refused, "the printable radius 50 mm is too small for the object"); the
+    object stands as high as its pads and labels fit, said in a note. The pads: a pad 2 + 2.5 + 0.06 (h -
+    4.571 - 0.6) mm in radius, 8.80 for a ball at 76.8 mm, whose ring halfway out, (50 - 8.80) / 2 = 20.6
+    mm, just clears 2 x 8.80 + 3 = 20.6; the labels then find no room for one ball, 5 mm lower they do:
+    71.8 mm."""
+    pad = 2.0 + 2.5 + 0.06 * (76.8 - (10.0 / math.sqrt(2.0) - 2.5) - 0.6)
+    assert pad == pytest.approx(8.80, abs=0.01) and 0.5 * (50.0 - pad) >= 2.0 * pad + 3.0 - 0.01
+    assert tallest_fitting(50.0, 118.0) == pytest.approx(76.8)
+    capsys.readouterr()
+    assert main(["plan", str(printer["small"]), "--object", "--controller", str(printer["cfg"]), "-o",
+                 str(tmp_path / "obj")]) == 0
+    out = capsys.readouterr().out
+    assert "holds the pads and labels of balls up to 71.8 mm, not the 118 mm the caliper reaches" in out, out
+    pads = read_printed_distances(tmp_path / "obj" / "distances.csv", filled=False)
+    heights = np.unique(np.round(pads.pairs[:, [2, 5]], 3))
+    assert heights.max() == pytest.approx(71.8) and heights.min() == pytest.approx(8.0)
+
+
+def test_a_radius_too_small_for_two_levels_is_refused(printer, tmp_path, capsys):
+    """A [workspace] of 20 mm radius holds no ring of pads even for the two lowest levels: one line, nothing
     written."""
-    _refused(["plan", str(printer["small"]), "--object", "--controller", str(printer["cfg"]), "-o",
-              str(tmp_path / "obj")], capsys, "printable radius 50 mm is too small")
+    small = tmp_path / "small.toml"
+    small.write_text(Path(printer["small"]).read_text().replace("radius_mm = 50.0", "radius_mm = 20.0"))
+    _refused(["plan", str(small), "--object", "--controller", str(printer["cfg"]), "-o",
+              str(tmp_path / "obj")], capsys, "printable radius 20 mm is too small")
     assert not (tmp_path / "obj").exists()
 
 

@@ -76,6 +76,10 @@ def _segment_distance(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
     return np.linalg.norm(a + t[:, None] * d - point, axis=1)
 
 
+class NoLabelRoom(PlanningError):
+    """A ball's label finds no room on the bed (the pads and labels crowd a small one)."""
+
+
 def place_labels(features: np.ndarray, pairs: np.ndarray, radius: float) -> tuple[BallLabel, ...]:
     """Where each ball's label lies (:class:`BallLabel`, in the order of ``features``).
 
@@ -85,7 +89,7 @@ def place_labels(features: np.ndarray, pairs: np.ndarray, radius: float) -> tupl
         radius: The printable radius [mm].
 
     Raises:
-        PlanningError: a ball has no room for its label.
+        NoLabelRoom: a ball has no room for its label.
     """
     sites = np.asarray(features, dtype=float)[:, :2]
     pads = np.array([footprint_radius(float(z)) for z in features[:, 2]])
@@ -112,7 +116,7 @@ def place_labels(features: np.ndarray, pairs: np.ndarray, radius: float) -> tupl
             if score > best_score:
                 best, best_score = label, score
         if best is None:
-            raise PlanningError(f"no room on the bed for the label of ball {name} at "
+            raise NoLabelRoom(f"no room on the bed for the label of ball {name} at "
                                 f"({site[0]:g}, {site[1]:g}) mm")
         placed.append(best)
     return tuple(placed)

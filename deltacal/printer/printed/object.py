@@ -175,27 +175,55 @@ class ObjectLayout:
 
 
 def object_layout(workspace: Workspace, tower_azimuth: np.ndarray,
-                  caliper: float = CALIPER_RANGE) -> ObjectLayout:
+                  caliper: float = CALIPER_RANGE, top: float | None = None) -> ObjectLayout:
     """The sites and levels of the object for a printable cylinder.
 
     Args:
         workspace: The printable cylinder (radius, height from the bed up).
         tower_azimuth: The towers' azimuths [rad], (3,): the rims' sites start at tower A.
         caliper: The caliper's longest outside reading [mm] (:func:`levels`).
+        top: The top level at most [mm] (None: as the caliper and the pads allow).
     """
     heights = levels(workspace, caliper)
+    highest = float(heights[-1]) if top is None else min(float(heights[-1]), top)
+    if not _pads_fit(workspace.radius, highest):
+        highest = tallest_fitting(workspace.radius, highest)
+    if highest < heights[-1]:
+        heights = np.round(np.linspace(LOWEST_LEVEL, highest, LEVEL_COUNT), 1)
     pad = footprint_radius(float(heights[-1]))
-    rim = workspace.radius - max(pad, 0.5 * BALL_DIAMETER)
-    middle = 0.5 * rim
-    if middle < 2.0 * pad + PAD_GAP:
+    if not _pads_fit(workspace.radius, float(heights[-1])) or heights[-1] < LOWEST_LEVEL + BALL_DIAMETER:
         raise PlanningError(f"the printable radius {workspace.radius:g} mm is too small for the object "
                             f"(pads of {2.0 * pad:.3g} mm across)")
+    rim = workspace.radius - max(pad, 0.5 * BALL_DIAMETER)
+    middle = 0.5 * rim
     start = float(tower_azimuth[0])
     outer = start + np.radians(np.arange(0.0, 360.0, 30.0))
     inner = start + np.radians(np.arange(30.0, 360.0, 60.0))
     sites = np.vstack([np.zeros((1, 2)), middle * np.column_stack([np.cos(inner), np.sin(inner)]),
                        rim * np.column_stack([np.cos(outer), np.sin(outer)])])
     return ObjectLayout(sites=np.round(sites, 3), levels=heights)  # commanded to the micrometre
+
+
+def _pads_fit(radius: float, top: float) -> bool:
+    """Whether the pads of features up to ``top`` [mm] stand in a ring halfway between the centre and rim."""
+    pad = footprint_radius(top)
+    return 0.5 * (radius - max(pad, 0.5 * BALL_DIAMETER)) >= 2.0 * pad + PAD_GAP
+
+
+def tallest_fitting(radius: float, top: float) -> float:
+    """The highest top level up to ``top`` whose pads fit a printable radius [mm], to 0.1 mm below.
+
+    A pad widens with its feature's height (:func:`footprint_radius`): on a small bed (a rotary
+    printer's ``[delta_calibrate] radius`` of 50 mm) the object stands lower than the caliper allows
+    (:func:`levels`), and the calibration holds lower. Below the two lowest levels' room: that room.
+    """
+    low, high = LOWEST_LEVEL + BALL_DIAMETER, top
+    if _pads_fit(radius, high) or not _pads_fit(radius, low):
+        return high if _pads_fit(radius, high) else low
+    for _ in range(60):  # bisection: the pads widen with the top
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if _pads_fit(radius, middle) else (low, middle)
+    return math.floor(low * 10.0) / 10.0
 
 
 def candidate_pairs(layout: ObjectLayout, caliper: float = CALIPER_RANGE) -> np.ndarray:

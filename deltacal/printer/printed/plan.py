@@ -33,10 +33,11 @@ from ...identifiability import BaseParameters
 from ..firmware.base import FirmwareModel
 from ..identification.fit import PrinterMeasurements, measured_combinations, residuals_and_regressor
 from ..robot import NominalLinearDelta
-from .labels import BallLabel, labels_mesh, place_labels
+from .labels import BallLabel, NoLabelRoom, labels_mesh, place_labels
 from .object import (
     BALL_DIAMETER,
     CALIPER_RANGE,
+    LOWEST_LEVEL,
     MAX_DISTANCES,
     CaliperTooShort,
     ObjectLayout,
@@ -259,36 +260,63 @@ def plan_object(
     probe = probe_grid(printer.workspace.radius, probe_count)
     complete = rows is None
     rows_of = model_rows(printer) if rows is None else rows
-    try:
-        layout, pairs, chosen, information, pair_rows = _chosen(printer, count, caliper, probe, rows_of)
-    except CaliperTooShort as exc:
-        raise PlanningError(f"{exc}{_longer(printer, count, caliper, probe, rows_of, exc)}") from None
-    centres = layout.centres
-    used = np.unique(pairs[chosen].reshape(-1))
-    index = np.full(len(centres), -1)
-    index[used] = np.arange(len(used))
-    rows_chosen = pair_rows[chosen]
-    log_det_probe = float(np.linalg.slogdet(information)[1])
-    log_det = float(np.linalg.slogdet(information + rows_chosen.T @ rows_chosen)[1])
-    features = centres[used]
-    plan = ObjectPlan(probe=probe, features=features, pairs=index[pairs[chosen]], log_det=log_det,
-                      log_det_probe=log_det_probe,
-                      labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius))
+    top: float | None = None
+    while True:  # on a small bed, lower the object until every ball's label has room
+        try:
+            plan = _labelled(printer, count, caliper, probe, rows_of, top)
+            break
+        except NoLabelRoom:
+            current = float(object_layout(printer.workspace, printer.tower_azimuth, caliper, top).levels[-1])
+            if current - LABEL_ROOM_STEP < LOWEST_LEVEL + BALL_DIAMETER:
+                raise
+            top = current - LABEL_ROOM_STEP
     if complete:
         plan = _with_identifiability(plan, printer)
     return plan
 
 
+#: How much lower the object's top level is taken each time a ball's label finds no room [mm].
+LABEL_ROOM_STEP = 5.0
+
+
+def _labelled(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,
+              rows_of: RowsFunction, top: float | None) -> ObjectPlan:
+    """The plan of the object with its top level at most ``top``, its balls labelled.
+
+    Raises:
+        PlanningError: a caliper too short (the message gives the shortest that would do).
+        NoLabelRoom: a ball's label finds no room on the bed.
+    """
+    assert printer.workspace is not None  # plan_object refused a printer without one
+    try:
+        layout, pairs, chosen, information, pair_rows = _chosen(printer, count, caliper, probe, rows_of, top)
+    except CaliperTooShort as exc:
+        raise PlanningError(f"{exc}{_longer(printer, count, caliper, probe, rows_of, exc)}") from None
+    used = np.unique(pairs[chosen].reshape(-1))
+    index = np.full(len(layout.centres), -1)
+    index[used] = np.arange(len(used))
+    rows_chosen = pair_rows[chosen]
+    log_det_probe = float(np.linalg.slogdet(information)[1])
+    log_det = float(np.linalg.slogdet(information + rows_chosen.T @ rows_chosen)[1])
+    features = layout.centres[used]
+    return ObjectPlan(probe=probe, features=features, pairs=index[pairs[chosen]], log_det=log_det,
+                      log_det_probe=log_det_probe,
+                      labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius))
+
+
 def _chosen(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,
-            rows_of: RowsFunction) -> tuple[ObjectLayout, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+            rows_of: RowsFunction, top: float | None = None
+            ) -> tuple[ObjectLayout, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The object's layout, candidate pairs, chosen ones, the probe's information and the pairs' rows.
+
+    The layout's top level at most ``top`` (None: as the caliper and the pads allow).
 
     Raises:
         CaliperTooShort: the caliper is too short for the levels, or for ``count`` distances (one
             without ``count``).
     """
     assert printer.workspace is not None  # plan_object refused a printer without one
-    layout = object_layout(printer.workspace, printer.tower_azimuth, caliper)
+    layout = object_layout(printer.workspace, printer.tower_azimuth, caliper, top)
     pairs = candidate_pairs(layout, caliper)
     needed = 1 if count is None else count
     if len(pairs) < needed:

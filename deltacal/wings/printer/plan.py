@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ...exceptions import UsageError
+from ...geometry import Workspace
 from ...io import write_stl
 from ...io.atomic import atomic_write_text
 from ...io.paths import check_input, check_output_folder
@@ -30,7 +31,7 @@ from ...printer.firmware import config_files
 from ...printer.firmware.base import Firmware
 from ...printer.firmware.config_file import FirmwareConfig, told_firmware
 from ...printer.firmware.probing import PAPER_MM
-from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES
+from ...printer.printed.object import BALL_DIAMETER, CALIPER_RANGE, MAX_DISTANCES, levels
 from ...printer.printed.plan import ObjectPlan, plan_object
 from ...printer.printed.sheet import sheet_html
 from ...printer.printed.target import LinearPrinterToPlan, PrinterToPlan
@@ -114,6 +115,7 @@ def write_object_plan(request: PlanRequest, firmware: Firmware[Any], printer: Pr
         lines.append(f"note: with a caliper of {caliper:g} mm the object offers {len(plan.pairs)} distances "
                      f"that can be measured together ({MAX_DISTANCES} with a longer one): planned the "
                      f"{len(plan.pairs)}")
+    lines.extend(_lowered(plan, printer.workspace, caliper))
     if live is not None:
         lines.append(live.plan_note(outputs[3].name) if travel is not None else live.manual_note())
     probed = ("heights by hand, below" if travel is None else f"{outputs[3]} asks for each by hand, below"
@@ -123,6 +125,18 @@ def write_object_plan(request: PlanRequest, firmware: Firmware[Any], printer: Pr
     if manual:
         lines.append(manual)
     return Done(tuple(lines))
+
+
+def _lowered(plan: ObjectPlan, workspace: Workspace, caliper: float) -> tuple[str, ...]:
+    """The note when the object stands lower than the caliper allows: its pads need a wider bed."""
+    top, allowed = float(plan.features[:, 2].max()), float(levels(workspace, caliper)[-1])
+    if top >= allowed:
+        return ()
+    return (f"note: the printable radius {workspace.radius:g} mm holds the pads and labels of balls up to "
+            f"{top:g} mm, "
+            f"not the {allowed:g} mm the caliper reaches: the object stands lower and the calibration holds "
+            "below it; if the printer prints wider, a wider [workspace] radius_mm in the robot file gives a "
+            "taller object",)
 
 
 def _report(plan: ObjectPlan, printer: PrinterToPlan, mesh, caliper: float, probe: bool) -> str:
