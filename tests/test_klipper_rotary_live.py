@@ -21,11 +21,20 @@ import numpy as np
 import pytest
 
 from deltacal.cli import main
+from deltacal.controller import weighted_targets
+from deltacal.holds import DEFAULT_BOUND
+from deltacal.io import load_calibration
 from deltacal.io.geometry_file import save_geometry
+from deltacal.printer.firmware import firmware_named
+from deltacal.printer.firmware.config_file import RotaryFirmwareConfig
+from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.live import deltacal_geometry as live
 from deltacal.printer.firmware.klipper.live.export import SECTION_FILE, section_text
 from deltacal.printer.firmware.klipper.live.field import RotaryLiveVolume, SamplingError, exact_correction
+from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
+from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryController
 from deltacal.printer.firmware.klipper.rotary_model import KlipperRotaryDelta
+from deltacal.printer.robot import less_bed_motion
 from tests.test_klipper_live import (
     DWELL_S,
     _example_delta_test,
@@ -38,6 +47,7 @@ from tests.test_klipper_live import (
     toolhead_positions,
 )
 from tests.test_klipper_rotary_compensate import EXAMPLE, _controller, _nozzle, _truth
+from tests.test_rotary_printer_route import identified_route
 
 
 def _calibration(model: KlipperRotaryDelta):
@@ -252,3 +262,130 @@ def test_the_rotary_volume_tapers_as_klipper_does():
     points = np.array([[30.0, 0.0, 230.0], [10.0, 0.0, 235.0], [203.0, 0.0, 10.0], [205.0, 0.0, 10.0]])
     assert volume.admits(points).tolist() == (model.outside(points) == 0).tolist()
     assert volume.admits(points).tolist() == [False, True, True, False]
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """An owner's calibration: the simulated rotary printer identified through the CLI
+    (tests/test_rotary_printer_route.py's route: ``[holds]``, ``[controller]``, ``[measured]``), ``export
+    --live`` through a copy of the example (with [force_move]: the same values) and through a copy whose
+    arm A endstop is 0.5 mm up (re-anchored)."""
+    folder = tmp_path_factory.mktemp("rotary_live_identified")
+    with contextlib.redirect_stdout(io.StringIO()):
+        route = identified_route(folder)
+    text = EXAMPLE.read_text() + "\n[force_move]\nenable_force_move: True\n"
+    copies = {"same": text, "moved": text.replace("position_endstop: 252", "position_endstop: 252.5", 1)}
+    assert copies["moved"] != text
+    klipper = firmware_named("klipper")
+    assert klipper is not None
+    out = {}
+    for name, config_text in copies.items():
+        config = folder / f"{name}.cfg"
+        config.write_text(config_text)
+        said = io.StringIO()
+        with contextlib.redirect_stdout(said):
+            assert main(["export", str(route["cal"]), "--controller", "klipper", "--config", str(config),
+                         "--live", "-o", str(folder / f"live_{name}")]) == 0
+        live_config = folder / f"{name}_live.cfg"
+        live_config.write_text(config_text + f"\n[include {folder / f'live_{name}' / SECTION_FILE}]\n")
+        k = rotary_from_config(read_klipper_config(config))
+        anchored, _ = RotaryFirmwareConfig(klipper, KlipperRotaryController(k), str(config)).anchor(
+            load_calibration(route["cal"]), "cal")
+        out[name] = {"config": config, "live_config": live_config, "said": said.getvalue(), "k": k,
+                     "anchored": anchored, "section": (folder / f"live_{name}" / SECTION_FILE).read_text()}
+    return {**route, **out}
+
+
+def _identified_points() -> tuple[np.ndarray, np.ndarray]:
+    """Points over the printable radius (50 mm: 5 layers), beyond it out to 150 mm (its weights turn to 0)
+    and at Klipper's rim (r 195 to 200 mm, its reach 203.9) [mm], as the program writes them; which are the
+    rim's."""
+    rng = np.random.default_rng(4848)
+    parts = []
+    for radius, heights, count in ((50.0, (0.3, 0.6, 20.0, 60.0, 100.0), 6), (150.0, (0.3, 40.0, 100.0), 4),
+                                   (200.0, (0.3, 40.0, 100.0), 3)):
+        for z in heights:
+            low = {50.0: 0.0, 150.0: 60.0, 200.0: 195.0}[radius]
+            r, a = np.sqrt(rng.uniform(low**2, radius**2, count)), 2.0 * np.pi * rng.random(count)
+            parts.append(np.column_stack([r * np.cos(a), r * np.sin(a), np.full(count, z)]))
+    points = np.round(np.concatenate(parts), 4)
+    return points, np.hypot(points[:, 0], points[:, 1]) > 190.0
+
+
+def _figures(points: np.ndarray, rim: np.ndarray, errors: dict, commands: dict) -> dict:
+    """A run's figures [mm]: the true nozzle's 3-D max where corrected (as is, and less the motion along the
+    bed no measurement sees), over the printable radius, at the rim; the commands apart, at the rim moved."""
+    inner = np.hypot(points[:, 0], points[:, 1]) <= 50.0
+
+    def worst(part: np.ndarray, less: bool) -> dict:
+        return {route: round(_max(less_bed_motion(points[part], e[part])[0] if less else e[part]), 5)
+                for route, e in errors.items()}
+
+    return {"corrected": worst(~rim, False), "corrected less": worst(~rim, True),
+            "printable radius less": worst(inner, True), "rim": worst(rim, False),
+            "commands apart": round(_max(commands["module"] - commands["offline"]), 5),
+            "rim commands moved": {route: float(np.max(np.abs(c[rim] - points[rim])))
+                                   for route, c in commands.items()}}
+
+
+def _check_identified_section(copy: dict, points: np.ndarray, rim: np.ndarray) -> None:
+    """The section carries the re-anchored calibration's σ grid and the bound, as the linear module's does;
+    the points' weights (the offline route's): 0 at the rim, of every kind inside."""
+    said = copy["said"]
+    assert f"(weighted where the calibration holds within σ {DEFAULT_BOUND:g} mm, as compensate " \
+           f"--sigma-bound {DEFAULT_BOUND:g} does: its σ grid goes with the section)" in said, said
+    holds = copy["anchored"].holds
+    grid = live.read_section(_Section(copy["section"]))[0]
+    assert grid.holds is not None and grid.holds.bound == DEFAULT_BOUND
+    assert list(grid.holds.radius) == list(holds.radius) and list(grid.holds.height) == list(holds.height)
+    assert list(grid.holds.sigma_values) == [*holds.horizontal.ravel(), *holds.vertical.ravel()]
+    weights = weighted_targets(copy["anchored"], KlipperRotaryController(copy["k"]), points).weights
+    assert np.all(weights[rim] == 0.0) and np.all(weights[~rim, 1] > 0.0)
+    assert np.any((weights[~rim] > 0.0) & (weights[~rim] < 1.0)) and np.any(weights[~rim] == 0.0)
+
+
+@pytest.mark.long
+def test_an_identified_rotary_calibration_live_lands_the_nozzle_as_offline(identified, klipper):
+    """Done when (issue 48), for an owner's calibration (identified: weighted where it holds): the true
+    nozzle's 3-D max within 1.2x the offline route's (``compensate``, the same σ bound) + 0.005 mm (as it is,
+    and less the motion along the bed that no measurement sees, which both leave alike), the module's
+    commands the offline route's; at Klipper's rim (r 195 to 200 mm, beyond the measured bed) both leave
+    Klipper's own commands (weights 0). The section carries the σ grid and the bound, as the linear module's
+    does. The same through a copy of the configuration whose endstop changed: ``export --live`` re-anchors
+    (said in one line), the module still the offline route's.
+    """
+    points, rim = _identified_points()
+    printer, folder = identified["printer"], identified["folder"]
+    program = _program(points)
+    figures = {}
+    for name in ("same", "moved"):
+        copy = identified[name]
+        lines = [line for line in copy["said"].splitlines() if "values changed" in line]
+        if name == "moved":
+            assert len(lines) == 1 and "stepper_a.position_endstop 252 -> 252.5" in lines[0], copy["said"]
+            assert "re-anchored" in lines[0], copy["said"]
+        else:
+            assert lines == [], copy["said"]
+        _check_identified_section(copy, points, rim)
+        (folder / f"{name}.gcode").write_text(program)
+        corrected = folder / f"{name}_corrected.gcode"
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(["compensate", str(identified["cal"]), str(folder / f"{name}.gcode"), "--controller",
+                         str(copy["config"]), "-o", str(corrected)]) == 0
+        commands = {}
+        for route, config, text in (("module", copy["live_config"], program),
+                                    ("offline", copy["config"], corrected.read_text())):
+            run = run_klippy(klipper, config, text, f"identified_{name}_{route}")
+            assert run.status == 0, run.log[-3000:]
+            commands[route] = toolhead_positions(run.log)
+            assert commands[route].shape == points.shape
+        errors = {route: printer.nozzle(copy["k"], c) - points for route, c in commands.items()}
+        errors["uncorrected"] = printer.nozzle(copy["k"], points) - points  # Klipper's own commands
+        got = figures[name] = _figures(points, rim, errors, commands)
+        for key in ("corrected", "corrected less"):
+            assert got[key]["module"] <= 1.2 * got[key]["offline"] + 0.005, figures
+        assert got["corrected less"]["offline"] < 0.5 * got["corrected less"]["uncorrected"], figures
+        assert got["commands apart"] < 0.005, figures
+        for route in commands:  # Klipper's own commands at the rim
+            assert got["rim commands moved"][route] < 1e-6, figures
+    print(f"\nidentified rotary printer, true nozzle [mm]: {figures}")

@@ -42,7 +42,11 @@ from tests.test_rotary_printer_identification import VOLUME, _plan
 @pytest.fixture(scope="module")
 def route(tmp_path_factory):
     """The example imported, a true printer measured, the files written and identified through the CLI."""
-    folder = tmp_path_factory.mktemp("rotary-route")
+    return identified_route(tmp_path_factory.mktemp("rotary-route"))
+
+
+def identified_route(folder: Path) -> dict:
+    """:func:`route` in ``folder`` (tests/test_klipper_rotary_live.py runs its calibration live too)."""
     assert main(["import", str(EXAMPLE), "-o", str(folder / "imp"), *MEASURED]) == 0
     robot = folder / "imp" / "printer.toml"
     k = rotary_from_config(read_klipper_config(EXAMPLE))

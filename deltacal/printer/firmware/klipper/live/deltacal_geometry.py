@@ -13,7 +13,7 @@ What it does, move by move: a move's program point x is sent to Klipper's kinema
 nodes of a regular grid (deltacal computed them exactly: the command that puts the identified
 printer's nozzle on x through Klipper's own model), times its weight where the calibration holds
 (from the correction's sigma, interpolated trilinearly from the calibration's sigma grid, as
-deltacal's offline route weights it; a calibration without one, a rotary Delta's: 1). A long move
+deltacal's offline route weights it; a calibration without one, a geometry file: 1). A long move
 is cut into segments short enough that the nozzle stays on the straight line. A move Klipper's
 limits refuse (its program point, as Klipper's kinematics check it; or a corrected point of it) is
 refused whole, before any segment is made, in Klipper's words for the program point. Beyond the
