@@ -117,7 +117,7 @@ def place_labels(features: np.ndarray, pairs: np.ndarray, radius: float) -> tupl
                 best, best_score = label, score
         if best is None:
             raise NoLabelRoom(f"no room on the bed for the label of ball {name} at "
-                                f"({site[0]:g}, {site[1]:g}) mm")
+                              f"({site[0]:g}, {site[1]:g}) mm")
         placed.append(best)
     return tuple(placed)
 
