@@ -37,9 +37,12 @@ from ..controller_record import changes_in_words
 from ..exceptions import AssemblyError, ConvergenceError, InputError
 from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
-from .firmware.config_file import check_printer_values, recorded_firmware
+from .firmware.config_file import check_printer_values, in_firmware_frame, recorded_firmware
+from .firmware.controller import RotaryFirmwareController
 from .identification.anchor import reanchored
+from .identification.errormodels import PrinterModel, RotaryPrinterModel
 from .owner import DETERMINED_FRACTION, TOWERS, Estimate, OwnerQuantities, owner_quantities
+from .rotary_owner import rotary_owner_quantities
 
 #: A change is significant when it exceeds this many of its σ (and both calibrations measure it).
 SIGNIFICANT_SIGMAS = 3.0
@@ -123,19 +126,45 @@ def _labels(names: Sequence[str]) -> list[tuple[str, str, int]]:
     return labels + [(f"the bed's slope rising towards +{axis}", "deg", 3) for axis in "xy"]
 
 
-def _read(q: OwnerQuantities) -> list[tuple[Estimate, float]]:
-    """Each owner's quantity of one calibration in the owner's unit: its estimate and its noise part's σ."""
+def _linear(calibration: Calibration, tolerances: Tolerances | None, names: Sequence[str]
+            ) -> tuple[OwnerQuantities, np.ndarray, list[tuple[str, str, int]]]:
+    """A linear printer's quantities (:func:`~.owner.owner_quantities`), the map to the owner's, their labels."""
     # the bed's rotation vector β (rows 18, 19): its height at p is p·(z × β) = −β_y x + β_x y
     slope = np.eye(20)
     slope[18, 18:20], slope[19, 18:20] = (0.0, -1.0), (1.0, 0.0)
+    return owner_quantities(calibration, tolerances), slope, _labels(names)
+
+
+def _rotary(calibration: Calibration, tolerances: Tolerances | None, names: Sequence[str]
+            ) -> tuple[OwnerQuantities, np.ndarray, list[tuple[str, str, int]]]:
+    """A rotary printer's quantities arm by arm (:func:`~.rotary_owner.rotary_owner_quantities`), as they are."""
+    quantities, labels = rotary_owner_quantities(calibration, tolerances, names)
+    return quantities, np.eye(len(labels)), labels
+
+
+#: Each printer model's owner's quantities, asked of the calibration's model.
+_OWNERS = {PrinterModel: _linear, RotaryPrinterModel: _rotary}
+
+
+def _read(calibration: Calibration, tolerances: Tolerances | None, names: Sequence[str]
+          ) -> tuple[list[tuple[Estimate, float]], list[tuple[str, str, int]]]:
+    """Each owner's quantity of one calibration in the owner's unit: its estimate and its noise part's σ.
+
+    Raises:
+        ValueError: a calibration of no printer's model.
+    """
+    owner = _OWNERS.get(type(calibration.model))
+    if owner is None:
+        raise ValueError(f"model {calibration.model.name!r} is not a printer's complete model")
+    q, mix, labels = owner(calibration, tolerances, names)
     out = []
-    for k in range(20):
-        u, row = q.units[k], slope[k]
+    for k in range(len(labels)):
+        u, row = q.units[k], mix[k]
         sigma = float(np.sqrt(max(row @ q.covariance @ row, 0.0))) * u
         before = float(np.sqrt(row**2 @ q.before**2)) * u
         estimate = Estimate(float(row @ q.values) * u, sigma, bool(sigma < DETERMINED_FRACTION * before))
         out.append((estimate, float(np.sqrt(max(row @ q.noise @ row, 0.0))) * u))
-    return out
+    return out, labels
 
 
 def calibration_history(calibrations: Sequence[Calibration], tolerances: Tolerances | None = None,
@@ -158,9 +187,12 @@ def calibration_history(calibrations: Sequence[Calibration], tolerances: Toleran
     """
     if len(calibrations) < 2:
         raise ValueError(f"a history needs two calibrations or more, got {len(calibrations)}")
-    read = [_read(owner_quantities(c, tolerances)) for c in calibrations]
+    if len({type(c.model) for c in calibrations}) > 1:
+        raise ValueError("a history needs calibrations of one printer model")
+    read_labelled = [_read(c, tolerances, names) for c in calibrations]
+    read = [r for r, _ in read_labelled]
     out = []
-    for k, (what, unit, digits) in enumerate(_labels(names)):
+    for k, (what, unit, digits) in enumerate(read_labelled[-1][1]):
         values = tuple(r[k][0] for r in read)
         steps = tuple(Change(what, unit, a[k][0].value, b[k][0].value, float(np.hypot(a[k][1], b[k][1])),
                              a[k][0].determined and b[k][0].determined, digits)
@@ -230,6 +262,7 @@ def under_one_prior(
     """
     cals, new_source = list(calibrations), sources[-1]
     new = cals[-1]
+    _one_kind(cals, sources)
     firmware = recorded_firmware(new, new_source)
     for old, old_source in zip(cals[:-1], sources, strict=False):
         firmware = _same_printer(old, new, old_source, new_source, firmware)
@@ -237,6 +270,15 @@ def under_one_prior(
                  "identified with): taken to be the other's"
                  for source, cal in zip(sources, cals, strict=True) if cal.controller is None)
     changed, keys = _controller_changes(cals, sources)
+    rotary = not new.geometry.chain.firmware  # a rotary printer's readings are angles its values count
+    if changed and rotary:
+        raise InputError(f"{_all(cals)} identified through other rotary values ({keys}): a rotary printer's "
+                         "readings are its arms' angles counted from its values' endstops, which compare does "
+                         f"not count again: identify {_all(cals)} through one configuration", str(sources[0]))
+    frame = _rotary_frame(new, new_source, firmware) if rotary else None
+    if frame is not None:  # its measurements' heights are the bed's: each placed on it, as identified
+        cals = [in_firmware_frame(c, frame) for c in cals]
+        new = cals[-1]
     scales = [None if c.measured is None else c.measured.tolerance_scale for c in cals]
     if all(_same_nominal(c.nominal, new.nominal) for c in cals) and len(set(scales)) == 1:
         if changed:  # the readings are the printer's own, whatever the values that commanded them
@@ -255,14 +297,55 @@ def under_one_prior(
     for cal, source in zip(cals, sources, strict=True):
         assert cal.measured is not None
         try:
-            anchored.append(reanchored(replace(cal, measured=replace(cal.measured, tolerance_scale=scale)),
-                                       new.nominal))
+            anchored.append(_again(replace(cal, measured=replace(cal.measured, tolerance_scale=scale)),
+                                   new.nominal, frame))
         except (ValueError, ConvergenceError, AssemblyError) as exc:
             raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify "
                              f"{_all(cals)} from the same robot file", str(source)) from None
     said += (f"{_all(cals)} identified again under one prior ({new_source}'s robot file, the build "
              f"tolerances scaled by {scale:.3g}; {keys}): what the measurements determine is kept",)
     return anchored, firmware, said
+
+
+def _one_kind(cals: Sequence[Calibration], sources: Sequence[str | Path]) -> None:
+    """Refuse a linear printer's calibration and a rotary one's together (one line naming both files)."""
+    kinds = [c.geometry.chain for c in cals]
+    for cal, source in zip(cals, sources, strict=True):
+        if cal.geometry.chain != kinds[-1]:
+            raise InputError(f"{cal.geometry.chain.words.a_robot}'s calibration but {sources[-1]} "
+                             f"{kinds[-1].words.a_robot}'s: compare tells what changed in one printer",
+                             str(source))
+
+
+def _rotary_frame(new: Calibration, source: str | Path, firmware: Firmware[Any] | None
+                  ) -> RotaryFirmwareController:
+    """The rotary controller NEW was identified through (its recorded configuration, its values).
+
+    A rotary printer's probe heights are in the firmware's frame (the bed's), its calibration in the
+    robot file's {O}: its prior (the bed's place) and its identification again are the bed frame's, the
+    controller placing it (:func:`~.firmware.config_file.in_firmware_frame`).
+
+    Raises:
+        InputError: no controller recorded, or its configuration not a rotary one that reads.
+    """
+    record = new.controller
+    rotary = None
+    if record is not None and firmware is not None:
+        try:
+            rotary = firmware.rotary_controller(record.source)
+        except (InputError, OSError):
+            rotary = None
+    if rotary is None or record is None:
+        where = "records no controller" if record is None else f"'s configuration {record.source} does not read"
+        raise InputError(f"identifying a rotary printer's calibrations again under one prior places them on "
+                         f"the bed through the configuration they were identified with, and this one {where}: "
+                         "identify them from the same robot file", str(source))
+    return rotary.with_values(record.values)
+
+
+def _again(cal: Calibration, nominal: DeltaGeometry, frame: RotaryFirmwareController | None) -> Calibration:
+    """``cal``'s measurements identified again from ``nominal`` (a rotary printer's on ``frame``'s bed)."""
+    return reanchored(cal, nominal, reach=None if frame is None else frame.reach_radius)
 
 
 def _all(cals: Sequence[Calibration]) -> str:
@@ -285,7 +368,7 @@ def _same_printer(old: Calibration, new: Calibration, old_source: str | Path, ne
                          f"{firmware.title} ({other}): two calibrations compare only through one firmware",
                          str(old_source))
     firmware = firmware or theirs
-    if firmware is not None:
+    if firmware is not None and new.geometry.chain.firmware:  # a rotary printer's: its values compared
         check_printer_values(firmware, old.geometry, firmware.start(new.geometry), old_source,
                              f"{new_source}'s geometry")
     return firmware

@@ -28,8 +28,9 @@ import numpy as np
 
 from ..calibration import Calibration
 from ..geometry import Tolerances
+from .identification.anchor import prior_factor_of
 from .identification.errormodels import RotaryPrinterModel
-from .owner import DETERMINED_FRACTION, UNDETERMINED, Estimate, model_parameters
+from .owner import DETERMINED_FRACTION, UNDETERMINED, Estimate, OwnerQuantities, model_parameters
 
 #: The arms' names (Klipper's steppers a, b, c).
 ARMS = ("A", "B", "C")
@@ -49,6 +50,40 @@ def _rows(i: int) -> list[tuple[str, str, dict[str, float]]]:
             ("shoulder turned", "deg", {f"beta{n}z": _DEG})]
 
 
+def rotary_owner_quantities(calibration: Calibration, tolerances: Tolerances | None = None,
+                            names: Sequence[str] = ARMS) -> tuple[OwnerQuantities, list[tuple[str, str, int]]]:
+    """The owner's quantities of a rotary printer's calibration, as :func:`~.owner.owner_quantities`'s.
+
+    Arm by arm (:func:`_rows`: endstop, gear ratio, upper arm, lower arms, their difference, shoulder
+    tilted and turned), already in the owner's units (``units`` all 1), with their noise part
+    (``Σ − Σ Σ₀⁻¹ Σ`` when the calibration records its measurements); and each one's (what, unit,
+    digits): ``arm B's endstop``, deg, 3.
+
+    Raises:
+        ValueError: the calibration is not of the whole ``rotary_printer`` model.
+    """
+    model = RotaryPrinterModel()
+    values, cov = model_parameters(calibration, model.names, model.name)
+    prior = model.prior_sigma(tolerances or model.kit_tolerances())
+    col = {name: k for k, name in enumerate(model.names)}
+    rows, labels = [], []
+    for i, arm in enumerate(names):
+        for what, unit, weights in _rows(i):
+            row = np.zeros(model.size)
+            for parameter, w in weights.items():
+                row[col[parameter]] = w
+            rows.append(row)
+            labels.append((f"arm {arm}'s {what}", unit, 3 if unit == "deg" else 2))
+    m = np.array(rows)
+    noise = cov
+    if calibration.measured is not None:  # Σ − Σ Σ₀⁻¹ Σ: what the measurements' noise leaves
+        half = np.linalg.solve(prior_factor_of(calibration), cov)
+        noise = cov - half.T @ half
+    quantities = OwnerQuantities(m, np.ones(len(m)), m @ values, m @ cov @ m.T,
+                                 np.sqrt(np.einsum("ij,j,ij->i", m, prior**2, m)), m @ noise @ m.T)
+    return quantities, labels
+
+
 def arm_errors(calibration: Calibration, tolerances: Tolerances | None = None
                ) -> list[dict[str, tuple[Estimate, str]]]:
     """Each arm's quantities (its :class:`~.owner.Estimate` and unit), arms A, B, C.
@@ -56,22 +91,13 @@ def arm_errors(calibration: Calibration, tolerances: Tolerances | None = None
     Raises:
         ValueError: the calibration is not of the whole ``rotary_printer`` model.
     """
-    model = RotaryPrinterModel()
-    values, cov = model_parameters(calibration, model.names, model.name)
-    prior = model.prior_sigma(tolerances or Tolerances.rotary_printer_kit())
-    col = {name: k for k, name in enumerate(model.names)}
-    arms = []
-    for i in range(3):
-        quantities = {}
-        for name, unit, weights in _rows(i):
-            row = np.zeros(model.size)
-            for parameter, w in weights.items():
-                row[col[parameter]] = w
-            sigma = float(np.sqrt(max(row @ cov @ row, 0.0)))
-            before = float(np.sqrt(row**2 @ prior**2))
-            known = sigma < DETERMINED_FRACTION * before
-            quantities[name] = (Estimate(float(row @ values), sigma, known), unit)
-        arms.append(quantities)
+    q, labels = rotary_owner_quantities(calibration, tolerances)
+    sigma = np.sqrt(np.maximum(np.diag(q.covariance), 0.0))
+    arms: list[dict[str, tuple[Estimate, str]]] = [{}, {}, {}]
+    for k, (value, s, before) in enumerate(zip(q.values, sigma, q.before, strict=True)):
+        what, unit, _ = labels[k]
+        arms[k // 7][what.split("'s ", 1)[1]] = (
+            Estimate(float(value), float(s), bool(s < DETERMINED_FRACTION * before)), unit)
     return arms
 
 

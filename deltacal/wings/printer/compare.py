@@ -17,6 +17,7 @@ from ...exceptions import InputError
 from ...io import load_calibration
 from ...printer.firmware import firmwares
 from ...printer.firmware.base import Firmware
+from ...printer.identification.errormodels import PrinterModel, RotaryPrinterModel
 from ...printer.history import SIGNIFICANT_SIGMAS, calibration_history, significant_in_words, under_one_prior
 from ...report.history import history_html, write_comparison, write_history
 from ..base import Done
@@ -41,12 +42,14 @@ def checked_printer_calibration(calibration: Calibration, path: str | Path) -> C
     if not calibration.base:
         raise InputError("not a calibration file: a geometry file has no measurements to compare (give the "
                          "calibration file written by 'deltacal identify')", str(path), "key format")
-    if not calibration.geometry.chain.firmware:
-        raise InputError(f"{calibration.geometry.chain.words.a_robot}'s calibration: compare tells what "
-                         "changed in a printer (a linear Delta's calibrations)", str(path))
-    if calibration.model.name != "printer":
+    if not isinstance(calibration.model, PrinterModel | RotaryPrinterModel):
+        if not calibration.geometry.chain.firmware:
+            raise InputError(f"{calibration.geometry.chain.words.a_robot} robot's calibration (model "
+                             f"{calibration.model.name!r}): compare tells what changed in a printer (a linear "
+                             "or rotary Delta printer's calibrations)", str(path), "key model")
         raise InputError(f"model {calibration.model.name!r}: compare needs the complete printer model "
-                         "('printer', identify's default for a printer)", str(path), "key model")
+                         "('printer', identify's default for a printer; 'rotary_printer' for a rotary one)",
+                         str(path), "key model")
     return calibration
 
 
