@@ -128,7 +128,7 @@ def _labels(names: Sequence[str]) -> list[tuple[str, str, int]]:
 
 def _linear(calibration: Calibration, tolerances: Tolerances | None, names: Sequence[str]
             ) -> tuple[OwnerQuantities, np.ndarray, list[tuple[str, str, int]]]:
-    """A linear printer's quantities (:func:`~.owner.owner_quantities`), the map to the owner's, their labels."""
+    """A linear printer's quantities (:func:`~.owner.owner_quantities`), the owner's map, their labels."""
     # the bed's rotation vector β (rows 18, 19): its height at p is p·(z × β) = −β_y x + β_x y
     slope = np.eye(20)
     slope[18, 18:20], slope[19, 18:20] = (0.0, -1.0), (1.0, 0.0)
@@ -137,7 +137,7 @@ def _linear(calibration: Calibration, tolerances: Tolerances | None, names: Sequ
 
 def _rotary(calibration: Calibration, tolerances: Tolerances | None, names: Sequence[str]
             ) -> tuple[OwnerQuantities, np.ndarray, list[tuple[str, str, int]]]:
-    """A rotary printer's quantities arm by arm (:func:`~.rotary_owner.rotary_owner_quantities`), as they are."""
+    """A rotary printer's quantities arm by arm (:func:`~.rotary_owner.rotary_owner_quantities`)."""
     quantities, labels = rotary_owner_quantities(calibration, tolerances, names)
     return quantities, np.eye(len(labels)), labels
 
@@ -272,9 +272,10 @@ def under_one_prior(
     changed, keys = _controller_changes(cals, sources)
     rotary = not new.geometry.chain.firmware  # a rotary printer's readings are angles its values count
     if changed and rotary:
-        raise InputError(f"{_all(cals)} identified through other rotary values ({keys}): a rotary printer's "
-                         "readings are its arms' angles counted from its values' endstops, which compare does "
-                         f"not count again: identify {_all(cals)} through one configuration", str(sources[0]))
+        raise InputError(f"{_all(cals)} identified through other rotary values ({keys}): a rotary "
+                         "printer's readings are its arms' angles counted from its values' endstops, which "
+                         f"compare does not count again: identify {_all(cals)} through one configuration",
+                         str(sources[0]))
     frame = _rotary_frame(new, new_source, firmware) if rotary else None
     if frame is not None:  # its measurements' heights are the bed's: each placed on it, as identified
         cals = [in_firmware_frame(c, frame) for c in cals]
@@ -336,10 +337,11 @@ def _rotary_frame(new: Calibration, source: str | Path, firmware: Firmware[Any] 
         except (InputError, OSError):
             rotary = None
     if rotary is None or record is None:
-        where = "records no controller" if record is None else f"'s configuration {record.source} does not read"
-        raise InputError(f"identifying a rotary printer's calibrations again under one prior places them on "
-                         f"the bed through the configuration they were identified with, and this one {where}: "
-                         "identify them from the same robot file", str(source))
+        where = ("records no controller" if record is None else
+                 f"'s configuration {record.source} does not read")
+        raise InputError("a rotary printer's calibrations are compared on the bed, placed through the "
+                         f"configuration they were identified with, and this one {where}: give it where "
+                         "it was", str(source))
     return rotary.with_values(record.values)
 
 

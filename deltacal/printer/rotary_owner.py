@@ -51,12 +51,14 @@ def _rows(i: int) -> list[tuple[str, str, dict[str, float]]]:
 
 
 def rotary_owner_quantities(calibration: Calibration, tolerances: Tolerances | None = None,
-                            names: Sequence[str] = ARMS) -> tuple[OwnerQuantities, list[tuple[str, str, int]]]:
+                            names: Sequence[str] = ARMS, noise_part: bool = True
+                            ) -> tuple[OwnerQuantities, list[tuple[str, str, int]]]:
     """The owner's quantities of a rotary printer's calibration, as :func:`~.owner.owner_quantities`'s.
 
     Arm by arm (:func:`_rows`: endstop, gear ratio, upper arm, lower arms, their difference, shoulder
     tilted and turned), already in the owner's units (``units`` all 1), with their noise part
-    (``Σ − Σ Σ₀⁻¹ Σ`` when the calibration records its measurements); and each one's (what, unit,
+    (``Σ − Σ Σ₀⁻¹ Σ`` when the calibration records its measurements and ``noise_part``: its prior is
+    the bed frame's, the calibration must be on the firmware's bed); and each one's (what, unit,
     digits): ``arm B's endstop``, deg, 3.
 
     Raises:
@@ -76,7 +78,7 @@ def rotary_owner_quantities(calibration: Calibration, tolerances: Tolerances | N
             labels.append((f"arm {arm}'s {what}", unit, 3 if unit == "deg" else 2))
     m = np.array(rows)
     noise = cov
-    if calibration.measured is not None:  # Σ − Σ Σ₀⁻¹ Σ: what the measurements' noise leaves
+    if noise_part and calibration.measured is not None:  # Σ − Σ Σ₀⁻¹ Σ: what the measurements' noise leaves
         half = np.linalg.solve(prior_factor_of(calibration), cov)
         noise = cov - half.T @ half
     quantities = OwnerQuantities(m, np.ones(len(m)), m @ values, m @ cov @ m.T,
@@ -91,7 +93,7 @@ def arm_errors(calibration: Calibration, tolerances: Tolerances | None = None
     Raises:
         ValueError: the calibration is not of the whole ``rotary_printer`` model.
     """
-    q, labels = rotary_owner_quantities(calibration, tolerances)
+    q, labels = rotary_owner_quantities(calibration, tolerances, noise_part=False)
     sigma = np.sqrt(np.maximum(np.diag(q.covariance), 0.0))
     arms: list[dict[str, tuple[Estimate, str]]] = [{}, {}, {}]
     for k, (value, s, before) in enumerate(zip(q.values, sigma, q.before, strict=True)):

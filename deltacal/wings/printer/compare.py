@@ -17,8 +17,8 @@ from ...exceptions import InputError
 from ...io import load_calibration
 from ...printer.firmware import firmwares
 from ...printer.firmware.base import Firmware
-from ...printer.identification.errormodels import PrinterModel, RotaryPrinterModel
 from ...printer.history import SIGNIFICANT_SIGMAS, calibration_history, significant_in_words, under_one_prior
+from ...printer.identification.errormodels import PrinterModel, RotaryPrinterModel
 from ...report.history import history_html, write_comparison, write_history
 from ..base import Done
 from ..requests import CompareRequest, ReportRequest
@@ -45,8 +45,8 @@ def checked_printer_calibration(calibration: Calibration, path: str | Path) -> C
     if not isinstance(calibration.model, PrinterModel | RotaryPrinterModel):
         if not calibration.geometry.chain.firmware:
             raise InputError(f"{calibration.geometry.chain.words.a_robot} robot's calibration (model "
-                             f"{calibration.model.name!r}): compare tells what changed in a printer (a linear "
-                             "or rotary Delta printer's calibrations)", str(path), "key model")
+                             f"{calibration.model.name!r}): compare tells what changed in a printer (a "
+                             "linear or rotary Delta printer's calibrations)", str(path), "key model")
         raise InputError(f"model {calibration.model.name!r}: compare needs the complete printer model "
                          "('printer', identify's default for a printer; 'rotary_printer' for a rotary one)",
                          str(path), "key model")
