@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 from ...calibration import Calibration
 from ...chains import REVOLUTE, Chain
@@ -18,7 +18,11 @@ from ...exceptions import UsageError
 from ...geometry import NominalDelta
 from ...io import load_nominal
 from ...printer.firmware import firmware_named
+from ...printer.firmware.base import Firmware
+from ...printer.firmware.config_file import recorded_firmware
+from ...printer.identification.errormodels import RotaryPrinterModel
 from ..base import Done, Robot, Wing
+from ..printer.compare import history_section
 from ..requests import ExportRequest, IdentifyRequest, PlanRequest, ReportRequest, SimulateRequest
 from .export import export_controller_values, export_firmware_rotary
 from .identify import identify_rotary
@@ -98,6 +102,15 @@ class RotaryWing(Wing):
             raise UsageError(f"--firmware applies to a printer's calibration; {request.calibration} is a "
                              "rotary Delta's")
         return None, None, (), calibration
+
+    def report_history(self, request: ReportRequest, calibration: Calibration, firmware: Firmware[Any] | None
+                       ) -> tuple[str | None, tuple[str, ...]]:
+        """``--history`` of a rotary printer's calibration: as a linear one's, arm by arm; else refused."""
+        if not request.history or not isinstance(calibration.model, RotaryPrinterModel):
+            return super().report_history(request, calibration, firmware)
+        said = recorded_firmware(calibration, request.calibration) or firmware_named("klipper")
+        assert said is not None
+        return history_section(request, calibration, said)
 
 
 #: The rotary Delta's wing.
