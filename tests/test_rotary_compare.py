@@ -12,12 +12,17 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import MODELS
 
+from deltacal.calibration import Calibration
 from deltacal.cli import main
+from deltacal.errormodels import get_model
+from deltacal.exceptions import InputError
 from deltacal.geometry import Tolerances
 from deltacal.io import load_calibration
 from deltacal.io.robot import load_nominal
 from deltacal.printer.files.measurements import write_printed_distances, write_probe_heights
+from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import read_klipper_config
 from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
 from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryController
@@ -87,3 +92,16 @@ def test_compare_says_it_arm_by_arm(three, capsys):
     steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
     assert steps == ["no significant change between them", "significant: arm B's endstop"], out
 
+
+
+def test_a_linear_and_a_rotary_printers_calibrations_are_refused_together():
+    """Two calibrations of different kinds (a linear Kossel's, a rotary Delta's): one line naming both files,
+    before anything is identified again."""
+    linear = load_printer(MODELS / "kossel.toml").geometry()
+    rotary = load_nominal(MODELS / "bai2015.toml").geometry()
+    cals = [Calibration(geometry=g, nominal=g, model=get_model("complete"), base=[],
+                        correlation=np.zeros((0, 0))) for g in (linear, rotary)]
+    with pytest.raises(InputError) as refused:
+        under_one_prior(cals, ["old.toml", "new.toml"])
+    line = str(refused.value)
+    assert len(line.splitlines()) == 1 and "old.toml" in line and "new.toml" in line and "rotary" in line
