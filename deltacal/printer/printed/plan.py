@@ -291,7 +291,7 @@ def _labelled(printer: PrinterToPlan, count: int | None, caliper: float, probe: 
     try:
         layout, pairs, chosen, information, pair_rows = _chosen(printer, count, caliper, probe, rows_of, top)
     except CaliperTooShort as exc:
-        raise PlanningError(f"{exc}{_longer(printer, count, caliper, probe, rows_of, exc)}") from None
+        raise PlanningError(f"{exc}{_longer(printer, count, caliper, probe, rows_of, exc, top)}") from None
     used = np.unique(pairs[chosen].reshape(-1))
     index = np.full(len(layout.centres), -1)
     index[used] = np.arange(len(used))
@@ -331,19 +331,19 @@ def _chosen(printer: PrinterToPlan, count: int | None, caliper: float, probe: np
 
 
 def _longer(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,
-            rows_of: RowsFunction, short: CaliperTooShort) -> str:
+            rows_of: RowsFunction, short: CaliperTooShort, top: float | None = None) -> str:
     """What to do when the caliper is too short: fewer distances, or the shortest caliper that works [mm].
 
     The caliper is found to the whole mm by bisection between the one given and the longest reading
     the printable cylinder holds (its diameter, height and a ball): one that works next to one that
-    does not.
+    does not, for the object as planned (its top level at most ``top``).
     """
     assert printer.workspace is not None
     workspace = printer.workspace
 
     def works(length: float) -> bool:
         try:
-            _chosen(printer, count, length, probe, rows_of)
+            _chosen(printer, count, length, probe, rows_of, top)
         except CaliperTooShort:
             return False
         return True
