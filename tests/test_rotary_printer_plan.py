@@ -202,6 +202,17 @@ def test_the_configurations_own_radius_plans_a_lower_object(printer, tmp_path, c
     assert heights.max() == pytest.approx(71.8) and heights.min() == pytest.approx(8.0)
 
 
+@pytest.mark.slow
+def test_a_bed_that_holds_the_tallest_pads_says_nothing_of_them(printer, tmp_path, capsys):
+    """The 80 mm [workspace]: the object's layout reaches the caliper's 118 mm, no note of a lower object
+    (the note judges the layout's top level, not the features the selection chose)."""
+    capsys.readouterr()
+    assert main(["plan", str(printer["robot"]), "--object", "--controller", str(printer["cfg"]), "-o",
+                 str(tmp_path / "obj")]) == 0
+    out = capsys.readouterr().out
+    assert "holds the pads and labels" not in out and "object:" in out, out
+
+
 def test_a_radius_too_small_for_two_levels_is_refused(printer, tmp_path, capsys):
     """A [workspace] of 20 mm radius holds no ring of pads even for the two lowest levels: one line, nothing
     written."""

@@ -68,6 +68,7 @@ class ObjectPlan:
         probe_only: What the probe heights alone identify (``None`` with model-free rows).
         with_distances: What the probe heights and the distances identify (``None`` likewise).
         labels: Each feature's label, in the order of ``features`` (:mod:`.labels`).
+        top_level: The layout's top level [mm] (the features chosen may stand lower); NaN: not given.
     """
 
     probe: np.ndarray
@@ -78,6 +79,7 @@ class ObjectPlan:
     probe_only: BaseParameters | None = None
     with_distances: BaseParameters | None = None
     labels: tuple[BallLabel, ...] = ()
+    top_level: float = float("nan")
 
     @property
     def names(self) -> list[str]:
@@ -301,7 +303,8 @@ def _labelled(printer: PrinterToPlan, count: int | None, caliper: float, probe: 
     features = layout.centres[used]
     return ObjectPlan(probe=probe, features=features, pairs=index[pairs[chosen]], log_det=log_det,
                       log_det_probe=log_det_probe,
-                      labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius))
+                      labels=place_labels(features, index[pairs[chosen]], printer.workspace.radius),
+                      top_level=float(layout.levels[-1]))
 
 
 def _chosen(printer: PrinterToPlan, count: int | None, caliper: float, probe: np.ndarray,

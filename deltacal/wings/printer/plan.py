@@ -129,8 +129,8 @@ def write_object_plan(request: PlanRequest, firmware: Firmware[Any], printer: Pr
 
 def _lowered(plan: ObjectPlan, workspace: Workspace, caliper: float) -> tuple[str, ...]:
     """The note when the object stands lower than the caliper allows: its pads need a wider bed."""
-    top, allowed = float(plan.features[:, 2].max()), float(levels(workspace, caliper)[-1])
-    if top >= allowed:
+    top, allowed = plan.top_level, float(levels(workspace, caliper)[-1])
+    if not top < allowed:  # the layout's top, whether or not a feature chosen stands on it
         return ()
     return (f"note: the printable radius {workspace.radius:g} mm holds the pads and labels of balls up to "
             f"{top:g} mm, "
