@@ -141,6 +141,19 @@ def test_the_rotary_kit_tolerances_are_the_identification_tests():
     assert Tolerances.rotary_printer_kit() == KIT
 
 
+def test_a_fits_default_tolerances_are_its_models_kit():
+    """What a printer's fit, its plan and its re-anchoring take unless told: the model's own kit, asked of the
+    model (before, the fit's default was a linear kit's whatever the model, and a rotary plan or identify
+    named the rotary kit on their own)."""
+    from deltacal.errormodels import get_model
+    from deltacal.printer.identification.errormodels import kit_tolerances
+
+    assert kit_tolerances(get_model("rotary_printer")) == Tolerances.rotary_printer_kit()
+    assert kit_tolerances(get_model("printer")) == Tolerances.printer_kit()
+    assert kit_tolerances(get_model("classical")) == Tolerances.printer_kit()
+    assert kit_tolerances(get_model("rotary_printer")) != Tolerances.printer_kit()
+
+
 def _refused(args, capsys, *words) -> str:
     capsys.readouterr()
     assert main(args) != 0

@@ -24,12 +24,11 @@ from dataclasses import replace
 import numpy as np
 
 from ...calibration import Calibration
-from ...errormodels.base import ErrorModel
 from ...exceptions import AssemblyError
-from ...geometry import DeltaGeometry, Tolerances, Workspace
+from ...geometry import DeltaGeometry, Workspace
 from ...holds import bed_points
 from ...measured_record import MeasuredRecord
-from .errormodels import PrinterModel, RotaryPrinterModel, calibrated_values
+from .errormodels import PrinterModel, RotaryPrinterModel, calibrated_values, kit_tolerances
 from .fit import PrinterFitOptions, PrinterMeasurements, identify_printer, scaled_tolerances
 from .where import point_rows, readings_at
 
@@ -196,14 +195,3 @@ def prior_factor_of(calibration: Calibration) -> np.ndarray:
     used = scaled_tolerances(model.kit_tolerances(), record.tolerance_scale)
     return model.prior_factor(used, calibration.nominal, calibrated_values(record.calibrated_start,
                                                                            record.distance.size, model))
-
-
-def kit_tolerances(model: ErrorModel) -> Tolerances:
-    """The build tolerances a printer model's fit takes (its own: a linear or a rotary printer kit's).
-
-    Raises:
-        ValueError: a model that is not a printer's (a robot's calibration is not re-anchored).
-    """
-    if not isinstance(model, PrinterModel | RotaryPrinterModel):
-        raise ValueError(f"model {model.name!r} is not a printer's: it is not re-anchored")
-    return model.kit_tolerances()

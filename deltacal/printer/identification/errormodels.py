@@ -455,3 +455,15 @@ class RotaryPrinterModel(ErrorModel):
             firmware = rotary_firmware_modes(self, geometry)[:, kept] * np.array(ROTARY_FREE)[kept]
             cov = cov + firmware @ firmware.T
         return np.linalg.cholesky(cov)
+
+
+def kit_tolerances(model: ErrorModel) -> Tolerances:
+    """The build tolerances a printer's fit takes unless told others: its model's kit.
+
+    A rotary printer's model: a rotary kit's (:meth:`Tolerances.rotary_printer_kit`); a linear
+    printer's, and any other model a printer's fit is given: a linear printer kit's
+    (:meth:`Tolerances.printer_kit`, as the fit always took).
+    """
+    if isinstance(model, PrinterModel | RotaryPrinterModel):
+        return model.kit_tolerances()
+    return Tolerances.printer_kit()

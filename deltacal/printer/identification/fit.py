@@ -48,7 +48,7 @@ from ...kinematics import exact
 from ...observations import rigid_alignment
 from ...options import with_overrides
 from ...rotations import skew
-from .errormodels import calibrated_values
+from .errormodels import calibrated_values, kit_tolerances
 from .evidence import SCALE_RANGE, evidence_scales
 from .outliers import Outliers, find_outliers
 from .where import firmware_determination, point_rows, where_it_holds
@@ -193,7 +193,7 @@ def measured_combinations(start: DeltaGeometry, data: PrinterMeasurements,
     """
     error_model = get_model(model) if isinstance(model, str) else model
     _, W, _ = residuals_and_regressor(start, error_model, data)
-    factor = error_model.prior_factor(tolerances or Tolerances.printer_kit(), start)
+    factor = error_model.prior_factor(tolerances or kit_tolerances(error_model), start)
     determined = int(np.sum(np.linalg.svd(W @ factor, compute_uv=False) > 1.0))
     return base_parameters(W, error_model.names, rtol=RANK_RTOL, prefer=error_model.preferred,
                            rank=determined)
@@ -209,7 +209,7 @@ def posterior_sigma(start: DeltaGeometry, data: PrinterMeasurements, model: str 
     """
     error_model = get_model(model) if isinstance(model, str) else model
     _, W, _ = residuals_and_regressor(start, error_model, data)
-    factor = error_model.prior_factor(tolerances or Tolerances.printer_kit(), start)
+    factor = error_model.prior_factor(tolerances or kit_tolerances(error_model), start)
     n = factor.shape[0]
     _, _, Rinv = solve_wls(np.vstack([W @ factor, np.eye(n)]), np.zeros(W.shape[0] + n))
     return np.sqrt(np.sum(factor**2, axis=1)), np.sqrt(np.sum((factor @ Rinv) ** 2, axis=1))
@@ -317,7 +317,7 @@ def identify_printer(
     method = options.method
     error_model = get_model(model) if isinstance(model, str) else model
     error_model.check_fits(start)
-    given = options.tolerances or Tolerances.printer_kit()
+    given = options.tolerances or kit_tolerances(error_model)
     scale, noise, how = _tolerance_scale(start, data, error_model, given, options)
     used = scaled_tolerances(given, scale)
     calibrated = calibrated_values(options.calibrated_start, data.distance.size, error_model)
@@ -582,7 +582,7 @@ def printer_outliers(start: DeltaGeometry, data: PrinterMeasurements, model: str
     """
     options = options or PrinterFitOptions()
     error_model = get_model(model) if isinstance(model, str) else model
-    given = options.tolerances or Tolerances.printer_kit()
+    given = options.tolerances or kit_tolerances(error_model)
 
     def fit(kept: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         subset = measurements_kept(data, kept)

@@ -23,9 +23,11 @@ from typing import Protocol
 
 import numpy as np
 
+from ...errormodels import get_model
 from ...geometry import DeltaGeometry, NominalDelta, Tolerances, Workspace
 from ..firmware.base import FirmwareModel
 from ..firmware.controller import RotaryFirmwareController
+from ..identification.errormodels import kit_tolerances
 from ..robot import NominalLinearDelta
 
 
@@ -89,8 +91,8 @@ class LinearPrinterToPlan:
 
     @property
     def tolerances(self) -> Tolerances:
-        """A linear printer kit's (:meth:`~deltacal.geometry.Tolerances.printer_kit`)."""
-        return Tolerances.printer_kit()
+        """Its model's kit (:func:`~..identification.errormodels.kit_tolerances`: a linear printer kit's)."""
+        return kit_tolerances(get_model(self.model))
 
     def geometry(self) -> DeltaGeometry:
         """The nominal printer."""
@@ -134,8 +136,8 @@ class RotaryPrinterToPlan:
 
     @property
     def tolerances(self) -> Tolerances:
-        """A rotary printer kit's (:meth:`~deltacal.geometry.Tolerances.rotary_printer_kit`)."""
-        return Tolerances.rotary_printer_kit()
+        """Its model's kit (:func:`~..identification.errormodels.kit_tolerances`: a rotary printer kit's)."""
+        return kit_tolerances(get_model(self.model))
 
     def geometry(self) -> DeltaGeometry:
         """The nominal printer moved into the bed's frame."""

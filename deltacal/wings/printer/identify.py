@@ -16,9 +16,9 @@ from typing import Any, Protocol
 import numpy as np
 
 from ...calibration import Calibration
-from ...errormodels import ErrorModel
+from ...errormodels import ErrorModel, get_model
 from ...exceptions import AssemblyError, IdentificationError, InputError, PoorFitError
-from ...geometry import DeltaGeometry, Tolerances
+from ...geometry import DeltaGeometry
 from ...identification.result import IdentificationResult
 from ...io import save_calibration
 from ...io.tables import data_row
@@ -33,6 +33,7 @@ from ...printer.files.same_printer import ENDSTOP_MM, check_step_distance
 from ...printer.firmware.base import FirmwareModel, classical_name
 from ...printer.firmware.config_file import read_firmware_config
 from ...printer.identification.anchor import measured_record
+from ...printer.identification.errormodels import kit_tolerances
 from ...printer.identification.fit import (
     PrinterFitOptions,
     PrinterMeasurements,
@@ -75,7 +76,7 @@ def identify_from_prints(request: IdentifyRequest, printer: NominalLinearDelta) 
     start = printer.geometry()
     data, files = read_prints(request, start, Commanded(values, printer.step_distance), printer.name)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
-                                tolerances=Tolerances.printer_kit(),
+                                tolerances=kit_tolerances(get_model(model)),
                                 tolerance_scale=request.tolerance_scale or "evidence",
                                 workspace=printer.workspace, accept_poor_fit=request.accept_poor_fit,
                                 calibrated_start=firmware.calibrated_from_saved(request.controller))

@@ -26,11 +26,13 @@ from typing import Any
 import numpy as np
 
 from ...calibration import Calibration
-from ...geometry import NominalDelta, Tolerances, Workspace
+from ...errormodels import get_model
+from ...geometry import NominalDelta, Workspace
 from ...io import save_calibration
 from ...printer.firmware.config_file import RotaryFirmwareConfig, out_of_firmware_frame, told_firmware
 from ...printer.firmware.controller import RotaryFirmwareController
 from ...printer.identification.anchor import measured_record
+from ...printer.identification.errormodels import kit_tolerances
 from ...printer.identification.fit import PrinterFitOptions
 from ...printer.identification.where import holds_in_words
 from ...printer.rotary_owner import rotary_owner_lines
@@ -71,7 +73,7 @@ def identify_rotary_printer(request: IdentifyRequest, nominal: NominalDelta) -> 
     volume = None if ws is None else Workspace(ws.radius, ws.height, ws.top_z + lift)
     data, files = read_prints(request, start, Commanded(_Angles(rotary)), nominal.name)
     options = PrinterFitOptions(method="linear" if request.linear else "iterated",
-                                tolerances=Tolerances.rotary_printer_kit(),
+                                tolerances=kit_tolerances(get_model(model)),
                                 tolerance_scale=request.tolerance_scale or "evidence", workspace=volume,
                                 accept_poor_fit=request.accept_poor_fit,
                                 calibrated_start=firmware.calibrated_from_saved(request.controller),
