@@ -397,6 +397,27 @@ class ErrorModel(ABC):
         return SubModel(self, [n for n in self.names if n not in set(drop)], name)
 
 
+class ListedParameters:
+    """An error model whose parameters' names and units are lists it builds once (``_names``, ``_units``).
+
+    Put before :class:`ErrorModel` among a model's bases: its :attr:`names` and :attr:`units` are then
+    these lists (copies: a caller's edit does not reach the model).
+    """
+
+    _names: list[str]
+    _units: list[str]
+
+    @property
+    def names(self) -> list[str]:
+        """Parameter names, in the order of the parameter vector."""
+        return list(self._names)
+
+    @property
+    def units(self) -> list[str]:
+        """Unit of each parameter: "mm" or "rad"."""
+        return list(self._units)
+
+
 class SubModel(ErrorModel):
     """A model restricted to a subset of another model's parameters."""
 
@@ -496,6 +517,7 @@ def rotate_pairs(geometry: DeltaGeometry, plate: np.ndarray, arm: np.ndarray) ->
 
 __all__ = [
     "ErrorModel",
+    "ListedParameters",
     "N_ELEMENTARY",
     "SubModel",
     "apply_elementary",

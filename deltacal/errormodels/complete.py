@@ -24,6 +24,7 @@ from ..geometry import DeltaGeometry
 from .base import (
     N_ELEMENTARY,
     ErrorModel,
+    ListedParameters,
     actuator_rotation_index,
     arm_ball_index,
     plate_ball_index,
@@ -31,7 +32,7 @@ from .base import (
 )
 
 
-class CompleteModel(ErrorModel):
+class CompleteModel(ListedParameters, ErrorModel):
     """Savoure's complete model (51 parameters), Eq. 12-22."""
 
     name = "complete"
@@ -78,16 +79,6 @@ class CompleteModel(ErrorModel):
         )
         # the plate balls also carry the actuators' positions (Eq. 13)
         self.frame_held_first = tuple(f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz")
-
-    @property
-    def names(self) -> list[str]:
-        """The 51 parameter names."""
-        return list(self._names)
-
-    @property
-    def units(self) -> list[str]:
-        """Units of the parameters."""
-        return list(self._units)
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Each parameter is one elementary move (constant matrix)."""

@@ -37,6 +37,7 @@ from ...chains import PRISMATIC, REVOLUTE
 from ...errormodels.base import (
     N_ELEMENTARY,
     ErrorModel,
+    ListedParameters,
     actuator_rotation_index,
     arm_ball_index,
     axis_point_index,
@@ -60,7 +61,7 @@ BED_TILT = float(np.radians(0.5))
 BED_HEIGHT = 10.0
 
 
-class PrinterModel(ErrorModel):
+class PrinterModel(ListedParameters, ErrorModel):
     """The complete model of a linear Delta printer (54 parameters)."""
 
     name = "printer"
@@ -105,16 +106,6 @@ class PrinterModel(ErrorModel):
             + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
             + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
         )
-
-    @property
-    def names(self) -> list[str]:
-        """The 54 parameter names."""
-        return list(self._names)
-
-    @property
-    def units(self) -> list[str]:
-        """Units of the parameters."""
-        return list(self._units)
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Each parameter is one elementary move (a constant matrix)."""
@@ -168,7 +159,7 @@ class PrinterModel(ErrorModel):
         return np.linalg.cholesky(cov)
 
 
-class FirmwareErrorModel(ErrorModel):
+class FirmwareErrorModel(ListedParameters, ErrorModel):
     """Klipper's values as deviations of a printer's full geometry (13 parameters)."""
 
     name = "klipper"
@@ -180,16 +171,6 @@ class FirmwareErrorModel(ErrorModel):
                        + [f"arm_length_{t}" for t in _TOWERS]
                        + [f"endstop_{t}" for t in _TOWERS] + [f"scale_{t}" for t in _TOWERS])
         self._units = ["mm", "rad", "rad", "rad"] + ["mm"] * 9
-
-    @property
-    def names(self) -> list[str]:
-        """``delta_radius``, ``angle_a..c``, ``arm_length_a..c``, ``endstop_a..c``, ``scale_a..c``."""
-        return list(self._names)
-
-    @property
-    def units(self) -> list[str]:
-        """Units of the parameters."""
-        return list(self._units)
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """M(g): the towers moved out and along, the rods of a tower together, endstops, scales."""
@@ -363,7 +344,7 @@ def rotary_firmware_modes(model: ErrorModel, geometry: DeltaGeometry) -> np.ndar
     return np.linalg.lstsq(S, F.reshape(-1, len(ROTARY_VALUES)), rcond=None)[0]
 
 
-class RotaryPrinterModel(ErrorModel):
+class RotaryPrinterModel(ListedParameters, ErrorModel):
     """The complete model of a rotary Delta printer (54 parameters): Savoure's 51 and each arm's step scale.
 
     The revolute chain's complete model (:class:`~deltacal.errormodels.complete.CompleteModel`: per rod
@@ -397,16 +378,6 @@ class RotaryPrinterModel(ErrorModel):
                           + [f"b{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"]
                           + [f"a{i}{j}{a}" for i in range(1, 4) for j in (1, 2) for a in "xyz"])
         self.frame_held_first = self._complete.frame_held_first
-
-    @property
-    def names(self) -> list[str]:
-        """The 54 parameter names."""
-        return list(self._names)
-
-    @property
-    def units(self) -> list[str]:
-        """Units of the parameters."""
-        return list(self._units)
 
     def moves(self, geometry: DeltaGeometry) -> np.ndarray:
         """Each parameter is one elementary move (a constant matrix): the complete model's, the scales."""
