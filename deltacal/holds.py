@@ -52,6 +52,8 @@ FIRST_LAYER = 0.2
 DETERMINED = 1.0 / 3.0
 #: From this many times its σ a correction along the bed is applied less 1.5 σ (:func:`significance_weight`).
 SIGNIFICANT = 2.0
+#: A measured layer thinner than this is "at one height" [mm]: its data cannot tell heights apart.
+ONE_LAYER_MM = 25.0
 #: The σ a node the printer cannot reach is given [mm]: no correction there, and the interpolation stays
 #: finite (continuous) next to it.
 UNREACHED = 1000.0
@@ -221,11 +223,16 @@ class WhereItHolds:
                 corrections: np.ndarray | None = None) -> np.ndarray:
         """The weights of the correction's horizontal and vertical parts, (N, 2).
 
-        :func:`correction_weight` of each part's σ against ``bound``; with the corrections, the
-        horizontal part's times :func:`significance_weight` of its size against its σ (the probe
-        measures heights; a correction along the bed from bed-level data comes through the model's
-        coupling of the towers' leans and positions with the heights, and is applied only where it
-        stands out of its own σ).
+        :func:`correction_weight` of each part's σ against ``bound``; with the corrections of a
+        calibration measured at one height (:attr:`bed_level`), the horizontal part's times
+        :func:`significance_weight` of its size against its σ: the probe measures heights, and a
+        correction along the bed from bed-level data comes through the model's coupling of the
+        towers' leans and positions with the heights, applied only where it stands out of its own σ.
+        Measured over the volume (a printed object's levels), the correction along the bed is measured
+        at each height and applied whole where it holds: on 24 simulated Kossels with deltacal's
+        planned object and effects its model lacks (a probe bias, a bed bowl, an object printed
+        small), the significance weighting left the largest 3-D error larger on 19 and the change of
+        the error between points 10 mm apart larger on all 24 (0.010-0.043 mm against 0.004-0.014).
 
         Args:
             points: Targets [mm], (N, 3).
@@ -234,11 +241,16 @@ class WhereItHolds:
         """
         sigma = self.sigma(points)
         weights = correction_weight(sigma, bound)
-        if corrections is not None:
+        if corrections is not None and self.bed_level:
             corrections = np.atleast_2d(np.asarray(corrections, dtype=float))
             along = np.hypot(corrections[:, 0], corrections[:, 1])
             weights[:, 0] = weights[:, 0] * significance_weight(along, sigma[:, 0])
         return weights
+
+    @property
+    def bed_level(self) -> bool:
+        """Whether its measurements are all at one height (the highest below :data:`ONE_LAYER_MM`)."""
+        return self.measured_top < ONE_LAYER_MM
 
     def level_sigma(self, radius: float = math.inf) -> np.ndarray:
         """The largest 3-D σ (``√(σ_h² + σ_v²)``) at each height of the grid within ``radius`` [mm], (Z,)."""

@@ -20,7 +20,7 @@ import math
 import re
 import subprocess
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -164,6 +164,17 @@ def test_the_module_weights_the_correction_as_the_library_does():
     inside = np.hypot(points[:, 0], points[:, 1]) < 60.0
     for w, most in ((theirs[inside, 0], 0.5), (theirs[inside, 1], 1.0)):
         assert np.any(w >= most) and np.any(w == 0.0) and np.mean((w > 0.0) & (w < 1.0)) > 0.05
+    # measured over the volume (a printed object's levels): along the bed the correction is applied whole
+    # where it holds, no significance weighting, in the module as in the library
+    tall = replace(holds, measured_top=80.0)
+    assert holds.bed_level and not tall.bed_level
+    grid = _grid(_smooth_field(holds=tall))
+    assert grid.holds.significance is False and _grid(field).holds.significance is True
+    ours = np.array([grid.holds.weights(*p, *c[:2]) for p, c in zip(points, interpolated, strict=True)])
+    whole_along = tall.weights(points, DEFAULT_BOUND, interpolated)
+    assert np.max(np.abs(ours - whole_along)) < 1e-12
+    assert np.all(whole_along[:, 0] >= theirs[:, 0]) and np.max(whole_along[:, 0] - theirs[:, 0]) > 0.5
+    assert np.array_equal(whole_along[:, 0], correction_weight(tall.sigma(points)[:, 0], DEFAULT_BOUND))
     # an infinite bound applies every correction wholly, as corrected_targets(bound=inf) does
     whole = _grid(_smooth_field(holds=holds, bound=math.inf))
     assert whole.holds.weights(10.0, 5.0, 70.0, 0.0, 0.0) == (1.0, 1.0)
@@ -240,6 +251,12 @@ class _Section:
 
     def getfloat(self, key, default=None, above=None):
         return float(self.get(key, default))
+
+    def getboolean(self, key, default=None):
+        """Klipper's (configparser's) words for a boolean."""
+        if key not in self.options:
+            return default
+        return configparser.ConfigParser.BOOLEAN_STATES[self.get(key).lower()]
 
     def getfloatlist(self, key, count=None):
         return [float(v) for v in self.get(key).split(",")]

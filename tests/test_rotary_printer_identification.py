@@ -153,11 +153,9 @@ def _figures(tolerances: Tolerances, seed: int) -> dict[str, tuple[float, float]
 PRINTERS = [("kit", KIT, 200), ("kit", KIT, 201), ("kit", KIT, 202),
             ("well built", WELL_BUILT, 200), ("well built", WELL_BUILT, 201), ("well built", WELL_BUILT, 202)]
 #: Where the issue's 1/3 is not reached (measured, less the motion along the bed).
-NOT_A_THIRD = {("well built", 200): "ours 0.032 mm against Klipper's extended 0.043 (0.74): below what the "
-                                    "measurements determine (the posterior's expected max 0.019 mm, the "
-                                    "whole correction 0.021, the bound 0.0145)",
-               ("well built", 201): "ours 0.032 mm against Klipper's extended 0.086 (0.38): the whole "
-                                    "correction meets it (0.026 mm), the weighting along the bed does not"}
+NOT_A_THIRD = {("well built", 200): "ours 0.021 mm (the whole correction) against Klipper's extended 0.043 "
+                                    "(0.48): below what the measurements determine (the posterior's "
+                                    "expected max 0.019 mm, the bound 0.0145)"}
 
 
 def _marked(p: tuple) -> object:
@@ -177,8 +175,11 @@ def test_identified_rotary_printers_a_third_of_klippers_extended_calibration(lab
     max over r <= 50, z 0.2..100 mm less the shift along the bed and turn about its normal no probe or
     caliper sees (the printer's convention: the part is the same part). The issue's bound: ours at most a
     third of Klipper's extended calibration's on the same data. Measured, ours / Klipper's extended [mm]:
-    kits 0.044 / 0.167, 0.042 / 0.310, 0.035 / 0.466; well built 0.032 / 0.043, 0.032 / 0.086, 0.025 / 0.105
-    (docs/printers.md, "Rotary Delta printers")."""
+    kits 0.035 / 0.167, 0.036 / 0.310, 0.036 / 0.466; well built 0.021 / 0.043, 0.026 / 0.086, 0.033 / 0.105
+    (docs/printers.md, "Rotary Delta printers"). Measured over the volume (the object's levels), the
+    correction along the bed is applied whole where it holds (:attr:`~deltacal.holds.WhereItHolds.bed_level`):
+    weighted by its significance too, as a calibration at one height is, they were 0.044, 0.042, 0.035 and
+    0.032, 0.032, 0.025."""
     figures = _figures(tolerances, seed)
     assert figures["ours"][1] <= figures["extended"][1] / 3.0, figures
 
@@ -217,21 +218,21 @@ def _posterior_maxima(identified: _Identified, draws: int = 2000) -> np.ndarray:
 @pytest.mark.slow
 @pytest.mark.parametrize(("seed", "within_reach"), [(200, False), (201, True)], ids=["200", "201"])
 def test_the_well_built_third_is_below_what_the_measurements_determine(seed, within_reach):
-    """Issue 48's third on the two well-built printers that miss it, against the noise floor: the 3-D max
+    """Issue 48's third on the two well-built printers nearest it, against the noise floor: the 3-D max
     (less the motion along the bed) the whole correction leaves on printers drawn from the calibration's
     posterior (49 probe heights σ 0.01 mm, 40 distances σ 0.02 mm). The posterior is honest: the identified
     printer's own error is a likely draw (between its 5th and 95th percentiles). Measured [mm]: well built
     200: the bound (Klipper's extended / 3) 0.0145, the posterior's expected max 0.0193 (median 0.0187,
     P(max <= bound) 0.20), the whole correction 0.021 (its 67th percentile): below what the measurements
-    determine. Well built 201: bound 0.0287, expected max 0.0213 (P 0.88), the whole correction 0.026 (81st
-    percentile) meets it, the correction as weighted (along the bed, what stands out of its σ) 0.032 does
-    not. More distances (the object's layout gives 54) leave 200's expected max at 0.019; a 15 x 15 probe
+    determine. Well built 201: bound 0.0287, expected max 0.0213 (P 0.88), ours (the whole correction where
+    it holds: the object measured over the volume) 0.026 (81st percentile) meets it. More distances (the
+    object's layout gives 54) leave 200's expected max at 0.019; a 15 x 15 probe
     mesh (149 points) lowers it to 0.0165 and Klipper's extended's third with it, to 0.0124."""
     figures = _figures(WELL_BUILT, seed)
     bound, whole = figures["extended"][1] / 3.0, figures["whole"][1]
     maxima = _posterior_maxima(_identified(WELL_BUILT, seed))
     assert 0.05 < np.mean(maxima <= whole) < 0.95, (whole, np.percentile(maxima, [5, 50, 95]))
     if within_reach:
-        assert np.mean(maxima) <= bound and whole <= bound < figures["ours"][1], (figures, np.mean(maxima))
+        assert np.mean(maxima) <= bound and figures["ours"][1] <= bound, (figures, np.mean(maxima))
     else:
         assert np.mean(maxima) > bound and whole > bound, (figures, np.mean(maxima))

@@ -28,9 +28,6 @@ from ...holds import DEFAULT_BOUND, DETERMINED, WhereItHolds, bed_points, in_pla
 from ...kinematics import exact
 from ...rotations import skew
 
-#: A measured layer thinner than this is "at one height" [mm]: its data cannot tell heights apart.
-ONE_LAYER_MM = 25.0
-
 
 def point_rows(geometry: DeltaGeometry, model: ErrorModel, q: np.ndarray, local: np.ndarray):
     """A plate point in {O} at readings q, (N, 3), and its exact sensitivity to the model's parameters.
@@ -257,7 +254,7 @@ def holds_in_words(holds: WhereItHolds, bound: float = DEFAULT_BOUND) -> str:
     probe = next((k for k in above if holds.height[k] >= 50.0), above[-1] if above else None)
     if probe is not None:
         where += f"; {holds.level_sigma(max(radius, 0.0))[probe]:.3g} mm at z = {holds.height[probe]:g} mm"
-    if holds.measured_top < ONE_LAYER_MM:
+    if holds.bed_level:
         where += (f": the measurements are all at one height (z up to {holds.measured_top:.3g} mm): print "
                   "the tall object (`deltacal plan --object`) to calibrate heights")
     return where + "; elsewhere compensate sends the controller's own commands"

@@ -104,13 +104,13 @@ class SigmaGrid:
     deltacal.holds.WhereItHolds's interpolation (trilinear in radius, azimuth and height, held at the
     grid's edges) and weights. ``radius`` (increasing from 0), ``azimuth`` (evenly over a turn [rad]),
     ``height``: the nodes; ``sigma``: the horizontal part's at each node (radius slowest, height
-    fastest), then the vertical's; ``bound``: the sigma of a correction accepted (inf: all) [mm].
+    fastest), then the vertical's; ``bound``: the sigma of a correction accepted (inf: all) [mm];
+    ``significance``: the horizontal part weighted by its significance too (a calibration at one height).
     """
 
-    def __init__(self, radius, azimuth, height, sigma, bound):
+    def __init__(self, radius, azimuth, height, sigma, bound, significance=True):
         self.radius, self.azimuth, self.height = list(radius), list(azimuth), list(height)
-        self.sigma_values = sigma
-        self.bound = bound
+        self.sigma_values, self.bound, self.significance = sigma, bound, significance
         self.step = 2.0 * math.pi / len(self.azimuth)
         self.stride_a = len(self.height)
         self.stride_r = len(self.azimuth) * len(self.height)
@@ -165,7 +165,7 @@ class SigmaGrid:
         if not math.isfinite(self.bound):
             return 1.0, 1.0
         horizontal, vertical = self.sigma(x, y, z)
-        along = significance_weight(math.hypot(cx, cy), horizontal)
+        along = significance_weight(math.hypot(cx, cy), horizontal) if self.significance else 1.0
         return correction_weight(horizontal, self.bound) * along, correction_weight(vertical, self.bound)
 
 
@@ -682,7 +682,7 @@ def read_holds(config):
         raise config.error(f"deltacal_geometry: key holds_sigma: {len(sigma)} values, expected {expected} "
                            "non-negative finite ones (2 per node of holds_radius x holds_azimuth x "
                            "holds_height)")
-    return SigmaGrid(radius, azimuth, height, sigma, bound)
+    return SigmaGrid(radius, azimuth, height, sigma, bound, config.getboolean("holds_significance", True))
 
 
 def read_float(config, key, above=None, default=None, infinite=False):

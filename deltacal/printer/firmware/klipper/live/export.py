@@ -274,7 +274,10 @@ def holds_lines(holds: WhereItHolds | None) -> list[str]:
             "# holds_sigma: base64 of the zlib-compressed little-endian float64 σ [mm] of the correction's "
             "horizontal part, then of its vertical part, at the nodes of holds_radius x holds_azimuth x "
             "holds_height (the radius slowest, the height fastest)",
-            "holds_sigma:", *("  " + line for line in encode_floats(sigma))]
+            "holds_sigma:", *("  " + line for line in encode_floats(sigma)),
+            "# holds_significance: whether the horizontal part is weighted by its significance too (a "
+            "calibration measured at one height: deltacal.holds.WhereItHolds.bed_level)",
+            f"holds_significance: {holds.bed_level}"]
 
 
 def encode_floats(values: np.ndarray) -> list[str]:
