@@ -8,6 +8,7 @@ measured (seed 3). Each fit chooses its own tolerances' scale: compare identifie
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -24,7 +25,8 @@ from deltacal.io.robot import load_nominal
 from deltacal.printer.files.measurements import write_printed_distances, write_probe_heights
 from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.config import read_klipper_config
-from deltacal.printer.firmware.klipper.rotary_config import rotary_from_config
+from deltacal.printer.firmware.klipper.rotary_calibrate import klipper_rotary_basic, klipper_rotary_extended
+from deltacal.printer.firmware.klipper.rotary_config import rotary_config_text, rotary_from_config
 from deltacal.printer.firmware.klipper.rotary_controller import KlipperRotaryController
 from deltacal.printer.history import SIGNIFICANT_SIGMAS, calibration_history, under_one_prior
 from deltacal.printer.rotary_simulation import RotaryPrinter, printed_distances, probe_triggers
@@ -36,10 +38,9 @@ from tests.test_rotary_printer_identification import _plan
 MOVED_DEG = 0.3
 
 
-@pytest.fixture(scope="module")
-def three(tmp_path_factory):
-    """The three calibrations' files, oldest first: measured, measured again, arm B's endstop moved."""
-    folder = tmp_path_factory.mktemp("rotary-compare")
+def _printer(folder):
+    """Klipper's example rotary configuration imported into ``folder`` and a simulated printer of it (a rotary
+    kit's errors): the robot file, the example's values, the truth, the planned probe points and pairs."""
     assert main(["import", str(EXAMPLE), "-o", str(folder / "imp"), *MEASURED]) == 0
     robot = folder / "imp" / "printer.toml"
     k = rotary_from_config(read_klipper_config(EXAMPLE))
@@ -49,22 +50,84 @@ def three(tmp_path_factory):
     truth = nominal.perturbed(tolerances, rng)
     truth = replace(truth, joint_scale=1.0 + rng.normal(0.0, tolerances.joint_scale, 3))
     xy, pairs = _plan(k, nominal, tolerances)
-    files = []
-    for seed, moved in ((1, 0.0), (2, 0.0), (3, MOVED_DEG)):
-        offset = np.array(truth.encoder_offset, dtype=float)
-        offset[1] += np.radians(moved)
-        printer = RotaryPrinter(replace(truth, encoder_offset=offset), k)
-        noise = np.random.default_rng(seed)
-        probe = probe_triggers(printer, k, xy)
-        probe[:, 2] += noise.normal(0.0, 0.01, len(probe))
-        distances = np.round(printed_distances(printer, k, pairs) + noise.normal(0.0, 0.02, len(pairs)), 3)
-        write_probe_heights(folder / f"probe{seed}.csv", probe[:, :2], probe[:, 2])
-        write_printed_distances(folder / f"distances{seed}.csv", pairs, distances)
-        cal = folder / f"cal{seed}.toml"
-        assert main(["identify", str(robot), str(folder / f"probe{seed}.csv"),
-                     str(folder / f"distances{seed}.csv"), "--controller", str(EXAMPLE), "-o", str(cal)]) == 0
-        files.append(str(cal))
+    return robot, k, truth, xy, pairs
+
+
+def _moved(truth, k, degrees: float) -> RotaryPrinter:
+    """The true printer with arm B's endstop angle (its encoder offset) moved by ``degrees``, its readings
+    counted by the example's values ``k`` (whatever values command it)."""
+    offset = np.array(truth.encoder_offset, dtype=float)
+    offset[1] += np.radians(degrees)
+    return RotaryPrinter(replace(truth, encoder_offset=offset), k)
+
+
+def _measured(folder, printer: RotaryPrinter, k, xy, pairs, seed: int):
+    """The printer probed and its object printed and measured through the values ``k`` (noise ``seed``)."""
+    noise = np.random.default_rng(seed)
+    probe = probe_triggers(printer, k, xy)
+    probe[:, 2] += noise.normal(0.0, 0.01, len(probe))
+    distances = np.round(printed_distances(printer, k, pairs) + noise.normal(0.0, 0.02, len(pairs)), 3)
+    write_probe_heights(folder / f"probe{seed}.csv", probe[:, :2], probe[:, 2])
+    write_printed_distances(folder / f"distances{seed}.csv", pairs, distances)
+    return probe, distances
+
+
+def _identified(folder, robot, config, seed: int) -> str:
+    """``deltacal identify`` of measurements ``seed`` through ``config``: the calibration file."""
+    cal = folder / f"cal{seed}.toml"
+    assert main(["identify", str(robot), str(folder / f"probe{seed}.csv"),
+                 str(folder / f"distances{seed}.csv"), "--controller", str(config), "-o", str(cal)]) == 0
+    return str(cal)
+
+
+@pytest.fixture(scope="module")
+def first(tmp_path_factory):
+    """The simulated printer (:func:`_printer`) and its first calibration, through the example's values."""
+    folder = tmp_path_factory.mktemp("rotary-compare")
+    robot, k, truth, xy, pairs = _printer(folder)
+    _measured(folder, _moved(truth, k, 0.0), k, xy, pairs, 1)
+    return {"folder": folder, "robot": robot, "k": k, "truth": truth, "xy": xy, "pairs": pairs,
+            "cal": _identified(folder, robot, EXAMPLE, 1)}
+
+
+@pytest.fixture(scope="module")
+def three(first):
+    """The three calibrations' files, oldest first: measured, measured again, arm B's endstop moved."""
+    folder, robot, k, truth = first["folder"], first["robot"], first["k"], first["truth"]
+    files = [first["cal"]]
+    for seed, moved in ((2, 0.0), (3, MOVED_DEG)):
+        _measured(folder, _moved(truth, k, moved), k, first["xy"], first["pairs"], seed)
+        files.append(_identified(folder, robot, EXAMPLE, seed))
     return files
+
+
+def _recalibrated(first, folder, degrees: float, extended: bool) -> list[str]:
+    """Two calibrations of one printer through two configurations: the first's (through Klipper's example
+    values); then arm B's endstop angle moved by ``degrees`` in the true printer, Klipper's DELTA_CALIBRATE
+    (extended: 7 values; else basic: 4) run on it (fresh probing and print, the example's values probing),
+    its values pasted over the example (``recalibrated.cfg``), the printer measured and identified through
+    them."""
+    k, xy, pairs = first["k"], first["xy"], first["pairs"]
+    moved = _moved(first["truth"], k, degrees)
+    probe, distances = _measured(folder, moved, k, xy, pairs, 4)
+    values = (klipper_rotary_extended(k, probe, pairs, distances) if extended
+              else klipper_rotary_basic(k, probe))
+    again = folder / "recalibrated.cfg"
+    again.write_text(EXAMPLE.read_text() + "\n" + rotary_config_text(values, "DELTA_CALIBRATE again"))
+    _measured(folder, moved, rotary_from_config(read_klipper_config(again)), xy, pairs, 2)
+    return [first["cal"], _identified(folder, first["robot"], again, 2)]
+
+
+@pytest.fixture(scope="module")
+def recalibrated_moved(first, tmp_path_factory):
+    """:func:`_recalibrated` with arm B's endstop moved 0.3 deg, Klipper's extended calibration."""
+    return _recalibrated(first, tmp_path_factory.mktemp("rotary-recalibrated-moved"), MOVED_DEG, True)
+
+
+@pytest.fixture(scope="module")
+def recalibrated_same(first, tmp_path_factory):
+    """:func:`_recalibrated` with the printer unchanged, Klipper's basic calibration (cheaper)."""
+    return _recalibrated(first, tmp_path_factory.mktemp("rotary-recalibrated-same"), 0.0, False)
 
 
 @pytest.mark.slow
@@ -105,3 +168,45 @@ def test_a_linear_and_a_rotary_printers_calibrations_are_refused_together():
         under_one_prior(cals, ["old.toml", "new.toml"])
     line = str(refused.value)
     assert len(line.splitlines()) == 1 and "old.toml" in line and "new.toml" in line and "rotary" in line
+
+
+def _compared(files, capsys) -> tuple[str, dict[str, tuple[float, float]]]:
+    """``deltacal compare`` of the files: its output (exit 0 asserted), each change's value and σ by name."""
+    capsys.readouterr()
+    assert main(["compare", *files]) == 0
+    out = capsys.readouterr().out
+    changes = {}
+    for line in out.splitlines():
+        found = re.search(r"(arm .+?|the .+?) moved ([-+][0-9.]+) ± ([0-9.]+) ", line)
+        if found:
+            changes[found.group(1).strip()] = (float(found.group(2)), float(found.group(3)))
+    return out, changes
+
+
+@pytest.mark.slow
+def test_through_recalibrated_values_arm_b_endstop_is_the_one_change(recalibrated_moved, capsys):
+    """Issue 46 item 6 on a rotary printer: calibrated through the example's values; then arm B's endstop
+    angle moved 0.3 deg AND the printer.cfg's values re-calibrated by Klipper's extended DELTA_CALIBRATE
+    (stepper_b's position_endstop takes the move), calibrated through those. ``compare`` exits 0, says it
+    re-anchored the older to the newer's values naming the keys changed, and arm B's endstop is the only
+    significant change, within 3 σ of 0.3 deg: measured +0.XXX ± 0.XXX deg. (Before: refused, "identified
+    through other rotary values".)"""
+    out, changes = _compared(recalibrated_moved, capsys)
+    print(out)
+    said = [line for line in out.splitlines() if "re-anchored" in line]
+    assert len(said) == 1 and "stepper_b.position_endstop" in said[0], out
+    steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
+    assert steps == ["significant: arm B's endstop"], out
+    change, sigma = changes["arm B's endstop"]
+    assert abs(change - MOVED_DEG) < SIGNIFICANT_SIGMAS * sigma, out
+
+
+@pytest.mark.slow
+def test_through_recalibrated_values_an_unchanged_printer_shows_nothing(recalibrated_same, capsys):
+    """The same printer unchanged, only its printer.cfg's values re-calibrated between the calibrations:
+    re-anchored, nothing significant (arm B's endstop measured +0.XXX ± 0.XXX deg)."""
+    out, _ = _compared(recalibrated_same, capsys)
+    print(out)
+    assert any("re-anchored" in line for line in out.splitlines()), out
+    steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
+    assert steps == ["no significant change between them"], out
