@@ -20,7 +20,7 @@ from deltacal.cli import main
 from deltacal.errormodels import get_model
 from deltacal.exceptions import InputError
 from deltacal.geometry import Tolerances
-from deltacal.io import load_calibration
+from deltacal.io import load_calibration, save_calibration
 from deltacal.io.robot import load_nominal
 from deltacal.printer.files.measurements import write_printed_distances, write_probe_heights
 from deltacal.printer.files.robot_file import load_printer
@@ -210,3 +210,20 @@ def test_through_recalibrated_values_an_unchanged_printer_shows_nothing(recalibr
     assert any("re-anchored" in line for line in out.splitlines()), out
     steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
     assert steps == ["no significant change between them"], out
+
+
+def test_another_printers_rotary_values_are_refused_naming_the_key(first, tmp_path, capsys):
+    """A calibration whose recorded rotary values are another printer's (arm A's upper arm 200 mm against
+    the example's 170: beyond a build's tolerance) is not re-anchored: ``compare`` refuses it in one line
+    naming the key, both values and the file, exit non-zero. (Before: refused as any change of the values,
+    "identified through other rotary values", naming no value apart.)"""
+    cal = load_calibration(first["cal"])
+    assert cal.controller is not None
+    values = {**cal.controller.values, "stepper_a.upper_arm_length": 200.0}
+    other = tmp_path / "other.toml"
+    save_calibration(replace(cal, controller=replace(cal.controller, values=values)), other)
+    capsys.readouterr()
+    assert main(["compare", str(other), first["cal"]]) != 0
+    out, err = capsys.readouterr()
+    assert len(err.strip().splitlines()) == 1 and "upper_arm_length (arm A) is 200 mm" in err, (out, err)
+    assert "170 mm in" in err and "other.toml" in err and "re-anchored" not in out, (out, err)

@@ -272,7 +272,7 @@ def under_one_prior(
     changed, keys = _controller_changes(cals, sources)
     rotary = not new.geometry.chain.firmware  # a rotary printer's readings are angles its values count
     frame = _rotary_frame(new, new_source, firmware) if rotary else None
-    recounted = False
+    recounted: list[str] = []
     if frame is not None:  # its measurements' heights are the bed's: each placed on it, as identified
         cals, recounted = _on_the_bed(cals, sources, frame)
         new = cals[-1]
@@ -300,10 +300,10 @@ def under_one_prior(
             raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify "
                              f"{_all(cals)} from the same robot file", str(source)) from None
     if recounted:  # the older readings counted as the newest's values count the same steps
-        said += (f"{_all(cals)} re-anchored to {new_source}'s rotary values ({keys}; each one's arms' "
-                 f"readings counted again from those values' endstops) and identified again under one prior "
-                 f"({new_source}'s robot file, the build tolerances scaled by {scale:.3g}): what the "
-                 "measurements determine is kept",)
+        said += (f"{' and '.join(recounted)} re-anchored to {new_source}'s rotary values ({keys}: the arms' "
+                 f"readings counted again from those values' endstops), then {_all(cals)} identified again "
+                 f"under one prior ({new_source}'s robot file, the build tolerances scaled by {scale:.3g}): "
+                 "what the measurements determine is kept",)
     else:
         said += (f"{_all(cals)} identified again under one prior ({new_source}'s robot file, the build "
                  f"tolerances scaled by {scale:.3g}; {keys}): what the measurements determine is kept",)
@@ -348,7 +348,7 @@ def _rotary_frame(new: Calibration, source: str | Path, firmware: Firmware[Any] 
 
 
 def _on_the_bed(cals: Sequence[Calibration], sources: Sequence[str | Path], frame: RotaryFirmwareController
-                ) -> tuple[list[Calibration], bool]:
+                ) -> tuple[list[Calibration], list[str]]:
     """Rotary calibrations on the bed (the firmware's frame), each where the values it recorded place it.
 
     One identified through other rotary values than ``frame``'s (the newest's) is placed by its own
@@ -357,7 +357,7 @@ def _on_the_bed(cals: Sequence[Calibration], sources: Sequence[str | Path], fram
     (:func:`~.firmware.config_file.recounted_record`), to be identified again under the newest's prior.
 
     Returns:
-        The calibrations placed, and whether any was counted again.
+        The calibrations placed, and the files of those counted again.
 
     Raises:
         InputError: recorded values of another printer than the newest's (naming the key), or a
@@ -366,7 +366,8 @@ def _on_the_bed(cals: Sequence[Calibration], sources: Sequence[str | Path], fram
     new = cals[-1].controller
     assert new is not None  # the newest's controller is the frame (:func:`_rotary_frame`)
     here = f"{sources[-1]}'s recorded controller {new.source}"
-    placed, recounted = [], False
+    placed: list[Calibration] = []
+    recounted: list[str] = []
     for cal, source in zip(cals, sources, strict=True):
         record = cal.controller
         if record is None or not record.changes(new.values):
@@ -377,11 +378,11 @@ def _on_the_bed(cals: Sequence[Calibration], sources: Sequence[str | Path], fram
         if cal.measured is None:
             raise InputError(f"identified through other rotary values than {sources[-1]} "
                              f"({changes_in_words(record.changes(new.values))}) and records no measurements "
-                             f"to count again (written before they were recorded): identify {_all(cals)} through "
-                             "one configuration", str(source))
+                             "to count again (written before they were recorded): identify "
+                             f"{_all(cals)} through one configuration", str(source))
         placed.append(replace(in_firmware_frame(cal, recorded),
                               measured=recounted_record(cal.measured, recorded, frame)))
-        recounted = True
+        recounted.append(str(source))
     return placed, recounted
 
 
