@@ -4,6 +4,10 @@ Three calibrations of one simulated rotary printer (Klipper's example rotary con
 rotary kit's errors), oldest first, all identified through the same configuration: the printer measured
 (noise seed 1), measured again (seed 2), then arm B's endstop angle moved (its encoder offset, 0.3 deg) and
 measured (seed 3). Each fit chooses its own tolerances' scale: compare identifies them again under one prior.
+
+Then the first against a calibration through re-calibrated values (Klipper's own DELTA_CALIBRATE run on the
+printer, its values pasted over the example's): the first's readings counted again as the new values count
+the same steps, both identified again under one prior (:func:`~deltacal.printer.history.under_one_prior`).
 """
 
 from __future__ import annotations
@@ -187,12 +191,13 @@ def _compared(files, capsys) -> tuple[str, dict[str, tuple[float, float]]]:
 def test_through_recalibrated_values_arm_b_endstop_is_the_one_change(recalibrated_moved, capsys):
     """Issue 46 item 6 on a rotary printer: calibrated through the example's values; then arm B's endstop
     angle moved 0.3 deg AND the printer.cfg's values re-calibrated by Klipper's extended DELTA_CALIBRATE
-    (stepper_b's position_endstop takes the move), calibrated through those. ``compare`` exits 0, says it
-    re-anchored the older to the newer's values naming the keys changed, and arm B's endstop is the only
-    significant change, within 3 σ of 0.3 deg: measured +0.XXX ± 0.XXX deg. (Before: refused, "identified
-    through other rotary values".)"""
+    (shoulder height and radius, angles A and B, the three endstops changed: stepper_b's takes the move),
+    calibrated through those. ``compare`` exits 0, says in one line that it re-anchored the older to the
+    newer's values, naming the keys changed, and arm B's endstop is the only significant change, within
+    3 σ of 0.3 deg. Measured: arm B's endstop +0.308 ± 0.038 deg; arm A's -0.000 ± 0.038, arm C's
+    -0.050 ± 0.041 deg; the largest other, arm A's shoulder tilted -0.084 ± 0.038 deg. (Before: refused,
+    "identified through other rotary values ... compare does not count again".)"""
     out, changes = _compared(recalibrated_moved, capsys)
-    print(out)
     said = [line for line in out.splitlines() if "re-anchored" in line]
     assert len(said) == 1 and "stepper_b.position_endstop" in said[0], out
     steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
@@ -203,15 +208,17 @@ def test_through_recalibrated_values_arm_b_endstop_is_the_one_change(recalibrate
 
 @pytest.mark.slow
 def test_through_recalibrated_values_an_unchanged_printer_shows_nothing(recalibrated_same, capsys):
-    """The same printer unchanged, only its printer.cfg's values re-calibrated between the calibrations:
-    re-anchored, nothing significant (arm B's endstop measured +0.XXX ± 0.XXX deg)."""
+    """The same printer unchanged, only its printer.cfg's values re-calibrated between the calibrations
+    (Klipper's basic DELTA_CALIBRATE: shoulder height and the three endstops): re-anchored, nothing
+    significant. Measured: arm B's endstop +0.016 ± 0.038 deg, arm A's -0.002 ± 0.038, arm C's -0.051 ±
+    0.042; the largest, arm A's shoulder tilted -0.081 ± 0.038 deg (2.1 σ). (Before: refused.)"""
     out, _ = _compared(recalibrated_same, capsys)
-    print(out)
     assert any("re-anchored" in line for line in out.splitlines()), out
     steps = [line for line in out.splitlines() if line.startswith(("significant", "no significant"))]
     assert steps == ["no significant change between them"], out
 
 
+@pytest.mark.slow
 def test_another_printers_rotary_values_are_refused_naming_the_key(first, tmp_path, capsys):
     """A calibration whose recorded rotary values are another printer's (arm A's upper arm 200 mm against
     the example's 170: beyond a build's tolerance) is not re-anchored: ``compare`` refuses it in one line

@@ -20,7 +20,10 @@ alone, one quantity of the 20 crosses it about once in 19 comparisons of an unch
 Both calibrations' parameters are deviations from the nominal printer they were identified from,
 under priors scaled by each one's evidence: the changes mean what they say only under one prior.
 :func:`old_against_new_controller` identifies both again under NEW's
-(:func:`~.identification.anchor.reanchored`) when their robot files or scales differ.
+(:func:`~.identification.anchor.reanchored`) when their robot files or scales differ. A rotary printer's
+readings are its arms' angles counted from its values' endstops: one identified through other rotary values
+has its readings counted again as NEW's count the same steps (re-anchoring's count,
+:func:`~.firmware.config_file.recounted_record`) before both are identified again.
 """
 
 from __future__ import annotations
@@ -253,6 +256,17 @@ def under_one_prior(
     -0.21 ± 0.07 mm; under one prior -0.02 ± 0.06 and tower B's +0.20 ± 0.05. Refused when a
     calibration that must be identified again records no measurements. A calibration that records no
     controller (written before they were recorded) is taken to be against the others', said.
+
+    A rotary printer's calibrations are placed on the bed (the firmware's frame); one identified through
+    other rotary values than the newest's (Klipper's DELTA_CALIBRATE run again between them) is re-anchored
+    to the newest's values: placed by its own, its readings counted again as the newest's values count the
+    same steps (:func:`_on_the_bed`), then all identified again under the newest's prior (not re-anchored
+    first as ``compensate`` does, :func:`~.firmware.config_file.rotary_reanchored_to`: its start, moved to
+    follow the newest's values, would be replaced by the newest's nominal here). Recorded values of
+    another printer (a shoulder radius or an arm beyond a build's tolerance, a gear ratio) are refused
+    naming the key. On a simulated printer of Klipper's example whose arm B endstop angle moved 0.3 deg
+    and whose values Klipper's extended DELTA_CALIBRATE re-calibrated between two calibrations, arm B's
+    endstop read +0.308 ± 0.038 deg, the only significant change (before: refused).
 
     Returns:
         The calibrations under one prior, the firmware (None: none records one) and the lines to say.
