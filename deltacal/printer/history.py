@@ -20,7 +20,10 @@ alone, one quantity of the 20 crosses it about once in 19 comparisons of an unch
 Both calibrations' parameters are deviations from the nominal printer they were identified from,
 under priors scaled by each one's evidence: the changes mean what they say only under one prior.
 :func:`old_against_new_controller` identifies both again under NEW's
-(:func:`~.identification.anchor.reanchored`) when their robot files or scales differ.
+(:func:`~.identification.anchor.reanchored`) when their robot files or scales differ. A rotary printer's
+readings are its arms' angles counted from its values' endstops: one identified through other rotary values
+has its readings counted again as NEW's count the same steps (re-anchoring's count,
+:func:`~.firmware.config_file.recounted_record`) before both are identified again.
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ from ..controller_record import changes_in_words
 from ..exceptions import AssemblyError, ConvergenceError, InputError
 from ..geometry import DeltaGeometry, Tolerances
 from .firmware.base import Firmware
-from .firmware.config_file import check_printer_values, in_firmware_frame, recorded_firmware
+from .firmware.config_file import check_printer_values, in_firmware_frame, recorded_firmware, recounted_record
 from .firmware.controller import RotaryFirmwareController
 from .identification.anchor import reanchored
 from .identification.errormodels import PrinterModel, RotaryPrinterModel
@@ -254,6 +257,17 @@ def under_one_prior(
     calibration that must be identified again records no measurements. A calibration that records no
     controller (written before they were recorded) is taken to be against the others', said.
 
+    A rotary printer's calibrations are placed on the bed (the firmware's frame); one identified through
+    other rotary values than the newest's (Klipper's DELTA_CALIBRATE run again between them) is re-anchored
+    to the newest's values: placed by its own, its readings counted again as the newest's values count the
+    same steps (:func:`_on_the_bed`), then all identified again under the newest's prior (not re-anchored
+    first as ``compensate`` does, :func:`~.firmware.config_file.rotary_reanchored_to`: its start, moved to
+    follow the newest's values, would be replaced by the newest's nominal here). Recorded values of
+    another printer (a shoulder radius or an arm beyond a build's tolerance, a gear ratio) are refused
+    naming the key. On a simulated printer of Klipper's example whose arm B endstop angle moved 0.3 deg
+    and whose values Klipper's extended DELTA_CALIBRATE re-calibrated between two calibrations, arm B's
+    endstop read +0.308 ± 0.038 deg, the only significant change (before: refused).
+
     Returns:
         The calibrations under one prior, the firmware (None: none records one) and the lines to say.
 
@@ -271,17 +285,13 @@ def under_one_prior(
                  for source, cal in zip(sources, cals, strict=True) if cal.controller is None)
     changed, keys = _controller_changes(cals, sources)
     rotary = not new.geometry.chain.firmware  # a rotary printer's readings are angles its values count
-    if changed and rotary:
-        raise InputError(f"{_all(cals)} identified through other rotary values ({keys}): a rotary "
-                         "printer's readings are its arms' angles counted from its values' endstops, which "
-                         f"compare does not count again: identify {_all(cals)} through one configuration",
-                         str(sources[0]))
     frame = _rotary_frame(new, new_source, firmware) if rotary else None
+    recounted: list[str] = []
     if frame is not None:  # its measurements' heights are the bed's: each placed on it, as identified
-        cals = [in_firmware_frame(c, frame) for c in cals]
+        cals, recounted = _on_the_bed(cals, sources, frame)
         new = cals[-1]
     scales = [None if c.measured is None else c.measured.tolerance_scale for c in cals]
-    if all(_same_nominal(c.nominal, new.nominal) for c in cals) and len(set(scales)) == 1:
+    if not recounted and all(_same_nominal(c.nominal, new.nominal) for c in cals) and len(set(scales)) == 1:
         if changed:  # the readings are the printer's own, whatever the values that commanded them
             said += (f"{_all(cals)} identified from the same nominal printer under one prior, through "
                      f"{keys}: compared as identified",)
@@ -303,8 +313,14 @@ def under_one_prior(
         except (ValueError, ConvergenceError, AssemblyError) as exc:
             raise InputError(f"identifying it again under {new_source}'s prior failed ({exc}): identify "
                              f"{_all(cals)} from the same robot file", str(source)) from None
-    said += (f"{_all(cals)} identified again under one prior ({new_source}'s robot file, the build "
-             f"tolerances scaled by {scale:.3g}; {keys}): what the measurements determine is kept",)
+    if recounted:  # the older readings counted as the newest's values count the same steps
+        said += (f"{' and '.join(recounted)} re-anchored to {new_source}'s rotary values ({keys}: the arms' "
+                 f"readings counted again from those values' endstops), then {_all(cals)} identified again "
+                 f"under one prior ({new_source}'s robot file, the build tolerances scaled by {scale:.3g}): "
+                 "what the measurements determine is kept",)
+    else:
+        said += (f"{_all(cals)} identified again under one prior ({new_source}'s robot file, the build "
+                 f"tolerances scaled by {scale:.3g}; {keys}): what the measurements determine is kept",)
     return anchored, firmware, said
 
 
@@ -343,6 +359,45 @@ def _rotary_frame(new: Calibration, source: str | Path, firmware: Firmware[Any] 
                          f"configuration they were identified with, and this one {where}: give it where "
                          "it was", str(source))
     return rotary.with_values(record.values)
+
+
+def _on_the_bed(cals: Sequence[Calibration], sources: Sequence[str | Path], frame: RotaryFirmwareController
+                ) -> tuple[list[Calibration], list[str]]:
+    """Rotary calibrations on the bed (the firmware's frame), each where the values it recorded place it.
+
+    One identified through other rotary values than ``frame``'s (the newest's) is placed by its own
+    (:func:`~.firmware.config_file.in_firmware_frame`, as re-anchoring places it) and its recorded readings
+    counted again as ``frame``'s values count the same steps
+    (:func:`~.firmware.config_file.recounted_record`), to be identified again under the newest's prior.
+
+    Returns:
+        The calibrations placed, and the files of those counted again.
+
+    Raises:
+        InputError: recorded values of another printer than the newest's (naming the key), or a
+            calibration through other values that records no measurements to count again.
+    """
+    new = cals[-1].controller
+    assert new is not None  # the newest's controller is the frame (:func:`_rotary_frame`)
+    here = f"{sources[-1]}'s recorded controller {new.source}"
+    placed: list[Calibration] = []
+    recounted: list[str] = []
+    for cal, source in zip(cals, sources, strict=True):
+        record = cal.controller
+        if record is None or not record.changes(new.values):
+            placed.append(in_firmware_frame(cal, frame))
+            continue
+        recorded = frame.with_values(record.values)
+        frame.check_same_values(recorded, f"{source}'s recorded controller {record.source}", here)
+        if cal.measured is None:
+            raise InputError(f"identified through other rotary values than {sources[-1]} "
+                             f"({changes_in_words(record.changes(new.values))}) and records no measurements "
+                             "to count again (written before they were recorded): identify "
+                             f"{_all(cals)} through one configuration", str(source))
+        placed.append(replace(in_firmware_frame(cal, recorded),
+                              measured=recounted_record(cal.measured, recorded, frame)))
+        recounted.append(str(source))
+    return placed, recounted
 
 
 def _again(cal: Calibration, nominal: DeltaGeometry, frame: RotaryFirmwareController | None) -> Calibration:

@@ -31,6 +31,7 @@ from .base import Firmware, FirmwareModel, RotaryFirmwareController
 
 if TYPE_CHECKING:
     from ...calibration import Calibration
+    from ...measured_record import MeasuredRecord
 
 #: A recorded value changed: its key, the recorded value and the one now (None: no such key).
 Change = tuple[str, float | None, float | None]
@@ -384,9 +385,20 @@ def rotary_reanchored_to(calibration: Calibration, recorded: RotaryFirmwareContr
 
     if same_commands(calibration, before, same_steps):
         return None
-    counted = replace(record, probe=now.recounted(record.probe, recorded),
-                      pairs=now.recounted(record.pairs.reshape(-1, 3), recorded).reshape(record.pairs.shape))
+    counted = recounted_record(record, recorded, now)
     return reanchored(calibration, controller_shift(calibration, before, after), counted, now.reach_radius)
+
+
+def recounted_record(record: MeasuredRecord, recorded: RotaryFirmwareController,
+                     now: RotaryFirmwareController) -> MeasuredRecord:
+    """A rotary printer's recorded measurements, their readings counted again as ``now`` counts the steps.
+
+    The probe's and the printed pairs' readings (the arms' angles ``recorded``'s values counted,
+    :meth:`~deltacal.printer.firmware.controller.RotaryFirmwareController.recounted`); the distances,
+    heights and the fit's choices as recorded.
+    """
+    return replace(record, probe=now.recounted(record.probe, recorded),
+                   pairs=now.recounted(record.pairs.reshape(-1, 3), recorded).reshape(record.pairs.shape))
 
 
 def settings_read(firmware: Firmware[Any], path: str | Path) -> FirmwareConfig | RotaryFirmwareConfig:

@@ -2,7 +2,8 @@
 
 Each file is checked as a printer's calibration of the complete model; all are brought to the
 newest's controller (:func:`~deltacal.printer.history.under_one_prior`: identified again under one
-prior when their robot files or tolerances' scales differ), each step's changes computed
+prior when their robot files or tolerances' scales differ, a rotary printer's readings through other
+rotary values counted again first), each step's changes computed
 (:func:`~deltacal.printer.history.calibration_history`) and said one per line, with the HTML page
 (:mod:`deltacal.report.history`) when asked.
 """
