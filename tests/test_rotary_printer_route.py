@@ -246,8 +246,9 @@ def test_a_changed_endstop_is_re_anchored(route, tmp_path, capsys):
     not change, so the true nozzle at the new commands (Klipper running the copy's values) is where it was
     at the commands through the values identified with: on the first layer its height within 0.001 mm (the
     probe heights determine it), in 3-D within 0.02 mm less a shift along the bed no measurement sees
-    (measured 0.015 mm: what the measurements leave follows the prior's centre, now the new values'
-    printer; the arms' readings not counted again from the new endstop angles, 0.5 mm)."""
+    (measured 0.0018 mm, 0.015 with the correction along the bed weighted by its significance too: what the
+    measurements leave follows the prior's centre, now the new values' printer; the arms' readings not
+    counted again from the new endstop angles, 0.5 mm)."""
     targets = tmp_path / "t.csv"
     np.savetxt(targets, VOLUME[::40], delimiter=",", header="x_mm,y_mm,z_mm", comments="")
     moved = tmp_path / "moved.cfg"
