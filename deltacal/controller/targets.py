@@ -99,9 +99,10 @@ def corrected_targets(
     the bed or turns it), then each command is the controller's own (the target) plus the
     correction times its weight (:meth:`~deltacal.holds.WhereItHolds.weights`, the horizontal and
     the vertical part each by its own σ): the correction where its σ is at most half the bound (along
-    the bed, what of it stands out of its σ, eased in: :func:`~deltacal.holds.significance_weight`),
-    the controller's own command where its σ is above the bound (or, along the bed, the correction
-    within its σ of zero), blended smoothly between. A geometry, or a rotary Delta's calibration, is
+    the bed, for a calibration measured at one height, what of it stands out of its σ, eased in:
+    :func:`~deltacal.holds.significance_weight`), the controller's own command where its σ is above the
+    bound (or, along the bed from bed-level data, the correction within its σ of zero), blended
+    smoothly between. A geometry, or a rotary Delta's calibration, is
     corrected everywhere; a printer's calibration that does not say where it holds (a file without
     ``[holds]``) is refused.
 
