@@ -138,3 +138,28 @@ def test_a_given_scale_is_used_as_asked(plan):
     for bad in (0.0, -1.0, math.nan, "most probable"):
         with pytest.raises(ValueError, match="tolerance_scale"):
             identify_printer(nominal, data, tolerance_scale=bad)
+
+
+@pytest.mark.slow
+def test_a_narrow_evidence_prior_does_not_make_the_objects_values_undetermined():
+    """Whether the measurements determine a firmware value is judged against the build tolerances as
+    stated, not as the evidence scaled them: on a well-built printer (scale 0.15) measured with the planned
+    object, the delta radius the 40 distances fix sat at 0.38 of the narrow prior's σ, "undetermined", and
+    ``export`` kept it at the start (0.036 -> 0.066 mm; ``scripts/printer_compare.py --firmware marlin``'s
+    seed 25006). Now every value is determined (each at most 0.2 of its stated σ; tower C's angle, the
+    part's turn, always held) and the fit's scale is still the evidence's."""
+    from deltacal.calibration import Calibration
+    from deltacal.printer.comparison import CLASSES, run_printer
+    from deltacal.printer.firmware import firmware_named
+    from deltacal.printer.firmware.base import undetermined_values
+    from deltacal.printer.printed.plan import plan_object
+
+    marlin = firmware_named("marlin")
+    assert marlin is not None
+    tolerances, tilt = CLASSES["well built"]
+    plan = plan_object(PRINTER, marlin.nominal(PRINTER))
+    run = run_printer(PRINTER, plan, 25006, tolerances, tilt, (30.0,), firmware_type=marlin)
+    assert run.result.tolerance_scale < 0.2  # the evidence's narrow prior, as before
+    holds = Calibration.from_result(run.result).where_held()
+    assert undetermined_values(holds) == ()
+    assert max(r for name, r in holds.values.items() if name != "angle_c") <= 0.2, holds.values

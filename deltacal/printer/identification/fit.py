@@ -346,7 +346,6 @@ def identify_printer(
         hints.append(f"the measurements identify {measured.rank} of the {error_model.size} parameters' "
                      f"combinations; the build tolerances bound the other {len(held)} ({', '.join(held)})")
     volume = options.workspace or default_volume(geometry, data)
-    build = build_sigma(error_model, used)
     result = IdentificationResult(
         model=error_model.name, method=method, geometry=geometry, start=start,
         # with the priors every parameter is kept, in the model's order
@@ -362,7 +361,10 @@ def identify_printer(
         hints=tuple(hints), warnings=tuple(warnings),
         holds=replace(where_it_holds(geometry, error_model, cov, volume, measured_top(geometry, data),
                                      options.reach),
-                      values=firmware_determination(geometry, error_model, cov, build, volume),
+                      values=firmware_determination(geometry, error_model,
+                                                    stated_covariance(W, error_model.prior_factor(
+                                                        given, start, calibrated)),
+                                                    build_sigma(error_model, given), volume),
                       along_bed=error_model.apply(start, determined_values(total, W, factor))
                       if options.calibrated_start else None),
         tolerance_scale=float(scale),
@@ -424,6 +426,22 @@ def poor_fit(variance_factor: float, at_limit: bool) -> str:
                "far beyond what the measurements' noise gives")
     return (f"a poor fit: {why}: a probe biased across the bed, a bed that moved between the points, a wrong "
             "trigger height (z_offset), or another printer's data?")
+
+
+def stated_covariance(W: np.ndarray, factor: np.ndarray) -> np.ndarray:
+    """The parameters' covariance after the measurements under the prior ``factor factorᵀ`` (n, n).
+
+    The measurements' whitened regressor ``W`` at the fit (its noise factors in it) with the prior of
+    the build tolerances as stated, not scaled by the evidence: whether the measurements determine a
+    firmware value (:func:`~.where.firmware_determination`) is judged against the tolerances the
+    owner stated. Against the evidence-scaled ones a well-built printer's narrow prior (scale 0.15)
+    left values the 40 distances fix "undetermined" (a delta radius at 0.38 of that narrow σ, kept
+    at the start by ``export``: 0.036 -> 0.066 mm); its posterior through the stated σ made seven
+    bed heights "determine" tower angles (the narrow prior doing it).
+    """
+    n = factor.shape[0]
+    _, _, Rinv = solve_wls(np.vstack([W @ factor, np.eye(n)]), np.zeros(W.shape[0] + n))
+    return factor @ (Rinv @ Rinv.T) @ factor.T
 
 
 def build_sigma(model: ErrorModel, tolerances: Tolerances) -> np.ndarray:
