@@ -436,8 +436,8 @@ def stated_covariance(W: np.ndarray, factor: np.ndarray) -> np.ndarray:
     firmware value (:func:`~.where.firmware_determination`) is judged against the tolerances the
     owner stated. Against the evidence-scaled ones a well-built printer's narrow prior (scale 0.15)
     left values the 40 distances fix "undetermined" (a delta radius at 0.38 of that narrow σ, kept
-    at the start by ``export``: 0.036 -> 0.066 mm); its posterior through the stated σ made seven
-    bed heights "determine" tower angles (the narrow prior doing it).
+    at the start by ``export``: 0.036 -> 0.066 mm). The fit's own posterior against the stated σ
+    would not do: at scale 0.15 every value's σ is at most 0.15 of its stated one, measured or not.
     """
     n = factor.shape[0]
     _, _, Rinv = solve_wls(np.vstack([W @ factor, np.eye(n)]), np.zeros(W.shape[0] + n))
