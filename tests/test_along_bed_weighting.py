@@ -10,17 +10,13 @@ local error larger on all 24).
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
+from script_module import load_script
 
 from deltacal.holds import DEFAULT_BOUND, ONE_LAYER_MM, WhereItHolds, correction_weight, significance_weight
-
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "along_bed_weighting.py"
 
 
 def _holds(measured_top: float) -> WhereItHolds:
@@ -48,12 +44,7 @@ def test_only_a_calibration_measured_at_one_height_weighs_the_significance_along
 
 @pytest.fixture(scope="module")
 def study():
-    spec = importlib.util.spec_from_file_location("along_bed_weighting", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("along_bed_weighting")
 
 
 @pytest.mark.slow

@@ -8,12 +8,10 @@ by its significance as a bed-level one is) while docs/results.md still said 0.30
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import warnings
-from pathlib import Path
 
 import pytest
+from script_module import load_script
 
 from deltacal.printer.comparison import (
     BASIC,
@@ -29,16 +27,9 @@ from deltacal.printer.files.robot_file import load_printer
 from deltacal.printer.firmware.klipper.model import KlipperDelta
 from deltacal.printer.printed.plan import plan_object
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "printer_compare.py"
-
 
 def _script():
-    spec = importlib.util.spec_from_file_location("printer_compare", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script("printer_compare")
 
 
 def test_the_headline_criterion_is_the_scripts():

@@ -9,15 +9,14 @@ way Klipper measures, against Klipper's own values (seeds no figure was tuned on
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import math
-import sys
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
+from script_module import load_script as load_script_named
 
 from deltacal.calibration import Calibration
 from deltacal.cli.main import main
@@ -52,12 +51,7 @@ REAL = ROOT / "tests" / "data" / "klipper" / "real"
 
 
 def load_script():
-    spec = importlib.util.spec_from_file_location("where_it_holds", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return load_script_named(SCRIPT.stem)
 
 
 @pytest.fixture(scope="module")
